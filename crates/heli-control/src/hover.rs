@@ -1,0 +1,280 @@
+//! Autonomous take-off and position hold: a cascade of position → velocity → attitude →
+//! angular rate on the cyclic, vertical position → climb rate on the collective, heading →
+//! yaw rate on the tail rotor. Gains and their tuning are in `docs/control.md`.
+
+use heli_nav::NavState;
+use heli_proto::scb::Controls;
+use nalgebra::Vector3;
+
+use crate::{GOVERNED_THROTTLE, limit};
+
+/// Gains and limits of the hover controller.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HoverGains {
+    /// Velocity command per metre of horizontal position error (1/s).
+    pub pos_to_vel: f64,
+    /// Largest horizontal velocity command (m/s).
+    pub max_horizontal_speed_mps: f64,
+    /// Acceleration command per m/s of velocity error (1/s).
+    pub vel_to_accel: f64,
+    /// Integral gain on velocity error (1/s²), active only in the air.
+    pub vel_integral: f64,
+    /// Largest horizontal acceleration command (m/s²).
+    pub max_accel_mps2: f64,
+    /// Largest commanded roll or pitch (rad).
+    pub max_tilt_rad: f64,
+    /// Rate command per rad of attitude error (1/s).
+    pub att_to_rate: f64,
+    /// Largest roll or pitch rate command (rad/s).
+    pub max_rate_rps: f64,
+    /// Cyclic per rad/s of commanded rate (feedforward: inverse of the rate response's DC gain).
+    pub rate_feedforward: f64,
+    /// Cyclic per rad/s of rate error.
+    pub rate_feedback: f64,
+    /// Climb-rate command per metre of altitude error (1/s).
+    pub alt_to_climb: f64,
+    /// Largest climb rate (m/s).
+    pub max_climb_mps: f64,
+    /// Largest descent rate (m/s).
+    pub max_descent_mps: f64,
+    /// Collective per m/s of vertical-speed error.
+    pub climb_feedback: f64,
+    /// Collective per m of integrated vertical-speed error.
+    pub climb_integral: f64,
+    /// Collective that holds the weight in hover (feedforward).
+    pub hover_collective: f64,
+    /// Yaw-rate command per rad of heading error (1/s).
+    pub heading_to_rate: f64,
+    /// Largest yaw-rate command (rad/s).
+    pub max_yaw_rate_rps: f64,
+    /// Tail command per rad/s of yaw-rate error.
+    pub yaw_rate_feedback: f64,
+    /// Tail command per rad of integrated yaw-rate error.
+    pub yaw_integral: f64,
+    /// Tail command that balances the main-rotor torque in hover (feedforward).
+    pub tail_trim: f64,
+}
+
+impl Default for HoverGains {
+    fn default() -> Self {
+        Self {
+            pos_to_vel: 0.5,
+            max_horizontal_speed_mps: 2.0,
+            vel_to_accel: 1.4,
+            vel_integral: 0.15,
+            max_accel_mps2: 3.0,
+            max_tilt_rad: 0.35,
+            att_to_rate: 4.0,
+            max_rate_rps: 1.5,
+            rate_feedforward: 0.3,
+            rate_feedback: 0.1,
+            alt_to_climb: 0.8,
+            max_climb_mps: 1.5,
+            max_descent_mps: 1.0,
+            climb_feedback: 0.12,
+            climb_integral: 0.04,
+            hover_collective: 0.54,
+            heading_to_rate: 1.5,
+            max_yaw_rate_rps: 1.0,
+            yaw_rate_feedback: 0.15,
+            yaw_integral: 0.1,
+            tail_trim: 0.3,
+        }
+    }
+}
+
+/// Where the controller holds the helicopter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Target {
+    /// Position, NED (m).
+    pub pos_ned_m: Vector3<f64>,
+    /// Heading (rad).
+    pub yaw_rad: f64,
+}
+
+/// The hover controller with its integrator states.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HoverController {
+    /// Gains.
+    pub gains: HoverGains,
+    vel_integral: Vector3<f64>,
+    climb_integral: f64,
+    yaw_integral: f64,
+}
+
+impl HoverController {
+    /// A controller with zeroed integrators.
+    pub fn new(gains: HoverGains) -> Self {
+        Self {
+            gains,
+            ..Default::default()
+        }
+    }
+
+    /// Clears the integrators (on the ground, or when another mode had control).
+    pub fn reset(&mut self) {
+        self.vel_integral = Vector3::zeros();
+        self.climb_integral = 0.0;
+        self.yaw_integral = 0.0;
+    }
+
+    /// One control step of `dt_s`. `airborne` enables the horizontal and yaw integrators
+    /// (skids on the ground would wind them up).
+    pub fn update(
+        &mut self,
+        est: &NavState,
+        target: &Target,
+        dt_s: f64,
+        airborne: bool,
+    ) -> Controls {
+        let g = &self.gains;
+        let dt = if dt_s.is_finite() {
+            dt_s.clamp(0.0, 0.1)
+        } else {
+            0.0
+        };
+        let (roll, pitch, yaw) = est.euler_rad();
+        let pos = est.pos_ned_m;
+        let vel = est.vel_ned_mps;
+        let rate = est.rate_body_rps;
+
+        // Horizontal: position -> velocity -> acceleration (NED).
+        let pos_err = Vector3::new(target.pos_ned_m.x - pos.x, target.pos_ned_m.y - pos.y, 0.0);
+        let mut vel_cmd = pos_err * g.pos_to_vel;
+        let speed = vel_cmd.norm();
+        if speed > g.max_horizontal_speed_mps {
+            vel_cmd *= g.max_horizontal_speed_mps / speed;
+        }
+        let vel_err = Vector3::new(vel_cmd.x - vel.x, vel_cmd.y - vel.y, 0.0);
+        if airborne {
+            self.vel_integral += vel_err * dt;
+            let max_i = g.max_accel_mps2 / g.vel_integral.max(1e-6);
+            self.vel_integral = self.vel_integral.map(|x| limit(x, max_i));
+        }
+        let mut accel_cmd = vel_err * g.vel_to_accel + self.vel_integral * g.vel_integral;
+        let a = accel_cmd.norm();
+        if a > g.max_accel_mps2 {
+            accel_cmd *= g.max_accel_mps2 / a;
+        }
+        // Into the heading frame, then to tilt: nose down accelerates forward.
+        let (s, c) = yaw.sin_cos();
+        let accel_fwd = c * accel_cmd.x + s * accel_cmd.y;
+        let accel_right = -s * accel_cmd.x + c * accel_cmd.y;
+        let gravity = heli_nav::GRAVITY_MPS2;
+        let pitch_cmd = limit(-(accel_fwd / gravity).atan(), g.max_tilt_rad);
+        let roll_cmd = limit((accel_right / gravity).atan(), g.max_tilt_rad);
+
+        // Attitude -> rate -> cyclic.
+        let p_cmd = limit(g.att_to_rate * (roll_cmd - roll), g.max_rate_rps);
+        let q_cmd = limit(g.att_to_rate * (pitch_cmd - pitch), g.max_rate_rps);
+        let aileron = g.rate_feedforward * p_cmd + g.rate_feedback * (p_cmd - rate.x);
+        let elevator = g.rate_feedforward * q_cmd + g.rate_feedback * (q_cmd - rate.y);
+
+        // Vertical: altitude -> climb rate -> collective (NED: down is positive).
+        let w_cmd = (g.alt_to_climb * (target.pos_ned_m.z - pos.z))
+            .clamp(-g.max_climb_mps, g.max_descent_mps);
+        let w_err = w_cmd - vel.z;
+        self.climb_integral = limit(
+            self.climb_integral + w_err * dt,
+            0.5 / g.climb_integral.max(1e-6),
+        );
+        let tilt_cos = (roll.cos() * pitch.cos()).max(0.5);
+        let collective = g.hover_collective / tilt_cos
+            - g.climb_feedback * w_err
+            - g.climb_integral * self.climb_integral;
+
+        // Heading -> yaw rate -> tail.
+        let yaw_err = heli_nav::navigator::wrap_pi(target.yaw_rad - yaw);
+        let r_cmd = limit(g.heading_to_rate * yaw_err, g.max_yaw_rate_rps);
+        let r_err = r_cmd - rate.z;
+        if airborne {
+            self.yaw_integral = limit(
+                self.yaw_integral + r_err * dt,
+                0.5 / g.yaw_integral.max(1e-6),
+            );
+        }
+        let rudder = g.tail_trim + g.yaw_rate_feedback * r_err + g.yaw_integral * self.yaw_integral;
+
+        Controls {
+            aileron: limit(aileron, 1.0),
+            elevator: limit(elevator, 1.0),
+            rudder: limit(rudder, 1.0),
+            collective: limit(collective, 1.0),
+            throttle: GOVERNED_THROTTLE,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::UnitQuaternion;
+
+    fn est_at(pos: Vector3<f64>, vel: Vector3<f64>) -> NavState {
+        NavState {
+            t_us: 0,
+            att: UnitQuaternion::identity(),
+            vel_ned_mps: vel,
+            pos_ned_m: pos,
+            rate_body_rps: Vector3::zeros(),
+            accel_body_mps2: Vector3::new(0.0, 0.0, -9.81),
+        }
+    }
+
+    #[test]
+    fn target_ahead_tilts_nose_down_and_target_right_rolls_right() {
+        let mut c = HoverController::new(HoverGains::default());
+        let t = Target {
+            pos_ned_m: Vector3::new(5.0, 0.0, -10.0),
+            yaw_rad: 0.0,
+        };
+        let u = c.update(
+            &est_at(Vector3::new(0.0, 0.0, -10.0), Vector3::zeros()),
+            &t,
+            0.02,
+            true,
+        );
+        assert!(u.elevator < 0.0, "{u:?}");
+        let t = Target {
+            pos_ned_m: Vector3::new(0.0, 5.0, -10.0),
+            yaw_rad: 0.0,
+        };
+        let u = c.update(
+            &est_at(Vector3::new(0.0, 0.0, -10.0), Vector3::zeros()),
+            &t,
+            0.02,
+            true,
+        );
+        assert!(u.aileron > 0.0, "{u:?}");
+    }
+
+    #[test]
+    fn below_target_raises_collective_above_hover() {
+        let mut c = HoverController::new(HoverGains::default());
+        let t = Target {
+            pos_ned_m: Vector3::new(0.0, 0.0, -10.0),
+            yaw_rad: 0.0,
+        };
+        let u = c.update(&est_at(Vector3::zeros(), Vector3::zeros()), &t, 0.02, false);
+        assert!(u.collective > HoverGains::default().hover_collective);
+        assert_eq!(u.throttle, GOVERNED_THROTTLE);
+    }
+
+    #[test]
+    fn non_finite_estimate_gives_bounded_commands() {
+        let mut c = HoverController::new(HoverGains::default());
+        let t = Target {
+            pos_ned_m: Vector3::zeros(),
+            yaw_rad: 0.0,
+        };
+        let u = c.update(
+            &est_at(Vector3::new(f64::NAN, 0.0, 0.0), Vector3::zeros()),
+            &t,
+            0.02,
+            true,
+        );
+        for x in [u.aileron, u.elevator, u.rudder, u.collective] {
+            assert!(x.is_finite() && x.abs() <= 1.0);
+        }
+    }
+}

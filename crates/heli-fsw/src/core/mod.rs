@@ -1,0 +1,600 @@
+//! The main control process, sans-I/O.
+//!
+//! Timing is derived from the IMU, as in the thesis: every IMU sample (or, when none came
+//! for 12 ms, a copy of the last one made by the watchdog) is one loop iteration; every other
+//! iteration (50 Hz) propagates the estimate with the two most recent samples, runs the
+//! selected controller and emits a servo command. The other devices' samples update the
+//! estimate (GPS, altimeter, compass) or the pilot's commands (servo controller board).
+//!
+//! The caller feeds [`Input`]s with the time they arrived and collects [`Action`]s; it must
+//! also deliver [`Input::Timer`] at [`FlightCore::poll_at`] so the watchdog can fire. The
+//! core's whole state is a plain value: clone it to snapshot, compare to check replay.
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing,
+        clippy::arithmetic_side_effects,
+        clippy::unreachable,
+        clippy::todo,
+        clippy::unimplemented
+    )
+)]
+
+pub mod watchdog;
+
+use heli_control::{HoverController, HoverGains, Target, YawDamper, manual_with_yaw_damping};
+use heli_nav::{BiasCalibration, NavConfig, NavState, Navigator, seconds_between};
+use heli_proto::compass::{CompassAdc, CompassCalibration, heading_rad};
+use heli_proto::gps::GpsNav;
+use heli_proto::imu::ImuRepr;
+use heli_proto::scb::{Controls, PilotUplink};
+use nalgebra::Vector3;
+
+use crate::streams::{
+    BaroRecord, CompassRecord, ImuRecord, Record, ServoRecord, Stamped, StateRecord,
+};
+use watchdog::{WATCHDOG_PERIOD_US, Watchdog};
+
+/// Configuration of the main control process.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CoreConfig {
+    /// IMU warm-up before the calibration window opens (s).
+    pub imu_warm_up_s: f64,
+    /// Length of the bias calibration window (s); 80 in the thesis.
+    pub calibration_s: f64,
+    /// Watchdog period (µs); 12 ms in the thesis.
+    pub watchdog_us: u64,
+    /// Navigation filter.
+    pub nav: NavConfig,
+    /// Autonomous hover controller.
+    pub hover: HoverGains,
+    /// Manual-mode yaw damping.
+    pub yaw_damper: YawDamper,
+    /// Compass biases from its calibration routine (stored in flash on the vehicle).
+    pub compass: CompassCalibration,
+    /// Take-off ends when the altitude is within this of the target (m).
+    pub takeoff_tolerance_m: f64,
+    /// Height above the take-off point at which the helicopter counts as airborne (m).
+    pub airborne_height_m: f64,
+}
+
+impl Default for CoreConfig {
+    fn default() -> Self {
+        Self {
+            imu_warm_up_s: 5.0,
+            calibration_s: 80.0,
+            watchdog_us: WATCHDOG_PERIOD_US,
+            nav: NavConfig::default(),
+            hover: HoverGains::default(),
+            yaw_damper: YawDamper::default(),
+            compass: CompassCalibration::default(),
+            takeoff_tolerance_m: 0.3,
+            airborne_height_m: 0.3,
+        }
+    }
+}
+
+/// The control system the ground operator chose at "Start Logging".
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FlightMode {
+    /// Pilot flies; the computer only damps yaw.
+    Manual,
+    /// With the pilot's auto switch on, the computer takes off and holds position.
+    Autonomous,
+}
+
+/// The flight parameters sent by the ground at "Start Logging".
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlightParams {
+    /// Control system for this flight.
+    pub mode: FlightMode,
+    /// Autonomous take-off height above the take-off point (m).
+    pub takeoff_alt_m: f64,
+}
+
+impl Default for FlightParams {
+    fn default() -> Self {
+        Self {
+            mode: FlightMode::Manual,
+            takeoff_alt_m: 10.0,
+        }
+    }
+}
+
+/// What the flight software is doing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Phase {
+    /// Warming up and calibrating the IMU biases; servos follow the pilot.
+    Calibrating,
+    /// The pilot flies (auto switch off, or manual mode), with computer yaw damping.
+    Manual,
+    /// Autonomous climb to the target.
+    TakingOff {
+        /// Where the climb ends.
+        target: Target,
+    },
+    /// Autonomous position hold.
+    Holding {
+        /// Where the helicopter is held.
+        target: Target,
+        /// When the hold began (µs).
+        since_us: u64,
+    },
+}
+
+impl Phase {
+    /// The target of an autonomous phase.
+    pub fn target(&self) -> Option<Target> {
+        match self {
+            Phase::TakingOff { target } | Phase::Holding { target, .. } => Some(*target),
+            Phase::Calibrating | Phase::Manual => None,
+        }
+    }
+
+    /// Short name for displays and logs.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Phase::Calibrating => "calibrating",
+            Phase::Manual => "manual",
+            Phase::TakingOff { .. } => "takeoff",
+            Phase::Holding { .. } => "hold",
+        }
+    }
+}
+
+/// One input to the main control process.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Input {
+    /// A verified IMU packet.
+    Imu(ImuRepr),
+    /// A verified pilot uplink packet from the servo controller board.
+    Uplink(PilotUplink),
+    /// A verified GPS navigation solution.
+    Gps(GpsNav),
+    /// An altimeter reading.
+    Baro {
+        /// Static pressure (mbar).
+        pressure_mbar: f64,
+    },
+    /// The compass's three ADC channels.
+    Compass(CompassAdc),
+    /// The watchdog timer (deliver at [`FlightCore::poll_at`]).
+    Timer,
+}
+
+/// Notable things that happened, for the ground's message area.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CoreEvent {
+    /// The 80 s calibration finished.
+    CalibrationDone {
+        /// Gyro biases found (rad/s).
+        gyro_bias_rps: [f64; 3],
+    },
+    /// The phase changed.
+    PhaseChanged(Phase),
+    /// The watchdog fired: an IMU packet was late or lost and the last one was repeated.
+    WatchdogFired,
+    /// The pilot's receiver signal was lost (all channels zero): hovering.
+    PilotSignalLost,
+}
+
+/// One output of the main control process.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Action {
+    /// Write this command to the servo controller board.
+    Servo(Stamped<Controls>),
+    /// Append this record to its stream.
+    Publish(Record),
+    /// Report this event.
+    Event(Stamped<CoreEvent>),
+}
+
+/// Counters of the main loop.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CoreStats {
+    /// IMU packets received.
+    pub imu_samples: u32,
+    /// Times the watchdog repeated the last IMU packet.
+    pub watchdog_fires: u32,
+    /// 50 Hz estimation and control steps.
+    pub control_steps: u32,
+    /// Pilot uplink packets received.
+    pub uplinks: u32,
+    /// GPS solutions received.
+    pub gps_fixes: u32,
+    /// Altimeter readings received.
+    pub baro_readings: u32,
+    /// Compass readings received.
+    pub compass_readings: u32,
+}
+
+/// The main control process.
+#[derive(Clone, Debug)]
+pub struct FlightCore {
+    config: CoreConfig,
+    params: FlightParams,
+    watchdog: Watchdog,
+    calibration: BiasCalibration,
+    nav: Navigator,
+    hover: HoverController,
+    phase: Phase,
+    home_ned_m: Option<Vector3<f64>>,
+    pilot: Option<PilotUplink>,
+    last_imu: Option<ImuRepr>,
+    odd_sample: bool,
+    last_control_us: Option<u64>,
+    stats: CoreStats,
+}
+
+impl FlightCore {
+    /// A core that has just been started by the bootstrap with the ground's parameters.
+    pub fn new(config: CoreConfig, params: FlightParams) -> Self {
+        Self {
+            config,
+            params,
+            watchdog: Watchdog::new(config.watchdog_us),
+            calibration: BiasCalibration::new(config.imu_warm_up_s, config.calibration_s),
+            nav: Navigator::new(config.nav),
+            hover: HoverController::new(config.hover),
+            phase: Phase::Calibrating,
+            home_ned_m: None,
+            pilot: None,
+            last_imu: None,
+            odd_sample: false,
+            last_control_us: None,
+            stats: CoreStats::default(),
+        }
+    }
+
+    /// Loop counters.
+    pub fn stats(&self) -> CoreStats {
+        CoreStats {
+            watchdog_fires: self.watchdog.fires(),
+            ..self.stats
+        }
+    }
+
+    /// Current phase.
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// The navigation filter (estimate and aiding statistics).
+    pub fn navigator(&self) -> &Navigator {
+        &self.nav
+    }
+
+    /// When the caller must deliver [`Input::Timer`] next (the watchdog deadline).
+    pub fn poll_at(&self) -> Option<u64> {
+        self.watchdog.deadline_us()
+    }
+
+    /// Handles one input that arrived at `now_us`, appending what to do to `out`.
+    pub fn handle(&mut self, input: Input, now_us: u64, out: &mut Vec<Action>) {
+        match input {
+            Input::Imu(sample) => {
+                self.stats.imu_samples = self.stats.imu_samples.saturating_add(1);
+                self.watchdog.kick(now_us);
+                self.loop_iteration(sample, false, now_us, out);
+            }
+            Input::Timer => {
+                if self.watchdog.expired(now_us) {
+                    self.watchdog.kick(now_us);
+                    out.push(Action::Event(Stamped::new(
+                        now_us,
+                        CoreEvent::WatchdogFired,
+                    )));
+                    if let Some(last) = self.last_imu {
+                        self.loop_iteration(last, true, now_us, out);
+                    }
+                }
+            }
+            Input::Uplink(uplink) => {
+                self.stats.uplinks = self.stats.uplinks.saturating_add(1);
+                let was_lost = self.pilot.is_some_and(|p| p.signal_lost());
+                if uplink.signal_lost() && !was_lost {
+                    out.push(Action::Event(Stamped::new(
+                        now_us,
+                        CoreEvent::PilotSignalLost,
+                    )));
+                }
+                self.pilot = Some(uplink);
+                out.push(Action::Publish(Record::Uplink(Stamped::new(
+                    now_us, uplink,
+                ))));
+            }
+            Input::Gps(fix) => {
+                self.stats.gps_fixes = self.stats.gps_fixes.saturating_add(1);
+                self.nav.fuse_gps(now_us, &fix);
+                out.push(Action::Publish(Record::Gps(Stamped::new(now_us, fix))));
+            }
+            Input::Baro { pressure_mbar } => {
+                self.stats.baro_readings = self.stats.baro_readings.saturating_add(1);
+                self.nav.fuse_baro(pressure_mbar);
+                let alt_m = self
+                    .nav
+                    .baro_reference_mbar()
+                    .map(|p0| heli_proto::baro::pressure_altitude_m(pressure_mbar, p0));
+                out.push(Action::Publish(Record::Baro(Stamped::new(
+                    now_us,
+                    BaroRecord {
+                        pressure_mbar,
+                        alt_m,
+                    },
+                ))));
+            }
+            Input::Compass(adc) => {
+                self.stats.compass_readings = self.stats.compass_readings.saturating_add(1);
+                let field = self.config.compass.apply(&adc.raw_field());
+                self.nav.fuse_compass(&field);
+                let (roll, pitch) = self.nav.state().map_or((0.0, 0.0), |s| {
+                    let (r, p, _) = s.euler_rad();
+                    (r, p)
+                });
+                let heading = heading_rad(&field, roll, pitch);
+                out.push(Action::Publish(Record::Compass(Stamped::new(
+                    now_us,
+                    CompassRecord {
+                        adc,
+                        field,
+                        heading_rad: heading,
+                    },
+                ))));
+            }
+        }
+    }
+
+    /// One iteration of the main loop on an IMU sample (real, or repeated by the watchdog).
+    fn loop_iteration(
+        &mut self,
+        sample: ImuRepr,
+        repeated: bool,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) {
+        out.push(Action::Publish(Record::Imu(Stamped::new(
+            now_us,
+            ImuRecord {
+                imu: sample,
+                repeated,
+            },
+        ))));
+        if !repeated {
+            if let Some(biases) = self.calibration.push(now_us, &sample) {
+                self.nav.initialise(now_us, &biases);
+                self.home_ned_m = self.nav.state().map(|s| s.pos_ned_m);
+                let b = biases.gyro_rps;
+                out.push(Action::Event(Stamped::new(
+                    now_us,
+                    CoreEvent::CalibrationDone {
+                        gyro_bias_rps: [b.x, b.y, b.z],
+                    },
+                )));
+            }
+        }
+        let previous = self.last_imu.replace(sample);
+        self.odd_sample = !self.odd_sample;
+        if self.odd_sample {
+            return;
+        }
+        self.control_step(previous.unwrap_or(sample), sample, now_us, out);
+    }
+
+    /// The 50 Hz step: propagate, choose the phase, control, publish.
+    fn control_step(
+        &mut self,
+        previous: ImuRepr,
+        current: ImuRepr,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) {
+        self.stats.control_steps = self.stats.control_steps.saturating_add(1);
+        let dt_s = self
+            .last_control_us
+            .map_or(0.02, |t| seconds_between(t, now_us));
+        self.last_control_us = Some(now_us);
+        self.nav.propagate(now_us, &previous, &current);
+
+        let estimate = self.nav.state().copied();
+        let next_phase = self.next_phase(estimate.as_ref(), now_us);
+        if next_phase != self.phase {
+            if !matches!(
+                (self.phase, next_phase),
+                (Phase::TakingOff { .. }, Phase::Holding { .. })
+            ) {
+                self.hover.reset();
+            }
+            self.phase = next_phase;
+            out.push(Action::Event(Stamped::new(
+                now_us,
+                CoreEvent::PhaseChanged(next_phase),
+            )));
+        }
+
+        let pilot_sticks = self.pilot.and_then(|p| p.sticks()).unwrap_or_default();
+        let yaw_rate = estimate.map_or(current.rate_rps[2], |s| s.rate_body_rps.z);
+        let controls = match (self.phase, estimate) {
+            (Phase::TakingOff { target } | Phase::Holding { target, .. }, Some(est)) => {
+                let airborne = self.height_above_home(&est) > self.config.airborne_height_m;
+                self.hover.update(&est, &target, dt_s, airborne)
+            }
+            _ => manual_with_yaw_damping(&pilot_sticks, yaw_rate, &self.config.yaw_damper),
+        };
+        let rotor_rpm = self.pilot.map_or(0, |p| p.rotor_rpm);
+        out.push(Action::Servo(Stamped::new(now_us, controls)));
+        out.push(Action::Publish(Record::Servo(Stamped::new(
+            now_us,
+            ServoRecord {
+                controls,
+                rotor_rpm,
+            },
+        ))));
+        if let Some(nav) = estimate {
+            out.push(Action::Publish(Record::State(Stamped::new(
+                now_us,
+                StateRecord {
+                    nav,
+                    phase: self.phase,
+                    target: self.phase.target(),
+                },
+            ))));
+        }
+    }
+
+    fn height_above_home(&self, est: &NavState) -> f64 {
+        self.home_ned_m.map_or(0.0, |home| home.z - est.pos_ned_m.z)
+    }
+
+    fn next_phase(&self, estimate: Option<&NavState>, now_us: u64) -> Phase {
+        let Some(est) = estimate else {
+            return Phase::Calibrating;
+        };
+        let pilot = self.pilot;
+        let signal_lost = pilot.is_some_and(|p| p.signal_lost());
+        let auto_switch = pilot.is_some_and(|p| p.auto_mode);
+        let (_, _, yaw) = est.euler_rad();
+        let here = Target {
+            pos_ned_m: est.pos_ned_m,
+            yaw_rad: yaw,
+        };
+        let wants_auto = signal_lost || (self.params.mode == FlightMode::Autonomous && auto_switch);
+        if !wants_auto {
+            return Phase::Manual;
+        }
+        match self.phase {
+            Phase::TakingOff { target } => {
+                let close =
+                    (est.pos_ned_m.z - target.pos_ned_m.z).abs() < self.config.takeoff_tolerance_m;
+                if close {
+                    Phase::Holding {
+                        target,
+                        since_us: now_us,
+                    }
+                } else {
+                    self.phase
+                }
+            }
+            Phase::Holding { .. } => self.phase,
+            Phase::Calibrating | Phase::Manual => {
+                let on_ground = self.height_above_home(est) < self.config.airborne_height_m;
+                if on_ground && !signal_lost {
+                    let home = self.home_ned_m.unwrap_or(est.pos_ned_m);
+                    let climb = Vector3::new(0.0, 0.0, -self.params.takeoff_alt_m.max(0.0));
+                    Phase::TakingOff {
+                        target: Target {
+                            pos_ned_m: home + climb,
+                            yaw_rad: yaw,
+                        },
+                    }
+                } else {
+                    // Auto switch on in the air, or the transmitter was lost: hover here.
+                    Phase::Holding {
+                        target: here,
+                        since_us: now_us,
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn still() -> ImuRepr {
+        ImuRepr {
+            rate_rps: [0.001, 0.0, -0.002],
+            accel_mps2: [0.0, 0.0, -9.81],
+            temp_c: 30.0,
+        }
+    }
+
+    fn short_core() -> FlightCore {
+        FlightCore::new(
+            CoreConfig {
+                imu_warm_up_s: 0.1,
+                calibration_s: 1.0,
+                ..CoreConfig::default()
+            },
+            FlightParams::default(),
+        )
+    }
+
+    #[test]
+    fn every_other_imu_sample_is_a_control_step_with_a_servo_command() {
+        let mut core = short_core();
+        let mut out = Vec::new();
+        for k in 0..10u64 {
+            core.handle(Input::Imu(still()), k * 10_000, &mut out);
+        }
+        let servos = out.iter().filter(|a| matches!(a, Action::Servo(_))).count();
+        assert_eq!(servos, 5);
+        assert_eq!(core.stats().control_steps, 5);
+        assert_eq!(core.stats().imu_samples, 10);
+    }
+
+    #[test]
+    fn watchdog_repeats_the_last_sample_after_12_ms_and_counts_it() {
+        let mut core = short_core();
+        let mut out = Vec::new();
+        core.handle(Input::Imu(still()), 0, &mut out);
+        assert_eq!(core.poll_at(), Some(12_000));
+        core.handle(Input::Timer, 11_000, &mut out);
+        assert_eq!(core.stats().watchdog_fires, 0, "not yet due");
+        out.clear();
+        core.handle(Input::Timer, 12_000, &mut out);
+        assert_eq!(core.stats().watchdog_fires, 1);
+        let repeated: Vec<_> = out
+            .iter()
+            .filter_map(|a| match a {
+                Action::Publish(Record::Imu(r)) => Some(r),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(repeated.len(), 1);
+        assert!(repeated[0].value.repeated);
+        assert_eq!(repeated[0].value.imu, still());
+        assert_eq!(repeated[0].t_us, 12_000);
+        assert_eq!(core.poll_at(), Some(24_000));
+    }
+
+    #[test]
+    fn calibration_then_auto_switch_starts_a_takeoff() {
+        let mut core = FlightCore::new(
+            CoreConfig {
+                imu_warm_up_s: 0.1,
+                calibration_s: 1.0,
+                ..CoreConfig::default()
+            },
+            FlightParams {
+                mode: FlightMode::Autonomous,
+                takeoff_alt_m: 10.0,
+            },
+        );
+        let mut out = Vec::new();
+        let pilot = PilotUplink {
+            rotor_rpm: 1600,
+            pulses: heli_proto::scb::Pulses::from_controls(&Controls {
+                throttle: 0.8,
+                ..Default::default()
+            }),
+            auto_mode: true,
+            bypass: false,
+            receiver_batt_v: 4.8,
+            servo_batt_v: 4.8,
+        };
+        core.handle(Input::Uplink(pilot), 0, &mut out);
+        for k in 0..200u64 {
+            core.handle(Input::Imu(still()), k * 10_000, &mut out);
+        }
+        match core.phase() {
+            Phase::TakingOff { target } => assert!((target.pos_ned_m.z + 10.0).abs() < 1e-6),
+            other => panic!("expected take-off, got {other:?}"),
+        }
+        assert!(out.iter().any(|a| matches!(a, Action::Event(e) if matches!(e.value, CoreEvent::CalibrationDone { .. }))));
+    }
+}

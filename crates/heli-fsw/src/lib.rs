@@ -1,0 +1,24 @@
+//! The heli flight computer.
+//!
+//! What it is:
+//! - [`core`]: the thesis's main control process as a sans-I/O state machine. Samples and
+//!   time go in ([`core::Input`], `now_us`), actions come out ([`core::Action`]: servo
+//!   commands and records for the seven streams). It holds the 12 ms IMU watchdog, the 80 s
+//!   bias calibration, the 50 Hz estimation and control step and the flight phases.
+//! - [`drivers`]: the device drivers' protocol halves, also sans-I/O — bytes in, samples out,
+//!   and for the altimeter the reset / rate / continuous handshake with its timeouts.
+//! - [`streams`]: the seven single-writer buffers (IMU, state, servo, uplink, GPS, altimeter,
+//!   compass) with a freshest value for telemetry and a history for the logger.
+//!
+//! What it is not (yet): the runtime with threads, serial ports, the bootstrap supervisor,
+//! telemetry and the logger process; those live in a later `runtime` module and drive the
+//! same core. Nothing here reads a clock or touches a file, socket or thread.
+
+pub mod core;
+pub mod drivers;
+pub mod streams;
+
+pub use crate::core::{
+    Action, CoreConfig, CoreStats, FlightCore, FlightMode, FlightParams, Input, Phase,
+};
+pub use crate::streams::{Record, Stamped, Streams};

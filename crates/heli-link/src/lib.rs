@@ -1,0 +1,13 @@
+//! The vehicle ↔ ground link of the heli avionics.
+//!
+//! What it is: the thesis's ground-station messages — Connect, Start Logging with the flight
+//! parameters, Stop, the telemetry request, the final parameters of the cleanup routine —
+//! as typed values, with the validation a flight computer must apply to anything the ground
+//! sends ([`messages`]). Their mapping onto MAVLink 2 (`docs/link.md`) and the UDP transport
+//! arrive with the ground-station issue.
+//!
+//! What it is not: flight code or ground-station UI; both sides use these types.
+
+pub mod messages;
+
+pub use messages::{ControllerChoice, FinalParameters, GroundCommand, LinkError, StartParameters};

@@ -1,0 +1,89 @@
+//! Simulated servo controller board: reads the pilot's receiver and reports it (with rotor
+//! rpm, the switches and its batteries) at 50 Hz; reads the computer's servo command packets
+//! and drives the servos with them. With the emergency bypass switch engaged it drives the
+//! servos with the pilot's commands directly.
+
+use heli_proto::framer::FramerStats;
+use heli_proto::scb::{Controls, PilotUplink, Pulses, ServoFramer, ServoPacket};
+
+use super::Bytes;
+
+/// What the pilot's transmitter sends (normalised sticks and switches).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PilotCommand {
+    /// Sticks.
+    pub sticks: Controls,
+    /// Auto switch on.
+    pub auto_mode: bool,
+    /// Emergency bypass switch engaged.
+    pub bypass: bool,
+    /// Transmitter signal lost: the receiver commands every channel to zero.
+    pub signal_lost: bool,
+}
+
+/// The simulated board.
+#[derive(Clone, Debug)]
+pub struct ScbDevice {
+    framer: ServoFramer,
+    computer: Option<Controls>,
+    /// Receiver battery (V).
+    pub receiver_batt_v: f64,
+    /// Servo battery (V).
+    pub servo_batt_v: f64,
+}
+
+impl Default for ScbDevice {
+    fn default() -> Self {
+        Self {
+            framer: ServoFramer::new(),
+            computer: None,
+            receiver_batt_v: 4.9,
+            servo_batt_v: 4.9,
+        }
+    }
+}
+
+impl ScbDevice {
+    /// The uplink packet for the pilot's command and the rotor speed.
+    pub fn uplink(&self, pilot: &PilotCommand, rotor_rpm: f64) -> Bytes {
+        let pulses = if pilot.signal_lost {
+            Pulses::default()
+        } else {
+            Pulses::from_controls(&pilot.sticks)
+        };
+        let repr = PilotUplink {
+            rotor_rpm: rotor_rpm.round().clamp(0.0, f64::from(u16::MAX)) as u16,
+            pulses,
+            auto_mode: pilot.auto_mode,
+            bypass: pilot.bypass,
+            receiver_batt_v: self.receiver_batt_v,
+            servo_batt_v: self.servo_batt_v,
+        };
+        Bytes::encode(|buf| repr.emit(buf))
+    }
+
+    /// Bytes from the flight computer's port.
+    pub fn receive(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            if let Some(frame) = self.framer.push(b) {
+                if let Ok(packet) = ServoPacket::parse(frame) {
+                    self.computer = Some(packet.pulses.to_controls());
+                }
+            }
+        }
+    }
+
+    /// What the servos are driven with: the computer's last command, or the pilot's in bypass
+    /// (and before the computer has said anything).
+    pub fn servo_commands(&self, pilot: &PilotCommand) -> Controls {
+        match (pilot.bypass, self.computer) {
+            (false, Some(c)) => c,
+            _ => pilot.sticks,
+        }
+    }
+
+    /// Framer counters of the servo-command direction.
+    pub fn stats(&self) -> FramerStats {
+        self.framer.stats()
+    }
+}

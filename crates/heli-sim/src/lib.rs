@@ -1,0 +1,24 @@
+//! HILSim: the hardware-in-the-loop simulator of the X-Cell 60.
+//!
+//! What it is: the Gavrilets nonlinear helicopter model ([`model`], [`rotor`], [`ground`],
+//! parameters in [`params`]); the actuators between servo board and rotor ([`actuators`]);
+//! simulated devices that emit the real byte streams at their real rates ([`devices`]);
+//! scenarios ([`scenario`]); and the lockstep runner that flies the flight software against
+//! all of it on one virtual clock ([`lockstep`]), with the summary it measures ([`summary`]).
+//!
+//! What it is not: flight software. It drives `heli-fsw` from the outside, through device
+//! bytes only; the flight code never knows it is simulated.
+
+pub mod actuators;
+pub mod devices;
+pub mod ground;
+pub mod lockstep;
+pub mod model;
+pub mod params;
+pub mod rotor;
+pub mod scenario;
+pub mod summary;
+
+pub use lockstep::{RunOptions, Simulation, run};
+pub use scenario::Scenario;
+pub use summary::{Outcome, Summary};

@@ -1,0 +1,728 @@
+//! Lockstep simulation: the helicopter, its simulated devices and the flight software in one
+//! process on one virtual clock, as fast as the CPU allows (or paced to the wall clock).
+//!
+//! Everything the flight software learns crosses a device wire: the simulator encodes bytes,
+//! the flight software's drivers frame and parse them, and the servo commands go back as
+//! bytes that the simulated servo controller board parses. Bytes arrive when their last byte
+//! would have arrived at the device's baud rate.
+//!
+//! Events are ordered by (time, class, sequence), so a run is a pure function of the scenario
+//! and seed: same inputs, same outputs, bit for bit.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+use std::time::{Duration, Instant};
+
+use heli_fsw::core::{
+    Action, CoreConfig, CoreEvent, FlightCore, FlightMode, FlightParams, Input, Phase,
+};
+use heli_fsw::drivers::{self, Drivers};
+use heli_fsw::streams::{Record, StateRecord, Streams};
+use heli_nav::GeoOrigin;
+use heli_proto::baro::pressure_at_altitude_mbar;
+use heli_proto::scb::Controls;
+use nalgebra::Vector3;
+
+use crate::actuators::control_inputs;
+use crate::devices::baro::{BaroDevice, BaroErrors};
+use crate::devices::battery::BatteryDevice;
+use crate::devices::compass::CompassDevice;
+use crate::devices::gps::{GpsDevice, GpsErrors};
+use crate::devices::imu::{ImuDevice, ImuErrors};
+use crate::devices::scb::{PilotCommand, ScbDevice};
+use crate::devices::{Bytes, Noise, transmit_time_us};
+use crate::model::{Environment, Helicopter};
+use crate::params::{Airframe, Atmosphere};
+use crate::scenario::{Mode, Scenario};
+use crate::summary::{
+    Criterion, DeviceSummary, EstimatorSummary, HoldSummary, LinkSummary, LoopSummary,
+    ManeuverSummary, Outcome, Rms, Summary,
+};
+
+/// Physics integration step (µs): 500 Hz RK4.
+pub const PHYSICS_STEP_US: u64 = 2_000;
+/// IMU period (µs).
+pub const IMU_PERIOD_US: u64 = 10_000;
+/// Servo board uplink period (µs).
+pub const UPLINK_PERIOD_US: u64 = 20_000;
+/// GPS epoch period (µs).
+pub const GPS_PERIOD_US: u64 = 1_000_000;
+/// Compass read period (µs).
+pub const COMPASS_PERIOD_US: u64 = 50_000;
+/// Battery read period (µs).
+pub const BATTERY_PERIOD_US: u64 = 1_000_000;
+/// Touching down faster than this is a crash (m/s).
+pub const CRASH_SINK_MPS: f64 = 3.0;
+/// Tilting beyond this with a skid on the ground is a roll-over (rad).
+pub const CRASH_TILT_RAD: f64 = 1.0;
+
+/// A serial port between the flight computer and a device.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Port {
+    Imu,
+    Scb,
+    Gps,
+    Baro,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Kind {
+    /// Bytes from the flight computer reach a device.
+    ToDevice(Port, Bytes),
+    /// A device samples or transmits.
+    ImuSample,
+    UplinkSample,
+    GpsEpoch,
+    BaroTransmit,
+    CompassRead,
+    BatteryRead,
+    /// Bytes from a device reach the flight computer.
+    ToComputer(Port, Bytes),
+    /// The flight core's watchdog deadline.
+    CoreTimer,
+    /// The altimeter driver's reply timeout.
+    BaroDriverPoll,
+    /// Advance the physics one step.
+    Physics,
+}
+
+impl Kind {
+    /// Order of events at the same instant: actuators take commands, devices sample the
+    /// state, the computer reads, timers fire, and only then does physics move on.
+    fn class(&self) -> u8 {
+        match self {
+            Kind::ToDevice(..) => 0,
+            Kind::ImuSample
+            | Kind::UplinkSample
+            | Kind::GpsEpoch
+            | Kind::BaroTransmit
+            | Kind::CompassRead
+            | Kind::BatteryRead => 1,
+            Kind::ToComputer(..) => 2,
+            Kind::CoreTimer | Kind::BaroDriverPoll => 3,
+            Kind::Physics => 9,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+struct Event {
+    t_us: u64,
+    class: u8,
+    seq: u64,
+    kind: Kind,
+}
+
+impl PartialOrd for Bytes {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Bytes {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.as_slice().cmp(other.as_slice())
+    }
+}
+
+/// How to run.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RunOptions {
+    /// Pace the run to the wall clock (otherwise as fast as possible).
+    pub realtime: bool,
+    /// Stop at this simulated time instead of the scenario's duration (s).
+    pub duration_s: Option<f64>,
+}
+
+/// The geodetic origin of the simulated field (MIT's Briggs Field).
+pub const FIELD_ORIGIN: GeoOrigin = GeoOrigin {
+    lat_deg: 42.3581,
+    lon_deg: -71.0966,
+    alt_m: 5.0,
+};
+
+/// Earth's magnetic field at the field, NED (gauss).
+pub fn field_earth_field_gauss() -> Vector3<f64> {
+    Vector3::new(0.19, 0.0, 0.48)
+}
+
+#[derive(Default)]
+struct Metrics {
+    att: Rms,
+    pos: Rms,
+    vel: Rms,
+    hold_horizontal: Rms,
+    hold_altitude: Rms,
+    hold_true: Rms,
+    hold_start_us: Option<u64>,
+    hold_last_us: u64,
+    imu_dropped: u32,
+    step_time_max: Duration,
+    battery_min_v: f64,
+    events: Vec<String>,
+}
+
+/// One simulated flight.
+pub struct Simulation {
+    scenario: Scenario,
+    heli: Helicopter,
+    env: Environment,
+    imu: ImuDevice,
+    scb: ScbDevice,
+    gps: GpsDevice,
+    baro: BaroDevice,
+    compass: CompassDevice,
+    battery: BatteryDevice,
+    drop_noise: Noise,
+    core: FlightCore,
+    drivers: Drivers,
+    streams: Streams,
+    queue: BinaryHeap<Reverse<Event>>,
+    seq: u64,
+    now_us: u64,
+    timer_at: Option<u64>,
+    baro_poll_at: Option<u64>,
+    actions: Vec<Action>,
+    inputs: Vec<Input>,
+    metrics: Metrics,
+    crash: Option<String>,
+}
+
+impl Simulation {
+    /// Sets up the scenario's flight: helicopter on the ground with the rotor governed at
+    /// 1600 rpm, devices powered, flight software started with the scenario's parameters.
+    pub fn new(scenario: Scenario) -> Self {
+        let seed = scenario.seed;
+        let atmosphere = Atmosphere::default();
+        let env = Environment {
+            wind_ned_mps: Vector3::from(scenario.wind_ned_mps),
+            atmosphere,
+        };
+        let airframe = Airframe::default();
+        let rotor_rps =
+            scenario.pilot.throttle * airframe.governor_full_scale_rpm * std::f64::consts::PI
+                / 30.0;
+        let mut heli = Helicopter::on_ground(airframe, rotor_rps);
+        let pilot_col = scenario.pilot.collective * heli.airframe.collective_max_rad;
+        heli.trim_governor(pilot_col, &env);
+        let params = FlightParams {
+            mode: match scenario.mode {
+                Mode::Manual => FlightMode::Manual,
+                Mode::Autonomous => FlightMode::Autonomous,
+            },
+            takeoff_alt_m: scenario.takeoff_alt_m,
+        };
+        let mut sim = Self {
+            imu: ImuDevice::new(ImuErrors::default(), Noise::new(seed, 1)),
+            scb: ScbDevice::default(),
+            gps: GpsDevice::new(GpsErrors::default(), FIELD_ORIGIN, Noise::new(seed, 2)),
+            baro: BaroDevice::new(BaroErrors::default(), Noise::new(seed, 3)),
+            compass: CompassDevice::new(field_earth_field_gauss(), Noise::new(seed, 4)),
+            battery: BatteryDevice::default(),
+            drop_noise: Noise::new(seed, 5),
+            core: FlightCore::new(CoreConfig::default(), params),
+            drivers: Drivers::new(heli_proto::baro::DEFAULT_RATE_HZ),
+            streams: Streams::with_history_s(10.0),
+            queue: BinaryHeap::new(),
+            seq: 0,
+            now_us: 0,
+            timer_at: None,
+            baro_poll_at: None,
+            actions: Vec::with_capacity(16),
+            inputs: Vec::with_capacity(4),
+            metrics: Metrics {
+                battery_min_v: f64::INFINITY,
+                ..Metrics::default()
+            },
+            crash: None,
+            scenario,
+            heli,
+            env,
+        };
+        // Devices start at staggered phases, as independent clocks would.
+        sim.schedule(0, Kind::Physics);
+        sim.schedule(3_000, Kind::ImuSample);
+        sim.schedule(7_000, Kind::UplinkSample);
+        sim.schedule(500_000, Kind::GpsEpoch);
+        sim.schedule(11_000, Kind::CompassRead);
+        sim.schedule(0, Kind::BatteryRead);
+        // The flight software starts its altimeter handshake.
+        let mut sent = Vec::new();
+        sim.drivers
+            .baro
+            .start(0, &mut |b: &[u8]| sent.push(Bytes::from_slice(b)));
+        for b in sent {
+            sim.send_to_device(Port::Baro, b, 0);
+        }
+        sim.reschedule_driver_timers();
+        sim
+    }
+
+    fn schedule(&mut self, t_us: u64, kind: Kind) {
+        self.seq += 1;
+        self.queue.push(Reverse(Event {
+            t_us,
+            class: kind.class(),
+            seq: self.seq,
+            kind,
+        }));
+    }
+
+    fn baud(port: Port) -> u32 {
+        match port {
+            Port::Imu => heli_proto::imu::BAUD,
+            Port::Scb => heli_proto::scb::BAUD,
+            Port::Gps => heli_proto::gps::BAUD,
+            Port::Baro => heli_proto::baro::BAUD,
+        }
+    }
+
+    fn send_to_device(&mut self, port: Port, bytes: Bytes, now_us: u64) {
+        let at = now_us + transmit_time_us(bytes.as_slice().len(), Self::baud(port));
+        self.schedule(at, Kind::ToDevice(port, bytes));
+    }
+
+    fn send_to_computer(&mut self, port: Port, bytes: Bytes, sent_us: u64) {
+        let at = sent_us + transmit_time_us(bytes.as_slice().len(), Self::baud(port));
+        self.schedule(at, Kind::ToComputer(port, bytes));
+    }
+
+    fn pilot(&self) -> PilotCommand {
+        let p = self.scenario.pilot;
+        PilotCommand {
+            sticks: Controls {
+                aileron: p.aileron,
+                elevator: p.elevator,
+                rudder: p.rudder,
+                collective: p.collective,
+                throttle: p.throttle,
+            },
+            auto_mode: p.auto,
+            bypass: false,
+            signal_lost: false,
+        }
+    }
+
+    /// Runs to the end of the flight plan, the duration, or a crash.
+    pub fn run(mut self, options: RunOptions, mut progress: impl FnMut(f64, f64)) -> Summary {
+        let wall_start = Instant::now();
+        let duration_s = options.duration_s.unwrap_or(self.scenario.duration_s);
+        let end_us = (duration_s * 1e6) as u64;
+        let mut next_progress_us = 0;
+        while self.advance(end_us) {
+            if self.now_us >= next_progress_us {
+                progress(self.now_us as f64 * 1e-6, duration_s);
+                next_progress_us += 1_000_000;
+            }
+            if options.realtime {
+                let due = wall_start + Duration::from_micros(self.now_us);
+                if let Some(wait) = due.checked_duration_since(Instant::now()) {
+                    std::thread::sleep(wait);
+                }
+            }
+        }
+        let wall = wall_start.elapsed().as_secs_f64();
+        self.summarise(wall)
+    }
+
+    /// Processes events up to and including the next physics step, unless the run is over
+    /// (past `end_us`, crashed, or the flight plan is complete). Returns whether it went on.
+    pub fn advance(&mut self, end_us: u64) -> bool {
+        while let Some(Reverse(event)) = self.queue.peek().copied() {
+            if event.t_us > end_us || self.crash.is_some() || self.plan_complete() {
+                return false;
+            }
+            self.queue.pop();
+            self.now_us = event.t_us;
+            self.dispatch(event.kind);
+            if matches!(event.kind, Kind::Physics) {
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Current simulated time (µs).
+    pub fn now_us(&self) -> u64 {
+        self.now_us
+    }
+
+    /// The simulated helicopter (truth).
+    pub fn helicopter(&self) -> &Helicopter {
+        &self.heli
+    }
+
+    /// The flight software's main control process.
+    pub fn core(&self) -> &FlightCore {
+        &self.core
+    }
+
+    /// The flight software's seven streams.
+    pub fn streams(&self) -> &Streams {
+        &self.streams
+    }
+
+    fn plan_complete(&self) -> bool {
+        match self.metrics.hold_start_us {
+            Some(start) => {
+                self.metrics.hold_last_us.saturating_sub(start) as f64 * 1e-6
+                    >= self.scenario.hold_s
+            }
+            None => false,
+        }
+    }
+
+    fn dispatch(&mut self, kind: Kind) {
+        let now = self.now_us;
+        match kind {
+            Kind::Physics => {
+                self.physics_step();
+                self.schedule(now + PHYSICS_STEP_US, Kind::Physics);
+            }
+            Kind::ImuSample => {
+                let s = self.heli.state;
+                let f = self.heli.outputs.specific_force_body_mps2;
+                let bytes = self.imu.packet(
+                    &s.rate_body_rps,
+                    &f,
+                    self.env.atmosphere.temperature_c + 10.0,
+                );
+                if self.drop_noise.uniform() < self.scenario.faults.imu_drop_rate {
+                    self.metrics.imu_dropped += 1;
+                } else {
+                    self.send_to_computer(Port::Imu, bytes, now);
+                }
+                self.schedule(now + IMU_PERIOD_US, Kind::ImuSample);
+            }
+            Kind::UplinkSample => {
+                let rpm = self.heli.state.rotor_rps * 30.0 / std::f64::consts::PI;
+                let bytes = self.scb.uplink(&self.pilot(), rpm);
+                self.send_to_computer(Port::Scb, bytes, now);
+                self.schedule(now + UPLINK_PERIOD_US, Kind::UplinkSample);
+            }
+            Kind::GpsEpoch => {
+                let s = self.heli.state;
+                let bytes = self.gps.packet(now, &s.pos_ned_m, &s.vel_ned_mps());
+                // The packet's last byte arrives `latency` after the epoch.
+                let tx = transmit_time_us(bytes.as_slice().len(), heli_proto::gps::BAUD);
+                let latency_us = (self.gps.errors.latency_s * 1e6) as u64;
+                self.send_to_computer(Port::Gps, bytes, now + latency_us.saturating_sub(tx));
+                self.schedule(now + GPS_PERIOD_US, Kind::GpsEpoch);
+            }
+            Kind::BaroTransmit => {
+                let alt_m = -self.heli.state.pos_ned_m.z + FIELD_ORIGIN.alt_m;
+                let p0 = self.env.atmosphere.ground_pressure_mbar;
+                let p = pressure_at_altitude_mbar(alt_m, p0);
+                let mbar_per_m = p - pressure_at_altitude_mbar(alt_m + 1.0, p0);
+                if let Some(bytes) = self.baro.transmit(now, p, mbar_per_m) {
+                    self.send_to_computer(Port::Baro, bytes, now);
+                }
+                self.reschedule_baro_device();
+            }
+            Kind::CompassRead => {
+                let adc = self.compass.read(&self.heli.state.att);
+                self.to_core(Input::Compass(adc));
+                self.schedule(now + COMPASS_PERIOD_US, Kind::CompassRead);
+            }
+            Kind::BatteryRead => {
+                let v = self.battery.read(now as f64 * 1e-6).volts();
+                self.metrics.battery_min_v = self.metrics.battery_min_v.min(v);
+                self.schedule(now + BATTERY_PERIOD_US, Kind::BatteryRead);
+            }
+            Kind::ToDevice(port, bytes) => match port {
+                Port::Scb => self.scb.receive(bytes.as_slice()),
+                Port::Baro => {
+                    self.baro.receive(bytes.as_slice(), now);
+                    self.reschedule_baro_device();
+                }
+                Port::Imu | Port::Gps => {}
+            },
+            Kind::ToComputer(port, bytes) => self.computer_receives(port, bytes),
+            Kind::CoreTimer => {
+                // Only the latest scheduled deadline is live; earlier ones were superseded.
+                if self.timer_at == Some(now) {
+                    self.timer_at = None;
+                }
+                self.to_core(Input::Timer);
+            }
+            Kind::BaroDriverPoll => {
+                if self.baro_poll_at == Some(now) {
+                    self.baro_poll_at = None;
+                }
+                let mut sent = Vec::new();
+                self.drivers
+                    .baro
+                    .poll(now, &mut |b: &[u8]| sent.push(Bytes::from_slice(b)));
+                for b in sent {
+                    self.send_to_device(Port::Baro, b, now);
+                }
+                self.reschedule_driver_timers();
+            }
+        }
+    }
+
+    fn reschedule_baro_device(&mut self) {
+        // The device's next transmission is scheduled once; a stale event just finds nothing due.
+        if let Some(at) = self.baro.next_at() {
+            let at = at.max(self.now_us);
+            if !self
+                .queue
+                .iter()
+                .any(|e| matches!(e.0.kind, Kind::BaroTransmit) && e.0.t_us == at)
+            {
+                self.schedule(at, Kind::BaroTransmit);
+            }
+        }
+    }
+
+    fn reschedule_driver_timers(&mut self) {
+        if let Some(at) = self.drivers.baro.poll_at() {
+            if self.baro_poll_at != Some(at) {
+                self.baro_poll_at = Some(at);
+                self.schedule(at, Kind::BaroDriverPoll);
+            }
+        }
+        if let Some(at) = self.core.poll_at() {
+            if self.timer_at != Some(at) {
+                self.timer_at = Some(at);
+                self.schedule(at, Kind::CoreTimer);
+            }
+        }
+    }
+
+    fn computer_receives(&mut self, port: Port, bytes: Bytes) {
+        let now = self.now_us;
+        let mut inputs = std::mem::take(&mut self.inputs);
+        match port {
+            Port::Imu => self.drivers.imu_bytes(bytes.as_slice(), |i| inputs.push(i)),
+            Port::Scb => self
+                .drivers
+                .uplink_bytes(bytes.as_slice(), |i| inputs.push(i)),
+            Port::Gps => self.drivers.gps_bytes(bytes.as_slice(), |i| inputs.push(i)),
+            Port::Baro => {
+                let mut sent = Vec::new();
+                self.drivers.baro_bytes(
+                    bytes.as_slice(),
+                    now,
+                    &mut |b: &[u8]| sent.push(Bytes::from_slice(b)),
+                    |i| inputs.push(i),
+                );
+                for b in sent {
+                    self.send_to_device(Port::Baro, b, now);
+                }
+            }
+        }
+        for input in inputs.drain(..) {
+            self.to_core(input);
+        }
+        self.inputs = inputs;
+        self.reschedule_driver_timers();
+    }
+
+    fn to_core(&mut self, input: Input) {
+        let now = self.now_us;
+        let mut actions = std::mem::take(&mut self.actions);
+        let started = Instant::now();
+        self.core.handle(input, now, &mut actions);
+        let took = started.elapsed();
+        if actions.iter().any(|a| matches!(a, Action::Servo(_))) {
+            self.metrics.step_time_max = self.metrics.step_time_max.max(took);
+        }
+        for action in actions.drain(..) {
+            match action {
+                Action::Servo(cmd) => {
+                    let packet = drivers::servo_packet(&cmd.value);
+                    self.send_to_device(Port::Scb, Bytes::from_slice(&packet), now);
+                }
+                Action::Publish(record) => {
+                    if let Record::State(s) = &record {
+                        self.measure(&s.value);
+                    }
+                    self.streams.publish(record);
+                }
+                Action::Event(e) => self.metrics.events.push(describe(e.t_us, &e.value)),
+            }
+        }
+        self.actions = actions;
+        self.reschedule_driver_timers();
+    }
+
+    /// True position expressed in the flight software's frame (its origin is its first GPS
+    /// fix, not the simulator's origin), so that estimate and truth compare like for like.
+    fn truth_in_nav_frame(&self) -> Vector3<f64> {
+        let p = self.heli.state.pos_ned_m;
+        match self.core.navigator().origin() {
+            Some(origin) => {
+                let (lat, lon, alt) = FIELD_ORIGIN.to_geodetic([p.x, p.y, p.z]);
+                Vector3::from(origin.to_ned(lat, lon, alt))
+            }
+            None => p,
+        }
+    }
+
+    fn measure(&mut self, s: &StateRecord) {
+        let truth = self.heli.state;
+        let truth_pos = self.truth_in_nav_frame();
+        let est = &s.nav;
+        self.metrics
+            .att
+            .add((est.att.inverse() * truth.att).angle().to_degrees());
+        self.metrics.pos.add((est.pos_ned_m - truth_pos).norm());
+        self.metrics
+            .vel
+            .add((est.vel_ned_mps - truth.vel_ned_mps()).norm());
+        if let (Phase::Holding { since_us, .. }, Some(target)) = (s.phase, s.target) {
+            self.metrics.hold_start_us.get_or_insert(since_us);
+            self.metrics.hold_last_us = self.now_us;
+            let err = est.pos_ned_m - target.pos_ned_m;
+            self.metrics.hold_horizontal.add(err.xy().norm());
+            self.metrics.hold_altitude.add(err.z);
+            self.metrics
+                .hold_true
+                .add((truth_pos - target.pos_ned_m).norm());
+        }
+    }
+
+    fn physics_step(&mut self) {
+        let servo = self.scb.servo_commands(&self.pilot());
+        let u = control_inputs(&self.heli.airframe, &servo);
+        self.heli.step(PHYSICS_STEP_US as f64 * 1e-6, &u, &self.env);
+        let out = self.heli.outputs;
+        if out.contact_points > 0 && self.crash.is_none() {
+            let up = self.heli.state.att * Vector3::new(0.0, 0.0, -1.0);
+            let tilt = (-up.z).clamp(-1.0, 1.0).acos();
+            if out.contact_sink_mps > CRASH_SINK_MPS {
+                self.crash = Some(format!(
+                    "t={:.2} s: hit the ground at {:.1} m/s",
+                    self.now_us as f64 * 1e-6,
+                    out.contact_sink_mps
+                ));
+            } else if tilt > CRASH_TILT_RAD {
+                self.crash = Some(format!(
+                    "t={:.2} s: rolled over on the ground ({:.0} deg)",
+                    self.now_us as f64 * 1e-6,
+                    tilt.to_degrees()
+                ));
+            }
+        }
+    }
+
+    fn summarise(self, wall_s: f64) -> Summary {
+        let m = &self.metrics;
+        let sim_time_s = self.now_us as f64 * 1e-6;
+        let stats = self.core.stats();
+        let nav = self.core.navigator().stats();
+        let hold_duration = m
+            .hold_start_us
+            .map_or(0.0, |s| m.hold_last_us.saturating_sub(s) as f64 * 1e-6);
+        let limits = self.scenario.limits;
+        let mut criteria = vec![Criterion::at_least(
+            "hold_duration_s",
+            hold_duration,
+            self.scenario.hold_s,
+        )];
+        if m.hold_start_us.is_some() {
+            criteria.push(Criterion::at_most(
+                "hold_horizontal_rms_m",
+                m.hold_horizontal.rms(),
+                limits.hold_horizontal_rms_m,
+            ));
+            criteria.push(Criterion::at_most(
+                "hold_altitude_rms_m",
+                m.hold_altitude.rms(),
+                limits.hold_altitude_rms_m,
+            ));
+            criteria.push(Criterion::at_most(
+                "hold_true_max_m",
+                m.hold_true.max(),
+                limits.hold_true_max_m,
+            ));
+        }
+        let outcome = if self.crash.is_some() {
+            Outcome::Crash
+        } else if criteria.iter().all(|c| c.pass) {
+            Outcome::Pass
+        } else {
+            Outcome::Fail
+        };
+        let link = |s: heli_proto::framer::FramerStats| LinkSummary {
+            frames: s.frames,
+            checksum_errors: s.checksum_errors,
+            framing_errors: s.framing_errors,
+            discarded_bytes: s.discarded_bytes,
+        };
+        Summary {
+            scenario: self.scenario.name.clone(),
+            seed: self.scenario.seed,
+            sim_time_s,
+            wall_time_s: wall_s,
+            realtime_factor: if wall_s > 0.0 {
+                sim_time_s / wall_s
+            } else {
+                0.0
+            },
+            outcome,
+            crash: self.crash.clone(),
+            criteria,
+            estimator: EstimatorSummary {
+                att_err_rms_deg: m.att.rms(),
+                att_err_max_deg: m.att.max(),
+                pos_err_rms_m: m.pos.rms(),
+                vel_err_rms_mps: m.vel.rms(),
+                samples: m.att.count(),
+                gps_fused: nav.gps_fused,
+                gps_rejected: nav.gps_rejected,
+                baro_fused: nav.baro_fused,
+                compass_fused: nav.compass_fused,
+            },
+            loop_: LoopSummary {
+                imu_samples: stats.imu_samples,
+                imu_dropped: m.imu_dropped,
+                watchdog_fires: stats.watchdog_fires,
+                control_steps: stats.control_steps,
+                step_time_max_us: m.step_time_max.as_secs_f64() * 1e6,
+            },
+            maneuvers: ManeuverSummary::default(),
+            hold: HoldSummary {
+                start_s: m.hold_start_us.map(|t| t as f64 * 1e-6),
+                duration_s: hold_duration,
+                horizontal_rms_m: m.hold_horizontal.rms(),
+                altitude_rms_m: m.hold_altitude.rms(),
+                true_max_m: m.hold_true.max(),
+            },
+            devices: DeviceSummary {
+                imu: link(self.drivers.imu.stats().framer),
+                uplink: link(self.drivers.uplink.stats().framer),
+                servo: link(self.scb.stats()),
+                gps: link(self.drivers.gps.stats().framer),
+                baro_readings: stats.baro_readings,
+                baro_link: format!("{:?}", self.drivers.baro.state()),
+                battery_min_v: if m.battery_min_v.is_finite() {
+                    m.battery_min_v
+                } else {
+                    0.0
+                },
+            },
+            events: m.events.clone(),
+            log: None,
+        }
+    }
+}
+
+fn describe(t_us: u64, e: &CoreEvent) -> String {
+    let t = t_us as f64 * 1e-6;
+    match e {
+        CoreEvent::CalibrationDone { gyro_bias_rps } => format!(
+            "t={t:.2} s calibration done, gyro bias [{:.4}, {:.4}, {:.4}] rad/s",
+            gyro_bias_rps[0], gyro_bias_rps[1], gyro_bias_rps[2]
+        ),
+        CoreEvent::PhaseChanged(p) => format!("t={t:.2} s phase {}", p.name()),
+        CoreEvent::WatchdogFired => format!("t={t:.2} s watchdog fired"),
+        CoreEvent::PilotSignalLost => format!("t={t:.2} s pilot signal lost"),
+    }
+}
+
+/// Runs a scenario to completion with default options and no progress output.
+pub fn run(scenario: Scenario) -> Summary {
+    Simulation::new(scenario).run(RunOptions::default(), |_, _| {})
+}

@@ -1,0 +1,216 @@
+//! What a run measured, and the JSON object `heli sim --json` prints (DESIGN.md §7).
+
+use serde::Serialize;
+
+/// How the run ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Outcome {
+    /// Every criterion passed.
+    Pass,
+    /// At least one criterion failed.
+    Fail,
+    /// The helicopter hit the ground too hard or rolled over.
+    Crash,
+}
+
+/// One pass/fail criterion.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Criterion {
+    /// What is measured.
+    pub name: String,
+    /// Measured value.
+    pub value: f64,
+    /// Limit it is held to.
+    pub limit: f64,
+    /// Whether it passed.
+    pub pass: bool,
+}
+
+impl Criterion {
+    /// A criterion that passes when `value <= limit`.
+    pub fn at_most(name: &str, value: f64, limit: f64) -> Self {
+        Self {
+            name: name.into(),
+            value,
+            limit,
+            pass: value <= limit,
+        }
+    }
+
+    /// A criterion that passes when `value >= limit`.
+    pub fn at_least(name: &str, value: f64, limit: f64) -> Self {
+        Self {
+            name: name.into(),
+            value,
+            limit,
+            pass: value >= limit,
+        }
+    }
+}
+
+/// Estimator errors against simulator truth, over the flight after calibration.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct EstimatorSummary {
+    /// Attitude error RMS (deg).
+    pub att_err_rms_deg: f64,
+    /// Largest attitude error (deg).
+    pub att_err_max_deg: f64,
+    /// Position error RMS (m).
+    pub pos_err_rms_m: f64,
+    /// Velocity error RMS (m/s).
+    pub vel_err_rms_mps: f64,
+    /// State estimates compared.
+    pub samples: u64,
+    /// GPS fixes fused / rejected.
+    pub gps_fused: u32,
+    /// GPS fixes rejected.
+    pub gps_rejected: u32,
+    /// Altimeter readings fused.
+    pub baro_fused: u32,
+    /// Compass readings fused.
+    pub compass_fused: u32,
+}
+
+/// The main loop's counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct LoopSummary {
+    /// IMU packets the flight software received.
+    pub imu_samples: u32,
+    /// IMU packets the simulator dropped (fault injection).
+    pub imu_dropped: u32,
+    /// Watchdog firings (each repeated the last IMU packet).
+    pub watchdog_fires: u32,
+    /// 50 Hz control steps.
+    pub control_steps: u32,
+    /// Longest wall-clock time of one control step in this run (µs; not deterministic).
+    pub step_time_max_us: f64,
+}
+
+/// Aerobatic maneuvers (none in a hover).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct ManeuverSummary {
+    /// Autonomous rolls completed.
+    pub rolls_completed: u32,
+    /// Altitude lost during the maneuver sequence (m).
+    pub altitude_loss_m: f64,
+}
+
+/// The position hold.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct HoldSummary {
+    /// When the hold began (s), if it did.
+    pub start_s: Option<f64>,
+    /// How long it was measured (s).
+    pub duration_s: f64,
+    /// Horizontal error RMS, estimate against target (m).
+    pub horizontal_rms_m: f64,
+    /// Altitude error RMS, estimate against target (m).
+    pub altitude_rms_m: f64,
+    /// Largest true distance from the target (m).
+    pub true_max_m: f64,
+}
+
+/// Byte-level health of one serial link.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct LinkSummary {
+    /// Frames delivered.
+    pub frames: u32,
+    /// Frames dropped for a bad checksum.
+    pub checksum_errors: u32,
+    /// Framing errors.
+    pub framing_errors: u32,
+    /// Bytes discarded while hunting for a header.
+    pub discarded_bytes: u32,
+}
+
+/// Serial links of the run.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct DeviceSummary {
+    /// IMU → computer.
+    pub imu: LinkSummary,
+    /// Servo board → computer (pilot uplink).
+    pub uplink: LinkSummary,
+    /// Computer → servo board (servo commands).
+    pub servo: LinkSummary,
+    /// GPS → computer.
+    pub gps: LinkSummary,
+    /// Altimeter readings received.
+    pub baro_readings: u32,
+    /// Altimeter handshake state at the end.
+    pub baro_link: String,
+    /// Lowest flight-battery voltage read (V).
+    pub battery_min_v: f64,
+}
+
+/// The whole summary.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Summary {
+    /// Scenario name.
+    pub scenario: String,
+    /// Seed of the run.
+    pub seed: u64,
+    /// Simulated time (s).
+    pub sim_time_s: f64,
+    /// Wall-clock time (s).
+    pub wall_time_s: f64,
+    /// Simulated seconds per wall-clock second.
+    pub realtime_factor: f64,
+    /// How it ended.
+    pub outcome: Outcome,
+    /// Why it crashed, if it did.
+    pub crash: Option<String>,
+    /// The criteria.
+    pub criteria: Vec<Criterion>,
+    /// Estimator errors against truth.
+    pub estimator: EstimatorSummary,
+    /// Main-loop counters.
+    #[serde(rename = "loop")]
+    pub loop_: LoopSummary,
+    /// Maneuvers.
+    pub maneuvers: ManeuverSummary,
+    /// Position hold.
+    pub hold: HoldSummary,
+    /// Serial links.
+    pub devices: DeviceSummary,
+    /// Events the flight software reported, in order ("t=85.0 s calibration done", ...).
+    pub events: Vec<String>,
+    /// Flight log written, if any.
+    pub log: Option<String>,
+}
+
+/// Running sum of squares for an RMS, with the maximum.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Rms {
+    sum_sq: f64,
+    max: f64,
+    n: u64,
+}
+
+impl Rms {
+    /// Adds one value.
+    pub fn add(&mut self, x: f64) {
+        self.sum_sq += x * x;
+        self.max = self.max.max(x.abs());
+        self.n += 1;
+    }
+
+    /// Root mean square (0 if empty).
+    pub fn rms(&self) -> f64 {
+        if self.n == 0 {
+            0.0
+        } else {
+            (self.sum_sq / self.n as f64).sqrt()
+        }
+    }
+
+    /// Largest magnitude.
+    pub fn max(&self) -> f64 {
+        self.max
+    }
+
+    /// Number of values.
+    pub fn count(&self) -> u64 {
+        self.n
+    }
+}
