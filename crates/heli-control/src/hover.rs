@@ -51,8 +51,12 @@ pub struct HoverGains {
     pub yaw_rate_feedback: f64,
     /// Tail command per rad of integrated yaw-rate error.
     pub yaw_integral: f64,
-    /// Tail command that balances the main-rotor torque in hover (feedforward).
+    /// Tail command that balances the main-rotor torque at the hover collective; the
+    /// feedforward scales with collective, as the rotor torque does.
     pub tail_trim: f64,
+    /// Time constant of the tail feedforward (s): the fuselage feels the engine's torque,
+    /// which follows a collective change only as fast as the governor does.
+    pub tail_feedforward_lag_s: f64,
 }
 
 impl Default for HoverGains {
@@ -74,11 +78,12 @@ impl Default for HoverGains {
             climb_feedback: 0.12,
             climb_integral: 0.04,
             hover_collective: 0.54,
-            heading_to_rate: 1.5,
+            heading_to_rate: 2.0,
             max_yaw_rate_rps: 1.0,
-            yaw_rate_feedback: 0.15,
+            yaw_rate_feedback: 0.3,
             yaw_integral: 0.1,
-            tail_trim: 0.3,
+            tail_trim: 0.4,
+            tail_feedforward_lag_s: 0.5,
         }
     }
 }
@@ -100,6 +105,7 @@ pub struct HoverController {
     vel_integral: Vector3<f64>,
     climb_integral: f64,
     yaw_integral: f64,
+    tail_feedforward: Option<f64>,
 }
 
 impl HoverController {
@@ -116,6 +122,7 @@ impl HoverController {
         self.vel_integral = Vector3::zeros();
         self.climb_integral = 0.0;
         self.yaw_integral = 0.0;
+        self.tail_feedforward = None;
     }
 
     /// One control step of `dt_s`. `airborne` enables the horizontal and yaw integrators
@@ -193,7 +200,17 @@ impl HoverController {
                 0.5 / g.yaw_integral.max(1e-6),
             );
         }
-        let rudder = g.tail_trim + g.yaw_rate_feedback * r_err + g.yaw_integral * self.yaw_integral;
+        let torque_feedforward =
+            g.tail_trim * (collective / g.hover_collective.max(1e-6)).clamp(0.0, 2.0);
+        // Starting on the ground the engine still delivers idle torque; in the air, the
+        // torque of the current collective.
+        let lagged =
+            self.tail_feedforward
+                .unwrap_or(if airborne { torque_feedforward } else { 0.0 });
+        let alpha = (dt / g.tail_feedforward_lag_s.max(dt).max(1e-6)).clamp(0.0, 1.0);
+        let lagged = limit(lagged + alpha * (torque_feedforward - lagged), 1.0);
+        self.tail_feedforward = Some(lagged);
+        let rudder = lagged + g.yaw_rate_feedback * r_err + g.yaw_integral * self.yaw_integral;
 
         Controls {
             aileron: limit(aileron, 1.0),

@@ -255,10 +255,10 @@ impl BaroDriver {
 
     fn send(&self, command: BaroCommand, tx: &mut impl FnMut(&[u8])) {
         let mut buf = [0u8; baro::MAX_LINE];
-        if let Ok(n) = command.emit(&mut buf) {
-            if let Some(bytes) = buf.get(..n) {
-                tx(bytes);
-            }
+        if let Ok(n) = command.emit(&mut buf)
+            && let Some(bytes) = buf.get(..n)
+        {
+            tx(bytes);
         }
     }
 }

@@ -421,7 +421,7 @@ impl Simulation {
             }
             Kind::CompassRead => {
                 let adc = self.compass.read(&self.heli.state.att);
-                self.to_core(Input::Compass(adc));
+                self.deliver_to_core(Input::Compass(adc));
                 self.schedule(now + COMPASS_PERIOD_US, Kind::CompassRead);
             }
             Kind::BatteryRead => {
@@ -443,7 +443,7 @@ impl Simulation {
                 if self.timer_at == Some(now) {
                     self.timer_at = None;
                 }
-                self.to_core(Input::Timer);
+                self.deliver_to_core(Input::Timer);
             }
             Kind::BaroDriverPoll => {
                 if self.baro_poll_at == Some(now) {
@@ -476,17 +476,17 @@ impl Simulation {
     }
 
     fn reschedule_driver_timers(&mut self) {
-        if let Some(at) = self.drivers.baro.poll_at() {
-            if self.baro_poll_at != Some(at) {
-                self.baro_poll_at = Some(at);
-                self.schedule(at, Kind::BaroDriverPoll);
-            }
+        if let Some(at) = self.drivers.baro.poll_at()
+            && self.baro_poll_at != Some(at)
+        {
+            self.baro_poll_at = Some(at);
+            self.schedule(at, Kind::BaroDriverPoll);
         }
-        if let Some(at) = self.core.poll_at() {
-            if self.timer_at != Some(at) {
-                self.timer_at = Some(at);
-                self.schedule(at, Kind::CoreTimer);
-            }
+        if let Some(at) = self.core.poll_at()
+            && self.timer_at != Some(at)
+        {
+            self.timer_at = Some(at);
+            self.schedule(at, Kind::CoreTimer);
         }
     }
 
@@ -513,13 +513,13 @@ impl Simulation {
             }
         }
         for input in inputs.drain(..) {
-            self.to_core(input);
+            self.deliver_to_core(input);
         }
         self.inputs = inputs;
         self.reschedule_driver_timers();
     }
 
-    fn to_core(&mut self, input: Input) {
+    fn deliver_to_core(&mut self, input: Input) {
         let now = self.now_us;
         let mut actions = std::mem::take(&mut self.actions);
         let started = Instant::now();

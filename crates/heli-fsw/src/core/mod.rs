@@ -362,18 +362,16 @@ impl FlightCore {
                 repeated,
             },
         ))));
-        if !repeated {
-            if let Some(biases) = self.calibration.push(now_us, &sample) {
-                self.nav.initialise(now_us, &biases);
-                self.home_ned_m = self.nav.state().map(|s| s.pos_ned_m);
-                let b = biases.gyro_rps;
-                out.push(Action::Event(Stamped::new(
-                    now_us,
-                    CoreEvent::CalibrationDone {
-                        gyro_bias_rps: [b.x, b.y, b.z],
-                    },
-                )));
-            }
+        if !repeated && let Some(biases) = self.calibration.push(now_us, &sample) {
+            self.nav.initialise(now_us, &biases);
+            self.home_ned_m = self.nav.state().map(|s| s.pos_ned_m);
+            let b = biases.gyro_rps;
+            out.push(Action::Event(Stamped::new(
+                now_us,
+                CoreEvent::CalibrationDone {
+                    gyro_bias_rps: [b.x, b.y, b.z],
+                },
+            )));
         }
         let previous = self.last_imu.replace(sample);
         self.odd_sample = !self.odd_sample;

@@ -91,11 +91,11 @@ impl BaroDevice {
     /// What the device sends at `now_us` (call at [`BaroDevice::next_at`]) given the true
     /// pressure (mbar) and how many mbar one metre is here.
     pub fn transmit(&mut self, now_us: u64, pressure_mbar: f64, mbar_per_m: f64) -> Option<Bytes> {
-        if let Some((due, reply)) = self.pending {
-            if now_us >= due {
-                self.pending = None;
-                return Some(Bytes::encode(|buf| reply.emit(buf)));
-            }
+        if let Some((due, reply)) = self.pending
+            && now_us >= due
+        {
+            self.pending = None;
+            return Some(Bytes::encode(|buf| reply.emit(buf)));
         }
         let due = self.next_reading_us?;
         if now_us < due {

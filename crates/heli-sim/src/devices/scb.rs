@@ -65,10 +65,10 @@ impl ScbDevice {
     /// Bytes from the flight computer's port.
     pub fn receive(&mut self, bytes: &[u8]) {
         for &b in bytes {
-            if let Some(frame) = self.framer.push(b) {
-                if let Ok(packet) = ServoPacket::parse(frame) {
-                    self.computer = Some(packet.pulses.to_controls());
-                }
+            if let Some(frame) = self.framer.push(b)
+                && let Ok(packet) = ServoPacket::parse(frame)
+            {
+                self.computer = Some(packet.pulses.to_controls());
             }
         }
     }

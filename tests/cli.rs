@@ -1,0 +1,115 @@
+//! The command-line contract of DESIGN.md §7, run as a user would.
+
+use std::process::Command;
+
+fn heli(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_heli"))
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run heli: {e}"))
+}
+
+#[test]
+fn sim_hover_json_passes_and_has_the_documented_fields() {
+    let out = heli(&["sim", "--scenario", "hover", "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    assert_eq!(v["outcome"], "pass");
+    assert_eq!(v["scenario"], "hover");
+    for key in [
+        "seed",
+        "sim_time_s",
+        "wall_time_s",
+        "realtime_factor",
+        "criteria",
+        "estimator",
+        "loop",
+        "maneuvers",
+        "log",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    for key in [
+        "att_err_rms_deg",
+        "att_err_max_deg",
+        "pos_err_rms_m",
+        "vel_err_rms_mps",
+    ] {
+        assert!(v["estimator"][key].is_number(), "estimator.{key}");
+    }
+    for key in [
+        "imu_samples",
+        "watchdog_fires",
+        "control_steps",
+        "step_time_max_us",
+    ] {
+        assert!(v["loop"][key].is_number(), "loop.{key}");
+    }
+    assert!(v["maneuvers"]["rolls_completed"].is_number());
+    for c in v["criteria"].as_array().into_iter().flatten() {
+        assert!(
+            c["name"].is_string()
+                && c["value"].is_number()
+                && c["limit"].is_number()
+                && c["pass"].is_boolean()
+        );
+    }
+}
+
+#[test]
+fn sim_list_names_the_builtin_scenarios() {
+    let out = heli(&["sim", "--list"]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("hover"));
+}
+
+#[test]
+fn scenario_file_sets_seed_wind_and_imu_drops() {
+    let dir = std::env::temp_dir().join(format!("heli-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap_or_default();
+    let file = dir.join("drops.toml");
+    std::fs::write(&file, "name = \"drops\"\nseed = 9\nwind_ned_mps = [1.0, 0.5, 0.0]\n[faults]\nimu_drop_rate = 0.01\n")
+        .unwrap_or_default();
+    let out = heli(&[
+        "sim",
+        "--scenario",
+        file.to_str().unwrap_or_default(),
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    assert_eq!(v["scenario"], "drops");
+    assert_eq!(v["seed"], 9);
+    assert!(v["loop"]["watchdog_fires"].as_u64().unwrap_or(0) > 0);
+    assert_eq!(v["loop"]["watchdog_fires"], v["loop"]["imu_dropped"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+}
+
+#[test]
+fn unknown_scenario_is_a_clear_error() {
+    let out = heli(&["sim", "--scenario", "no-such-flight"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no-such-flight") && err.contains("--list"),
+        "{err}"
+    );
+}
+
+#[test]
+fn failed_flight_exits_nonzero_with_a_table() {
+    let out = heli(&["sim", "--duration", "30"]);
+    assert_eq!(out.status.code(), Some(1));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("hold_duration_s") && text.contains("FAIL"),
+        "{text}"
+    );
+}
