@@ -165,8 +165,16 @@ fn print_table(s: &Summary) {
         s.devices.baro_link,
         s.devices.battery_min_v
     );
-    for event in &s.events {
+    let watchdog_events = s
+        .events
+        .iter()
+        .filter(|e| e.ends_with("watchdog fired"))
+        .count();
+    for event in s.events.iter().filter(|e| !e.ends_with("watchdog fired")) {
         println!("event      {event}");
+    }
+    if watchdog_events > 0 {
+        println!("event      watchdog fired {watchdog_events} times (each listed in --json)");
     }
     if let Some(crash) = &s.crash {
         println!("CRASH      {crash}");
