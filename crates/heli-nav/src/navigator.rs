@@ -427,6 +427,20 @@ mod tests {
         }
     }
 
+    /// A filter whose origin is a first fix at rest, initialised at t = 0.
+    fn started_at_origin() -> (ImuBiases, GeoOrigin, Navigator) {
+        let b = level_biases();
+        let mut nav = Navigator::new(NavConfig::default());
+        let origin = GeoOrigin {
+            lat_deg: 42.0,
+            lon_deg: -71.0,
+            alt_m: 20.0,
+        };
+        nav.fuse_gps(0, &fix_at(&origin, [0.0, 0.0, 0.0], [0.0; 3]));
+        nav.initialise(0, &b);
+        (b, origin, nav)
+    }
+
     fn fix_at(origin: &GeoOrigin, ned: [f64; 3], vel: [f64; 3]) -> GpsNav {
         let (lat, lon, alt) = origin.to_geodetic(ned);
         GpsNav {
@@ -478,15 +492,7 @@ mod tests {
         // The helicopter moves north at 2 m/s. Its GPS reports, one second late, exactly
         // where it was: a filter that compares with the past sees no innovation; one that
         // compared with the present would be dragged 2 m back.
-        let b = level_biases();
-        let mut nav = Navigator::new(NavConfig::default());
-        let origin = GeoOrigin {
-            lat_deg: 42.0,
-            lon_deg: -71.0,
-            alt_m: 20.0,
-        };
-        nav.fuse_gps(0, &fix_at(&origin, [0.0, 0.0, 0.0], [0.0; 3]));
-        nav.initialise(0, &b);
+        let (b, origin, mut nav) = started_at_origin();
         if let Some(s) = nav.state.as_mut() {
             s.vel_ned_mps = Vector3::new(2.0, 0.0, 0.0);
         }
@@ -506,15 +512,7 @@ mod tests {
 
     #[test]
     fn a_lying_gps_is_rejected_and_counted() {
-        let b = level_biases();
-        let mut nav = Navigator::new(NavConfig::default());
-        let origin = GeoOrigin {
-            lat_deg: 42.0,
-            lon_deg: -71.0,
-            alt_m: 20.0,
-        };
-        nav.fuse_gps(0, &fix_at(&origin, [0.0, 0.0, 0.0], [0.0; 3]));
-        nav.initialise(0, &b);
+        let (b, origin, mut nav) = started_at_origin();
         let imu = still_imu(&b);
         for k in 1..=100u64 {
             nav.propagate(k * 20_000, &imu, &imu);

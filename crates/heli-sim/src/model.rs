@@ -12,7 +12,7 @@ use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use crate::ground;
 use crate::params::{Airframe, Atmosphere};
-use crate::rotor::{Disk, DiskLoad};
+use crate::rotor::DiskLoad;
 
 /// Blade-pitch inputs the physics sees (after the servos), plus the governor set point.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -171,32 +171,6 @@ impl Helicopter {
         }
     }
 
-    fn main_disk(&self) -> Disk {
-        let a = &self.airframe;
-        Disk {
-            radius_m: a.mr_radius_m,
-            solidity: a.mr_solidity(),
-            lift_slope: a.mr_lift_slope,
-            cd0: a.mr_cd0,
-            ct_max: a.mr_ct_max,
-            wake_contraction: a.wake_contraction,
-            relaxation: a.inflow_relaxation,
-        }
-    }
-
-    fn tail_disk(&self) -> Disk {
-        let a = &self.airframe;
-        Disk {
-            radius_m: a.tr_radius_m,
-            solidity: a.tr_solidity(),
-            lift_slope: a.tr_lift_slope,
-            cd0: a.tr_cd0,
-            ct_max: a.tr_ct_max,
-            wake_contraction: a.wake_contraction,
-            relaxation: a.inflow_relaxation,
-        }
-    }
-
     /// Sets the governor integrator so that the engine holds the current rotor speed
     /// against the torque of collective `col_rad` in still air (a governed start).
     pub fn trim_governor(&mut self, col_rad: f64, env: &Environment) {
@@ -242,7 +216,7 @@ impl Helicopter {
         let mu = (ua * ua + v_a * v_a).sqrt() / tip;
         let mu_z = wa / tip;
         let mr: DiskLoad =
-            self.main_disk()
+            self.airframe.main_disk()
                 .solve(rho, omega, mu, mu_z, u.col_rad, self.mr_inflow_guess);
         let thrust = mr.thrust_n;
         let induced_mps = mr.inflow_ratio * tip;
@@ -291,7 +265,7 @@ impl Helicopter {
         let v_tr = v_a - a.tr_arm_m * r + a.tr_height_m * p;
         let mu_z_tr = v_tr / tip_tr;
         let tail_pitch = u.tail_rad + a.tr_pitch_trim_rad;
-        let tr = self.tail_disk().solve(
+        let tr = self.airframe.tail_disk().solve(
             rho,
             omega_tr,
             mu_tr,

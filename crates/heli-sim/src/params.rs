@@ -7,6 +7,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::rotor::Disk;
+
 /// Every physical parameter of the helicopter model, SI units.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -197,6 +199,32 @@ impl Airframe {
     /// Effective flapping time constant τ_e = 16 / (γ_fb Ω) (s).
     pub fn flap_time_constant_s(&self, omega_rps: f64) -> f64 {
         16.0 / (self.flybar_lock_number * omega_rps.max(1.0))
+    }
+
+    /// The main rotor as a momentum-theory disk.
+    pub fn main_disk(&self) -> Disk {
+        Disk {
+            radius_m: self.mr_radius_m,
+            solidity: self.mr_solidity(),
+            lift_slope: self.mr_lift_slope,
+            cd0: self.mr_cd0,
+            ct_max: self.mr_ct_max,
+            wake_contraction: self.wake_contraction,
+            relaxation: self.inflow_relaxation,
+        }
+    }
+
+    /// The tail rotor as a momentum-theory disk.
+    pub fn tail_disk(&self) -> Disk {
+        Disk {
+            radius_m: self.tr_radius_m,
+            solidity: self.tr_solidity(),
+            lift_slope: self.tr_lift_slope,
+            cd0: self.tr_cd0,
+            ct_max: self.tr_ct_max,
+            wake_contraction: self.wake_contraction,
+            relaxation: self.inflow_relaxation,
+        }
     }
 
     /// Fin blockage factor of the tail rotor, f_t = 1 − ¾ S_vf / (π R_tr²).

@@ -116,16 +116,7 @@ mod tests {
     use crate::params::Airframe;
 
     fn main_rotor() -> Disk {
-        let a = Airframe::default();
-        Disk {
-            radius_m: a.mr_radius_m,
-            solidity: a.mr_solidity(),
-            lift_slope: a.mr_lift_slope,
-            cd0: a.mr_cd0,
-            ct_max: a.mr_ct_max,
-            wake_contraction: a.wake_contraction,
-            relaxation: a.inflow_relaxation,
-        }
+        Airframe::default().main_disk()
     }
 
     #[test]
