@@ -216,7 +216,8 @@ impl Helicopter {
         let mu = (ua * ua + v_a * v_a).sqrt() / tip;
         let mu_z = wa / tip;
         let mr: DiskLoad =
-            self.airframe.main_disk()
+            self.airframe
+                .main_disk()
                 .solve(rho, omega, mu, mu_z, u.col_rad, self.mr_inflow_guess);
         let thrust = mr.thrust_n;
         let induced_mps = mr.inflow_ratio * tip;
