@@ -71,7 +71,7 @@ impl Default for HoverGains {
             att_to_rate: 4.0,
             max_rate_rps: 1.5,
             rate_feedforward: 0.3,
-            rate_feedback: 0.1,
+            rate_feedback: 0.05,
             alt_to_climb: 0.8,
             max_climb_mps: 1.5,
             max_descent_mps: 1.0,

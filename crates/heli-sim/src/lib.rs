@@ -11,6 +11,7 @@
 
 pub mod actuators;
 pub mod devices;
+pub mod empennage;
 pub mod ground;
 pub mod lockstep;
 pub mod model;

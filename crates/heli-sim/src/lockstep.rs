@@ -23,7 +23,7 @@ use heli_proto::baro::pressure_at_altitude_mbar;
 use heli_proto::scb::Controls;
 use nalgebra::Vector3;
 
-use crate::actuators::control_inputs;
+use crate::actuators::{Actuators, ServoParams, control_inputs};
 use crate::devices::baro::{BaroDevice, BaroErrors};
 use crate::devices::battery::BatteryDevice;
 use crate::devices::compass::CompassDevice;
@@ -166,6 +166,7 @@ struct Metrics {
 pub struct Simulation {
     scenario: Scenario,
     heli: Helicopter,
+    actuators: Actuators,
     env: Environment,
     imu: ImuDevice,
     scb: ScbDevice,
@@ -212,7 +213,10 @@ impl Simulation {
             },
             takeoff_alt_m: scenario.takeoff_alt_m,
         };
+        let actuators =
+            Actuators::settled(ServoParams::default(), &Self::pilot_of(&scenario).sticks);
         let mut sim = Self {
+            actuators,
             imu: ImuDevice::new(ImuErrors::default(), Noise::new(seed, 1)),
             scb: ScbDevice::default(),
             gps: GpsDevice::new(GpsErrors::default(), FIELD_ORIGIN, Noise::new(seed, 2)),
@@ -288,7 +292,11 @@ impl Simulation {
     }
 
     fn pilot(&self) -> PilotCommand {
-        let p = self.scenario.pilot;
+        Self::pilot_of(&self.scenario)
+    }
+
+    fn pilot_of(scenario: &Scenario) -> PilotCommand {
+        let p = scenario.pilot;
         PilotCommand {
             sticks: Controls {
                 aileron: p.aileron,
@@ -584,9 +592,12 @@ impl Simulation {
     }
 
     fn physics_step(&mut self) {
+        let dt_s = PHYSICS_STEP_US as f64 * 1e-6;
         let servo = self.scb.servo_commands(&self.pilot());
-        let u = control_inputs(&self.heli.airframe, &servo);
-        self.heli.step(PHYSICS_STEP_US as f64 * 1e-6, &u, &self.env);
+        // The physics sees where the servos are at the start of the step, held over it.
+        let u = control_inputs(&self.heli.airframe, &self.actuators.positions());
+        self.heli.step(dt_s, &u, &self.env);
+        self.actuators.step(dt_s, &servo);
         let out = self.heli.outputs;
         if out.contact_points > 0 && self.crash.is_none() {
             let up = self.heli.state.att * Vector3::new(0.0, 0.0, -1.0);

@@ -4,15 +4,14 @@
 //!
 //! Equations follow Gavrilets ch. 15 as collected in `shared/research/heli-model.md` §3; the
 //! places where the printed equations were corrected on physical grounds are marked
-//! "typo" and listed in `docs/model.md`. The vertical fin and horizontal stabilizer, the
-//! main-rotor wake on the tail and servo dynamics are not modelled yet: the force and moment
-//! sums below are where they enter.
+//! "typo" and listed in `docs/model.md`. Servo dynamics live in [`crate::actuators`]: the
+//! inputs here are blade pitches the servos have already reached.
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
-use crate::ground;
 use crate::params::{Airframe, Atmosphere};
 use crate::rotor::DiskLoad;
+use crate::{empennage, ground};
 
 /// Blade-pitch inputs the physics sees (after the servos), plus the governor set point.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -258,10 +257,13 @@ impl Helicopter {
                 a.fus_area_z_m2 * w_fus,
             );
 
+        // Main-rotor wake on the tail surfaces (15.48–15.49).
+        let wake = empennage::wake_factor(a, ua, wa, induced_mps) * induced_mps;
+
         // Tail rotor: the main-rotor disk model turned on its side, thrust toward −y.
         let omega_tr = a.tr_gear_ratio * omega;
         let tip_tr = omega_tr * a.tr_radius_m;
-        let w_tr = wa + a.tr_arm_m * q;
+        let w_tr = wa + a.tr_arm_m * q - wake;
         let mu_tr = (ua * ua + w_tr * w_tr).sqrt() / tip_tr;
         let v_tr = v_a - a.tr_arm_m * r + a.tr_height_m * p;
         let mu_z_tr = v_tr / tip_tr;
@@ -275,9 +277,22 @@ impl Helicopter {
             self.tr_inflow_guess,
         );
         let y_tr = -a.tr_fin_blockage() * tr.thrust_n;
-        let f_tr = Vector3::new(0.0, y_tr, 0.0);
-        let n_tr = -y_tr * a.tr_arm_m;
-        let l_tr = y_tr * a.tr_height_m;
+
+        // Vertical fin (15.35–15.38): in the tail rotor's induced flow and the wake.
+        let tr_induced_mps = tr.inflow_ratio * tip_tr;
+        let v_vf = v_a - a.vf_tr_wash_fraction * tr_induced_mps - a.tr_arm_m * r;
+        let v_plane_tr = (ua * ua + w_tr * w_tr).sqrt();
+        let y_vf = empennage::vertical_fin_force(a, rho, v_plane_tr, v_vf);
+
+        // Horizontal stabilizer (15.39–15.42).
+        let w_ht = wa + a.ht_arm_m * q - wake;
+        let z_ht = empennage::stabilizer_force(a, rho, ua, w_ht);
+
+        // Tail forces and moments: fin and tail rotor act at the tail-rotor hub.
+        let f_tail = Vector3::new(0.0, y_tr + y_vf, z_ht);
+        let l_tail = (y_tr + y_vf) * a.tr_height_m;
+        let m_tail = z_ht * a.ht_arm_m;
+        let n_tail = -(y_tr + y_vf) * a.tr_arm_m;
 
         // Engine and governor (15.28–15.31): PI on rotor speed, anti-windup by conditional integration.
         let speed_error = u.governor_setpoint_rps - s.rotor_rps;
@@ -295,11 +310,11 @@ impl Helicopter {
             ground::skid_contact(a, &self.anchors, &s.pos_ned_m, &att, &s.vel_body_mps, &w);
 
         // Sums of forces and moments (body axes).
-        let f_aero = f_mr + f_fus + f_tr;
+        let f_aero = f_mr + f_fus + f_tail;
         let f_total_nongrav = f_aero + contact.force_body_n;
         let gravity_body = att.inverse() * Vector3::new(0.0, 0.0, g);
-        let moments =
-            Vector3::new(l_mr + l_tr, m_mr, -engine_torque + n_tr) + contact.moment_body_nm;
+        let moments = Vector3::new(l_mr + l_tail, m_mr + m_tail, -engine_torque + n_tail)
+            + contact.moment_body_nm;
 
         let specific_force = f_total_nongrav / m;
         let vel_dot = specific_force + gravity_body - w.cross(&s.vel_body_mps);
