@@ -10,6 +10,7 @@
 //! bytes only; the flight code never knows it is simulated.
 
 pub mod actuators;
+pub mod analysis;
 pub mod devices;
 pub mod empennage;
 pub mod ground;

@@ -49,10 +49,32 @@ pub struct State {
     pub governor_integral_rad: f64,
 }
 
-const N_STATE: usize = 17;
+/// Number of numbers in the state vector (with the quaternion's four).
+pub const N_STATE: usize = 17;
+
+/// Index of each state in [`State::to_array`].
+pub mod index {
+    /// North, east, down position.
+    pub const POS: usize = 0;
+    /// Body u, v, w.
+    pub const VEL: usize = 3;
+    /// Quaternion w, i, j, k.
+    pub const QUAT: usize = 6;
+    /// Body p, q, r.
+    pub const RATE: usize = 10;
+    /// Longitudinal flapping a1.
+    pub const A1: usize = 13;
+    /// Lateral flapping b1.
+    pub const B1: usize = 14;
+    /// Rotor speed.
+    pub const ROTOR: usize = 15;
+    /// Governor integrator.
+    pub const GOVERNOR: usize = 16;
+}
 
 impl State {
-    fn to_array(self) -> [f64; N_STATE] {
+    /// The state as a flat vector (layout in [`index`]).
+    pub fn to_array(self) -> [f64; N_STATE] {
         let q = self.att.quaternion();
         [
             self.pos_ned_m.x,
@@ -75,7 +97,8 @@ impl State {
         ]
     }
 
-    fn from_array(a: &[f64; N_STATE]) -> Self {
+    /// The state from a flat vector (the quaternion is normalised).
+    pub fn from_array(a: &[f64; N_STATE]) -> Self {
         Self {
             pos_ned_m: Vector3::new(a[0], a[1], a[2]),
             vel_body_mps: Vector3::new(a[3], a[4], a[5]),
