@@ -147,6 +147,7 @@ pub struct Navigator {
     baro_sum_mbar: f64,
     baro_count: u32,
     last_field: Option<MagField>,
+    heading_from_compass: bool,
     history: VecDeque<HistoryEntry>,
     history_len: usize,
     stats: NavSensorStats,
@@ -167,6 +168,7 @@ impl Navigator {
             baro_sum_mbar: 0.0,
             baro_count: 0,
             last_field: None,
+            heading_from_compass: false,
             history: VecDeque::with_capacity(history_len.saturating_add(1)),
             history_len,
             stats: NavSensorStats::default(),
@@ -200,10 +202,11 @@ impl Navigator {
         let f = biases.mean_accel_mps2;
         let roll = (-f.y).atan2(-f.z);
         let pitch = f.x.atan2((f.y * f.y + f.z * f.z).sqrt());
-        let yaw = self
+        let compass_heading = self
             .last_field
-            .and_then(|field| heading_rad(&field, roll, pitch))
-            .map_or(0.0, |h| h + self.config.declination_rad);
+            .and_then(|field| heading_rad(&field, roll, pitch));
+        self.heading_from_compass = compass_heading.is_some();
+        let yaw = compass_heading.map_or(0.0, |h| h + self.config.declination_rad);
         let pos = self.last_gps_ned.unwrap_or_else(Vector3::zeros);
         if self.baro_count > 0 {
             self.baro_reference_mbar = Some(self.baro_sum_mbar / f64::from(self.baro_count));
@@ -327,13 +330,16 @@ impl Navigator {
             self.stats.baro_rejected = self.stats.baro_rejected.saturating_add(1);
             return;
         }
-        let (Some(state), Some(reference)) = (self.state.as_mut(), self.baro_reference_mbar) else {
-            if self.state.is_none() {
-                self.baro_sum_mbar += pressure_mbar;
-                self.baro_count = self.baro_count.saturating_add(1);
-            }
+        let Some(state) = self.state.as_mut() else {
+            self.baro_sum_mbar += pressure_mbar;
+            self.baro_count = self.baro_count.saturating_add(1);
             return;
         };
+        // An altimeter that started after the calibration is referenced where it first speaks.
+        let reference = *self.baro_reference_mbar.get_or_insert_with(|| {
+            self.baro_reference_z_m = state.pos_ned_m.z;
+            pressure_mbar
+        });
         let z_baro = self.baro_reference_z_m - pressure_altitude_m(pressure_mbar, reference);
         let innov = z_baro - state.pos_ned_m.z;
         if innov.abs() > self.config.baro_gate_m {
@@ -361,6 +367,14 @@ impl Navigator {
             return;
         };
         let innov = wrap_pi(measured + self.config.declination_rad - yaw);
+        if !self.heading_from_compass {
+            // No compass before initialisation: the heading was a guess; take the first reading.
+            self.heading_from_compass = true;
+            let correction = Vector3::new(0.0, 0.0, innov);
+            state.att = UnitQuaternion::from_scaled_axis(correction) * state.att;
+            self.stats.compass_fused = self.stats.compass_fused.saturating_add(1);
+            return;
+        }
         if innov.abs() > self.config.heading_gate_rad {
             self.stats.compass_rejected = self.stats.compass_rejected.saturating_add(1);
             return;
@@ -546,5 +560,41 @@ mod tests {
     fn wrap_pi_wraps() {
         assert!((wrap_pi(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12);
         assert!((wrap_pi(-0.5) + 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_altimeter_that_starts_late_is_referenced_where_it_first_speaks() {
+        let (b, _, mut nav) = started_at_origin();
+        let imu = still_imu(&b);
+        let p0 = 1000.0;
+        for k in 1..=3000u64 {
+            nav.propagate(k * 20_000, &imu, &imu);
+            if k % 10 == 0 {
+                // First reading at the ground, then the helicopter "climbs" 4 m.
+                let alt = if k > 100 { 4.0 } else { 0.0 };
+                nav.fuse_baro(heli_proto::baro::pressure_at_altitude_mbar(alt, p0));
+            }
+        }
+        assert_eq!(nav.baro_reference_mbar(), Some(p0));
+        let z = nav.state().map_or(0.0, |s| s.pos_ned_m.z);
+        assert!((z + 4.0).abs() < 0.05, "z {z}");
+        assert_eq!(nav.stats().baro_rejected, 0);
+    }
+
+    #[test]
+    fn without_a_compass_at_start_the_first_reading_sets_the_heading() {
+        let (_, _, mut nav) = started_at_origin();
+        // Heading east, far outside the innovation gate from the guessed north.
+        let east = UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2);
+        let b = east.inverse() * Vector3::new(0.19, 0.0, 0.48);
+        nav.fuse_compass(&MagField {
+            field_gauss: [b.x, b.y, b.z],
+        });
+        let (_, _, yaw) = nav.state().map(NavState::euler_rad).unwrap_or_default();
+        assert!(
+            (yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-9,
+            "yaw {yaw}"
+        );
+        assert_eq!(nav.stats().compass_rejected, 0);
     }
 }

@@ -154,6 +154,8 @@ struct Metrics {
     hold_horizontal: Rms,
     hold_altitude: Rms,
     hold_true: Rms,
+    hold_roll_sum_deg: f64,
+    hold_pitch_sum_deg: f64,
     hold_start_us: Option<u64>,
     hold_last_us: u64,
     imu_dropped: u32,
@@ -250,7 +252,8 @@ impl Simulation {
         sim.schedule(500_000, Kind::GpsEpoch);
         sim.schedule(11_000, Kind::CompassRead);
         sim.schedule(0, Kind::BatteryRead);
-        // The flight software starts its altimeter handshake.
+        // The flight software arms its watchdog and starts its altimeter handshake.
+        sim.core.start(0);
         let mut sent = Vec::new();
         sim.drivers
             .baro
@@ -588,6 +591,9 @@ impl Simulation {
             self.metrics
                 .hold_true
                 .add((truth_pos - target.pos_ned_m).norm());
+            let (roll, pitch, _) = truth.att.euler_angles();
+            self.metrics.hold_roll_sum_deg += roll.to_degrees();
+            self.metrics.hold_pitch_sum_deg += pitch.to_degrees();
         }
     }
 
@@ -700,6 +706,8 @@ impl Simulation {
                 horizontal_rms_m: m.hold_horizontal.rms(),
                 altitude_rms_m: m.hold_altitude.rms(),
                 true_max_m: m.hold_true.max(),
+                mean_roll_deg: m.hold_roll_sum_deg / m.hold_true.count().max(1) as f64,
+                mean_pitch_deg: m.hold_pitch_sum_deg / m.hold_true.count().max(1) as f64,
             },
             devices: DeviceSummary {
                 imu: link(self.drivers.imu.stats().framer),

@@ -109,6 +109,10 @@ pub struct HoldSummary {
     pub altitude_rms_m: f64,
     /// Largest true distance from the target (m).
     pub true_max_m: f64,
+    /// Mean true roll during the hold (deg): the trim against tail rotor and wind.
+    pub mean_roll_deg: f64,
+    /// Mean true pitch during the hold (deg).
+    pub mean_pitch_deg: f64,
 }
 
 /// Byte-level health of one serial link.

@@ -111,6 +111,9 @@ pub enum Phase {
     Calibrating,
     /// The pilot flies (auto switch off, or manual mode), with computer yaw damping.
     Manual,
+    /// The transmitter was lost while the helicopter was on the ground: cyclic neutral,
+    /// collective flat, throttle closed, until the pilot's signal returns.
+    GroundFailsafe,
     /// Autonomous climb to the target.
     TakingOff {
         /// Where the climb ends.
@@ -130,7 +133,7 @@ impl Phase {
     pub fn target(&self) -> Option<Target> {
         match self {
             Phase::TakingOff { target } | Phase::Holding { target, .. } => Some(*target),
-            Phase::Calibrating | Phase::Manual => None,
+            Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe => None,
         }
     }
 
@@ -139,6 +142,7 @@ impl Phase {
         match self {
             Phase::Calibrating => "calibrating",
             Phase::Manual => "manual",
+            Phase::GroundFailsafe => "ground-failsafe",
             Phase::TakingOff { .. } => "takeoff",
             Phase::Holding { .. } => "hold",
         }
@@ -209,6 +213,8 @@ pub struct CoreStats {
     pub baro_readings: u32,
     /// Compass readings received.
     pub compass_readings: u32,
+    /// Inputs refused: time going backwards, or values that are not finite.
+    pub rejected_inputs: u32,
 }
 
 /// The main control process.
@@ -226,6 +232,7 @@ pub struct FlightCore {
     last_imu: Option<ImuRepr>,
     odd_sample: bool,
     last_control_us: Option<u64>,
+    last_input_us: u64,
     stats: CoreStats,
 }
 
@@ -245,8 +252,17 @@ impl FlightCore {
             last_imu: None,
             odd_sample: false,
             last_control_us: None,
+            last_input_us: 0,
             stats: CoreStats::default(),
         }
+    }
+
+    /// Arms the watchdog at start-up (the thesis sets it up before entering the main loop),
+    /// so that an IMU that never sends is noticed too. Without this call it arms on the first
+    /// IMU packet.
+    pub fn start(&mut self, now_us: u64) {
+        self.last_input_us = self.last_input_us.max(now_us);
+        self.watchdog.kick(now_us);
     }
 
     /// Loop counters.
@@ -274,6 +290,11 @@ impl FlightCore {
 
     /// Handles one input that arrived at `now_us`, appending what to do to `out`.
     pub fn handle(&mut self, input: Input, now_us: u64, out: &mut Vec<Action>) {
+        if now_us < self.last_input_us || !input_is_finite(&input) {
+            self.stats.rejected_inputs = self.stats.rejected_inputs.saturating_add(1);
+            return;
+        }
+        self.last_input_us = now_us;
         match input {
             Input::Imu(sample) => {
                 self.stats.imu_samples = self.stats.imu_samples.saturating_add(1);
@@ -419,6 +440,7 @@ impl FlightCore {
                 let airborne = self.height_above_home(&est) > self.config.airborne_height_m;
                 self.hover.update(&est, &target, dt_s, airborne)
             }
+            (Phase::GroundFailsafe, _) => Controls::default(),
             _ => manual_with_yaw_damping(&pilot_sticks, yaw_rate, &self.config.yaw_damper),
         };
         let rotor_rpm = self.pilot.map_or(0, |p| p.rotor_rpm);
@@ -458,6 +480,7 @@ impl FlightCore {
             pos_ned_m: est.pos_ned_m,
             yaw_rad: yaw,
         };
+        let on_ground = self.height_above_home(est) < self.config.airborne_height_m;
         let wants_auto = signal_lost || (self.params.mode == FlightMode::Autonomous && auto_switch);
         if !wants_auto {
             return Phase::Manual;
@@ -476,9 +499,14 @@ impl FlightCore {
                 }
             }
             Phase::Holding { .. } => self.phase,
-            Phase::Calibrating | Phase::Manual => {
-                let on_ground = self.height_above_home(est) < self.config.airborne_height_m;
-                if on_ground && !signal_lost {
+            // The transmitter lost on the ground is no order to take off.
+            Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe
+                if signal_lost && on_ground =>
+            {
+                Phase::GroundFailsafe
+            }
+            Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe => {
+                if on_ground {
                     let home = self.home_ned_m.unwrap_or(est.pos_ned_m);
                     let climb = Vector3::new(0.0, 0.0, -self.params.takeoff_alt_m.max(0.0));
                     Phase::TakingOff {
@@ -488,7 +516,8 @@ impl FlightCore {
                         },
                     }
                 } else {
-                    // Auto switch on in the air, or the transmitter was lost: hover here.
+                    // Auto switch on in the air, or the transmitter was lost: hover here
+                    // (the thesis: all channels zero is read as a command to hover).
                     Phase::Holding {
                         target: here,
                         since_us: now_us,
@@ -496,6 +525,27 @@ impl FlightCore {
                 }
             }
         }
+    }
+}
+
+/// True when every number the input carries is finite (the wire formats cannot carry a NaN,
+/// but an input may come from elsewhere, e.g. replay).
+fn input_is_finite(input: &Input) -> bool {
+    match input {
+        Input::Imu(s) => s
+            .rate_rps
+            .iter()
+            .chain(&s.accel_mps2)
+            .all(|x| x.is_finite()),
+        Input::Baro { pressure_mbar } => pressure_mbar.is_finite() && *pressure_mbar > 0.0,
+        Input::Gps(f) => {
+            f.lat_deg.is_finite()
+                && f.lon_deg.is_finite()
+                && f.alt_m.is_finite()
+                && f.vel_ned_mps.iter().all(|x| x.is_finite())
+        }
+        Input::Uplink(u) => u.receiver_batt_v.is_finite() && u.servo_batt_v.is_finite(),
+        Input::Compass(_) | Input::Timer => true,
     }
 }
 
@@ -594,5 +644,144 @@ mod tests {
             other => panic!("expected take-off, got {other:?}"),
         }
         assert!(out.iter().any(|a| matches!(a, Action::Event(e) if matches!(e.value, CoreEvent::CalibrationDone { .. }))));
+    }
+
+    fn uplink(auto_mode: bool, lost: bool) -> PilotUplink {
+        let sticks = Controls {
+            collective: 0.0,
+            throttle: 0.8,
+            ..Default::default()
+        };
+        PilotUplink {
+            rotor_rpm: 1600,
+            pulses: if lost {
+                heli_proto::scb::Pulses::default()
+            } else {
+                heli_proto::scb::Pulses::from_controls(&sticks)
+            },
+            auto_mode,
+            bypass: false,
+            receiver_batt_v: 4.8,
+            servo_batt_v: 4.8,
+        }
+    }
+
+    /// A calibrated core in manual mode; with `height_m` > 0 the altimeter has told it it is
+    /// that high (the IMU says it is still, as in a steady hover).
+    fn calibrated_manual_core(height_m: f64) -> (FlightCore, Vec<Action>, u64) {
+        let mut core = short_core();
+        let mut out = Vec::new();
+        core.handle(Input::Uplink(uplink(false, false)), 0, &mut out);
+        let mut t = 0u64;
+        let p0 = 1013.25;
+        for k in 0..4000u64 {
+            t = k * 10_000;
+            core.handle(Input::Imu(still()), t, &mut out);
+            if k % 20 == 0 {
+                let calibrated = core.navigator().state().is_some();
+                let alt = if calibrated && k > 200 { height_m } else { 0.0 };
+                let pressure_mbar = heli_proto::baro::pressure_at_altitude_mbar(alt, p0);
+                core.handle(Input::Baro { pressure_mbar }, t, &mut out);
+            }
+        }
+        (core, out, t)
+    }
+
+    fn last_servo(out: &[Action]) -> Controls {
+        out.iter()
+            .rev()
+            .find_map(|a| match a {
+                Action::Servo(s) => Some(s.value),
+                _ => None,
+            })
+            .unwrap_or_default()
+    }
+
+    #[test]
+    fn transmitter_lost_on_the_ground_idles_instead_of_taking_off() {
+        let (mut core, mut out, mut t) = calibrated_manual_core(0.0);
+        assert_eq!(core.phase(), Phase::Manual);
+        t += 10_000;
+        core.handle(Input::Uplink(uplink(false, true)), t, &mut out);
+        for _ in 0..4 {
+            t += 10_000;
+            core.handle(Input::Imu(still()), t, &mut out);
+        }
+        assert_eq!(core.phase(), Phase::GroundFailsafe);
+        let servo = last_servo(&out);
+        assert_eq!(servo.collective, 0.0);
+        assert_eq!(servo.throttle, 0.0);
+        assert!(
+            out.iter()
+                .any(|a| matches!(a, Action::Event(e) if e.value == CoreEvent::PilotSignalLost))
+        );
+        // The signal comes back: the pilot has the helicopter again.
+        t += 10_000;
+        core.handle(Input::Uplink(uplink(false, false)), t, &mut out);
+        for _ in 0..4 {
+            t += 10_000;
+            core.handle(Input::Imu(still()), t, &mut out);
+        }
+        assert_eq!(core.phase(), Phase::Manual);
+    }
+
+    #[test]
+    fn transmitter_lost_in_the_air_is_a_command_to_hover_where_it_is() {
+        let (mut core, mut out, mut t) = calibrated_manual_core(8.0);
+        let z = core.navigator().state().map_or(0.0, |s| s.pos_ned_m.z);
+        assert!(
+            z < -5.0,
+            "the altimeter should have lifted the estimate: z = {z}"
+        );
+        assert_eq!(core.phase(), Phase::Manual);
+        t += 10_000;
+        core.handle(Input::Uplink(uplink(false, true)), t, &mut out);
+        for _ in 0..4 {
+            t += 10_000;
+            core.handle(Input::Imu(still()), t, &mut out);
+        }
+        match core.phase() {
+            Phase::Holding { target, .. } => assert!((target.pos_ned_m.z - z).abs() < 0.5),
+            other => panic!("expected a hover hold, got {other:?}"),
+        }
+        let servo = last_servo(&out);
+        assert!(servo.collective > 0.3 && servo.throttle > 0.7, "{servo:?}");
+    }
+
+    #[test]
+    fn watchdog_armed_at_start_notices_an_imu_that_never_speaks() {
+        let mut core = short_core();
+        let mut out = Vec::new();
+        core.start(0);
+        assert_eq!(core.poll_at(), Some(12_000));
+        core.handle(Input::Timer, 12_000, &mut out);
+        assert_eq!(core.stats().watchdog_fires, 1);
+        assert_eq!(core.stats().control_steps, 0, "nothing to repeat yet");
+        assert!(
+            out.iter()
+                .any(|a| matches!(a, Action::Event(e) if e.value == CoreEvent::WatchdogFired))
+        );
+    }
+
+    #[test]
+    fn inputs_from_the_past_or_not_finite_are_refused_and_counted() {
+        let mut core = short_core();
+        let mut out = Vec::new();
+        core.handle(Input::Imu(still()), 50_000, &mut out);
+        out.clear();
+        core.handle(Input::Imu(still()), 40_000, &mut out);
+        let mut nan = still();
+        nan.rate_rps[1] = f64::NAN;
+        core.handle(Input::Imu(nan), 60_000, &mut out);
+        core.handle(
+            Input::Baro {
+                pressure_mbar: f64::INFINITY,
+            },
+            60_000,
+            &mut out,
+        );
+        assert_eq!(core.stats().rejected_inputs, 3);
+        assert_eq!(core.stats().imu_samples, 1);
+        assert!(out.is_empty(), "a refused input changes nothing");
     }
 }
