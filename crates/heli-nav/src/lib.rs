@@ -25,6 +25,7 @@
 )]
 
 pub mod calibration;
+pub mod compass_cal;
 pub mod geo;
 pub mod navigator;
 

@@ -20,6 +20,7 @@ pub mod params;
 pub mod rotor;
 pub mod scenario;
 pub mod summary;
+pub mod turbulence;
 
 pub use lockstep::{RunOptions, Simulation, run};
 pub use scenario::Scenario;

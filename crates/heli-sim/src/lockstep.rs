@@ -19,25 +19,27 @@ use heli_fsw::core::{
 use heli_fsw::drivers::{self, Drivers};
 use heli_fsw::streams::{Record, StateRecord, Streams};
 use heli_nav::GeoOrigin;
+use heli_nav::compass_cal::fit_hard_iron;
 use heli_proto::baro::pressure_at_altitude_mbar;
+use heli_proto::compass::CompassCalibration;
 use heli_proto::scb::Controls;
-use nalgebra::Vector3;
+use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::actuators::{Actuators, ServoParams, control_inputs};
-use crate::devices::baro::{BaroDevice, BaroErrors};
+use crate::devices::baro::{BaroDevice, BaroErrors, ground_effect_mbar};
 use crate::devices::battery::BatteryDevice;
-use crate::devices::compass::CompassDevice;
+use crate::devices::compass::{CompassDevice, CompassErrors};
 use crate::devices::gps::{GpsDevice, GpsErrors};
-use crate::devices::imu::{ImuDevice, ImuErrors};
+use crate::devices::imu::{ImuDevice, ImuErrors, RotorPhase};
 use crate::devices::scb::{PilotCommand, ScbDevice};
 use crate::devices::{Bytes, Noise, transmit_time_us};
 use crate::model::{Environment, Helicopter};
-use crate::params::{Airframe, Atmosphere};
 use crate::scenario::{Mode, Scenario};
 use crate::summary::{
     Criterion, DeviceSummary, EstimatorSummary, HoldSummary, LinkSummary, LoopSummary,
     ManeuverSummary, Outcome, Rms, Summary,
 };
+use crate::turbulence::Turbulence;
 
 /// Physics integration step (µs): 500 Hz RK4.
 pub const PHYSICS_STEP_US: u64 = 2_000;
@@ -159,6 +161,10 @@ struct Metrics {
     hold_start_us: Option<u64>,
     hold_last_us: u64,
     imu_dropped: u32,
+    gps_lost: u32,
+    target_key: Option<(f64, f64, f64)>,
+    home_offset: Option<Vector3<f64>>,
+    target_offset: Vector3<f64>,
     step_time_max: Duration,
     battery_min_v: f64,
     events: Vec<String>,
@@ -169,6 +175,9 @@ pub struct Simulation {
     scenario: Scenario,
     heli: Helicopter,
     actuators: Actuators,
+    turbulence: Turbulence,
+    gust_ned_mps: Vector3<f64>,
+    rotor_azimuth_rad: f64,
     env: Environment,
     imu: ImuDevice,
     scb: ScbDevice,
@@ -196,12 +205,11 @@ impl Simulation {
     /// 1600 rpm, devices powered, flight software started with the scenario's parameters.
     pub fn new(scenario: Scenario) -> Self {
         let seed = scenario.seed;
-        let atmosphere = Atmosphere::default();
         let env = Environment {
             wind_ned_mps: Vector3::from(scenario.wind_ned_mps),
-            atmosphere,
+            atmosphere: scenario.atmosphere,
         };
-        let airframe = Airframe::default();
+        let airframe = scenario.airframe.clone();
         let rotor_rps =
             scenario.pilot.throttle * airframe.governor_full_scale_rpm * std::f64::consts::PI
                 / 30.0;
@@ -217,16 +225,34 @@ impl Simulation {
         };
         let actuators =
             Actuators::settled(ServoParams::default(), &Self::pilot_of(&scenario).sticks);
+        let compass_errors = CompassErrors::default();
+        // The lab calibrated the compass before the flight; the flight software keeps the
+        // result in its configuration (the thesis: stored in flash).
+        let compass_calibration = calibrate_compass(compass_errors, Noise::new(seed, 7));
+        let core_config = CoreConfig {
+            compass: compass_calibration,
+            ..CoreConfig::default()
+        };
         let mut sim = Self {
             actuators,
+            turbulence: Turbulence::new(scenario.turbulence_sigma_mps, Noise::new(seed, 6)),
+            gust_ned_mps: Vector3::zeros(),
+            rotor_azimuth_rad: 0.0,
             imu: ImuDevice::new(ImuErrors::default(), Noise::new(seed, 1)),
             scb: ScbDevice::default(),
             gps: GpsDevice::new(GpsErrors::default(), FIELD_ORIGIN, Noise::new(seed, 2)),
             baro: BaroDevice::new(BaroErrors::default(), Noise::new(seed, 3)),
-            compass: CompassDevice::new(field_earth_field_gauss(), Noise::new(seed, 4)),
-            battery: BatteryDevice::default(),
+            compass: CompassDevice::new(
+                field_earth_field_gauss(),
+                compass_errors,
+                Noise::new(seed, 4),
+            ),
+            battery: BatteryDevice {
+                temperature_c: scenario.atmosphere.temperature_c,
+                ..BatteryDevice::default()
+            },
             drop_noise: Noise::new(seed, 5),
-            core: FlightCore::new(CoreConfig::default(), params),
+            core: FlightCore::new(core_config, params),
             drivers: Drivers::new(heli_proto::baro::DEFAULT_RATE_HZ),
             streams: Streams::with_history_s(10.0),
             queue: BinaryHeap::new(),
@@ -393,10 +419,16 @@ impl Simulation {
             Kind::ImuSample => {
                 let s = self.heli.state;
                 let f = self.heli.outputs.specific_force_body_mps2;
+                let rotor = RotorPhase {
+                    azimuth_rad: self.rotor_azimuth_rad,
+                    speed_ratio: s.rotor_rps / self.heli.airframe.omega_nom_rps,
+                };
                 let bytes = self.imu.packet(
+                    now as f64 * 1e-6,
                     &s.rate_body_rps,
                     &f,
-                    self.env.atmosphere.temperature_c + 10.0,
+                    rotor,
+                    self.env.atmosphere.temperature_c,
                 );
                 if self.drop_noise.uniform() < self.scenario.faults.imu_drop_rate {
                     self.metrics.imu_dropped += 1;
@@ -412,12 +444,23 @@ impl Simulation {
                 self.schedule(now + UPLINK_PERIOD_US, Kind::UplinkSample);
             }
             Kind::GpsEpoch => {
+                let t_s = now as f64 * 1e-6;
+                let in_outage = self
+                    .scenario
+                    .faults
+                    .gps_outages
+                    .iter()
+                    .any(|[start, end]| t_s >= *start && t_s < *end);
                 let s = self.heli.state;
                 let bytes = self.gps.packet(now, &s.pos_ned_m, &s.vel_ned_mps());
                 // The packet's last byte arrives `latency` after the epoch.
                 let tx = transmit_time_us(bytes.as_slice().len(), heli_proto::gps::BAUD);
                 let latency_us = (self.gps.errors.latency_s * 1e6) as u64;
-                self.send_to_computer(Port::Gps, bytes, now + latency_us.saturating_sub(tx));
+                if in_outage {
+                    self.metrics.gps_lost += 1;
+                } else {
+                    self.send_to_computer(Port::Gps, bytes, now + latency_us.saturating_sub(tx));
+                }
                 self.schedule(now + GPS_PERIOD_US, Kind::GpsEpoch);
             }
             Kind::BaroTransmit => {
@@ -425,7 +468,8 @@ impl Simulation {
                 let p0 = self.env.atmosphere.ground_pressure_mbar;
                 let p = pressure_at_altitude_mbar(alt_m, p0);
                 let mbar_per_m = p - pressure_at_altitude_mbar(alt_m + 1.0, p0);
-                if let Some(bytes) = self.baro.transmit(now, p, mbar_per_m) {
+                let seen_alt_m = alt_m - self.baro_ground_effect_mbar() / mbar_per_m;
+                if let Some(bytes) = self.baro.transmit(now, seen_alt_m, p0) {
                     self.send_to_computer(Port::Baro, bytes, now);
                 }
                 self.reschedule_baro_device();
@@ -578,27 +622,72 @@ impl Simulation {
         self.metrics
             .att
             .add((est.att.inverse() * truth.att).angle().to_degrees());
-        self.metrics.pos.add((est.pos_ned_m - truth_pos).norm());
+        // Relative navigation, as the thesis judges its GPS: position is measured from where
+        // the estimate started (the take-off point), so the GPS error the estimate inherited
+        // at that moment is common to both and only what it has drifted since counts.
+        let home_offset = *self
+            .metrics
+            .home_offset
+            .get_or_insert(est.pos_ned_m - truth_pos);
+        self.metrics
+            .pos
+            .add((est.pos_ned_m - truth_pos - home_offset).norm());
         self.metrics
             .vel
             .add((est.vel_ned_mps - truth.vel_ned_mps()).norm());
+        // Where the target truly is: the flight software set it in its own frame, which is
+        // off from the truth by its estimate error when the target was set. Held against the
+        // true position of that moment, the target is a true place, and the distance to it
+        // measures what the helicopter really did (drift of the GPS error included).
+        if let Some(target) = s.target {
+            let key = (target.pos_ned_m.x, target.pos_ned_m.y, target.pos_ned_m.z);
+            if self.metrics.target_key != Some(key) {
+                self.metrics.target_key = Some(key);
+                self.metrics.target_offset = est.pos_ned_m - truth_pos;
+            }
+        }
         if let (Phase::Holding { since_us, .. }, Some(target)) = (s.phase, s.target) {
             self.metrics.hold_start_us.get_or_insert(since_us);
             self.metrics.hold_last_us = self.now_us;
             let err = est.pos_ned_m - target.pos_ned_m;
             self.metrics.hold_horizontal.add(err.xy().norm());
             self.metrics.hold_altitude.add(err.z);
-            self.metrics
-                .hold_true
-                .add((truth_pos - target.pos_ned_m).norm());
+            let true_target = target.pos_ned_m - self.metrics.target_offset;
+            self.metrics.hold_true.add((truth_pos - true_target).norm());
             let (roll, pitch, _) = truth.att.euler_angles();
             self.metrics.hold_roll_sum_deg += roll.to_degrees();
             self.metrics.hold_pitch_sum_deg += pitch.to_degrees();
         }
     }
 
+    /// Pressure the downwash adds at the altimeter's port near the ground (mbar).
+    fn baro_ground_effect_mbar(&self) -> f64 {
+        let a = &self.heli.airframe;
+        let hub = self.heli.state.pos_ned_m
+            + self.heli.state.att * Vector3::new(0.0, 0.0, -a.mr_hub_height_m);
+        let induced_mps =
+            self.heli.outputs.inflow_ratio * self.heli.state.rotor_rps * a.mr_radius_m;
+        ground_effect_mbar(
+            &self.baro.errors,
+            self.env.atmosphere.density_kgpm3,
+            induced_mps,
+            -hub.z,
+            a.mr_radius_m,
+        )
+    }
+
     fn physics_step(&mut self) {
         let dt_s = PHYSICS_STEP_US as f64 * 1e-6;
+        // Turbulence rides on the steady wind.
+        let s = self.heli.state;
+        let airspeed = (s.vel_ned_mps() - Vector3::from(self.scenario.wind_ned_mps)).norm();
+        let wind_speed = Vector3::from(self.scenario.wind_ned_mps).norm();
+        self.gust_ned_mps = self
+            .turbulence
+            .step(dt_s, -s.pos_ned_m.z, airspeed.max(wind_speed));
+        self.env.wind_ned_mps = Vector3::from(self.scenario.wind_ned_mps) + self.gust_ned_mps;
+        self.rotor_azimuth_rad =
+            (self.rotor_azimuth_rad + s.rotor_rps * dt_s) % std::f64::consts::TAU;
         let servo = self.scb.servo_commands(&self.pilot());
         // The physics sees where the servos are at the start of the step, held over it.
         let u = control_inputs(&self.heli.airframe, &self.actuators.positions());
@@ -726,6 +815,22 @@ impl Simulation {
             log: None,
         }
     }
+}
+
+/// The compass calibration routine as the lab runs it before a flight: the helicopter is
+/// turned through 24 headings at three tilts on the ground, and the hard-iron field is fitted
+/// to the readings (`heli_nav::compass_cal`).
+pub fn calibrate_compass(errors: CompassErrors, noise: Noise) -> CompassCalibration {
+    let mut compass = CompassDevice::new(field_earth_field_gauss(), errors, noise);
+    let mut readings = Vec::new();
+    for tilt in [-0.4_f64, 0.0, 0.4] {
+        for k in 0..24 {
+            let yaw = f64::from(k) * std::f64::consts::TAU / 24.0;
+            let att = UnitQuaternion::from_euler_angles(tilt, -0.5 * tilt, yaw);
+            readings.push(compass.read(&att).raw_field());
+        }
+    }
+    fit_hard_iron(&readings).unwrap_or_default()
 }
 
 fn describe(t_us: u64, e: &CoreEvent) -> String {

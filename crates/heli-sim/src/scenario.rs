@@ -4,6 +4,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::params::{Airframe, Atmosphere};
+
 /// Control system the flight software is started with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -68,11 +70,13 @@ impl Default for Limits {
 }
 
 /// Faults injected into the run.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Faults {
     /// Probability that an IMU packet is lost (0..1).
     pub imu_drop_rate: f64,
+    /// Intervals [start, end) in seconds during which the GPS sends nothing.
+    pub gps_outages: Vec<[f64; 2]>,
 }
 
 /// One scenario.
@@ -89,6 +93,12 @@ pub struct Scenario {
     pub duration_s: f64,
     /// Steady wind, NED (m/s).
     pub wind_ned_mps: [f64; 3],
+    /// Turbulence: vertical gust intensity σ_w (m/s); Dryden, low altitude. 0 for none.
+    pub turbulence_sigma_mps: f64,
+    /// Air and gravity.
+    pub atmosphere: Atmosphere,
+    /// The helicopter's parameters (default: the MIT X-Cell 60 SE).
+    pub airframe: Airframe,
     /// Control system.
     pub mode: Mode,
     /// Autonomous take-off height (m).
@@ -119,6 +129,9 @@ pub fn hover() -> Scenario {
         seed: 1,
         duration_s: 200.0,
         wind_ned_mps: [0.0; 3],
+        turbulence_sigma_mps: 0.0,
+        atmosphere: Atmosphere::default(),
+        airframe: Airframe::default(),
         mode: Mode::Autonomous,
         takeoff_alt_m: 10.0,
         hold_s: 60.0,

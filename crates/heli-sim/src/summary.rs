@@ -56,7 +56,8 @@ pub struct EstimatorSummary {
     pub att_err_rms_deg: f64,
     /// Largest attitude error (deg).
     pub att_err_max_deg: f64,
-    /// Position error RMS (m).
+    /// Position error RMS (m), relative navigation: displacement from where the estimate
+    /// started, estimated against true.
     pub pos_err_rms_m: f64,
     /// Velocity error RMS (m/s).
     pub vel_err_rms_mps: f64,

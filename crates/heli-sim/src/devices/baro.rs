@@ -1,5 +1,8 @@
-//! Simulated barometric altimeter: answers the reset and rate commands the way the real
-//! device does, and once told to, sends ASCII pressure readings continuously at the set rate.
+//! Simulated barometric altimeter (Honeywell HPB200A in the thesis): answers the reset and
+//! rate commands the way the real device does and, once told to, sends ASCII pressure
+//! readings continuously at the set rate. Its errors: 2 ft resolution, a little noise, and
+//! the ground effect the thesis describes — near the ground the rotor's downwash raises the
+//! pressure the sensor sees, so it reads low.
 
 use heli_proto::baro::{self, BaroCommand, BaroReply, CommandFramer};
 
@@ -11,24 +14,51 @@ pub const RESET_TIME_US: u64 = 50_000;
 /// Error model of the simulated altimeter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BaroErrors {
-    /// Altitude noise (m, 1σ).
+    /// Altitude noise before quantisation (m, 1σ).
     pub noise_m: f64,
+    /// Altitude resolution (m): 2 ft.
+    pub resolution_m: f64,
+    /// Fraction of the downwash's dynamic pressure the static port picks up in ground effect.
+    pub ground_effect_fraction: f64,
 }
 
 impl Default for BaroErrors {
     fn default() -> Self {
-        Self { noise_m: 0.15 }
+        Self {
+            noise_m: 0.15,
+            resolution_m: 2.0 * 0.3048,
+            ground_effect_fraction: 0.5,
+        }
     }
+}
+
+/// Extra pressure (mbar) at the static port from the rotor downwash in ground effect: a
+/// fraction of the downwash's dynamic pressure ½ρV_i², fading as the rotor climbs out of
+/// ground effect (one rotor radius of height per e-fold).
+pub fn ground_effect_mbar(
+    errors: &BaroErrors,
+    density: f64,
+    induced_mps: f64,
+    rotor_height_m: f64,
+    rotor_radius_m: f64,
+) -> f64 {
+    if induced_mps <= 0.0 || rotor_height_m.is_nan() {
+        return 0.0;
+    }
+    let dynamic_pa = 0.5 * density * induced_mps * induced_mps;
+    errors.ground_effect_fraction * dynamic_pa * (-rotor_height_m.max(0.0) / rotor_radius_m).exp()
+        / 100.0
 }
 
 /// The simulated altimeter.
 #[derive(Clone, Debug)]
 pub struct BaroDevice {
-    errors: BaroErrors,
+    /// Error model.
+    pub errors: BaroErrors,
     noise: Noise,
     framer: CommandFramer,
     rate_hz: u8,
-    /// Replies waiting to be sent, with the time they are due.
+    /// Reply waiting to be sent, with the time it is due.
     pending: Option<(u64, BaroReply)>,
     next_reading_us: Option<u64>,
     /// Commands received that it understood.
@@ -88,9 +118,22 @@ impl BaroDevice {
         }
     }
 
-    /// What the device sends at `now_us` (call at [`BaroDevice::next_at`]) given the true
-    /// pressure (mbar) and how many mbar one metre is here.
-    pub fn transmit(&mut self, now_us: u64, pressure_mbar: f64, mbar_per_m: f64) -> Option<Bytes> {
+    /// The altitude the sensor reports for a true pressure altitude `alt_m` (noise, then
+    /// quantised to its resolution).
+    pub fn measured_altitude_m(&mut self, alt_m: f64) -> f64 {
+        let noisy = alt_m + self.noise.gaussian(self.errors.noise_m);
+        let r = self.errors.resolution_m;
+        if r > 0.0 {
+            (noisy / r).round() * r
+        } else {
+            noisy
+        }
+    }
+
+    /// What the device sends at `now_us` (call at [`BaroDevice::next_at`]): `alt_m` is the
+    /// pressure altitude of the static pressure the sensor sees (ground effect included),
+    /// `reference_mbar` the pressure at altitude 0.
+    pub fn transmit(&mut self, now_us: u64, alt_m: f64, reference_mbar: f64) -> Option<Bytes> {
         if let Some((due, reply)) = self.pending
             && now_us >= due
         {
@@ -102,12 +145,10 @@ impl BaroDevice {
             return None;
         }
         self.next_reading_us = Some(due + self.period_us());
-        let noisy = pressure_mbar + self.noise.gaussian(self.errors.noise_m) * mbar_per_m;
+        let measured = self.measured_altitude_m(alt_m);
+        let pressure_mbar = baro::pressure_at_altitude_mbar(measured, reference_mbar);
         Some(Bytes::encode(|buf| {
-            BaroReply::Pressure {
-                pressure_mbar: noisy,
-            }
-            .emit(buf)
+            BaroReply::Pressure { pressure_mbar }.emit(buf)
         }))
     }
 }
