@@ -18,8 +18,8 @@ pub struct ImuErrors {
     pub accel_noise_mps2: f64,
     /// Spread of the turn-on gyro bias (rad/s, 1σ per axis).
     pub gyro_turn_on_bias_rps: f64,
-    /// Gyro bias random walk (rad/s per √s). 4.4e-6 gives 1σ = 0.006 °/s after 10 minutes,
-    /// so that drift stays below the thesis's 0.02 °/s.
+    /// Gyro bias random walk (rad/s per √s). 3.6e-6 gives 1σ = 0.005 °/s after 10 minutes,
+    /// so that drift stays below the thesis's 0.02 °/s (four sigma).
     pub gyro_bias_walk_rps_per_sqrt_s: f64,
     /// Gyro bias change per °C of IMU temperature (rad/s/°C).
     pub gyro_temp_coeff_rps_per_c: f64,
@@ -42,7 +42,7 @@ impl Default for ImuErrors {
             gyro_noise_rps: 0.003,
             accel_noise_mps2: 0.03,
             gyro_turn_on_bias_rps: 0.005,
-            gyro_bias_walk_rps_per_sqrt_s: 4.4e-6,
+            gyro_bias_walk_rps_per_sqrt_s: 3.6e-6,
             gyro_temp_coeff_rps_per_c: 5e-5,
             accel_bias_mps2: 0.02,
             warm_up_rise_c: 8.0,
