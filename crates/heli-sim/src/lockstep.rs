@@ -148,7 +148,7 @@ pub fn field_earth_field_gauss() -> Vector3<f64> {
     Vector3::new(0.19, 0.0, 0.48)
 }
 
-#[derive(Default)]
+#[derive(Clone, Default)]
 struct Metrics {
     att: Rms,
     pos: Rms,
@@ -170,7 +170,8 @@ struct Metrics {
     events: Vec<String>,
 }
 
-/// One simulated flight.
+/// One simulated flight. Cloning it forks the run: both copies continue identically.
+#[derive(Clone)]
 pub struct Simulation {
     scenario: Scenario,
     heli: Helicopter,
