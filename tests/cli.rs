@@ -113,3 +113,49 @@ fn failed_flight_exits_nonzero_with_a_table() {
         "{text}"
     );
 }
+
+#[test]
+fn model_trim_modes_and_governor_step_answer_in_json() {
+    let out = heli(&["model", "trim", "--speed", "0", "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    let collective = v["collective_deg"].as_f64().unwrap_or(0.0);
+    assert!((collective - 5.65).abs() <= 0.3, "{v}");
+    let out = heli(&["model", "modes", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    assert!(
+        v["roll"]["natural_frequency_rps"].as_f64().unwrap_or(0.0) > 18.0,
+        "{v}"
+    );
+    let out = heli(&["model", "governor-step", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    assert!(
+        v["damping"].is_number() && v["natural_frequency_rps"].is_number(),
+        "{v}"
+    );
+}
+
+#[test]
+fn model_rejects_a_speed_outside_the_envelope_and_a_bad_airframe_file() {
+    let out = heli(&["model", "trim", "--speed", "60"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("between 0 and 25"));
+    let file = std::env::temp_dir().join(format!("heli-airframe-{}.toml", std::process::id()));
+    std::fs::write(&file, "mass_kgs = 9.0\n").unwrap_or_default();
+    let out = heli(&[
+        "model",
+        "trim",
+        "--airframe",
+        file.to_str().unwrap_or_default(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("mass_kgs"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

@@ -13,7 +13,10 @@ fn main() {
 }
 
 fn still_air() -> Environment {
-    Environment { wind_ned_mps: Vector3::zeros(), atmosphere: Atmosphere::default() }
+    Environment {
+        wind_ned_mps: Vector3::zeros(),
+        atmosphere: Atmosphere::default(),
+    }
 }
 
 #[divan::bench]
@@ -21,7 +24,9 @@ fn model_step_rk4(bencher: divan::Bencher) {
     let airframe = Airframe::default();
     let (heli, u) = trimmed_helicopter(&airframe, 5.0).unwrap_or_else(|| panic!("no trim"));
     let env = still_air();
-    bencher.with_inputs(|| heli.clone()).bench_local_refs(|h| h.step(0.002, &u, &env));
+    bencher
+        .with_inputs(|| heli.clone())
+        .bench_local_refs(|h| h.step(0.002, &u, &env));
 }
 
 #[divan::bench]
@@ -36,9 +41,11 @@ fn lockstep_one_simulated_second_in_hover(bencher: divan::Bencher) {
     // Start from a run that has calibrated and taken off (100 s in), then time one more second.
     let mut sim = Simulation::new(heli_sim::scenario::hover());
     while sim.advance(100_000_000) {}
-    bencher.with_inputs(|| sim.clone()).bench_local_values(|mut s| {
-        let end = s.now_us() + 1_000_000;
-        while s.advance(end) {}
-        s.now_us()
-    });
+    bencher
+        .with_inputs(|| sim.clone())
+        .bench_local_values(|mut s| {
+            let end = s.now_us() + 1_000_000;
+            while s.advance(end) {}
+            s.now_us()
+        });
 }

@@ -390,6 +390,16 @@ impl Simulation {
         &self.heli
     }
 
+    /// The simulated helicopter, to change (fault injection, initial conditions in tests).
+    pub fn helicopter_mut(&mut self) -> &mut Helicopter {
+        &mut self.heli
+    }
+
+    /// Why the run crashed, if it did.
+    pub fn crash(&self) -> Option<&str> {
+        self.crash.as_deref()
+    }
+
     /// The flight software's main control process.
     pub fn core(&self) -> &FlightCore {
         &self.core
