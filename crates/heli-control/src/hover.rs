@@ -235,6 +235,8 @@ mod tests {
             pos_ned_m: pos,
             rate_body_rps: Vector3::zeros(),
             accel_body_mps2: Vector3::new(0.0, 0.0, -9.81),
+            gyro_bias_rps: Vector3::zeros(),
+            accel_bias_mps2: Vector3::zeros(),
         }
     }
 

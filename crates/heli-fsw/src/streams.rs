@@ -85,6 +85,8 @@ pub struct CompassRecord {
 }
 
 /// One entry of one of the seven streams.
+// By value: no allocation in the control step.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Record {
     /// IMU stream.

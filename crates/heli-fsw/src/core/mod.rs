@@ -186,6 +186,8 @@ pub enum CoreEvent {
 }
 
 /// One output of the main control process.
+// Records travel by value: no allocation in the control step.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Action {
     /// Write this command to the servo controller board.
