@@ -136,7 +136,7 @@ fn sim(args: SimArgs) -> Result<ExitCode> {
         bar
     });
     let name = scenario.name.clone();
-    let summary = Simulation::new(scenario).run(options, |t, total| {
+    let summary = Simulation::new(scenario)?.run(options, |t, total| {
         if let Some(bar) = &bar {
             bar.set_position((t / total * 1000.0) as u64);
             bar.set_message(format!("{name} t={t:>6.1} s"));

@@ -105,7 +105,7 @@ fn unknown_scenario_is_a_clear_error() {
 
 #[test]
 fn failed_flight_exits_nonzero_with_a_table() {
-    let out = heli(&["sim", "--duration", "30"]);
+    let out = heli(&["sim", "--scenario", "hover", "--duration", "30"]);
     assert_eq!(out.status.code(), Some(1));
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(

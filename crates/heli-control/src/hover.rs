@@ -93,8 +93,21 @@ impl Default for HoverGains {
 pub struct Target {
     /// Position, NED (m).
     pub pos_ned_m: Vector3<f64>,
+    /// Velocity of the target, NED (m/s): zero to hold, the path speed to track a path.
+    pub vel_ned_mps: Vector3<f64>,
     /// Heading (rad).
     pub yaw_rad: f64,
+}
+
+impl Target {
+    /// A fixed point to hold at a heading.
+    pub fn hold(pos_ned_m: Vector3<f64>, yaw_rad: f64) -> Self {
+        Self {
+            pos_ned_m,
+            vel_ned_mps: Vector3::zeros(),
+            yaw_rad,
+        }
+    }
 }
 
 /// The hover controller with its integrator states.
@@ -147,11 +160,12 @@ impl HoverController {
 
         // Horizontal: position -> velocity -> acceleration (NED).
         let pos_err = Vector3::new(target.pos_ned_m.x - pos.x, target.pos_ned_m.y - pos.y, 0.0);
-        let mut vel_cmd = pos_err * g.pos_to_vel;
-        let speed = vel_cmd.norm();
+        let mut correction = pos_err * g.pos_to_vel;
+        let speed = correction.norm();
         if speed > g.max_horizontal_speed_mps {
-            vel_cmd *= g.max_horizontal_speed_mps / speed;
+            correction *= g.max_horizontal_speed_mps / speed;
         }
+        let vel_cmd = Vector3::new(target.vel_ned_mps.x, target.vel_ned_mps.y, 0.0) + correction;
         let vel_err = Vector3::new(vel_cmd.x - vel.x, vel_cmd.y - vel.y, 0.0);
         if airborne {
             self.vel_integral += vel_err * dt;
@@ -178,8 +192,9 @@ impl HoverController {
         let elevator = g.rate_feedforward * q_cmd + g.rate_feedback * (q_cmd - rate.y);
 
         // Vertical: altitude -> climb rate -> collective (NED: down is positive).
-        let w_cmd = (g.alt_to_climb * (target.pos_ned_m.z - pos.z))
-            .clamp(-g.max_climb_mps, g.max_descent_mps);
+        let w_cmd = target.vel_ned_mps.z
+            + (g.alt_to_climb * (target.pos_ned_m.z - pos.z))
+                .clamp(-g.max_climb_mps, g.max_descent_mps);
         let w_err = w_cmd - vel.z;
         self.climb_integral = limit(
             self.climb_integral + w_err * dt,
@@ -245,6 +260,7 @@ mod tests {
         let mut c = HoverController::new(HoverGains::default());
         let t = Target {
             pos_ned_m: Vector3::new(5.0, 0.0, -10.0),
+            vel_ned_mps: Vector3::zeros(),
             yaw_rad: 0.0,
         };
         let u = c.update(
@@ -256,6 +272,7 @@ mod tests {
         assert!(u.elevator < 0.0, "{u:?}");
         let t = Target {
             pos_ned_m: Vector3::new(0.0, 5.0, -10.0),
+            vel_ned_mps: Vector3::zeros(),
             yaw_rad: 0.0,
         };
         let u = c.update(
@@ -272,6 +289,7 @@ mod tests {
         let mut c = HoverController::new(HoverGains::default());
         let t = Target {
             pos_ned_m: Vector3::new(0.0, 0.0, -10.0),
+            vel_ned_mps: Vector3::zeros(),
             yaw_rad: 0.0,
         };
         let u = c.update(&est_at(Vector3::zeros(), Vector3::zeros()), &t, 0.02, false);
@@ -284,6 +302,7 @@ mod tests {
         let mut c = HoverController::new(HoverGains::default());
         let t = Target {
             pos_ned_m: Vector3::zeros(),
+            vel_ned_mps: Vector3::zeros(),
             yaw_rad: 0.0,
         };
         let u = c.update(

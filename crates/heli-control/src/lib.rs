@@ -28,9 +28,11 @@
 
 pub mod hover;
 pub mod manual;
+pub mod roll;
 
 pub use hover::{HoverController, HoverGains, Target};
 pub use manual::{YawDamper, manual_with_yaw_damping};
+pub use roll::{RollGains, rolling_controls};
 
 /// Throttle channel that sets the governor to 1600 rpm, the speed of every flight in the
 /// thesis (the governor maps the channel to 0..2000 rpm).

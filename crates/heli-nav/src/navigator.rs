@@ -212,6 +212,7 @@ pub struct Navigator {
     earth_field_ned: Option<Vector3<f64>>,
     history: VecDeque<Op>,
     history_len: usize,
+    initialised_us: u64,
     stats: NavSensorStats,
 }
 
@@ -253,6 +254,7 @@ impl Navigator {
             earth_field_ned: None,
             history: VecDeque::with_capacity(history_len.saturating_add(1)),
             history_len,
+            initialised_us: 0,
             stats: NavSensorStats::default(),
         }
     }
@@ -274,9 +276,9 @@ impl Navigator {
 
     /// True when no GPS fix has been fused for longer than the configured outage time.
     pub fn gps_outage(&self, now_us: u64) -> bool {
-        let last = self.stats.last_gps_fused_us;
-        self.state.is_some()
-            && (last == 0 || seconds_between(last, now_us) > self.config.gps_outage_after_s)
+        // Counted from the initialisation when no fix has been fused since.
+        let last = self.stats.last_gps_fused_us.max(self.initialised_us);
+        self.state.is_some() && seconds_between(last, now_us) > self.config.gps_outage_after_s
     }
 
     /// Origin of the local frame (the first good GPS fix).
@@ -304,6 +306,7 @@ impl Navigator {
             self.baro_reference_z_m = pos.z;
         }
         self.history.clear();
+        self.initialised_us = t_us;
         self.state = Some(NavState {
             t_us,
             att: UnitQuaternion::from_euler_angles(roll, pitch, 0.0),

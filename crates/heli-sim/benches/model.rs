@@ -39,7 +39,7 @@ fn main_rotor_inflow_solution() -> f64 {
 #[divan::bench(sample_count = 10)]
 fn lockstep_one_simulated_second_in_hover(bencher: divan::Bencher) {
     // Start from a run that has calibrated and taken off (100 s in), then time one more second.
-    let mut sim = Simulation::new(heli_sim::scenario::hover());
+    let mut sim = Simulation::new(heli_sim::scenario::hover()).unwrap_or_else(|e| panic!("{e}"));
     while sim.advance(100_000_000) {}
     bencher
         .with_inputs(|| sim.clone())

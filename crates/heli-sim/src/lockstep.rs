@@ -34,12 +34,13 @@ use crate::devices::imu::{ImuDevice, ImuErrors, RotorPhase};
 use crate::devices::scb::{PilotCommand, ScbDevice};
 use crate::devices::{Bytes, Noise, transmit_time_us};
 use crate::model::{Environment, Helicopter};
-use crate::scenario::{Mode, Scenario};
+use crate::scenario::{Mode, Scenario, ScenarioError};
 use crate::summary::{
     Criterion, DeviceSummary, EstimatorSummary, HoldSummary, LinkSummary, LoopSummary,
     ManeuverSummary, Outcome, Rms, Summary,
 };
 use crate::turbulence::Turbulence;
+use heli_fsw::core::mission::{Plan, RollStage};
 
 /// Physics integration step (µs): 500 Hz RK4.
 pub const PHYSICS_STEP_US: u64 = 2_000;
@@ -163,6 +164,18 @@ struct Metrics {
     imu_dropped: u32,
     gps_lost: u32,
     target_key: Option<(f64, f64, f64)>,
+    maneuver_start_alt_m: Option<f64>,
+    maneuver_min_alt_m: f64,
+    maneuver_done: bool,
+    recovery_attitude_deg: Option<f64>,
+    recovery_speed_error_mps: Option<f64>,
+    last_phase: Option<Phase>,
+    rc_lost_at_us: Option<u64>,
+    rc_hover_at_us: Option<u64>,
+    rc_hover_pos: Option<Vector3<f64>>,
+    rc_drift_max_m: f64,
+    gps_outage_pos_err: Vec<f64>,
+    hold_time_s: f64,
     home_offset: Option<Vector3<f64>>,
     target_offset: Vector3<f64>,
     step_time_max: Duration,
@@ -204,7 +217,9 @@ pub struct Simulation {
 impl Simulation {
     /// Sets up the scenario's flight: helicopter on the ground with the rotor governed at
     /// 1600 rpm, devices powered, flight software started with the scenario's parameters.
-    pub fn new(scenario: Scenario) -> Self {
+    pub fn new(scenario: Scenario) -> Result<Self, ScenarioError> {
+        let legs: Vec<_> = scenario.plan.iter().map(|l| l.to_leg()).collect();
+        let plan = Plan::new(&legs).map_err(|e| ScenarioError::Invalid(format!("plan: {e}")))?;
         let seed = scenario.seed;
         let env = Environment {
             wind_ned_mps: Vector3::from(scenario.wind_ned_mps),
@@ -222,7 +237,7 @@ impl Simulation {
                 Mode::Manual => FlightMode::Manual,
                 Mode::Autonomous => FlightMode::Autonomous,
             },
-            takeoff_alt_m: scenario.takeoff_alt_m,
+            plan,
         };
         let actuators =
             Actuators::settled(ServoParams::default(), &Self::pilot_of(&scenario).sticks);
@@ -289,7 +304,7 @@ impl Simulation {
             sim.send_to_device(Port::Baro, b, 0);
         }
         sim.reschedule_driver_timers();
-        sim
+        Ok(sim)
     }
 
     fn schedule(&mut self, t_us: u64, kind: Kind) {
@@ -322,7 +337,17 @@ impl Simulation {
     }
 
     fn pilot(&self) -> PilotCommand {
-        Self::pilot_of(&self.scenario)
+        let t_s = self.now_us as f64 * 1e-6;
+        let lost = self
+            .scenario
+            .faults
+            .transmitter_lost
+            .iter()
+            .any(|[start, end]| t_s >= *start && t_s < *end);
+        PilotCommand {
+            signal_lost: lost,
+            ..Self::pilot_of(&self.scenario)
+        }
     }
 
     fn pilot_of(scenario: &Scenario) -> PilotCommand {
@@ -411,13 +436,7 @@ impl Simulation {
     }
 
     fn plan_complete(&self) -> bool {
-        match self.metrics.hold_start_us {
-            Some(start) => {
-                self.metrics.hold_last_us.saturating_sub(start) as f64 * 1e-6
-                    >= self.scenario.hold_s
-            }
-            None => false,
-        }
+        self.core.plan_complete()
     }
 
     fn dispatch(&mut self, kind: Kind) {
@@ -640,9 +659,11 @@ impl Simulation {
             .metrics
             .home_offset
             .get_or_insert(est.pos_ned_m - truth_pos);
-        self.metrics
-            .pos
-            .add((est.pos_ned_m - truth_pos - home_offset).norm());
+        let pos_err = (est.pos_ned_m - truth_pos - home_offset).norm();
+        self.metrics.pos.add(pos_err);
+        self.measure_gps_outages(pos_err);
+        self.measure_maneuver(s);
+        self.measure_rc_loss();
         self.metrics
             .vel
             .add((est.vel_ned_mps - truth.vel_ned_mps()).norm());
@@ -659,6 +680,10 @@ impl Simulation {
         }
         if let (Phase::Holding { since_us, .. }, Some(target)) = (s.phase, s.target) {
             self.metrics.hold_start_us.get_or_insert(since_us);
+            if matches!(self.metrics.last_phase, Some(Phase::Holding { .. })) {
+                self.metrics.hold_time_s +=
+                    self.now_us.saturating_sub(self.metrics.hold_last_us) as f64 * 1e-6;
+            }
             self.metrics.hold_last_us = self.now_us;
             let err = est.pos_ned_m - target.pos_ned_m;
             self.metrics.hold_horizontal.add(err.xy().norm());
@@ -668,6 +693,82 @@ impl Simulation {
             let (roll, pitch, _) = truth.att.euler_angles();
             self.metrics.hold_roll_sum_deg += roll.to_degrees();
             self.metrics.hold_pitch_sum_deg += pitch.to_degrees();
+        }
+        self.metrics.last_phase = Some(s.phase);
+    }
+
+    /// The position error when each GPS outage ends.
+    fn measure_gps_outages(&mut self, pos_err: f64) {
+        let t_s = self.now_us as f64 * 1e-6;
+        let ended = self
+            .scenario
+            .faults
+            .gps_outages
+            .iter()
+            .filter(|[_, end]| t_s >= *end)
+            .count();
+        // The fix that follows an outage arrives a latency after it; judge just before.
+        while self.metrics.gps_outage_pos_err.len() < ended {
+            self.metrics.gps_outage_pos_err.push(pos_err);
+        }
+    }
+
+    /// Altitude loss over the roll sequence and the state at the end of its recovery.
+    fn measure_maneuver(&mut self, s: &StateRecord) {
+        let alt = -self.heli.state.pos_ned_m.z;
+        let in_maneuver = matches!(s.phase, Phase::Maneuver { .. });
+        if self.metrics.maneuver_done {
+            return;
+        }
+        if let Phase::Maneuver {
+            stage: RollStage::PullUp { .. },
+            ..
+        } = s.phase
+            && self.metrics.maneuver_start_alt_m.is_none()
+        {
+            self.metrics.maneuver_start_alt_m = Some(alt);
+            self.metrics.maneuver_min_alt_m = alt;
+        }
+        if self.metrics.maneuver_start_alt_m.is_some() {
+            self.metrics.maneuver_min_alt_m = self.metrics.maneuver_min_alt_m.min(alt);
+            if !in_maneuver {
+                self.metrics.maneuver_done = true;
+                let (roll, pitch, _) = self.heli.state.att.euler_angles();
+                self.metrics.recovery_attitude_deg = Some(roll.abs().max(pitch.abs()).to_degrees());
+                let trim = self
+                    .scenario
+                    .plan
+                    .iter()
+                    .find_map(|l| match l {
+                        crate::scenario::LegSpec::Rolls { speed_mps, .. } => Some(*speed_mps),
+                        _ => None,
+                    })
+                    .unwrap_or(0.0);
+                let speed = self.heli.state.vel_ned_mps().xy().norm();
+                self.metrics.recovery_speed_error_mps = Some((speed - trim).abs());
+            }
+        }
+    }
+
+    /// How soon the helicopter hovers after the transmitter is lost, and how far it drifts.
+    fn measure_rc_loss(&mut self) {
+        let now = self.now_us;
+        if self.pilot().signal_lost {
+            self.metrics.rc_lost_at_us.get_or_insert(now);
+        }
+        if self.metrics.rc_lost_at_us.is_none() {
+            return;
+        }
+        let p = self.heli.state.pos_ned_m;
+        let v = self.heli.state.vel_ned_mps();
+        if self.metrics.rc_hover_at_us.is_none() && v.xy().norm() < 0.5 {
+            self.metrics.rc_hover_at_us = Some(now);
+            self.metrics.rc_hover_pos = Some(p);
+        }
+        if let (Some(at), Some(pos)) = (self.metrics.rc_hover_at_us, self.metrics.rc_hover_pos)
+            && now <= at + 20_000_000
+        {
+            self.metrics.rc_drift_max_m = self.metrics.rc_drift_max_m.max((p - pos).xy().norm());
         }
     }
 
@@ -729,31 +830,88 @@ impl Simulation {
         let sim_time_s = self.now_us as f64 * 1e-6;
         let stats = self.core.stats();
         let nav = self.core.navigator().stats();
-        let hold_duration = m
-            .hold_start_us
-            .map_or(0.0, |s| m.hold_last_us.saturating_sub(s) as f64 * 1e-6);
+        let hold_duration = m.hold_time_s;
         let limits = self.scenario.limits;
-        let mut criteria = vec![Criterion::at_least(
-            "hold_duration_s",
-            hold_duration,
-            self.scenario.hold_s,
-        )];
-        if m.hold_start_us.is_some() {
-            criteria.push(Criterion::at_most(
-                "hold_horizontal_rms_m",
-                m.hold_horizontal.rms(),
-                limits.hold_horizontal_rms_m,
+        let mut criteria = Vec::new();
+        let mut at_most = |name: &str, value: f64, limit: Option<f64>| {
+            if let Some(limit) = limit {
+                criteria.push(Criterion::at_most(name, value, limit));
+            }
+        };
+        at_most(
+            "hold_horizontal_rms_m",
+            m.hold_horizontal.rms(),
+            limits
+                .hold_horizontal_rms_m
+                .filter(|_| m.hold_start_us.is_some()),
+        );
+        at_most(
+            "hold_altitude_rms_m",
+            m.hold_altitude.rms(),
+            limits
+                .hold_altitude_rms_m
+                .filter(|_| m.hold_start_us.is_some()),
+        );
+        at_most(
+            "hold_true_max_m",
+            m.hold_true.max(),
+            limits.hold_true_max_m.filter(|_| m.hold_start_us.is_some()),
+        );
+        let altitude_loss = m.maneuver_start_alt_m.map_or(f64::INFINITY, |start| {
+            (start - m.maneuver_min_alt_m).max(0.0)
+        });
+        at_most("altitude_loss_m", altitude_loss, limits.altitude_loss_max_m);
+        at_most(
+            "recovery_attitude_deg",
+            m.recovery_attitude_deg.unwrap_or(f64::INFINITY),
+            limits.recovery_attitude_max_deg,
+        );
+        at_most(
+            "recovery_speed_error_mps",
+            m.recovery_speed_error_mps.unwrap_or(f64::INFINITY),
+            limits.recovery_speed_max_mps,
+        );
+        at_most("att_err_rms_deg", m.att.rms(), limits.att_err_rms_max_deg);
+        at_most("att_err_max_deg", m.att.max(), limits.att_err_max_deg);
+        at_most("pos_err_rms_m", m.pos.rms(), limits.pos_err_rms_max_m);
+        let hover_after = match (m.rc_lost_at_us, m.rc_hover_at_us) {
+            (Some(lost), Some(hover)) => hover.saturating_sub(lost) as f64 * 1e-6,
+            _ => f64::INFINITY,
+        };
+        at_most(
+            "rc_loss_hover_after_s",
+            hover_after,
+            limits.rc_loss_hover_within_s,
+        );
+        let drift = if m.rc_hover_at_us.is_some() {
+            m.rc_drift_max_m
+        } else {
+            f64::INFINITY
+        };
+        at_most("rc_loss_drift_m", drift, limits.rc_loss_drift_max_m);
+        let outage_err = if m.gps_outage_pos_err.is_empty() {
+            f64::INFINITY
+        } else {
+            m.gps_outage_pos_err.iter().copied().fold(0.0, f64::max)
+        };
+        at_most(
+            "gps_outage_pos_err_m",
+            outage_err,
+            limits.gps_outage_pos_err_max_m,
+        );
+        if let Some(min) = limits.hold_min_s {
+            criteria.push(Criterion::at_least("hold_duration_s", hold_duration, min));
+        }
+        if let Some(min) = limits.rolls_min {
+            criteria.push(Criterion::at_least(
+                "rolls_completed",
+                f64::from(stats.rolls_completed),
+                min,
             ));
-            criteria.push(Criterion::at_most(
-                "hold_altitude_rms_m",
-                m.hold_altitude.rms(),
-                limits.hold_altitude_rms_m,
-            ));
-            criteria.push(Criterion::at_most(
-                "hold_true_max_m",
-                m.hold_true.max(),
-                limits.hold_true_max_m,
-            ));
+        }
+        if limits.plan_complete == Some(true) {
+            let done = if self.core.plan_complete() { 1.0 } else { 0.0 };
+            criteria.push(Criterion::at_least("plan_complete", done, 1.0));
         }
         let outcome = if self.crash.is_some() {
             Outcome::Crash
@@ -799,7 +957,16 @@ impl Simulation {
                 control_steps: stats.control_steps,
                 step_time_max_us: m.step_time_max.as_secs_f64() * 1e6,
             },
-            maneuvers: ManeuverSummary::default(),
+            maneuvers: ManeuverSummary {
+                rolls_completed: stats.rolls_completed,
+                altitude_loss_m: if altitude_loss.is_finite() {
+                    altitude_loss
+                } else {
+                    0.0
+                },
+                recovery_attitude_deg: m.recovery_attitude_deg,
+                recovery_speed_error_mps: m.recovery_speed_error_mps,
+            },
             hold: HoldSummary {
                 start_s: m.hold_start_us.map(|t| t as f64 * 1e-6),
                 duration_s: hold_duration,
@@ -854,10 +1021,14 @@ fn describe(t_us: u64, e: &CoreEvent) -> String {
         CoreEvent::PhaseChanged(p) => format!("t={t:.2} s phase {}", p.name()),
         CoreEvent::WatchdogFired => format!("t={t:.2} s watchdog fired"),
         CoreEvent::PilotSignalLost => format!("t={t:.2} s pilot signal lost"),
+        CoreEvent::RollCompleted(n) => format!("t={t:.2} s roll {n} completed"),
+        CoreEvent::PlanComplete => format!("t={t:.2} s flight plan complete"),
+        CoreEvent::GpsLost => format!("t={t:.2} s GPS lost: estimate coasting on the IMU"),
+        CoreEvent::GpsRegained => format!("t={t:.2} s GPS back"),
     }
 }
 
 /// Runs a scenario to completion with default options and no progress output.
-pub fn run(scenario: Scenario) -> Summary {
-    Simulation::new(scenario).run(RunOptions::default(), |_, _| {})
+pub fn run(scenario: Scenario) -> Result<Summary, ScenarioError> {
+    Ok(Simulation::new(scenario)?.run(RunOptions::default(), |_, _| {}))
 }

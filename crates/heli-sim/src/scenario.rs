@@ -47,26 +47,43 @@ impl Default for Pilot {
     }
 }
 
-/// Pass/fail limits.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// Pass/fail limits; a criterion is judged only when its limit is set.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Limits {
+    /// Least time spent holding position (s).
+    pub hold_min_s: Option<f64>,
     /// Horizontal hold error RMS, estimate against target (m).
-    pub hold_horizontal_rms_m: f64,
+    pub hold_horizontal_rms_m: Option<f64>,
     /// Altitude hold error RMS, estimate against target (m).
-    pub hold_altitude_rms_m: f64,
-    /// Largest true distance from the target during the hold (m).
-    pub hold_true_max_m: f64,
-}
-
-impl Default for Limits {
-    fn default() -> Self {
-        Self {
-            hold_horizontal_rms_m: 1.0,
-            hold_altitude_rms_m: 0.5,
-            hold_true_max_m: 3.0,
-        }
-    }
+    pub hold_altitude_rms_m: Option<f64>,
+    /// Largest true distance from the target during the holds (m).
+    pub hold_true_max_m: Option<f64>,
+    /// Fewest autonomous rolls completed.
+    pub rolls_min: Option<f64>,
+    /// Largest altitude loss over the roll sequence (m): true altitude at its start minus the
+    /// lowest true altitude before the recovery ends.
+    pub altitude_loss_max_m: Option<f64>,
+    /// Largest attitude error (deg) at the end of the recovery from the last roll, against
+    /// level flight, and largest speed error against the trim speed (m/s), together.
+    pub recovery_attitude_max_deg: Option<f64>,
+    /// Largest speed error from the trim speed at the end of the recovery (m/s).
+    pub recovery_speed_max_mps: Option<f64>,
+    /// Estimator attitude error RMS over the flight (deg).
+    pub att_err_rms_max_deg: Option<f64>,
+    /// Estimator attitude error, worst case (deg).
+    pub att_err_max_deg: Option<f64>,
+    /// Estimator position error RMS, relative navigation (m).
+    pub pos_err_rms_max_m: Option<f64>,
+    /// After the transmitter is lost: hovering (true speed under 0.5 m/s) within this (s).
+    pub rc_loss_hover_within_s: Option<f64>,
+    /// After the transmitter is lost: largest true horizontal drift over the 20 s after the
+    /// hover began (m).
+    pub rc_loss_drift_max_m: Option<f64>,
+    /// Estimator position error at the end of each GPS outage (m).
+    pub gps_outage_pos_err_max_m: Option<f64>,
+    /// The flight plan must be completed.
+    pub plan_complete: Option<bool>,
 }
 
 /// Faults injected into the run.
@@ -77,6 +94,69 @@ pub struct Faults {
     pub imu_drop_rate: f64,
     /// Intervals [start, end) in seconds during which the GPS sends nothing.
     pub gps_outages: Vec<[f64; 2]>,
+    /// Intervals [start, end) in seconds during which the pilot's transmitter is lost (the
+    /// receiver then commands every channel to zero).
+    pub transmitter_lost: Vec<[f64; 2]>,
+}
+
+/// One leg of the autonomous flight plan, as written in a scenario file.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "leg", rename_all = "lowercase", deny_unknown_fields)]
+pub enum LegSpec {
+    /// Climb vertically to `alt_m` above the take-off point.
+    Takeoff {
+        /// Height (m).
+        alt_m: f64,
+    },
+    /// Hold position.
+    Hold {
+        /// How long (s).
+        seconds: f64,
+    },
+    /// Fly a straight path to a point relative to the take-off point.
+    Fly {
+        /// North (m).
+        north_m: f64,
+        /// East (m).
+        east_m: f64,
+        /// Height (m).
+        alt_m: f64,
+        /// Path speed (m/s).
+        speed_mps: f64,
+    },
+    /// Aileron rolls from a forward-flight trim along the current heading.
+    Rolls {
+        /// How many.
+        count: u32,
+        /// Trim speed (m/s).
+        speed_mps: f64,
+    },
+    /// Descend and settle on the skids.
+    Land,
+}
+
+impl LegSpec {
+    /// The flight software's leg.
+    pub fn to_leg(self) -> heli_fsw::core::mission::Leg {
+        use heli_fsw::core::mission::Leg;
+        match self {
+            LegSpec::Takeoff { alt_m } => Leg::Takeoff { alt_m },
+            LegSpec::Hold { seconds } => Leg::Hold { seconds },
+            LegSpec::Fly {
+                north_m,
+                east_m,
+                alt_m,
+                speed_mps,
+            } => Leg::Fly {
+                north_m,
+                east_m,
+                alt_m,
+                speed_mps,
+            },
+            LegSpec::Rolls { count, speed_mps } => Leg::Rolls { count, speed_mps },
+            LegSpec::Land => Leg::Land,
+        }
+    }
 }
 
 /// One scenario.
@@ -101,10 +181,8 @@ pub struct Scenario {
     pub airframe: Airframe,
     /// Control system.
     pub mode: Mode,
-    /// Autonomous take-off height (m).
-    pub takeoff_alt_m: f64,
-    /// How long to hold position once there (s).
-    pub hold_s: f64,
+    /// The autonomous flight plan.
+    pub plan: Vec<LegSpec>,
     /// Pilot's transmitter.
     pub pilot: Pilot,
     /// Injected faults.
@@ -119,31 +197,163 @@ impl Default for Scenario {
     }
 }
 
-/// Built-in scenario `hover`: rotor governed at 1600 rpm on the ground, 80 s calibration,
-/// autonomous take-off to 10 m, 60 s position hold.
-pub fn hover() -> Scenario {
+fn base(name: &str, description: &str, plan: Vec<LegSpec>, duration_s: f64) -> Scenario {
     Scenario {
-        name: "hover".into(),
-        description:
-            "calibrate on the ground, take off autonomously to 10 m, hold position for 60 s".into(),
+        name: name.into(),
+        description: description.into(),
         seed: 1,
-        duration_s: 200.0,
+        duration_s,
         wind_ned_mps: [0.0; 3],
         turbulence_sigma_mps: 0.0,
         atmosphere: Atmosphere::default(),
         airframe: Airframe::default(),
         mode: Mode::Autonomous,
-        takeoff_alt_m: 10.0,
-        hold_s: 60.0,
+        plan,
         pilot: Pilot::default(),
         faults: Faults::default(),
         limits: Limits::default(),
     }
 }
 
-/// All built-in scenarios, most complete flight first (the default of `heli sim`).
+/// Built-in scenario `hover`: rotor governed at 1600 rpm on the ground, 80 s calibration,
+/// autonomous take-off to 10 m, 60 s position hold.
+pub fn hover() -> Scenario {
+    let mut s = base(
+        "hover",
+        "calibrate on the ground, take off autonomously to 10 m, hold position for 60 s",
+        vec![
+            LegSpec::Takeoff { alt_m: 10.0 },
+            LegSpec::Hold { seconds: 60.0 },
+        ],
+        200.0,
+    );
+    s.limits = Limits {
+        hold_min_s: Some(60.0),
+        hold_horizontal_rms_m: Some(1.0),
+        hold_altitude_rms_m: Some(0.5),
+        hold_true_max_m: Some(3.0),
+        plan_complete: Some(true),
+        ..Limits::default()
+    };
+    s
+}
+
+/// Built-in scenario `rolls`: forward flight at 8 m/s, three autonomous aileron rolls,
+/// recovery to the trim trajectory.
+pub fn rolls() -> Scenario {
+    let mut s = base(
+        "rolls",
+        "take off, climb to 25 m, three autonomous aileron rolls from 8 m/s, recover, hold",
+        vec![
+            LegSpec::Takeoff { alt_m: 25.0 },
+            LegSpec::Hold { seconds: 5.0 },
+            LegSpec::Rolls {
+                count: 3,
+                speed_mps: 8.0,
+            },
+            LegSpec::Hold { seconds: 10.0 },
+        ],
+        260.0,
+    );
+    s.limits = Limits {
+        rolls_min: Some(3.0),
+        altitude_loss_max_m: Some(5.0),
+        recovery_attitude_max_deg: Some(15.0),
+        recovery_speed_max_mps: Some(3.0),
+        att_err_rms_max_deg: Some(1.5),
+        att_err_max_deg: Some(5.0),
+        pos_err_rms_max_m: Some(2.5),
+        plan_complete: Some(true),
+        ..Limits::default()
+    };
+    s
+}
+
+/// Built-in scenario `demo`, the default of `heli sim`: take-off, hover, three rolls, return
+/// and landing.
+pub fn demo() -> Scenario {
+    let mut s = base(
+        "demo",
+        "demonstration flight: take off, hover, three aileron rolls, fly home, land",
+        vec![
+            LegSpec::Takeoff { alt_m: 10.0 },
+            LegSpec::Hold { seconds: 10.0 },
+            LegSpec::Fly {
+                north_m: 0.0,
+                east_m: 0.0,
+                alt_m: 25.0,
+                speed_mps: 3.0,
+            },
+            LegSpec::Rolls {
+                count: 3,
+                speed_mps: 8.0,
+            },
+            LegSpec::Hold { seconds: 5.0 },
+            LegSpec::Fly {
+                north_m: 0.0,
+                east_m: 0.0,
+                alt_m: 10.0,
+                speed_mps: 5.0,
+            },
+            LegSpec::Hold { seconds: 5.0 },
+            LegSpec::Land,
+        ],
+        320.0,
+    );
+    s.limits = Limits {
+        rolls_min: Some(3.0),
+        altitude_loss_max_m: Some(5.0),
+        recovery_attitude_max_deg: Some(15.0),
+        recovery_speed_max_mps: Some(3.0),
+        att_err_max_deg: Some(5.0),
+        plan_complete: Some(true),
+        ..Limits::default()
+    };
+    s
+}
+
+/// Built-in scenario `rc-loss`: the pilot's transmitter is lost while the helicopter flies a
+/// path; the computer must hover.
+pub fn rc_loss() -> Scenario {
+    let mut s = base(
+        "rc-loss",
+        "transmitter lost while flying a path at 3 m/s: hover within 2 s, drift under 3 m",
+        vec![
+            LegSpec::Takeoff { alt_m: 10.0 },
+            LegSpec::Fly {
+                north_m: 150.0,
+                east_m: 0.0,
+                alt_m: 10.0,
+                speed_mps: 3.0,
+            },
+            LegSpec::Land,
+        ],
+        160.0,
+    );
+    s.faults.transmitter_lost = vec![[110.0, 1000.0]];
+    s.limits = Limits {
+        rc_loss_hover_within_s: Some(2.0),
+        rc_loss_drift_max_m: Some(3.0),
+        ..Limits::default()
+    };
+    s
+}
+
+/// Built-in scenario `gps-outage`: 10 s without GPS in hover.
+pub fn gps_outage() -> Scenario {
+    let mut s = hover();
+    s.name = "gps-outage".into();
+    s.description =
+        "10 s without GPS while hovering: no divergence, position error under 5 m".into();
+    s.faults.gps_outages = vec![[120.0, 130.0]];
+    s.limits.gps_outage_pos_err_max_m = Some(5.0);
+    s.limits.hold_true_max_m = Some(6.0);
+    s
+}
+
+/// All built-in scenarios, the default flight of `heli sim` first.
 pub fn builtins() -> Vec<Scenario> {
-    vec![hover()]
+    vec![demo(), hover(), rolls(), rc_loss(), gps_outage()]
 }
 
 /// A built-in scenario by name.
@@ -232,8 +442,8 @@ mod tests {
         assert_eq!(s.seed, 7);
         assert_eq!(s.wind_ned_mps, [3.0, 0.0, 0.0]);
         assert_eq!(s.faults.imu_drop_rate, 0.01);
-        assert_eq!(s.hold_s, 60.0, "inherited from hover");
-        assert_eq!(s.limits, Limits::default());
+        assert_eq!(s.plan, hover().plan, "inherited from hover");
+        assert_eq!(s.limits, hover().limits);
     }
 
     #[test]

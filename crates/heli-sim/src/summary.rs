@@ -93,8 +93,13 @@ pub struct LoopSummary {
 pub struct ManeuverSummary {
     /// Autonomous rolls completed.
     pub rolls_completed: u32,
-    /// Altitude lost during the maneuver sequence (m).
+    /// Altitude lost during the maneuver sequence (m): true altitude at its start minus the
+    /// lowest true altitude before the recovery ended.
     pub altitude_loss_m: f64,
+    /// Largest of |roll| and |pitch| when the recovery from the last roll ended (deg).
+    pub recovery_attitude_deg: Option<f64>,
+    /// Speed error against the trim speed when the recovery ended (m/s).
+    pub recovery_speed_error_mps: Option<f64>,
 }
 
 /// The position hold.

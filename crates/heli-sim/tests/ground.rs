@@ -9,7 +9,7 @@ fn dropped(height_m: f64, sink_mps: f64, roll_rad: f64) -> Simulation {
     let mut s = scenario::hover();
     s.duration_s = 6.0;
     s.pilot.auto = false;
-    let mut sim = Simulation::new(s);
+    let mut sim = Simulation::new(s).unwrap_or_else(|e| panic!("{e}"));
     let heli = sim.helicopter_mut();
     heli.state.pos_ned_m = Vector3::new(0.0, 0.0, -height_m);
     heli.state.att = UnitQuaternion::from_euler_angles(roll_rad, 0.0, 0.0);

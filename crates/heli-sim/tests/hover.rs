@@ -14,7 +14,7 @@ fn criterion(s: &Summary, name: &str) -> f64 {
 
 #[test]
 fn hover_takes_off_and_holds_position_within_limits() {
-    let s = run(scenario::hover());
+    let s = run(scenario::hover()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.outcome, Outcome::Pass, "{s:#?}");
     assert!(criterion(&s, "hold_duration_s") >= 60.0);
     assert!(criterion(&s, "hold_horizontal_rms_m") <= 1.0);
@@ -46,7 +46,7 @@ fn lost_imu_packets_are_each_covered_by_one_watchdog_firing() {
     for seed in 1..=12 {
         let text = format!("name = \"imu-drops\"\nseed = {seed}\n[faults]\nimu_drop_rate = 0.01\n");
         let scenario: Scenario = scenario::from_toml(&text).unwrap_or_else(|e| panic!("{e}"));
-        let s = run(scenario);
+        let s = run(scenario).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(s.outcome, Outcome::Pass, "seed {seed}: {s:#?}");
         assert!(
             s.loop_.imu_dropped > 50,
@@ -64,7 +64,7 @@ fn a_lost_first_imu_packet_is_noticed_by_the_watchdog() {
     scenario.seed = 23;
     scenario.faults.imu_drop_rate = 0.01;
     scenario.duration_s = 1.0;
-    let s = run(scenario);
+    let s = run(scenario).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.loop_.watchdog_fires, s.loop_.imu_dropped);
     assert!(s.loop_.imu_dropped >= 1);
 }
@@ -74,10 +74,10 @@ fn the_helicopter_leans_into_the_wind() {
     // Wind blowing toward the south (from the north) at 4 m/s: to hold position the
     // helicopter must pitch its nose down into it, more than in still air (fuselage drag
     // and the rotor blown back by the wind: about 0.9 deg at 4 m/s).
-    let still = run(scenario::hover());
+    let still = run(scenario::hover()).unwrap_or_else(|e| panic!("{e}"));
     let mut windy = scenario::hover();
     windy.wind_ned_mps = [-4.0, 0.0, 0.0];
-    let windy = run(windy);
+    let windy = run(windy).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(windy.outcome, Outcome::Pass, "{windy:#?}");
     assert!(
         windy.hold.mean_pitch_deg < still.hold.mean_pitch_deg - 0.5,
@@ -105,11 +105,11 @@ fn same_seed_gives_the_same_flight_bit_for_bit() {
     let mut scenario = scenario::hover();
     scenario.seed = 42;
     scenario.faults.imu_drop_rate = 0.005;
-    let a = deterministic_json(&run(scenario.clone()));
-    let b = deterministic_json(&run(scenario.clone()));
+    let a = deterministic_json(&run(scenario.clone()).unwrap_or_else(|e| panic!("{e}")));
+    let b = deterministic_json(&run(scenario.clone()).unwrap_or_else(|e| panic!("{e}")));
     assert_eq!(a, b);
     scenario.seed = 43;
-    let c = deterministic_json(&run(scenario));
+    let c = deterministic_json(&run(scenario).unwrap_or_else(|e| panic!("{e}")));
     assert_ne!(
         a["estimator"], c["estimator"],
         "the seed must reach the noise sources"
@@ -120,7 +120,7 @@ fn same_seed_gives_the_same_flight_bit_for_bit() {
 fn a_scenario_that_ends_before_the_hold_fails() {
     let mut scenario = scenario::hover();
     scenario.duration_s = 60.0;
-    let s = run(scenario);
+    let s = run(scenario).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.outcome, Outcome::Fail);
     assert!(s.hold.start_s.is_none());
 }

@@ -238,7 +238,7 @@ fn gps_solutions_arrive_one_second_after_their_epoch() {
     use heli_sim::lockstep::Simulation;
     let mut scenario = heli_sim::scenario::hover();
     scenario.duration_s = 20.0;
-    let mut sim = Simulation::new(scenario);
+    let mut sim = Simulation::new(scenario).unwrap_or_else(|e| panic!("{e}"));
     let mut fixes = Vec::new();
     let mut cursor = 0;
     while sim.advance(20_000_000) {

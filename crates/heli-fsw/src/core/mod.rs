@@ -23,9 +23,13 @@
     )
 )]
 
+pub mod mission;
 pub mod watchdog;
 
-use heli_control::{HoverController, HoverGains, Target, YawDamper, manual_with_yaw_damping};
+use heli_control::{
+    HoverController, HoverGains, RollGains, Target, YawDamper, manual_with_yaw_damping,
+    rolling_controls,
+};
 use heli_nav::{BiasCalibration, NavConfig, NavState, Navigator, seconds_between};
 use heli_proto::compass::{CompassAdc, CompassCalibration, heading_rad};
 use heli_proto::gps::GpsNav;
@@ -36,6 +40,7 @@ use nalgebra::Vector3;
 use crate::streams::{
     BaroRecord, CompassRecord, ImuRecord, Record, ServoRecord, Stamped, StateRecord,
 };
+use mission::{Leg, Plan, RollStage};
 use watchdog::{WATCHDOG_PERIOD_US, Watchdog};
 
 /// Configuration of the main control process.
@@ -53,6 +58,8 @@ pub struct CoreConfig {
     pub hover: HoverGains,
     /// Manual-mode yaw damping.
     pub yaw_damper: YawDamper,
+    /// The aileron roll.
+    pub roll: RollGains,
     /// Compass biases from its calibration routine (stored in flash on the vehicle).
     pub compass: CompassCalibration,
     /// Take-off ends when the altitude is within this of the target (m).
@@ -70,6 +77,7 @@ impl Default for CoreConfig {
             nav: NavConfig::default(),
             hover: HoverGains::default(),
             yaw_damper: YawDamper::default(),
+            roll: RollGains::default(),
             compass: CompassCalibration::default(),
             takeoff_tolerance_m: 0.3,
             airborne_height_m: 0.3,
@@ -91,15 +99,15 @@ pub enum FlightMode {
 pub struct FlightParams {
     /// Control system for this flight.
     pub mode: FlightMode,
-    /// Autonomous take-off height above the take-off point (m).
-    pub takeoff_alt_m: f64,
+    /// What to fly when the pilot's auto switch is on.
+    pub plan: Plan,
 }
 
 impl Default for FlightParams {
     fn default() -> Self {
         Self {
             mode: FlightMode::Manual,
-            takeoff_alt_m: 10.0,
+            plan: Plan::hover(10.0, f64::INFINITY),
         }
     }
 }
@@ -126,14 +134,41 @@ pub enum Phase {
         /// When the hold began (µs).
         since_us: u64,
     },
+    /// Velocity tracking along a straight path: the target moves toward `to_ned_m`.
+    Flying {
+        /// The moving target.
+        target: Target,
+        /// The end of the path (m, NED).
+        to_ned_m: Vector3<f64>,
+    },
+    /// The aileron-roll maneuver.
+    Maneuver {
+        /// The trim trajectory (moving target) used outside the rolls themselves.
+        target: Target,
+        /// Where in the maneuver.
+        stage: RollStage,
+        /// Rolls completed in this maneuver.
+        rolls_done: u32,
+    },
+    /// Vertical descent to the ground.
+    Landing {
+        /// The descending target.
+        target: Target,
+    },
+    /// On the skids after an autonomous landing.
+    Landed,
 }
 
 impl Phase {
     /// The target of an autonomous phase.
     pub fn target(&self) -> Option<Target> {
         match self {
-            Phase::TakingOff { target } | Phase::Holding { target, .. } => Some(*target),
-            Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe => None,
+            Phase::TakingOff { target }
+            | Phase::Holding { target, .. }
+            | Phase::Flying { target, .. }
+            | Phase::Maneuver { target, .. }
+            | Phase::Landing { target } => Some(*target),
+            Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe | Phase::Landed => None,
         }
     }
 
@@ -145,6 +180,20 @@ impl Phase {
             Phase::GroundFailsafe => "ground-failsafe",
             Phase::TakingOff { .. } => "takeoff",
             Phase::Holding { .. } => "hold",
+            Phase::Flying { .. } => "fly",
+            Phase::Maneuver { stage, .. } => stage.name(),
+            Phase::Landing { .. } => "land",
+            Phase::Landed => "landed",
+        }
+    }
+
+    /// Same kind of phase (a moving target or a turning roll does not count as a change).
+    fn same_kind(&self, other: &Phase) -> bool {
+        match (self, other) {
+            (Phase::Maneuver { stage: a, .. }, Phase::Maneuver { stage: b, .. }) => {
+                core::mem::discriminant(a) == core::mem::discriminant(b)
+            }
+            _ => core::mem::discriminant(self) == core::mem::discriminant(other),
         }
     }
 }
@@ -183,6 +232,14 @@ pub enum CoreEvent {
     WatchdogFired,
     /// The pilot's receiver signal was lost (all channels zero): hovering.
     PilotSignalLost,
+    /// An aileron roll was completed (the count so far in this flight).
+    RollCompleted(u32),
+    /// No GPS fix has been fused for the outage time: the estimate is coasting on the IMU.
+    GpsLost,
+    /// GPS fixes are fused again.
+    GpsRegained,
+    /// The last leg of the flight plan is done.
+    PlanComplete,
 }
 
 /// One output of the main control process.
@@ -217,6 +274,8 @@ pub struct CoreStats {
     pub compass_readings: u32,
     /// Inputs refused: time going backwards, or values that are not finite.
     pub rejected_inputs: u32,
+    /// Aileron rolls completed.
+    pub rolls_completed: u32,
 }
 
 /// The main control process.
@@ -235,6 +294,12 @@ pub struct FlightCore {
     odd_sample: bool,
     last_control_us: Option<u64>,
     last_input_us: u64,
+    /// Index of the plan leg being flown.
+    leg: usize,
+    plan_done: bool,
+    /// The plan was given up (transmitter lost in the air); it is not resumed.
+    plan_abandoned: bool,
+    gps_lost: bool,
     stats: CoreStats,
 }
 
@@ -255,6 +320,10 @@ impl FlightCore {
             odd_sample: false,
             last_control_us: None,
             last_input_us: 0,
+            leg: 0,
+            plan_done: false,
+            plan_abandoned: false,
+            gps_lost: false,
             stats: CoreStats::default(),
         }
     }
@@ -278,6 +347,11 @@ impl FlightCore {
     /// Current phase.
     pub fn phase(&self) -> Phase {
         self.phase
+    }
+
+    /// True once the last leg of the flight plan is done.
+    pub fn plan_complete(&self) -> bool {
+        self.plan_done
     }
 
     /// The navigation filter (estimate and aiding statistics).
@@ -420,15 +494,28 @@ impl FlightCore {
         self.nav.propagate(now_us, &previous, &current);
 
         let estimate = self.nav.state().copied();
-        let next_phase = self.next_phase(estimate.as_ref(), now_us);
-        if next_phase != self.phase {
-            if !matches!(
-                (self.phase, next_phase),
-                (Phase::TakingOff { .. }, Phase::Holding { .. })
+        let gps_lost = self.nav.gps_outage(now_us);
+        if gps_lost != self.gps_lost && estimate.is_some() {
+            self.gps_lost = gps_lost;
+            let event = if gps_lost {
+                CoreEvent::GpsLost
+            } else {
+                CoreEvent::GpsRegained
+            };
+            out.push(Action::Event(Stamped::new(now_us, event)));
+        }
+        let previous_phase = self.phase;
+        let next_phase = self.next_phase(estimate.as_ref(), now_us, dt_s, out);
+        self.phase = next_phase;
+        if !next_phase.same_kind(&previous_phase) {
+            // The trim-trajectory controller keeps its integrators through a climb, a path
+            // and a maneuver; it starts afresh after the pilot or the ground had control.
+            if matches!(
+                previous_phase,
+                Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe | Phase::Landed
             ) {
                 self.hover.reset();
             }
-            self.phase = next_phase;
             out.push(Action::Event(Stamped::new(
                 now_us,
                 CoreEvent::PhaseChanged(next_phase),
@@ -438,10 +525,29 @@ impl FlightCore {
         let pilot_sticks = self.pilot.and_then(|p| p.sticks()).unwrap_or_default();
         let yaw_rate = estimate.map_or(current.rate_rps[2], |s| s.rate_body_rps.z);
         let controls = match (self.phase, estimate) {
-            (Phase::TakingOff { target } | Phase::Holding { target, .. }, Some(est)) => {
+            (
+                Phase::Maneuver {
+                    stage: RollStage::Rolling { angle_rad },
+                    ..
+                },
+                Some(est),
+            ) => rolling_controls(&est, angle_rad, &self.config.roll),
+            (
+                Phase::TakingOff { target }
+                | Phase::Holding { target, .. }
+                | Phase::Flying { target, .. }
+                | Phase::Maneuver { target, .. }
+                | Phase::Landing { target },
+                Some(est),
+            ) => {
                 let airborne = self.height_above_home(&est) > self.config.airborne_height_m;
                 self.hover.update(&est, &target, dt_s, airborne)
             }
+            (Phase::Landed, _) => Controls {
+                collective: -0.1,
+                throttle: heli_control::GOVERNED_THROTTLE,
+                ..Controls::default()
+            },
             (Phase::GroundFailsafe, _) => Controls::default(),
             _ => manual_with_yaw_damping(&pilot_sticks, yaw_rate, &self.config.yaw_damper),
         };
@@ -470,7 +576,13 @@ impl FlightCore {
         self.home_ned_m.map_or(0.0, |home| home.z - est.pos_ned_m.z)
     }
 
-    fn next_phase(&self, estimate: Option<&NavState>, now_us: u64) -> Phase {
+    fn next_phase(
+        &mut self,
+        estimate: Option<&NavState>,
+        now_us: u64,
+        dt_s: f64,
+        out: &mut Vec<Action>,
+    ) -> Phase {
         let Some(est) = estimate else {
             return Phase::Calibrating;
         };
@@ -478,54 +590,295 @@ impl FlightCore {
         let signal_lost = pilot.is_some_and(|p| p.signal_lost());
         let auto_switch = pilot.is_some_and(|p| p.auto_mode);
         let (_, _, yaw) = est.euler_rad();
-        let here = Target {
-            pos_ned_m: est.pos_ned_m,
-            yaw_rad: yaw,
-        };
+        // Where the helicopter can stop: ahead by v²/2a at the controller's braking
+        // acceleration, so that a hold begun in motion does not fly back to where it began.
+        let horizontal_vel = Vector3::new(est.vel_ned_mps.x, est.vel_ned_mps.y, 0.0);
+        let braking = self.config.hover.max_accel_mps2.max(0.5);
+        let stop = horizontal_vel * (horizontal_vel.norm() / (2.0 * braking));
+        let here = Target::hold(est.pos_ned_m + stop, yaw);
         let on_ground = self.height_above_home(est) < self.config.airborne_height_m;
         let wants_auto = signal_lost || (self.params.mode == FlightMode::Autonomous && auto_switch);
         if !wants_auto {
             return Phase::Manual;
         }
-        match self.phase {
-            Phase::TakingOff { target } => {
-                let close =
-                    (est.pos_ned_m.z - target.pos_ned_m.z).abs() < self.config.takeoff_tolerance_m;
-                if close {
+        if signal_lost {
+            return match self.phase {
+                // A hold already in place (the plan's, or the loss's) is kept.
+                Phase::Holding { .. } => self.phase,
+                // The transmitter lost on the ground is no order to take off.
+                Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe | Phase::Landed
+                    if on_ground =>
+                {
+                    Phase::GroundFailsafe
+                }
+                // In the air: the thesis's "all channels zero" is a command to hover here. The
+                // plan is abandoned; the pilot takes over again when the signal returns.
+                _ => {
+                    self.plan_abandoned = true;
                     Phase::Holding {
-                        target,
+                        target: here,
                         since_us: now_us,
                     }
-                } else {
-                    self.phase
                 }
-            }
-            Phase::Holding { .. } => self.phase,
-            // The transmitter lost on the ground is no order to take off.
-            Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe
-                if signal_lost && on_ground =>
-            {
-                Phase::GroundFailsafe
-            }
+            };
+        }
+        match self.phase {
             Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe => {
-                if on_ground {
-                    let home = self.home_ned_m.unwrap_or(est.pos_ned_m);
-                    let climb = Vector3::new(0.0, 0.0, -self.params.takeoff_alt_m.max(0.0));
-                    Phase::TakingOff {
-                        target: Target {
-                            pos_ned_m: home + climb,
-                            yaw_rad: yaw,
-                        },
-                    }
+                if on_ground && !self.plan_done && !self.plan_abandoned {
+                    self.leg = 0;
+                    self.start_leg(est, now_us, out)
                 } else {
-                    // Auto switch on in the air, or the transmitter was lost: hover here
-                    // (the thesis: all channels zero is read as a command to hover).
+                    // Auto switch on in the air: hover here.
                     Phase::Holding {
                         target: here,
                         since_us: now_us,
                     }
                 }
             }
+            Phase::Landed => Phase::Landed,
+            Phase::TakingOff { target } => {
+                if (est.pos_ned_m.z - target.pos_ned_m.z).abs() < self.config.takeoff_tolerance_m {
+                    self.next_leg(est, now_us, out)
+                } else {
+                    self.phase
+                }
+            }
+            Phase::Holding { target, since_us } => match self.plan_leg() {
+                Some(Leg::Hold { seconds })
+                    if !self.plan_done
+                        && !self.plan_abandoned
+                        && seconds_between(since_us, now_us) >= seconds =>
+                {
+                    self.next_leg(est, now_us, out)
+                }
+                _ => Phase::Holding { target, since_us },
+            },
+            Phase::Flying { target, to_ned_m } => {
+                let speed = target.vel_ned_mps.norm();
+                let remaining = to_ned_m - target.pos_ned_m;
+                let step = speed * dt_s;
+                let target = if remaining.norm() <= step || speed <= 0.0 {
+                    Target {
+                        pos_ned_m: to_ned_m,
+                        vel_ned_mps: Vector3::zeros(),
+                        ..target
+                    }
+                } else {
+                    Target {
+                        pos_ned_m: target.pos_ned_m + remaining.normalize() * step,
+                        ..target
+                    }
+                };
+                let arrived = target.vel_ned_mps.norm() == 0.0
+                    && (est.pos_ned_m - to_ned_m).norm() < 1.5
+                    && est.vel_ned_mps.norm() < 1.0;
+                if arrived {
+                    self.next_leg(est, now_us, out)
+                } else {
+                    Phase::Flying { target, to_ned_m }
+                }
+            }
+            Phase::Maneuver {
+                target,
+                stage,
+                rolls_done,
+            } => self.maneuver(est, now_us, dt_s, target, stage, rolls_done, out),
+            Phase::Landing { target } => {
+                let home_z = self.home_ned_m.map_or(est.pos_ned_m.z, |h| h.z);
+                // Descend at the target's rate until it is a metre into the ground; the skids
+                // stop the helicopter first.
+                let z = (target.pos_ned_m.z + target.vel_ned_mps.z * dt_s).min(home_z + 1.0);
+                let target = Target {
+                    pos_ned_m: Vector3::new(target.pos_ned_m.x, target.pos_ned_m.y, z),
+                    ..target
+                };
+                if self.height_above_home(est) < 0.15 && est.vel_ned_mps.norm() < 0.3 {
+                    self.plan_done = true;
+                    out.push(Action::Event(Stamped::new(now_us, CoreEvent::PlanComplete)));
+                    Phase::Landed
+                } else {
+                    Phase::Landing { target }
+                }
+            }
+        }
+    }
+
+    fn plan_leg(&self) -> Option<Leg> {
+        self.params.plan.get(self.leg)
+    }
+
+    fn next_leg(&mut self, est: &NavState, now_us: u64, out: &mut Vec<Action>) -> Phase {
+        self.leg = self.leg.saturating_add(1);
+        self.start_leg(est, now_us, out)
+    }
+
+    /// The phase that flies the current leg, starting from where the helicopter is (or from
+    /// the previous phase's target, so that a hold does not jump by the estimate's jitter).
+    fn start_leg(&mut self, est: &NavState, now_us: u64, out: &mut Vec<Action>) -> Phase {
+        let (_, _, yaw) = est.euler_rad();
+        let from = self.phase.target().map_or(est.pos_ned_m, |t| t.pos_ned_m);
+        let home = self.home_ned_m.unwrap_or(est.pos_ned_m);
+        match self.plan_leg() {
+            Some(Leg::Takeoff { alt_m }) => Phase::TakingOff {
+                target: Target::hold(home + Vector3::new(0.0, 0.0, -alt_m), yaw),
+            },
+            Some(Leg::Hold { .. }) => Phase::Holding {
+                target: Target::hold(from, yaw),
+                since_us: now_us,
+            },
+            Some(Leg::Fly {
+                north_m,
+                east_m,
+                alt_m,
+                speed_mps,
+            }) => {
+                let to_ned_m = home + Vector3::new(north_m, east_m, -alt_m);
+                let path = to_ned_m - from;
+                let horizontal = Vector3::new(path.x, path.y, 0.0);
+                let heading = if horizontal.norm() > 5.0 {
+                    path.y.atan2(path.x)
+                } else {
+                    yaw
+                };
+                let vel = if path.norm() > 1e-6 {
+                    path.normalize() * speed_mps
+                } else {
+                    Vector3::zeros()
+                };
+                Phase::Flying {
+                    target: Target {
+                        pos_ned_m: from,
+                        vel_ned_mps: vel,
+                        yaw_rad: heading,
+                    },
+                    to_ned_m,
+                }
+            }
+            Some(Leg::Rolls { speed_mps, .. }) => {
+                let dir = Vector3::new(yaw.cos(), yaw.sin(), 0.0);
+                Phase::Maneuver {
+                    target: Target {
+                        pos_ned_m: from,
+                        vel_ned_mps: dir * speed_mps,
+                        yaw_rad: yaw,
+                    },
+                    stage: RollStage::Accelerate { since_us: now_us },
+                    rolls_done: 0,
+                }
+            }
+            Some(Leg::Land) => Phase::Landing {
+                target: Target {
+                    pos_ned_m: from,
+                    vel_ned_mps: Vector3::new(0.0, 0.0, 0.5),
+                    yaw_rad: yaw,
+                },
+            },
+            None => {
+                if !self.plan_done {
+                    self.plan_done = true;
+                    out.push(Action::Event(Stamped::new(now_us, CoreEvent::PlanComplete)));
+                }
+                Phase::Holding {
+                    target: Target::hold(from, yaw),
+                    since_us: now_us,
+                }
+            }
+        }
+    }
+
+    /// One step of the roll maneuver's stage machine.
+    #[allow(clippy::too_many_arguments)]
+    fn maneuver(
+        &mut self,
+        est: &NavState,
+        now_us: u64,
+        dt_s: f64,
+        target: Target,
+        stage: RollStage,
+        rolls_done: u32,
+        out: &mut Vec<Action>,
+    ) -> Phase {
+        let g = self.config.roll;
+        let Some(Leg::Rolls { count, speed_mps }) = self.plan_leg() else {
+            return self.next_leg(est, now_us, out);
+        };
+        let dir = Vector3::new(target.yaw_rad.cos(), target.yaw_rad.sin(), 0.0);
+        let trim_vel = dir * speed_mps;
+        // The trim trajectory: straight and level at the trim speed, carried along.
+        let carried = Target {
+            pos_ned_m: target.pos_ned_m + target.vel_ned_mps * dt_s,
+            ..target
+        };
+        let stage = match stage {
+            RollStage::Accelerate { since_us } => {
+                let settled = (est.vel_ned_mps - trim_vel).norm() < 1.0;
+                if settled && seconds_between(since_us, now_us) > 6.0 {
+                    RollStage::PullUp { since_us: now_us }
+                } else {
+                    stage
+                }
+            }
+            RollStage::PullUp { since_us } => {
+                if seconds_between(since_us, now_us) >= g.pull_up_s {
+                    RollStage::Rolling { angle_rad: 0.0 }
+                } else {
+                    stage
+                }
+            }
+            RollStage::Rolling { angle_rad } => {
+                let angle_rad = angle_rad + est.rate_body_rps.x * dt_s;
+                if angle_rad >= 2.0 * core::f64::consts::PI - g.exit_lead_rad {
+                    self.stats.rolls_completed = self.stats.rolls_completed.saturating_add(1);
+                    out.push(Action::Event(Stamped::new(
+                        now_us,
+                        CoreEvent::RollCompleted(self.stats.rolls_completed),
+                    )));
+                    let done = rolls_done.saturating_add(1);
+                    // Back on the trim trajectory from here, at this height.
+                    let target = Target {
+                        pos_ned_m: est.pos_ned_m,
+                        vel_ned_mps: trim_vel,
+                        ..target
+                    };
+                    return Phase::Maneuver {
+                        target,
+                        stage: RollStage::Recover { since_us: now_us },
+                        rolls_done: done,
+                    };
+                }
+                RollStage::Rolling { angle_rad }
+            }
+            RollStage::Recover { since_us } => {
+                if seconds_between(since_us, now_us) < g.recover_s {
+                    stage
+                } else if rolls_done < count {
+                    RollStage::PullUp { since_us: now_us }
+                } else {
+                    self.phase = Phase::Maneuver {
+                        target: carried,
+                        stage,
+                        rolls_done,
+                    };
+                    return self.next_leg(est, now_us, out);
+                }
+            }
+        };
+        let vel_ned_mps = match stage {
+            RollStage::PullUp { .. } => trim_vel + Vector3::new(0.0, 0.0, -g.pull_up_climb_mps),
+            _ => trim_vel,
+        };
+        let mut target = Target {
+            vel_ned_mps,
+            ..carried
+        };
+        if let RollStage::Rolling { .. } = stage {
+            // While rolling the trajectory only keeps up with the helicopter.
+            target.pos_ned_m = est.pos_ned_m;
+        }
+        Phase::Maneuver {
+            target,
+            stage,
+            rolls_done,
         }
     }
 }
@@ -622,7 +975,7 @@ mod tests {
             },
             FlightParams {
                 mode: FlightMode::Autonomous,
-                takeoff_alt_m: 10.0,
+                plan: Plan::hover(10.0, 60.0),
             },
         );
         let mut out = Vec::new();

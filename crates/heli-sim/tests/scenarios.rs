@@ -1,0 +1,127 @@
+//! Every built-in scenario passes its criteria on ten seeds, and the criteria measure what
+//! their names say.
+
+use heli_sim::scenario::{self, Scenario};
+use heli_sim::{Outcome, Summary, run};
+
+fn fly(scenario: &Scenario, seed: u64) -> Summary {
+    let mut s = scenario.clone();
+    s.seed = seed;
+    run(s).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn value(s: &Summary, name: &str) -> f64 {
+    s.criteria
+        .iter()
+        .find(|c| c.name == name)
+        .map_or(f64::NAN, |c| c.value)
+}
+
+fn passes_on_ten_seeds(scenario: &Scenario) -> Vec<Summary> {
+    (1..=10)
+        .map(|seed| {
+            let s = fly(scenario, seed);
+            let failed: Vec<_> = s.criteria.iter().filter(|c| !c.pass).collect();
+            assert_eq!(
+                s.outcome,
+                Outcome::Pass,
+                "{} seed {seed}: {failed:?} crash {:?}",
+                scenario.name,
+                s.crash
+            );
+            s
+        })
+        .collect()
+}
+
+#[test]
+fn rolls_three_autonomous_aileron_rolls_on_ten_seeds() {
+    for s in passes_on_ten_seeds(&scenario::rolls()) {
+        assert_eq!(s.maneuvers.rolls_completed, 3);
+        assert!(s.maneuvers.altitude_loss_m <= 5.0);
+        assert!(
+            s.estimator.att_err_rms_deg <= 1.5 && s.estimator.att_err_max_deg <= 5.0,
+            "{:?}",
+            s.estimator
+        );
+        assert!(s.estimator.pos_err_rms_m <= 2.5);
+        assert_eq!(
+            s.events.iter().filter(|e| e.contains("completed")).count(),
+            3
+        );
+    }
+}
+
+#[test]
+fn rc_loss_hovers_within_two_seconds_and_stays_on_ten_seeds() {
+    for s in passes_on_ten_seeds(&scenario::rc_loss()) {
+        assert!(value(&s, "rc_loss_hover_after_s") <= 2.0);
+        assert!(value(&s, "rc_loss_drift_m") <= 3.0);
+        assert!(s.events.iter().any(|e| e.contains("pilot signal lost")));
+    }
+}
+
+#[test]
+fn gps_outage_is_survived_and_reported_on_ten_seeds() {
+    for s in passes_on_ten_seeds(&scenario::gps_outage()) {
+        assert!(value(&s, "gps_outage_pos_err_m") <= 5.0);
+        // The outage (120-130 s) is reported once, a few seconds in, and its end too.
+        let lost: Vec<_> = s.events.iter().filter(|e| e.contains("GPS lost")).collect();
+        assert_eq!(lost.len(), 1, "{:?}", s.events);
+        assert!(lost[0].starts_with("t=123."), "{lost:?}");
+        assert!(
+            s.events.iter().any(|e| e.contains("GPS back")),
+            "{:?}",
+            s.events
+        );
+    }
+}
+
+#[test]
+fn hover_in_5_mps_wind_and_turbulence_on_ten_seeds() {
+    let mut windy = scenario::hover();
+    windy.name = "hover-wind".into();
+    windy.wind_ned_mps = [5.0, 0.0, 0.0];
+    windy.turbulence_sigma_mps = 0.5;
+    windy.limits.hold_horizontal_rms_m = Some(0.5);
+    windy.limits.hold_true_max_m = Some(3.0);
+    passes_on_ten_seeds(&windy);
+}
+
+#[test]
+fn hover_on_ten_seeds() {
+    passes_on_ten_seeds(&scenario::hover());
+}
+
+#[test]
+fn the_demonstration_flight_rolls_returns_and_lands_on_ten_seeds() {
+    for s in passes_on_ten_seeds(&scenario::demo()) {
+        assert_eq!(s.maneuvers.rolls_completed, 3);
+        assert!(
+            s.events.iter().any(|e| e.contains("phase landed")),
+            "{:?}",
+            s.events
+        );
+    }
+}
+
+#[test]
+fn a_roll_criterion_fails_when_the_rolls_are_not_flown() {
+    // The criteria are not decoration: a plan without the rolls fails them.
+    let mut no_rolls = scenario::rolls();
+    no_rolls
+        .plan
+        .retain(|leg| !matches!(leg, heli_sim::scenario::LegSpec::Rolls { .. }));
+    let s = fly(&no_rolls, 1);
+    assert_eq!(s.outcome, Outcome::Fail);
+    assert!(
+        s.criteria
+            .iter()
+            .any(|c| c.name == "rolls_completed" && !c.pass)
+    );
+    assert!(
+        s.criteria
+            .iter()
+            .any(|c| c.name == "altitude_loss_m" && !c.pass)
+    );
+}
