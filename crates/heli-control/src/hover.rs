@@ -110,6 +110,15 @@ impl Target {
     }
 }
 
+/// A step time made safe: not finite becomes 0, and at most 0.1 s.
+pub fn sanitize_dt(dt_s: f64) -> f64 {
+    if dt_s.is_finite() {
+        dt_s.clamp(0.0, 0.1)
+    } else {
+        0.0
+    }
+}
+
 /// The hover controller with its integrator states.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct HoverController {
@@ -138,8 +147,8 @@ impl HoverController {
         self.tail_feedforward = None;
     }
 
-    /// One control step of `dt_s`. `airborne` enables the horizontal and yaw integrators
-    /// (skids on the ground would wind them up).
+    /// One control step of `dt_s` toward `target`. `airborne` enables the horizontal and yaw
+    /// integrators (skids on the ground would wind them up).
     pub fn update(
         &mut self,
         est: &NavState,
@@ -147,18 +156,12 @@ impl HoverController {
         dt_s: f64,
         airborne: bool,
     ) -> Controls {
-        let g = &self.gains;
-        let dt = if dt_s.is_finite() {
-            dt_s.clamp(0.0, 0.1)
-        } else {
-            0.0
-        };
-        let (roll, pitch, yaw) = est.euler_rad();
+        let g = self.gains;
+        let dt = sanitize_dt(dt_s);
+        let (_, _, yaw) = est.euler_rad();
         let pos = est.pos_ned_m;
-        let vel = est.vel_ned_mps;
-        let rate = est.rate_body_rps;
 
-        // Horizontal: position -> velocity -> acceleration (NED).
+        // Horizontal: position -> velocity (target's velocity as feedforward).
         let pos_err = Vector3::new(target.pos_ned_m.x - pos.x, target.pos_ned_m.y - pos.y, 0.0);
         let mut correction = pos_err * g.pos_to_vel;
         let speed = correction.norm();
@@ -166,6 +169,41 @@ impl HoverController {
             correction *= g.max_horizontal_speed_mps / speed;
         }
         let vel_cmd = Vector3::new(target.vel_ned_mps.x, target.vel_ned_mps.y, 0.0) + correction;
+        let (roll_cmd, pitch_cmd) = self.velocity_to_attitude(est, &vel_cmd, dt, airborne);
+        let (aileron, elevator) = self.attitude_to_cyclic(est, roll_cmd, pitch_cmd);
+
+        // Vertical: altitude -> climb rate (NED: down is positive).
+        let w_cmd = target.vel_ned_mps.z
+            + (g.alt_to_climb * (target.pos_ned_m.z - pos.z))
+                .clamp(-g.max_climb_mps, g.max_descent_mps);
+        let collective = self.climb_to_collective(est, w_cmd, dt);
+
+        // Heading -> yaw rate.
+        let yaw_err = heli_nav::navigator::wrap_pi(target.yaw_rad - yaw);
+        let r_cmd = limit(g.heading_to_rate * yaw_err, g.max_yaw_rate_rps);
+        let rudder = self.yaw_rate_to_tail(est, r_cmd, collective, dt, airborne);
+
+        Controls {
+            aileron: limit(aileron, 1.0),
+            elevator: limit(elevator, 1.0),
+            rudder: limit(rudder, 1.0),
+            collective: limit(collective, 1.0),
+            throttle: GOVERNED_THROTTLE,
+        }
+    }
+
+    /// Horizontal velocity command (NED) -> roll and pitch commands: acceleration with an
+    /// integrator (in the air only), into the heading frame, nose down to go forward.
+    pub fn velocity_to_attitude(
+        &mut self,
+        est: &NavState,
+        vel_cmd: &Vector3<f64>,
+        dt: f64,
+        airborne: bool,
+    ) -> (f64, f64) {
+        let g = self.gains;
+        let (_, _, yaw) = est.euler_rad();
+        let vel = est.vel_ned_mps;
         let vel_err = Vector3::new(vel_cmd.x - vel.x, vel_cmd.y - vel.y, 0.0);
         if airborne {
             self.vel_integral += vel_err * dt;
@@ -177,38 +215,64 @@ impl HoverController {
         if a > g.max_accel_mps2 {
             accel_cmd *= g.max_accel_mps2 / a;
         }
-        // Into the heading frame, then to tilt: nose down accelerates forward.
         let (s, c) = yaw.sin_cos();
         let accel_fwd = c * accel_cmd.x + s * accel_cmd.y;
         let accel_right = -s * accel_cmd.x + c * accel_cmd.y;
         let gravity = heli_nav::GRAVITY_MPS2;
         let pitch_cmd = limit(-(accel_fwd / gravity).atan(), g.max_tilt_rad);
         let roll_cmd = limit((accel_right / gravity).atan(), g.max_tilt_rad);
+        (roll_cmd, pitch_cmd)
+    }
 
-        // Attitude -> rate -> cyclic.
+    /// Roll and pitch commands -> rate commands -> lateral and longitudinal cyclic.
+    pub fn attitude_to_cyclic(&self, est: &NavState, roll_cmd: f64, pitch_cmd: f64) -> (f64, f64) {
+        let g = self.gains;
+        let (roll, pitch, _) = est.euler_rad();
         let p_cmd = limit(g.att_to_rate * (roll_cmd - roll), g.max_rate_rps);
         let q_cmd = limit(g.att_to_rate * (pitch_cmd - pitch), g.max_rate_rps);
+        self.rates_to_cyclic(est, p_cmd, q_cmd)
+    }
+
+    /// Roll and pitch rate commands -> cyclic (feedforward of the rotor's inverse DC gain plus
+    /// feedback).
+    pub fn rates_to_cyclic(&self, est: &NavState, p_cmd: f64, q_cmd: f64) -> (f64, f64) {
+        let g = self.gains;
+        let rate = est.rate_body_rps;
         let aileron = g.rate_feedforward * p_cmd + g.rate_feedback * (p_cmd - rate.x);
         let elevator = g.rate_feedforward * q_cmd + g.rate_feedback * (q_cmd - rate.y);
+        (limit(aileron, 1.0), limit(elevator, 1.0))
+    }
 
-        // Vertical: altitude -> climb rate -> collective (NED: down is positive).
-        let w_cmd = target.vel_ned_mps.z
-            + (g.alt_to_climb * (target.pos_ned_m.z - pos.z))
-                .clamp(-g.max_climb_mps, g.max_descent_mps);
-        let w_err = w_cmd - vel.z;
+    /// Climb-rate command (NED, down positive) -> collective, with the hover feedforward
+    /// corrected for tilt and an integrator.
+    pub fn climb_to_collective(&mut self, est: &NavState, w_cmd: f64, dt: f64) -> f64 {
+        let g = self.gains;
+        let (roll, pitch, _) = est.euler_rad();
+        let w_err = w_cmd - est.vel_ned_mps.z;
         self.climb_integral = limit(
             self.climb_integral + w_err * dt,
             0.5 / g.climb_integral.max(1e-6),
         );
         let tilt_cos = (roll.cos() * pitch.cos()).max(0.5);
-        let collective = g.hover_collective / tilt_cos
-            - g.climb_feedback * w_err
-            - g.climb_integral * self.climb_integral;
+        limit(
+            g.hover_collective / tilt_cos
+                - g.climb_feedback * w_err
+                - g.climb_integral * self.climb_integral,
+            1.0,
+        )
+    }
 
-        // Heading -> yaw rate -> tail.
-        let yaw_err = heli_nav::navigator::wrap_pi(target.yaw_rad - yaw);
-        let r_cmd = limit(g.heading_to_rate * yaw_err, g.max_yaw_rate_rps);
-        let r_err = r_cmd - rate.z;
+    /// Yaw-rate command -> tail, with the rotor-torque feedforward lagged like the engine.
+    pub fn yaw_rate_to_tail(
+        &mut self,
+        est: &NavState,
+        r_cmd: f64,
+        collective: f64,
+        dt: f64,
+        airborne: bool,
+    ) -> f64 {
+        let g = self.gains;
+        let r_err = r_cmd - est.rate_body_rps.z;
         if airborne {
             self.yaw_integral = limit(
                 self.yaw_integral + r_err * dt,
@@ -225,15 +289,10 @@ impl HoverController {
         let alpha = (dt / g.tail_feedforward_lag_s.max(dt).max(1e-6)).clamp(0.0, 1.0);
         let lagged = limit(lagged + alpha * (torque_feedforward - lagged), 1.0);
         self.tail_feedforward = Some(lagged);
-        let rudder = lagged + g.yaw_rate_feedback * r_err + g.yaw_integral * self.yaw_integral;
-
-        Controls {
-            aileron: limit(aileron, 1.0),
-            elevator: limit(elevator, 1.0),
-            rudder: limit(rudder, 1.0),
-            collective: limit(collective, 1.0),
-            throttle: GOVERNED_THROTTLE,
-        }
+        limit(
+            lagged + g.yaw_rate_feedback * r_err + g.yaw_integral * self.yaw_integral,
+            1.0,
+        )
     }
 }
 

@@ -26,10 +26,12 @@
     )
 )]
 
+pub mod augmented;
 pub mod hover;
 pub mod manual;
 pub mod roll;
 
+pub use augmented::{AugmentedMode, StickScales, augmented_controls};
 pub use hover::{HoverController, HoverGains, Target};
 pub use manual::{YawDamper, manual_with_yaw_damping};
 pub use roll::{RollGains, rolling_controls};

@@ -17,6 +17,7 @@ pub mod ground;
 pub mod lockstep;
 pub mod model;
 pub mod params;
+pub mod pilot;
 pub mod rotor;
 pub mod scenario;
 pub mod summary;

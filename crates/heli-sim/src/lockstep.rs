@@ -34,12 +34,14 @@ use crate::devices::imu::{ImuDevice, ImuErrors, RotorPhase};
 use crate::devices::scb::{PilotCommand, ScbDevice};
 use crate::devices::{Bytes, Noise, transmit_time_us};
 use crate::model::{Environment, Helicopter};
+use crate::pilot::{HoveringPilot, seen_by_pilot};
 use crate::scenario::{Mode, Scenario, ScenarioError};
 use crate::summary::{
     Criterion, DeviceSummary, EstimatorSummary, HoldSummary, LinkSummary, LoopSummary,
     ManeuverSummary, Outcome, Rms, Summary,
 };
 use crate::turbulence::Turbulence;
+use heli_control::AugmentedMode;
 use heli_fsw::core::mission::{Plan, RollStage};
 
 /// Physics integration step (µs): 500 Hz RK4.
@@ -175,6 +177,14 @@ struct Metrics {
     rc_hover_pos: Option<Vector3<f64>>,
     rc_drift_max_m: f64,
     gps_outage_pos_err: Vec<f64>,
+    manual_start: Option<Vector3<f64>>,
+    manual_yaw_rate_max_dps: f64,
+    manual_distance_max_m: f64,
+    sweep_roll_rate: Rms,
+    velocity_tracking_max_mps: f64,
+    yaw_rate_tracking_max_dps: f64,
+    start_alt_m: Option<f64>,
+    max_alt_m: f64,
     hold_time_s: f64,
     home_offset: Option<Vector3<f64>>,
     target_offset: Vector3<f64>,
@@ -189,6 +199,8 @@ pub struct Simulation {
     scenario: Scenario,
     heli: Helicopter,
     actuators: Actuators,
+    hands: HoveringPilot,
+    hand_sticks: Option<Controls>,
     turbulence: Turbulence,
     gust_ned_mps: Vector3<f64>,
     rotor_azimuth_rad: f64,
@@ -226,16 +238,20 @@ impl Simulation {
             atmosphere: scenario.atmosphere,
         };
         let airframe = scenario.airframe.clone();
-        let rotor_rps =
-            scenario.pilot.throttle * airframe.governor_full_scale_rpm * std::f64::consts::PI
-                / 30.0;
+        let rotor_rps = scenario.pilot.scripted(0.0).throttle
+            * airframe.governor_full_scale_rpm
+            * std::f64::consts::PI
+            / 30.0;
         let mut heli = Helicopter::on_ground(airframe, rotor_rps);
-        let pilot_col = scenario.pilot.collective * heli.airframe.collective_max_rad;
+        let pilot_col = scenario.pilot.scripted(0.0).collective * heli.airframe.collective_max_rad;
         heli.trim_governor(pilot_col, &env);
         let params = FlightParams {
             mode: match scenario.mode {
                 Mode::Manual => FlightMode::Manual,
                 Mode::Autonomous => FlightMode::Autonomous,
+                Mode::Rate => FlightMode::Augmented(AugmentedMode::Rate),
+                Mode::Attitude => FlightMode::Augmented(AugmentedMode::Attitude),
+                Mode::Velocity => FlightMode::Augmented(AugmentedMode::Velocity),
             },
             plan,
         };
@@ -251,6 +267,8 @@ impl Simulation {
         };
         let mut sim = Self {
             actuators,
+            hands: HoveringPilot::default(),
+            hand_sticks: None,
             turbulence: Turbulence::new(scenario.turbulence_sigma_mps, Noise::new(seed, 6)),
             gust_ned_mps: Vector3::zeros(),
             rotor_azimuth_rad: 0.0,
@@ -344,26 +362,56 @@ impl Simulation {
             .transmitter_lost
             .iter()
             .any(|[start, end]| t_s >= *start && t_s < *end);
+        let p = &self.scenario.pilot;
+        let scripted = p.scripted(t_s);
+        let sticks = match self.hand_sticks {
+            // The pilot hovers by hand; the scripted inputs ride on top.
+            Some(hands) => Controls {
+                aileron: hands.aileron + scripted.aileron - p.aileron,
+                elevator: hands.elevator + scripted.elevator - p.elevator,
+                rudder: hands.rudder + scripted.rudder - p.rudder,
+                collective: hands.collective + scripted.collective - p.collective,
+                throttle: scripted.throttle,
+            }
+            .clamped(),
+            None => scripted,
+        };
         PilotCommand {
+            sticks,
+            auto_mode: p.auto_at(t_s),
+            bypass: p.bypass_at(t_s),
             signal_lost: lost,
-            ..Self::pilot_of(&self.scenario)
         }
     }
 
     fn pilot_of(scenario: &Scenario) -> PilotCommand {
-        let p = scenario.pilot;
+        let p = &scenario.pilot;
         PilotCommand {
-            sticks: Controls {
-                aileron: p.aileron,
-                elevator: p.elevator,
-                rudder: p.rudder,
-                collective: p.collective,
-                throttle: p.throttle,
-            },
-            auto_mode: p.auto,
+            sticks: p.scripted(0.0),
+            auto_mode: p.auto_at(0.0),
             bypass: false,
             signal_lost: false,
         }
+    }
+
+    /// The hovering pilot's hands, at the uplink rate, while the auto switch is off.
+    fn move_hands(&mut self) {
+        let t_s = self.now_us as f64 * 1e-6;
+        let p = &self.scenario.pilot;
+        if !p.hovers_in_manual || p.auto_at(t_s) {
+            self.hand_sticks = None;
+            self.hands.release();
+            return;
+        }
+        let s = self.heli.state;
+        let truth = seen_by_pilot(
+            self.now_us,
+            s.att,
+            s.vel_ned_mps(),
+            s.pos_ned_m,
+            s.rate_body_rps,
+        );
+        self.hand_sticks = Some(self.hands.sticks(&truth, UPLINK_PERIOD_US as f64 * 1e-6));
     }
 
     /// Runs to the end of the flight plan, the duration, or a crash.
@@ -468,6 +516,7 @@ impl Simulation {
                 self.schedule(now + IMU_PERIOD_US, Kind::ImuSample);
             }
             Kind::UplinkSample => {
+                self.move_hands();
                 let rpm = self.heli.state.rotor_rps * 30.0 / std::f64::consts::PI;
                 let bytes = self.scb.uplink(&self.pilot(), rpm);
                 self.send_to_computer(Port::Scb, bytes, now);
@@ -664,6 +713,7 @@ impl Simulation {
         self.measure_gps_outages(pos_err);
         self.measure_maneuver(s);
         self.measure_rc_loss();
+        self.measure_pilot();
         self.metrics
             .vel
             .add((est.vel_ned_mps - truth.vel_ned_mps()).norm());
@@ -747,6 +797,69 @@ impl Simulation {
                 let speed = self.heli.state.vel_ned_mps().xy().norm();
                 self.metrics.recovery_speed_error_mps = Some((speed - trim).abs());
             }
+        }
+    }
+
+    /// Manual flight, sweeps and augmented tracking, judged on the truth.
+    fn measure_pilot(&mut self) {
+        let t_s = self.now_us as f64 * 1e-6;
+        let s = self.heli.state;
+        let alt = -s.pos_ned_m.z;
+        let start_alt = *self.metrics.start_alt_m.get_or_insert(alt);
+        self.metrics.max_alt_m = self.metrics.max_alt_m.max(alt - start_alt);
+        let pilot = self.pilot();
+        let manual = !pilot.auto_mode || pilot.bypass;
+        if manual {
+            let start = *self.metrics.manual_start.get_or_insert(s.pos_ned_m);
+            self.metrics.manual_yaw_rate_max_dps = self
+                .metrics
+                .manual_yaw_rate_max_dps
+                .max(s.rate_body_rps.z.abs().to_degrees());
+            self.metrics.manual_distance_max_m = self
+                .metrics
+                .manual_distance_max_m
+                .max((s.pos_ned_m - start).xy().norm());
+        }
+        let inputs = &self.scenario.pilot.inputs;
+        if inputs.iter().any(|i| {
+            i.shape == crate::pilot::Shape::Sweep
+                && (0.0..i.duration_s).contains(&(t_s - i.start_s))
+        }) {
+            self.metrics
+                .sweep_roll_rate
+                .add(s.rate_body_rps.x.to_degrees());
+        }
+        let settling = |channels: &[crate::pilot::Channel]| {
+            inputs.iter().any(|i| {
+                channels.contains(&i.channel)
+                    && (i.duration_s - 1.0..i.duration_s).contains(&(t_s - i.start_s))
+            })
+        };
+        if self.scenario.mode == Mode::Velocity && settling(&[crate::pilot::Channel::Rudder]) {
+            let cmd = pilot.sticks.rudder.clamp(-1.0, 1.0)
+                * heli_control::StickScales::default().yaw_rate_rps;
+            let err = (s.rate_body_rps.z - cmd).abs().to_degrees();
+            self.metrics.yaw_rate_tracking_max_dps =
+                self.metrics.yaw_rate_tracking_max_dps.max(err);
+        }
+        if self.scenario.mode == Mode::Velocity
+            && settling(&[
+                crate::pilot::Channel::Aileron,
+                crate::pilot::Channel::Elevator,
+            ])
+        {
+            let cmd = AugmentedMode::commanded_velocity(
+                &pilot.sticks,
+                &heli_control::StickScales::default(),
+            );
+            let (_, _, yaw) = s.att.euler_angles();
+            let v = s.vel_ned_mps();
+            let (sy, cy) = yaw.sin_cos();
+            let fwd = cy * v.x + sy * v.y;
+            let right = -sy * v.x + cy * v.y;
+            let err = ((fwd - cmd.x).powi(2) + (right - cmd.y).powi(2)).sqrt();
+            self.metrics.velocity_tracking_max_mps =
+                self.metrics.velocity_tracking_max_mps.max(err);
         }
     }
 
@@ -899,6 +1012,36 @@ impl Simulation {
             outage_err,
             limits.gps_outage_pos_err_max_m,
         );
+        at_most(
+            "manual_yaw_rate_max_dps",
+            m.manual_yaw_rate_max_dps,
+            limits.manual_yaw_rate_max_dps,
+        );
+        at_most(
+            "manual_distance_max_m",
+            m.manual_distance_max_m,
+            limits.manual_distance_max_m,
+        );
+        at_most(
+            "velocity_tracking_max_mps",
+            m.velocity_tracking_max_mps,
+            limits.velocity_tracking_max_mps,
+        );
+        at_most(
+            "yaw_rate_tracking_max_dps",
+            m.yaw_rate_tracking_max_dps,
+            limits.yaw_rate_tracking_max_dps,
+        );
+        if let Some(min) = limits.sweep_roll_rate_rms_min_dps {
+            criteria.push(Criterion::at_least(
+                "sweep_roll_rate_rms_dps",
+                m.sweep_roll_rate.rms(),
+                min,
+            ));
+        }
+        if let Some(min) = limits.climb_min_m {
+            criteria.push(Criterion::at_least("climb_m", m.max_alt_m, min));
+        }
         if let Some(min) = limits.hold_min_s {
             criteria.push(Criterion::at_least("hold_duration_s", hold_duration, min));
         }

@@ -12,40 +12,17 @@ use crate::params::{Airframe, Atmosphere};
 pub enum Mode {
     /// Pilot flies; computer yaw damping.
     Manual,
-    /// Computer takes off and holds position when the pilot's auto switch is on.
+    /// Computer flies the plan when the pilot's auto switch is on.
     Autonomous,
+    /// Augmented: the sticks command roll, pitch and yaw rates (auto switch on).
+    Rate,
+    /// Augmented: the sticks command roll and pitch angles and yaw rate (auto switch on).
+    Attitude,
+    /// Augmented: the sticks command velocity, climb rate and yaw rate (auto switch on).
+    Velocity,
 }
 
-/// The pilot's transmitter for the whole flight (scripted inputs come in a later issue).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct Pilot {
-    /// Aileron stick, −1..1.
-    pub aileron: f64,
-    /// Elevator stick, −1..1.
-    pub elevator: f64,
-    /// Rudder stick, −1..1.
-    pub rudder: f64,
-    /// Collective stick, −1..1.
-    pub collective: f64,
-    /// Throttle channel, 0..1 (0.8 governs the rotor at 1600 rpm).
-    pub throttle: f64,
-    /// Auto switch.
-    pub auto: bool,
-}
-
-impl Default for Pilot {
-    fn default() -> Self {
-        Self {
-            aileron: 0.0,
-            elevator: 0.0,
-            rudder: 0.0,
-            collective: 0.0,
-            throttle: 0.8,
-            auto: true,
-        }
-    }
-}
+pub use crate::pilot::{Channel, Pilot, Shape, StickInput};
 
 /// Pass/fail limits; a criterion is judged only when its limit is set.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -84,6 +61,22 @@ pub struct Limits {
     pub gps_outage_pos_err_max_m: Option<f64>,
     /// The flight plan must be completed.
     pub plan_complete: Option<bool>,
+    /// In manual flight (auto switch off): largest true yaw rate (deg/s) — the computer's yaw
+    /// damping at work.
+    pub manual_yaw_rate_max_dps: Option<f64>,
+    /// In manual flight: largest true horizontal distance from where it began (m).
+    pub manual_distance_max_m: Option<f64>,
+    /// During scripted sweeps: least true roll-rate RMS (deg/s), i.e. the sweep was flown.
+    pub sweep_roll_rate_rms_min_dps: Option<f64>,
+    /// Augmented velocity mode: largest error between the velocity the sticks command and
+    /// the true velocity, over the last second of each scripted aileron or elevator input
+    /// (m/s).
+    pub velocity_tracking_max_mps: Option<f64>,
+    /// Augmented velocity mode: least true height gained (m).
+    pub climb_min_m: Option<f64>,
+    /// Augmented modes: largest error between the yaw rate the rudder stick commands and the
+    /// true yaw rate, over the last second of each scripted rudder input (deg/s).
+    pub yaw_rate_tracking_max_dps: Option<f64>,
 }
 
 /// Faults injected into the run.
@@ -351,9 +344,84 @@ pub fn gps_outage() -> Scenario {
     s
 }
 
+/// Built-in scenario `manual-sweep`: the pilot takes over from an autonomous hover, hovers
+/// by hand and flies a lateral-cyclic frequency sweep, as the thesis's identification flights
+/// did; the computer damps yaw.
+pub fn manual_sweep() -> Scenario {
+    let mut s = base(
+        "manual-sweep",
+        "manual flight with computer yaw damping: a 0.3-3 Hz lateral-cyclic sweep from a hover",
+        vec![
+            LegSpec::Takeoff { alt_m: 15.0 },
+            LegSpec::Hold { seconds: 1000.0 },
+        ],
+        170.0,
+    );
+    s.pilot.auto_flipped = vec![[105.0, 155.0]];
+    s.pilot.hovers_in_manual = true;
+    s.pilot.inputs = vec![StickInput {
+        channel: Channel::Aileron,
+        shape: Shape::Sweep,
+        start_s: 112.0,
+        duration_s: 30.0,
+        amplitude: 0.15,
+        f0_hz: 0.3,
+        f1_hz: 3.0,
+    }];
+    s.limits = Limits {
+        manual_yaw_rate_max_dps: Some(30.0),
+        manual_distance_max_m: Some(10.0),
+        sweep_roll_rate_rms_min_dps: Some(10.0),
+        ..Limits::default()
+    };
+    s
+}
+
+/// Built-in scenario `augmented`: velocity-command augmentation; the pilot's scripted sticks
+/// climb, fly forward, sideways and turn.
+pub fn augmented() -> Scenario {
+    let mut s = base(
+        "augmented",
+        "augmented velocity mode: scripted sticks climb, fly forward, sideways, turn; the computer tracks",
+        Vec::new(),
+        140.0,
+    );
+    s.mode = Mode::Velocity;
+    let step = |channel, start_s, duration_s, amplitude| StickInput {
+        channel,
+        shape: Shape::Step,
+        start_s,
+        duration_s,
+        amplitude,
+        f0_hz: 0.0,
+        f1_hz: 0.0,
+    };
+    s.pilot.inputs = vec![
+        step(Channel::Collective, 86.0, 10.0, 0.5),
+        step(Channel::Elevator, 100.0, 10.0, -0.6),
+        step(Channel::Aileron, 114.0, 8.0, 0.4),
+        step(Channel::Rudder, 126.0, 3.0, 0.25),
+    ];
+    s.limits = Limits {
+        velocity_tracking_max_mps: Some(0.6),
+        yaw_rate_tracking_max_dps: Some(5.0),
+        climb_min_m: Some(8.0),
+        ..Limits::default()
+    };
+    s
+}
+
 /// All built-in scenarios, the default flight of `heli sim` first.
 pub fn builtins() -> Vec<Scenario> {
-    vec![demo(), hover(), rolls(), rc_loss(), gps_outage()]
+    vec![
+        demo(),
+        hover(),
+        rolls(),
+        rc_loss(),
+        gps_outage(),
+        manual_sweep(),
+        augmented(),
+    ]
 }
 
 /// A built-in scenario by name.

@@ -125,3 +125,52 @@ fn a_roll_criterion_fails_when_the_rolls_are_not_flown() {
             .any(|c| c.name == "altitude_loss_m" && !c.pass)
     );
 }
+
+#[test]
+fn manual_sweep_is_flown_with_computer_yaw_damping_on_ten_seeds() {
+    for s in passes_on_ten_seeds(&scenario::manual_sweep()) {
+        assert!(
+            s.events.iter().any(|e| e.contains("phase manual")),
+            "{:?}",
+            s.events
+        );
+        assert!(value(&s, "sweep_roll_rate_rms_dps") >= 10.0);
+    }
+}
+
+#[test]
+fn augmented_velocity_mode_tracks_the_sticks_on_ten_seeds() {
+    for s in passes_on_ten_seeds(&scenario::augmented()) {
+        assert!(
+            s.events
+                .iter()
+                .any(|e| e.contains("phase augmented-velocity")),
+            "{:?}",
+            s.events
+        );
+    }
+}
+
+#[test]
+fn the_manual_yaw_criterion_catches_a_turn() {
+    // The yaw-rate criterion can fail: a pilot who kicks the rudder turns the helicopter
+    // faster than the damped hover allows.
+    let mut turning = scenario::manual_sweep();
+    turning.pilot.inputs.push(heli_sim::pilot::StickInput {
+        channel: heli_sim::pilot::Channel::Rudder,
+        shape: heli_sim::pilot::Shape::Step,
+        start_s: 145.0,
+        duration_s: 3.0,
+        amplitude: 0.6,
+        f0_hz: 0.0,
+        f1_hz: 0.0,
+    });
+    let s = fly(&turning, 1);
+    assert!(
+        s.criteria
+            .iter()
+            .any(|c| c.name == "manual_yaw_rate_max_dps" && !c.pass),
+        "{:?}",
+        s.criteria
+    );
+}

@@ -27,8 +27,8 @@ pub mod mission;
 pub mod watchdog;
 
 use heli_control::{
-    HoverController, HoverGains, RollGains, Target, YawDamper, manual_with_yaw_damping,
-    rolling_controls,
+    AugmentedMode, HoverController, HoverGains, RollGains, StickScales, Target, YawDamper,
+    augmented_controls, manual_with_yaw_damping, rolling_controls,
 };
 use heli_nav::{BiasCalibration, NavConfig, NavState, Navigator, seconds_between};
 use heli_proto::compass::{CompassAdc, CompassCalibration, heading_rad};
@@ -60,6 +60,8 @@ pub struct CoreConfig {
     pub yaw_damper: YawDamper,
     /// The aileron roll.
     pub roll: RollGains,
+    /// What full stick means in the augmented modes.
+    pub sticks: StickScales,
     /// Compass biases from its calibration routine (stored in flash on the vehicle).
     pub compass: CompassCalibration,
     /// Take-off ends when the altitude is within this of the target (m).
@@ -78,6 +80,7 @@ impl Default for CoreConfig {
             hover: HoverGains::default(),
             yaw_damper: YawDamper::default(),
             roll: RollGains::default(),
+            sticks: StickScales::default(),
             compass: CompassCalibration::default(),
             takeoff_tolerance_m: 0.3,
             airborne_height_m: 0.3,
@@ -90,8 +93,21 @@ impl Default for CoreConfig {
 pub enum FlightMode {
     /// Pilot flies; the computer only damps yaw.
     Manual,
-    /// With the pilot's auto switch on, the computer takes off and holds position.
+    /// With the pilot's auto switch on, the computer flies the flight plan.
     Autonomous,
+    /// With the pilot's auto switch on, the pilot flies through an augmentation system.
+    Augmented(AugmentedMode),
+}
+
+impl FlightMode {
+    /// What the ground display writes over the pilot-uplink columns (aileron, elevator,
+    /// rudder, collective, throttle) when the auto switch is on.
+    pub fn uplink_labels(self) -> [&'static str; 5] {
+        match self {
+            FlightMode::Augmented(mode) => mode.uplink_labels(),
+            FlightMode::Manual | FlightMode::Autonomous => ["Aile", "Elev", "Rudd", "Coll", "Thro"],
+        }
+    }
 }
 
 /// The flight parameters sent by the ground at "Start Logging".
@@ -157,6 +173,8 @@ pub enum Phase {
     },
     /// On the skids after an autonomous landing.
     Landed,
+    /// The pilot flies through an augmentation system.
+    Augmented(AugmentedMode),
 }
 
 impl Phase {
@@ -168,7 +186,11 @@ impl Phase {
             | Phase::Flying { target, .. }
             | Phase::Maneuver { target, .. }
             | Phase::Landing { target } => Some(*target),
-            Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe | Phase::Landed => None,
+            Phase::Calibrating
+            | Phase::Manual
+            | Phase::GroundFailsafe
+            | Phase::Landed
+            | Phase::Augmented(_) => None,
         }
     }
 
@@ -184,6 +206,9 @@ impl Phase {
             Phase::Maneuver { stage, .. } => stage.name(),
             Phase::Landing { .. } => "land",
             Phase::Landed => "landed",
+            Phase::Augmented(AugmentedMode::Rate) => "augmented-rate",
+            Phase::Augmented(AugmentedMode::Attitude) => "augmented-attitude",
+            Phase::Augmented(AugmentedMode::Velocity) => "augmented-velocity",
         }
     }
 
@@ -512,7 +537,11 @@ impl FlightCore {
             // and a maneuver; it starts afresh after the pilot or the ground had control.
             if matches!(
                 previous_phase,
-                Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe | Phase::Landed
+                Phase::Calibrating
+                    | Phase::Manual
+                    | Phase::GroundFailsafe
+                    | Phase::Landed
+                    | Phase::Augmented(_)
             ) {
                 self.hover.reset();
             }
@@ -542,6 +571,26 @@ impl FlightCore {
             ) => {
                 let airborne = self.height_above_home(&est) > self.config.airborne_height_m;
                 self.hover.update(&est, &target, dt_s, airborne)
+            }
+            (Phase::Augmented(mode), Some(est)) => {
+                let airborne = self.height_above_home(&est) > self.config.airborne_height_m;
+                if !airborne && mode == AugmentedMode::Velocity && pilot_sticks.collective <= 0.1 {
+                    // On the skids with the climb stick centred: ground idle, rotor governed.
+                    Controls {
+                        throttle: heli_control::GOVERNED_THROTTLE,
+                        ..Controls::default()
+                    }
+                } else {
+                    augmented_controls(
+                        mode,
+                        &pilot_sticks,
+                        &est,
+                        &self.config.sticks,
+                        &mut self.hover,
+                        dt_s,
+                        airborne,
+                    )
+                }
             }
             (Phase::Landed, _) => Controls {
                 collective: -0.1,
@@ -597,16 +646,27 @@ impl FlightCore {
         let stop = horizontal_vel * (horizontal_vel.norm() / (2.0 * braking));
         let here = Target::hold(est.pos_ned_m + stop, yaw);
         let on_ground = self.height_above_home(est) < self.config.airborne_height_m;
-        let wants_auto = signal_lost || (self.params.mode == FlightMode::Autonomous && auto_switch);
+        let bypass = pilot.is_some_and(|p| p.bypass);
+        let wants_auto =
+            !bypass && (signal_lost || (self.params.mode != FlightMode::Manual && auto_switch));
         if !wants_auto {
+            // The emergency bypass: the board drives the servos from the pilot; the computer
+            // still supplies the tail with yaw damping.
             return Phase::Manual;
+        }
+        if let (FlightMode::Augmented(mode), false) = (self.params.mode, signal_lost) {
+            return Phase::Augmented(mode);
         }
         if signal_lost {
             return match self.phase {
                 // A hold already in place (the plan's, or the loss's) is kept.
                 Phase::Holding { .. } => self.phase,
                 // The transmitter lost on the ground is no order to take off.
-                Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe | Phase::Landed
+                Phase::Calibrating
+                | Phase::Manual
+                | Phase::GroundFailsafe
+                | Phase::Landed
+                | Phase::Augmented(_)
                     if on_ground =>
                 {
                     Phase::GroundFailsafe
@@ -623,7 +683,7 @@ impl FlightCore {
             };
         }
         match self.phase {
-            Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe => {
+            Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe | Phase::Augmented(_) => {
                 if on_ground && !self.plan_done && !self.plan_abandoned {
                     self.leg = 0;
                     self.start_leg(est, now_us, out)
@@ -1138,5 +1198,68 @@ mod tests {
         assert_eq!(core.stats().rejected_inputs, 3);
         assert_eq!(core.stats().imu_samples, 1);
         assert!(out.is_empty(), "a refused input changes nothing");
+    }
+
+    #[test]
+    fn emergency_bypass_hands_the_pilot_the_helicopter_with_yaw_damping() {
+        let mut core = FlightCore::new(
+            CoreConfig {
+                imu_warm_up_s: 0.1,
+                calibration_s: 1.0,
+                ..CoreConfig::default()
+            },
+            FlightParams {
+                mode: FlightMode::Autonomous,
+                plan: Plan::hover(10.0, 60.0),
+            },
+        );
+        let mut out = Vec::new();
+        let mut bypassed = uplink(true, false);
+        bypassed.bypass = true;
+        core.handle(Input::Uplink(bypassed), 0, &mut out);
+        let spinning = ImuRepr {
+            rate_rps: [0.0, 0.0, 0.5],
+            ..still()
+        };
+        for k in 0..200u64 {
+            let sample = if k < 150 { still() } else { spinning };
+            core.handle(Input::Imu(sample), k * 10_000, &mut out);
+        }
+        assert_eq!(core.phase(), Phase::Manual, "auto switch on, but bypassed");
+        let rudder = last_servo(&out).rudder;
+        let damper = YawDamper::default();
+        assert!(
+            rudder < damper.trim,
+            "yaw damping opposes the turn: {rudder}"
+        );
+    }
+
+    #[test]
+    fn augmented_mode_follows_the_auto_switch() {
+        let mut core = FlightCore::new(
+            CoreConfig {
+                imu_warm_up_s: 0.1,
+                calibration_s: 1.0,
+                ..CoreConfig::default()
+            },
+            FlightParams {
+                mode: FlightMode::Augmented(AugmentedMode::Rate),
+                plan: Plan::hover(10.0, 60.0),
+            },
+        );
+        let mut out = Vec::new();
+        core.handle(Input::Uplink(uplink(true, false)), 0, &mut out);
+        for k in 0..200u64 {
+            core.handle(Input::Imu(still()), k * 10_000, &mut out);
+        }
+        assert_eq!(core.phase(), Phase::Augmented(AugmentedMode::Rate));
+        assert_eq!(
+            FlightMode::Augmented(AugmentedMode::Rate).uplink_labels()[0],
+            "RollRate"
+        );
+        core.handle(Input::Uplink(uplink(false, false)), 2_000_000, &mut out);
+        core.handle(Input::Imu(still()), 2_000_000, &mut out);
+        core.handle(Input::Imu(still()), 2_010_000, &mut out);
+        assert_eq!(core.phase(), Phase::Manual);
     }
 }

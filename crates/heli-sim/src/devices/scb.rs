@@ -73,17 +73,68 @@ impl ScbDevice {
         }
     }
 
-    /// What the servos are driven with: the computer's last command, or the pilot's in bypass
-    /// (and before the computer has said anything).
+    /// What the servos are driven with: the computer's last command; in bypass the pilot's,
+    /// but for the tail; the pilot's before the computer has said anything.
     pub fn servo_commands(&self, pilot: &PilotCommand) -> Controls {
         match (pilot.bypass, self.computer) {
             (false, Some(c)) => c,
-            _ => pilot.sticks,
+            // Bypass: the pilot drives the servos directly, except the tail, which keeps the
+            // computer's yaw-rate feedback (thesis §2.2.3).
+            (true, Some(c)) => Controls {
+                rudder: c.rudder,
+                ..pilot.sticks
+            },
+            (_, None) => pilot.sticks,
         }
     }
 
     /// Framer counters of the servo-command direction.
     pub fn stats(&self) -> FramerStats {
         self.framer.stats()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bypass_gives_the_pilot_the_servos_but_keeps_the_computer_tail() {
+        let mut board = ScbDevice::default();
+        let computer = Controls {
+            aileron: 0.1,
+            elevator: 0.1,
+            rudder: 0.45,
+            collective: 0.5,
+            throttle: 0.8,
+        };
+        let packet = heli_proto::scb::ServoPacket {
+            pulses: Pulses::from_controls(&computer),
+        };
+        board.receive(Bytes::encode(|buf| packet.emit(buf)).as_slice());
+        let sticks = Controls {
+            aileron: -0.3,
+            elevator: 0.2,
+            rudder: -0.2,
+            collective: 0.6,
+            throttle: 0.8,
+        };
+        let pilot = PilotCommand {
+            sticks,
+            auto_mode: false,
+            bypass: true,
+            signal_lost: false,
+        };
+        let out = board.servo_commands(&pilot);
+        assert!((out.aileron + 0.3).abs() < 0.01 && (out.collective - 0.6).abs() < 0.01);
+        assert!(
+            (out.rudder - 0.45).abs() < 0.01,
+            "the tail stays with the computer: {out:?}"
+        );
+        let normal = board.servo_commands(&PilotCommand {
+            bypass: false,
+            ..pilot
+        });
+        assert!((normal.aileron - 0.1).abs() < 0.01);
     }
 }
