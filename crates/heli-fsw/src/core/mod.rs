@@ -976,6 +976,21 @@ mod tests {
         }
     }
 
+    /// A core with a short calibration, flying `mode` with a 10 m hover plan.
+    fn core_with(mode: FlightMode) -> FlightCore {
+        FlightCore::new(
+            CoreConfig {
+                imu_warm_up_s: 0.1,
+                calibration_s: 1.0,
+                ..CoreConfig::default()
+            },
+            FlightParams {
+                mode,
+                plan: Plan::hover(10.0, 60.0),
+            },
+        )
+    }
+
     fn short_core() -> FlightCore {
         FlightCore::new(
             CoreConfig {
@@ -1027,17 +1042,7 @@ mod tests {
 
     #[test]
     fn calibration_then_auto_switch_starts_a_takeoff() {
-        let mut core = FlightCore::new(
-            CoreConfig {
-                imu_warm_up_s: 0.1,
-                calibration_s: 1.0,
-                ..CoreConfig::default()
-            },
-            FlightParams {
-                mode: FlightMode::Autonomous,
-                plan: Plan::hover(10.0, 60.0),
-            },
-        );
+        let mut core = core_with(FlightMode::Autonomous);
         let mut out = Vec::new();
         let pilot = PilotUplink {
             rotor_rpm: 1600,
@@ -1202,17 +1207,7 @@ mod tests {
 
     #[test]
     fn emergency_bypass_hands_the_pilot_the_helicopter_with_yaw_damping() {
-        let mut core = FlightCore::new(
-            CoreConfig {
-                imu_warm_up_s: 0.1,
-                calibration_s: 1.0,
-                ..CoreConfig::default()
-            },
-            FlightParams {
-                mode: FlightMode::Autonomous,
-                plan: Plan::hover(10.0, 60.0),
-            },
-        );
+        let mut core = core_with(FlightMode::Autonomous);
         let mut out = Vec::new();
         let mut bypassed = uplink(true, false);
         bypassed.bypass = true;
@@ -1236,17 +1231,7 @@ mod tests {
 
     #[test]
     fn augmented_mode_follows_the_auto_switch() {
-        let mut core = FlightCore::new(
-            CoreConfig {
-                imu_warm_up_s: 0.1,
-                calibration_s: 1.0,
-                ..CoreConfig::default()
-            },
-            FlightParams {
-                mode: FlightMode::Augmented(AugmentedMode::Rate),
-                plan: Plan::hover(10.0, 60.0),
-            },
-        );
+        let mut core = core_with(FlightMode::Augmented(AugmentedMode::Rate));
         let mut out = Vec::new();
         core.handle(Input::Uplink(uplink(true, false)), 0, &mut out);
         for k in 0..200u64 {
