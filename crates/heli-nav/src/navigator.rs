@@ -314,11 +314,15 @@ impl Navigator {
             pos_ned_m: pos,
             rate_body_rps: Vector3::zeros(),
             accel_body_mps2: f,
-                        gyro_bias_rps: biases.gyro_rps,
+            gyro_bias_rps: biases.gyro_rps,
             // Sitting still, the accelerometers must read exactly 1 g; what they read beyond
             // that along the measured direction is bias. (Across it, bias cannot be told from
             // tilt on the ground; the filter's accelerometer-bias states learn it in flight.)
-            accel_bias_mps2: if f.norm() > 1.0 { f * (1.0 - GRAVITY_MPS2 / f.norm()) } else { Vector3::zeros() },
+            accel_bias_mps2: if f.norm() > 1.0 {
+                f * (1.0 - GRAVITY_MPS2 / f.norm())
+            } else {
+                Vector3::zeros()
+            },
         });
         let mut diag = ErrState::zeros();
         let blocks = [
@@ -926,10 +930,18 @@ mod tests {
     #[test]
     fn calibration_seeds_the_accelerometer_bias_it_can_see() {
         let mut nav = Navigator::new(NavConfig::default());
-        let biases = ImuBiases { gyro_rps: Vector3::new(0.01, 0.0, 0.0), mean_accel_mps2: Vector3::new(0.0, 0.0, -9.91), samples: 8000 };
+        let biases = ImuBiases {
+            gyro_rps: Vector3::new(0.01, 0.0, 0.0),
+            mean_accel_mps2: Vector3::new(0.0, 0.0, -9.91),
+            samples: 8000,
+        };
         nav.initialise(0, &biases);
         let s = nav.state().copied().unwrap_or_else(|| unreachable!());
-        assert!((s.accel_bias_mps2.z + 0.1).abs() < 1e-9, "{:?}", s.accel_bias_mps2);
+        assert!(
+            (s.accel_bias_mps2.z + 0.1).abs() < 1e-9,
+            "{:?}",
+            s.accel_bias_mps2
+        );
         assert_eq!(s.gyro_bias_rps, biases.gyro_rps);
     }
 }

@@ -174,3 +174,22 @@ fn the_manual_yaw_criterion_catches_a_turn() {
         s.criteria
     );
 }
+
+#[test]
+fn the_scenario_file_documented_in_docs_parses() {
+    let doc = include_str!("../../../docs/scenarios.md");
+    let start = doc
+        .find("```toml\n")
+        .unwrap_or_else(|| panic!("no toml block"))
+        + "```toml\n".len();
+    let end = start
+        + doc[start..]
+            .find("```")
+            .unwrap_or_else(|| panic!("unclosed block"));
+    let s =
+        scenario::from_toml(&doc[start..end]).unwrap_or_else(|e| panic!("docs/scenarios.md: {e}"));
+    assert_eq!(s.name, "gusty-drops");
+    assert_eq!(s.pilot.inputs.len(), 3);
+    assert_eq!(s.plan.len(), 6);
+    heli_sim::Simulation::new(s).unwrap_or_else(|e| panic!("{e}"));
+}
