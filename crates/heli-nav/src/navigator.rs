@@ -238,8 +238,24 @@ pub fn wrap_pi(angle: f64) -> f64 {
 impl Navigator {
     /// A filter waiting for its initialisation.
     pub fn new(config: NavConfig) -> Self {
+        // The log must reach back past the GPS latency, and stays bounded: 0.5–10 s beyond it.
+        let latency_s = if config.gps_latency_s.is_finite() {
+            config.gps_latency_s.clamp(0.0, 5.0)
+        } else {
+            1.0
+        };
+        let history_s = if config.history_s.is_finite() {
+            config.history_s
+        } else {
+            0.0
+        };
+        let config = NavConfig {
+            gps_latency_s: latency_s,
+            history_s: history_s.clamp(latency_s + 0.5, latency_s + 10.0),
+            ..config
+        };
         // Propagations at 50 Hz, altimeter at 5 Hz, compass at 20 Hz.
-        let history_len = (config.history_s.max(0.1) * 75.0).ceil() as usize;
+        let history_len = (config.history_s * 75.0).ceil() as usize;
         Self {
             config,
             state: None,
@@ -360,6 +376,9 @@ impl Navigator {
         };
         state.att = UnitQuaternion::from_euler_angles(roll, pitch, heading + declination);
         self.earth_field_ned = Some(state.att * Vector3::from(field.field_gauss));
+        // The heading was a guess until now: nothing before this may be replayed over it, so
+        // the log starts here and a fix valid earlier is refused as too old.
+        self.history.clear();
     }
 
     /// Propagates to the later of two IMU samples, `a` taken before `b` at `t_b_us`, using
@@ -943,5 +962,67 @@ mod tests {
             s.accel_bias_mps2
         );
         assert_eq!(s.gyro_bias_rps, biases.gyro_rps);
+    }
+
+    #[test]
+    fn a_fix_from_before_the_heading_was_aligned_cannot_undo_it() {
+        let mut nav = Navigator::new(NavConfig::default());
+        nav.fuse_gps(0, &fix_at([0.0; 3], [0.0; 3]));
+        nav.initialise(0, &level_biases());
+        let imu = ImuRepr {
+            rate_rps: [0.0; 3],
+            accel_mps2: [0.0, 0.0, -9.81],
+            temp_c: 25.0,
+        };
+        let east = UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2);
+        let mut t = 0;
+        for k in 1..=1500u64 {
+            t = k * 20_000;
+            nav.propagate(t, &imu, &imu);
+            if k == 25 {
+                nav.fuse_compass(&field_at(&east)); // the compass first speaks at 0.5 s
+            } else if k > 25 && k % 3 == 0 {
+                nav.fuse_compass(&field_at(&east));
+            }
+            if k % 50 == 0 {
+                nav.fuse_gps(t, &fix_at([0.0; 3], [0.0; 3]));
+            }
+        }
+        let (_, _, yaw) = nav.state().map(NavState::euler_rad).unwrap_or_default();
+        assert!(
+            (yaw - std::f64::consts::FRAC_PI_2).abs() < 0.01,
+            "yaw {yaw} at t={t}"
+        );
+        assert!(nav.stats().compass_rejected < 5, "{:?}", nav.stats());
+        // The fix valid at 0 s (before the alignment) was refused as too old.
+        assert!(nav.stats().gps_rejected >= 1);
+    }
+
+    #[test]
+    fn a_fix_older_than_the_log_is_refused_and_the_log_is_bounded() {
+        let config = NavConfig {
+            history_s: f64::INFINITY,
+            ..NavConfig::default()
+        };
+        let mut nav = Navigator::new(config);
+        nav.fuse_gps(0, &fix_at([0.0; 3], [0.0; 3]));
+        nav.fuse_compass(&field_at(&UnitQuaternion::identity()));
+        nav.initialise(0, &level_biases());
+        let imu = ImuRepr {
+            rate_rps: [0.0; 3],
+            accel_mps2: [0.0, 0.0, -9.81],
+            temp_c: 25.0,
+        };
+        for k in 1..=1000u64 {
+            nav.propagate(k * 20_000, &imu, &imu);
+        }
+        assert!(nav.history.len() <= (11.0 * 75.0) as usize + 1);
+        // Arrives at 20 s, valid at 19 s: inside the log. Arrives at 20 s claiming 15 s of
+        // latency is impossible here; a fix valid before the oldest entry is refused.
+        let before = nav.stats().gps_rejected;
+        nav.fuse_gps(20_000_000, &fix_at([0.0; 3], [0.0; 3]));
+        assert_eq!(nav.stats().gps_rejected, before);
+        nav.fuse_gps(2_000_000, &fix_at([0.0; 3], [0.0; 3]));
+        assert_eq!(nav.stats().gps_rejected, before + 1);
     }
 }

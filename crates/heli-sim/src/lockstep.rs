@@ -178,11 +178,12 @@ struct Metrics {
     rc_drift_max_m: f64,
     gps_outage_pos_err: Vec<f64>,
     manual_start: Option<Vector3<f64>>,
-    manual_yaw_rate_max_dps: f64,
-    manual_distance_max_m: f64,
+    manual_yaw_rate_max_dps: Option<f64>,
+    manual_distance_max_m: Option<f64>,
     sweep_roll_rate: Rms,
-    velocity_tracking_max_mps: f64,
-    yaw_rate_tracking_max_dps: f64,
+    velocity_tracking_max_mps: Option<f64>,
+    yaw_rate_tracking_max_dps: Option<f64>,
+    rc_slow_since_us: Option<u64>,
     start_alt_m: Option<f64>,
     max_alt_m: f64,
     hold_time_s: f64,
@@ -749,7 +750,9 @@ impl Simulation {
 
     /// The position error when each GPS outage ends.
     fn measure_gps_outages(&mut self, pos_err: f64) {
-        let t_s = self.now_us as f64 * 1e-6;
+        // The first fix after an outage arrives a latency after it ends; the estimate coasts
+        // until then, so it is judged just before that fix.
+        let t_s = self.now_us as f64 * 1e-6 - (self.gps.errors.latency_s - 0.05);
         let ended = self
             .scenario
             .faults
@@ -808,17 +811,17 @@ impl Simulation {
         let start_alt = *self.metrics.start_alt_m.get_or_insert(alt);
         self.metrics.max_alt_m = self.metrics.max_alt_m.max(alt - start_alt);
         let pilot = self.pilot();
-        let manual = !pilot.auto_mode || pilot.bypass;
-        if manual {
+        let worst = |m: Option<f64>, v: f64| Some(m.map_or(v, |m| m.max(v)));
+        if !pilot.auto_mode || pilot.bypass {
             let start = *self.metrics.manual_start.get_or_insert(s.pos_ned_m);
-            self.metrics.manual_yaw_rate_max_dps = self
-                .metrics
-                .manual_yaw_rate_max_dps
-                .max(s.rate_body_rps.z.abs().to_degrees());
-            self.metrics.manual_distance_max_m = self
-                .metrics
-                .manual_distance_max_m
-                .max((s.pos_ned_m - start).xy().norm());
+            self.metrics.manual_yaw_rate_max_dps = worst(
+                self.metrics.manual_yaw_rate_max_dps,
+                s.rate_body_rps.z.abs().to_degrees(),
+            );
+            self.metrics.manual_distance_max_m = worst(
+                self.metrics.manual_distance_max_m,
+                (s.pos_ned_m - start).xy().norm(),
+            );
         }
         let inputs = &self.scenario.pilot.inputs;
         if inputs.iter().any(|i| {
@@ -835,23 +838,25 @@ impl Simulation {
                     && (i.duration_s - 1.0..i.duration_s).contains(&(t_s - i.start_s))
             })
         };
-        if self.scenario.mode == Mode::Velocity && settling(&[crate::pilot::Channel::Rudder]) {
-            let cmd = pilot.sticks.rudder.clamp(-1.0, 1.0)
-                * heli_control::StickScales::default().yaw_rate_rps;
+        let scales = heli_control::StickScales::default();
+        let augmented = matches!(
+            self.scenario.mode,
+            Mode::Rate | Mode::Attitude | Mode::Velocity
+        ) && pilot.auto_mode;
+        if augmented && settling(&[crate::pilot::Channel::Rudder]) {
+            let cmd = pilot.sticks.rudder.clamp(-1.0, 1.0) * scales.yaw_rate_rps;
             let err = (s.rate_body_rps.z - cmd).abs().to_degrees();
             self.metrics.yaw_rate_tracking_max_dps =
-                self.metrics.yaw_rate_tracking_max_dps.max(err);
+                worst(self.metrics.yaw_rate_tracking_max_dps, err);
         }
-        if self.scenario.mode == Mode::Velocity
+        if augmented
+            && self.scenario.mode == Mode::Velocity
             && settling(&[
                 crate::pilot::Channel::Aileron,
                 crate::pilot::Channel::Elevator,
             ])
         {
-            let cmd = AugmentedMode::commanded_velocity(
-                &pilot.sticks,
-                &heli_control::StickScales::default(),
-            );
+            let cmd = AugmentedMode::commanded_velocity(&pilot.sticks, &scales);
             let (_, _, yaw) = s.att.euler_angles();
             let v = s.vel_ned_mps();
             let (sy, cy) = yaw.sin_cos();
@@ -859,7 +864,7 @@ impl Simulation {
             let right = -sy * v.x + cy * v.y;
             let err = ((fwd - cmd.x).powi(2) + (right - cmd.y).powi(2)).sqrt();
             self.metrics.velocity_tracking_max_mps =
-                self.metrics.velocity_tracking_max_mps.max(err);
+                worst(self.metrics.velocity_tracking_max_mps, err);
         }
     }
 
@@ -874,9 +879,18 @@ impl Simulation {
         }
         let p = self.heli.state.pos_ned_m;
         let v = self.heli.state.vel_ned_mps();
-        if self.metrics.rc_hover_at_us.is_none() && v.xy().norm() < 0.5 {
-            self.metrics.rc_hover_at_us = Some(now);
-            self.metrics.rc_hover_pos = Some(p);
+        // Hovering: slower than 0.5 m/s and staying so for a second; it counts from when
+        // that second began.
+        if self.metrics.rc_hover_at_us.is_none() {
+            if v.xy().norm() < 0.5 {
+                let since = *self.metrics.rc_slow_since_us.get_or_insert(now);
+                if now.saturating_sub(since) >= 1_000_000 {
+                    self.metrics.rc_hover_at_us = Some(since);
+                    self.metrics.rc_hover_pos = Some(p);
+                }
+            } else {
+                self.metrics.rc_slow_since_us = None;
+            }
         }
         if let (Some(at), Some(pos)) = (self.metrics.rc_hover_at_us, self.metrics.rc_hover_pos)
             && now <= at + 20_000_000
@@ -1014,22 +1028,22 @@ impl Simulation {
         );
         at_most(
             "manual_yaw_rate_max_dps",
-            m.manual_yaw_rate_max_dps,
+            m.manual_yaw_rate_max_dps.unwrap_or(f64::INFINITY),
             limits.manual_yaw_rate_max_dps,
         );
         at_most(
             "manual_distance_max_m",
-            m.manual_distance_max_m,
+            m.manual_distance_max_m.unwrap_or(f64::INFINITY),
             limits.manual_distance_max_m,
         );
         at_most(
             "velocity_tracking_max_mps",
-            m.velocity_tracking_max_mps,
+            m.velocity_tracking_max_mps.unwrap_or(f64::INFINITY),
             limits.velocity_tracking_max_mps,
         );
         at_most(
             "yaw_rate_tracking_max_dps",
-            m.yaw_rate_tracking_max_dps,
+            m.yaw_rate_tracking_max_dps.unwrap_or(f64::INFINITY),
             limits.yaw_rate_tracking_max_dps,
         );
         if let Some(min) = limits.sweep_roll_rate_rms_min_dps {
@@ -1165,6 +1179,7 @@ fn describe(t_us: u64, e: &CoreEvent) -> String {
         CoreEvent::WatchdogFired => format!("t={t:.2} s watchdog fired"),
         CoreEvent::PilotSignalLost => format!("t={t:.2} s pilot signal lost"),
         CoreEvent::RollCompleted(n) => format!("t={t:.2} s roll {n} completed"),
+        CoreEvent::RollAbandoned => format!("t={t:.2} s roll abandoned: took too long"),
         CoreEvent::PlanComplete => format!("t={t:.2} s flight plan complete"),
         CoreEvent::GpsLost => format!("t={t:.2} s GPS lost: estimate coasting on the IMU"),
         CoreEvent::GpsRegained => format!("t={t:.2} s GPS back"),

@@ -73,6 +73,13 @@ impl Plan {
         if legs.len() > MAX_LEGS {
             return Err(PlanError::TooManyLegs);
         }
+        if legs
+            .iter()
+            .position(|l| *l == Leg::Land)
+            .is_some_and(|i| i.saturating_add(1) < legs.len())
+        {
+            return Err(PlanError::BadValue("nothing can follow a landing"));
+        }
         let mut plan = Self {
             legs: [None; MAX_LEGS],
         };
@@ -145,6 +152,8 @@ pub enum RollStage {
     Rolling {
         /// Roll angle turned (rad).
         angle_rad: f64,
+        /// Stage start (µs).
+        since_us: u64,
     },
     /// Back on the trim trajectory.
     Recover {
@@ -196,6 +205,14 @@ mod tests {
         assert_eq!(
             Plan::new(&[Leg::Land; MAX_LEGS + 1]),
             Err(PlanError::TooManyLegs)
+        );
+        assert_eq!(
+            Plan::new(&[
+                Leg::Takeoff { alt_m: 5.0 },
+                Leg::Land,
+                Leg::Hold { seconds: 1.0 }
+            ]),
+            Err(PlanError::BadValue("nothing can follow a landing"))
         );
         let p = Plan::hover(10.0, 60.0);
         assert_eq!(p.get(1), Some(Leg::Hold { seconds: 60.0 }));

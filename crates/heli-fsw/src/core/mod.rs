@@ -43,6 +43,9 @@ use crate::streams::{
 use mission::{Leg, Plan, RollStage};
 use watchdog::{WATCHDOG_PERIOD_US, Watchdog};
 
+/// Longest the roll maneuver waits to settle on its trim speed before giving up (s).
+pub const ACCELERATE_TIMEOUT_S: f64 = 20.0;
+
 /// Configuration of the main control process.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CoreConfig {
@@ -170,6 +173,8 @@ pub enum Phase {
     Landing {
         /// The descending target.
         target: Target,
+        /// Since when the helicopter has stopped following the target down (µs).
+        settled_since_us: Option<u64>,
     },
     /// On the skids after an autonomous landing.
     Landed,
@@ -185,7 +190,7 @@ impl Phase {
             | Phase::Holding { target, .. }
             | Phase::Flying { target, .. }
             | Phase::Maneuver { target, .. }
-            | Phase::Landing { target } => Some(*target),
+            | Phase::Landing { target, .. } => Some(*target),
             Phase::Calibrating
             | Phase::Manual
             | Phase::GroundFailsafe
@@ -259,6 +264,8 @@ pub enum CoreEvent {
     PilotSignalLost,
     /// An aileron roll was completed (the count so far in this flight).
     RollCompleted(u32),
+    /// A roll took more than twice its nominal time and was given up.
+    RollAbandoned,
     /// No GPS fix has been fused for the outage time: the estimate is coasting on the IMU.
     GpsLost,
     /// GPS fixes are fused again.
@@ -325,6 +332,10 @@ pub struct FlightCore {
     /// The plan was given up (transmitter lost in the air); it is not resumed.
     plan_abandoned: bool,
     gps_lost: bool,
+    /// The helicopter has been more than a metre up in this flight.
+    has_flown: bool,
+    /// A hold begun in motion is still braking to a stop.
+    braking: bool,
     stats: CoreStats,
 }
 
@@ -349,6 +360,8 @@ impl FlightCore {
             plan_done: false,
             plan_abandoned: false,
             gps_lost: false,
+            has_flown: false,
+            braking: false,
             stats: CoreStats::default(),
         }
     }
@@ -556,7 +569,7 @@ impl FlightCore {
         let controls = match (self.phase, estimate) {
             (
                 Phase::Maneuver {
-                    stage: RollStage::Rolling { angle_rad },
+                    stage: RollStage::Rolling { angle_rad, .. },
                     ..
                 },
                 Some(est),
@@ -566,7 +579,7 @@ impl FlightCore {
                 | Phase::Holding { target, .. }
                 | Phase::Flying { target, .. }
                 | Phase::Maneuver { target, .. }
-                | Phase::Landing { target },
+                | Phase::Landing { target, .. },
                 Some(est),
             ) => {
                 let airborne = self.height_above_home(&est) > self.config.airborne_height_m;
@@ -574,7 +587,12 @@ impl FlightCore {
             }
             (Phase::Augmented(mode), Some(est)) => {
                 let airborne = self.height_above_home(&est) > self.config.airborne_height_m;
-                if !airborne && mode == AugmentedMode::Velocity && pilot_sticks.collective <= 0.1 {
+                // Once it has flown, a low pass near the ground is flight, not ground idle.
+                self.has_flown |= self.height_above_home(&est) > 1.0;
+                if !self.has_flown
+                    && mode == AugmentedMode::Velocity
+                    && pilot_sticks.collective <= 0.1
+                {
                     // On the skids with the climb stick centred: ground idle, rotor governed.
                     Controls {
                         throttle: heli_control::GOVERNED_THROTTLE,
@@ -659,22 +677,25 @@ impl FlightCore {
         }
         if signal_lost {
             return match self.phase {
-                // A hold already in place (the plan's, or the loss's) is kept.
-                Phase::Holding { .. } => self.phase,
-                // The transmitter lost on the ground is no order to take off.
-                Phase::Calibrating
-                | Phase::Manual
-                | Phase::GroundFailsafe
-                | Phase::Landed
-                | Phase::Augmented(_)
-                    if on_ground =>
-                {
+                // The transmitter lost on the ground is no order to take off (nor to finish
+                // one): everything idles.
+                _ if on_ground && !matches!(self.phase, Phase::Holding { .. }) => {
                     Phase::GroundFailsafe
+                }
+                // A hold already in place (the plan's, or the loss's) is kept; the plan is
+                // given up either way.
+                Phase::Holding { target, since_us } => {
+                    self.plan_abandoned = true;
+                    Phase::Holding {
+                        target: self.braking_target(target, here, est),
+                        since_us,
+                    }
                 }
                 // In the air: the thesis's "all channels zero" is a command to hover here. The
                 // plan is abandoned; the pilot takes over again when the signal returns.
                 _ => {
                     self.plan_abandoned = true;
+                    self.braking = true;
                     Phase::Holding {
                         target: here,
                         since_us: now_us,
@@ -687,8 +708,12 @@ impl FlightCore {
                 if on_ground && !self.plan_done && !self.plan_abandoned {
                     self.leg = 0;
                     self.start_leg(est, now_us, out)
+                } else if on_ground {
+                    // Nothing left to fly: stay on the skids.
+                    Phase::Landed
                 } else {
-                    // Auto switch on in the air: hover here.
+                    // Auto switch on in the air: hover here, once stopped.
+                    self.braking = true;
                     Phase::Holding {
                         target: here,
                         since_us: now_us,
@@ -711,7 +736,10 @@ impl FlightCore {
                 {
                     self.next_leg(est, now_us, out)
                 }
-                _ => Phase::Holding { target, since_us },
+                _ => Phase::Holding {
+                    target: self.braking_target(target, here, est),
+                    since_us,
+                },
             },
             Phase::Flying { target, to_ned_m } => {
                 let speed = target.vel_ned_mps.norm();
@@ -743,23 +771,53 @@ impl FlightCore {
                 stage,
                 rolls_done,
             } => self.maneuver(est, now_us, dt_s, target, stage, rolls_done, out),
-            Phase::Landing { target } => {
-                let home_z = self.home_ned_m.map_or(est.pos_ned_m.z, |h| h.z);
-                // Descend at the target's rate until it is a metre into the ground; the skids
-                // stop the helicopter first.
-                let z = (target.pos_ned_m.z + target.vel_ned_mps.z * dt_s).min(home_z + 1.0);
+            Phase::Landing {
+                target,
+                settled_since_us,
+            } => {
+                // The target descends at its rate but never more than a metre below the
+                // helicopter; when the skids stop the descent the helicopter no longer follows
+                // it. Touchdown is judged against the target, not against home: the landing
+                // spot need not be at the take-off height, and the altimeter drifts.
+                let z =
+                    (target.pos_ned_m.z + target.vel_ned_mps.z * dt_s).min(est.pos_ned_m.z + 1.0);
                 let target = Target {
                     pos_ned_m: Vector3::new(target.pos_ned_m.x, target.pos_ned_m.y, z),
                     ..target
                 };
-                if self.height_above_home(est) < 0.15 && est.vel_ned_mps.norm() < 0.3 {
+                let stopped = z - est.pos_ned_m.z > 0.5 && est.vel_ned_mps.norm() < 0.3;
+                let settled_since_us = if stopped {
+                    Some(settled_since_us.unwrap_or(now_us))
+                } else {
+                    None
+                };
+                if settled_since_us.is_some_and(|t| seconds_between(t, now_us) >= 1.0) {
                     self.plan_done = true;
                     out.push(Action::Event(Stamped::new(now_us, CoreEvent::PlanComplete)));
                     Phase::Landed
                 } else {
-                    Phase::Landing { target }
+                    Phase::Landing {
+                        target,
+                        settled_since_us,
+                    }
                 }
             }
+        }
+    }
+
+    /// A hold begun in motion keeps its target on the predicted stopping point until the
+    /// helicopter has actually stopped (under 0.3 m/s), then holds that spot.
+    fn braking_target(&mut self, target: Target, stopping_point: Target, est: &NavState) -> Target {
+        if !self.braking {
+            return target;
+        }
+        if est.vel_ned_mps.xy().norm() < 0.3 {
+            self.braking = false;
+            return target;
+        }
+        Target {
+            yaw_rad: target.yaw_rad,
+            ..stopping_point
         }
     }
 
@@ -827,6 +885,7 @@ impl FlightCore {
                 }
             }
             Some(Leg::Land) => Phase::Landing {
+                settled_since_us: None,
                 target: Target {
                     pos_ned_m: from,
                     vel_ned_mps: Vector3::new(0.0, 0.0, 0.5),
@@ -872,21 +931,55 @@ impl FlightCore {
         let stage = match stage {
             RollStage::Accelerate { since_us } => {
                 let settled = (est.vel_ned_mps - trim_vel).norm() < 1.0;
-                if settled && seconds_between(since_us, now_us) > 6.0 {
+                let elapsed = seconds_between(since_us, now_us);
+                if settled && elapsed > 6.0 {
                     RollStage::PullUp { since_us: now_us }
+                } else if elapsed > ACCELERATE_TIMEOUT_S {
+                    // Never settled on the trim (a headwind, a weak rotor): no rolls today.
+                    self.phase = Phase::Maneuver {
+                        target: carried,
+                        stage,
+                        rolls_done,
+                    };
+                    return self.next_leg(est, now_us, out);
                 } else {
                     stage
                 }
             }
             RollStage::PullUp { since_us } => {
                 if seconds_between(since_us, now_us) >= g.pull_up_s {
-                    RollStage::Rolling { angle_rad: 0.0 }
+                    RollStage::Rolling {
+                        angle_rad: 0.0,
+                        since_us: now_us,
+                    }
                 } else {
                     stage
                 }
             }
-            RollStage::Rolling { angle_rad } => {
-                let angle_rad = angle_rad + est.rate_body_rps.x * dt_s;
+            RollStage::Rolling {
+                angle_rad,
+                since_us,
+            } => {
+                // Turned in the commanded direction; a roll that takes more than twice its
+                // nominal time is given up and the trim controller takes over.
+                let angle_rad = angle_rad + est.rate_body_rps.x * g.rate_cmd_rps.signum() * dt_s;
+                let nominal_s = 2.0 * core::f64::consts::PI / g.rate_cmd_rps.abs().max(0.5);
+                if seconds_between(since_us, now_us) > 2.0 * nominal_s {
+                    out.push(Action::Event(Stamped::new(
+                        now_us,
+                        CoreEvent::RollAbandoned,
+                    )));
+                    let target = Target {
+                        pos_ned_m: est.pos_ned_m,
+                        vel_ned_mps: trim_vel,
+                        ..target
+                    };
+                    return Phase::Maneuver {
+                        target,
+                        stage: RollStage::Recover { since_us: now_us },
+                        rolls_done: rolls_done.saturating_add(1),
+                    };
+                }
                 if angle_rad >= 2.0 * core::f64::consts::PI - g.exit_lead_rad {
                     self.stats.rolls_completed = self.stats.rolls_completed.saturating_add(1);
                     out.push(Action::Event(Stamped::new(
@@ -906,7 +999,10 @@ impl FlightCore {
                         rolls_done: done,
                     };
                 }
-                RollStage::Rolling { angle_rad }
+                RollStage::Rolling {
+                    angle_rad,
+                    since_us,
+                }
             }
             RollStage::Recover { since_us } => {
                 if seconds_between(since_us, now_us) < g.recover_s {
