@@ -8,8 +8,14 @@ use std::fmt;
 pub enum ControllerChoice {
     /// Pilot flies; computer yaw damping only.
     Manual,
-    /// Computer takes off and holds position when the pilot's auto switch is on.
+    /// Computer flies the flight plan when the pilot's auto switch is on.
     Autonomous,
+    /// Augmented: sticks command roll, pitch and yaw rates.
+    Rate,
+    /// Augmented: sticks command roll and pitch angles and yaw rate.
+    Attitude,
+    /// Augmented: sticks command velocity, climb rate and yaw rate.
+    Velocity,
 }
 
 impl ControllerChoice {
@@ -18,7 +24,22 @@ impl ControllerChoice {
         match name {
             "manual" => Ok(Self::Manual),
             "autonomous" => Ok(Self::Autonomous),
+            "rate" => Ok(Self::Rate),
+            "attitude" => Ok(Self::Attitude),
+            "velocity" => Ok(Self::Velocity),
             other => Err(LinkError::UnknownController(other.to_string())),
+        }
+    }
+
+    /// The labels the ground display writes over the pilot-uplink columns (aileron,
+    /// elevator, rudder, collective, throttle): what the sticks mean under this controller
+    /// (the thesis's display relabels the uplink row).
+    pub fn uplink_labels(self) -> [&'static str; 5] {
+        match self {
+            Self::Manual | Self::Autonomous => ["Aile", "Elev", "Rudd", "Coll", "Thro"],
+            Self::Rate => ["RollRate", "PitchRate", "YawRate", "Coll", "Thro"],
+            Self::Attitude => ["Roll", "Pitch", "YawRate", "Coll", "Thro"],
+            Self::Velocity => ["Vright", "Vfwd", "YawRate", "Climb", "Thro"],
         }
     }
 }
@@ -70,7 +91,7 @@ impl fmt::Display for LinkError {
         match self {
             LinkError::UnknownController(n) => write!(
                 f,
-                "unknown controller '{n}' (expected manual or autonomous)"
+                "unknown controller '{n}' (expected manual, autonomous, rate, attitude or velocity)"
             ),
             LinkError::BadFileSuffix(s) => {
                 write!(
@@ -117,5 +138,15 @@ mod tests {
             StartParameters::new("a", "loop"),
             Err(LinkError::UnknownController(_))
         ));
+    }
+
+    #[test]
+    fn augmented_controllers_relabel_the_uplink_row() {
+        assert_eq!(
+            ControllerChoice::from_name("velocity"),
+            Ok(ControllerChoice::Velocity)
+        );
+        assert_eq!(ControllerChoice::Velocity.uplink_labels()[3], "Climb");
+        assert_eq!(ControllerChoice::Manual.uplink_labels()[0], "Aile");
     }
 }
