@@ -708,6 +708,15 @@ mod tests {
         }
     }
 
+    /// An IMU reading with no rotation and the given specific force.
+    fn imu_reading(accel_mps2: [f64; 3]) -> ImuRepr {
+        ImuRepr {
+            rate_rps: [0.0; 3],
+            accel_mps2,
+            temp_c: 25.0,
+        }
+    }
+
     fn origin() -> GeoOrigin {
         GeoOrigin {
             lat_deg: 42.0,
@@ -822,11 +831,7 @@ mod tests {
             nav.fuse_gps(0, &fix_at([0.0; 3], [0.0; 3]));
             nav.fuse_compass(&field_at(&UnitQuaternion::identity()));
             nav.initialise(0, &level_biases());
-            let imu = ImuRepr {
-                rate_rps: [0.0; 3],
-                accel_mps2: [1.0, 0.0, -9.81],
-                temp_c: 25.0,
-            };
+            let imu = imu_reading([1.0, 0.0, -9.81]);
             let mut worst: f64 = 0.0;
             for k in 1..=500u64 {
                 let t = k * 20_000;
@@ -872,11 +877,7 @@ mod tests {
     fn baro_pulls_altitude_toward_the_pressure_altitude() {
         let mut nav = started();
         let target = heli_proto::baro::pressure_at_altitude_mbar(3.0, 1013.25);
-        let imu = ImuRepr {
-            rate_rps: [0.0; 3],
-            accel_mps2: [0.0, 0.0, -9.81],
-            temp_c: 25.0,
-        };
+        let imu = imu_reading([0.0, 0.0, -9.81]);
         for k in 1..=3000u64 {
             nav.propagate(k * 20_000, &imu, &imu);
             if k % 10 == 0 {
@@ -893,11 +894,7 @@ mod tests {
         nav.fuse_gps(0, &fix_at([0.0; 3], [0.0; 3]));
         nav.fuse_compass(&field_at(&UnitQuaternion::identity()));
         nav.initialise(0, &level_biases());
-        let imu = ImuRepr {
-            rate_rps: [0.0; 3],
-            accel_mps2: [0.0, 0.0, -9.81],
-            temp_c: 25.0,
-        };
+        let imu = imu_reading([0.0, 0.0, -9.81]);
         let p0 = 1000.0;
         for k in 1..=3000u64 {
             nav.propagate(k * 20_000, &imu, &imu);
@@ -969,11 +966,7 @@ mod tests {
         let mut nav = Navigator::new(NavConfig::default());
         nav.fuse_gps(0, &fix_at([0.0; 3], [0.0; 3]));
         nav.initialise(0, &level_biases());
-        let imu = ImuRepr {
-            rate_rps: [0.0; 3],
-            accel_mps2: [0.0, 0.0, -9.81],
-            temp_c: 25.0,
-        };
+        let imu = imu_reading([0.0, 0.0, -9.81]);
         let east = UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2);
         let mut t = 0;
         for k in 1..=1500u64 {
@@ -1008,11 +1001,7 @@ mod tests {
         nav.fuse_gps(0, &fix_at([0.0; 3], [0.0; 3]));
         nav.fuse_compass(&field_at(&UnitQuaternion::identity()));
         nav.initialise(0, &level_biases());
-        let imu = ImuRepr {
-            rate_rps: [0.0; 3],
-            accel_mps2: [0.0, 0.0, -9.81],
-            temp_c: 25.0,
-        };
+        let imu = imu_reading([0.0, 0.0, -9.81]);
         for k in 1..=1000u64 {
             nav.propagate(k * 20_000, &imu, &imu);
         }

@@ -964,29 +964,15 @@ impl FlightCore {
                 // nominal time is given up and the trim controller takes over.
                 let angle_rad = angle_rad + est.rate_body_rps.x * g.rate_cmd_rps.signum() * dt_s;
                 let nominal_s = 2.0 * core::f64::consts::PI / g.rate_cmd_rps.abs().max(0.5);
-                if seconds_between(since_us, now_us) > 2.0 * nominal_s {
-                    out.push(Action::Event(Stamped::new(
-                        now_us,
-                        CoreEvent::RollAbandoned,
-                    )));
-                    let target = Target {
-                        pos_ned_m: est.pos_ned_m,
-                        vel_ned_mps: trim_vel,
-                        ..target
+                let turned = angle_rad >= 2.0 * core::f64::consts::PI - g.exit_lead_rad;
+                if turned || seconds_between(since_us, now_us) > 2.0 * nominal_s {
+                    let event = if turned {
+                        self.stats.rolls_completed = self.stats.rolls_completed.saturating_add(1);
+                        CoreEvent::RollCompleted(self.stats.rolls_completed)
+                    } else {
+                        CoreEvent::RollAbandoned
                     };
-                    return Phase::Maneuver {
-                        target,
-                        stage: RollStage::Recover { since_us: now_us },
-                        rolls_done: rolls_done.saturating_add(1),
-                    };
-                }
-                if angle_rad >= 2.0 * core::f64::consts::PI - g.exit_lead_rad {
-                    self.stats.rolls_completed = self.stats.rolls_completed.saturating_add(1);
-                    out.push(Action::Event(Stamped::new(
-                        now_us,
-                        CoreEvent::RollCompleted(self.stats.rolls_completed),
-                    )));
-                    let done = rolls_done.saturating_add(1);
+                    out.push(Action::Event(Stamped::new(now_us, event)));
                     // Back on the trim trajectory from here, at this height.
                     let target = Target {
                         pos_ned_m: est.pos_ned_m,
@@ -996,7 +982,7 @@ impl FlightCore {
                     return Phase::Maneuver {
                         target,
                         stage: RollStage::Recover { since_us: now_us },
-                        rolls_done: done,
+                        rolls_done: rolls_done.saturating_add(1),
                     };
                 }
                 RollStage::Rolling {
