@@ -231,6 +231,15 @@ impl Simulation {
     /// Sets up the scenario's flight: helicopter on the ground with the rotor governed at
     /// 1600 rpm, devices powered, flight software started with the scenario's parameters.
     pub fn new(scenario: Scenario) -> Result<Self, ScenarioError> {
+        Self::with_flight_software(scenario, CoreConfig::default())
+    }
+
+    /// Sets up the scenario's flight with the flight software configured as `config` (its
+    /// compass calibration is replaced by the one the lab measures before the flight).
+    pub fn with_flight_software(
+        scenario: Scenario,
+        config: CoreConfig,
+    ) -> Result<Self, ScenarioError> {
         let legs: Vec<_> = scenario.plan.iter().map(|l| l.to_leg()).collect();
         let plan = Plan::new(&legs).map_err(|e| ScenarioError::Invalid(format!("plan: {e}")))?;
         let seed = scenario.seed;
@@ -264,7 +273,7 @@ impl Simulation {
         let compass_calibration = calibrate_compass(compass_errors, Noise::new(seed, 7));
         let core_config = CoreConfig {
             compass: compass_calibration,
-            ..CoreConfig::default()
+            ..config
         };
         let mut sim = Self {
             actuators,

@@ -193,3 +193,45 @@ fn the_scenario_file_documented_in_docs_parses() {
     assert_eq!(s.plan.len(), 6);
     heli_sim::Simulation::new(s).unwrap_or_else(|e| panic!("{e}"));
 }
+
+fn fly_with(scenario: &Scenario, config: heli_fsw::CoreConfig) -> Summary {
+    let sim = heli_sim::Simulation::with_flight_software(scenario.clone(), config)
+        .unwrap_or_else(|e| panic!("{e}"));
+    sim.run(heli_sim::RunOptions::default(), |_, _| {})
+}
+
+#[test]
+fn a_roll_the_rotor_cannot_fly_is_abandoned_and_the_plan_goes_on() {
+    // No cyclic at all during the roll: the helicopter never turns, each roll times out,
+    // the trim controller takes over, and the flight still ends its plan.
+    let mut config = heli_fsw::CoreConfig::default();
+    config.roll.rate_feedforward = 0.0;
+    config.roll.rate_feedback = 0.0;
+    config.roll.collective_amplitude = 0.6;
+    let s = fly_with(&scenario::rolls(), config);
+    assert_eq!(s.maneuvers.rolls_completed, 0);
+    assert_eq!(
+        s.events
+            .iter()
+            .filter(|e| e.contains("roll abandoned"))
+            .count(),
+        3,
+        "{:?}",
+        s.events
+    );
+    assert!(
+        s.events.iter().any(|e| e.contains("flight plan complete")),
+        "{:?}",
+        s.events
+    );
+    assert!(s.crash.is_none());
+}
+
+#[test]
+fn rolls_to_the_left_count_too() {
+    let mut config = heli_fsw::CoreConfig::default();
+    config.roll.rate_cmd_rps = -3.0;
+    let s = fly_with(&scenario::rolls(), config);
+    assert_eq!(s.maneuvers.rolls_completed, 3, "{:?}", s.events);
+    assert_eq!(s.outcome, Outcome::Pass, "{:?}", s.criteria);
+}
