@@ -8,8 +8,10 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
+use heli_log::FlightLog;
 use heli_sim::analysis;
 use heli_sim::lockstep::{RunOptions, Simulation};
+use heli_sim::logging::StreamLogger;
 use heli_sim::params::Airframe;
 use heli_sim::scenario;
 use heli_sim::summary::{Outcome, Summary};
@@ -30,6 +32,31 @@ enum Command {
     Sim(SimArgs),
     /// Analyse the X-Cell 60 model alone: trim, modes, governor response.
     Model(ModelArgs),
+    /// Read flight logs.
+    Log {
+        #[command(subcommand)]
+        action: LogAction,
+    },
+}
+
+#[derive(Subcommand)]
+enum LogAction {
+    /// Channels, message counts, time span, and whether the file was cut off.
+    Info {
+        /// The log file.
+        file: std::path::PathBuf,
+    },
+    /// One channel as CSV (a `t_s` column, then one column per field).
+    Export {
+        /// The log file.
+        file: std::path::PathBuf,
+        /// Channel: imu, state, servo, uplink, gps, baro, compass, events.
+        #[arg(long)]
+        channel: String,
+        /// Write here instead of standard output.
+        #[arg(long)]
+        out: Option<std::path::PathBuf>,
+    },
 }
 
 #[derive(clap::Args)]
@@ -83,6 +110,9 @@ struct SimArgs {
     /// List the built-in scenarios and exit.
     #[arg(long)]
     list: bool,
+    /// Write the flight log (MCAP: the seven streams and the events) to this file.
+    #[arg(long)]
+    log: Option<std::path::PathBuf>,
 }
 
 fn main() -> ExitCode {
@@ -90,6 +120,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Sim(args) => sim(args),
         Command::Model(args) => model(args),
+        Command::Log { action } => log(action),
     };
     match result {
         Ok(code) => code,
@@ -136,12 +167,35 @@ fn sim(args: SimArgs) -> Result<ExitCode> {
         bar
     });
     let name = scenario.name.clone();
-    let summary = Simulation::new(scenario)?.run(options, |t, total| {
-        if let Some(bar) = &bar {
-            bar.set_position((t / total * 1000.0) as u64);
-            bar.set_message(format!("{name} t={t:>6.1} s"));
+    let mut logger = match &args.log {
+        Some(path) => Some(StreamLogger::new(
+            FlightLog::create(path)
+                .with_context(|| format!("creating the flight log {}", path.display()))?,
+        )),
+        None => None,
+    };
+    let mut log_error = None;
+    let mut summary = Simulation::new(scenario)?.run_observed(
+        options,
+        |t, total| {
+            if let Some(bar) = &bar {
+                bar.set_position((t / total * 1000.0) as u64);
+                bar.set_message(format!("{name} t={t:>6.1} s"));
+            }
+        },
+        |sim| {
+            if let (Some(l), None) = (logger.as_mut(), &log_error) {
+                log_error = l.drain(sim).err();
+            }
+        },
+    );
+    if let (Some(l), Some(path)) = (logger, &args.log) {
+        match log_error.map_or_else(|| l.finish().map(|_| ()), Err) {
+            Ok(()) => summary.log = Some(path.display().to_string()),
+            // The flight went on; only its log is lost. Say so, never hide it.
+            Err(e) => eprintln!("heli: the flight log {} is incomplete: {e}", path.display()),
         }
-    });
+    }
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
@@ -243,6 +297,61 @@ fn model(args: ModelArgs) -> Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+fn log(action: LogAction) -> Result<ExitCode> {
+    let read = |file: &std::path::Path| -> Result<heli_log::LogContents> {
+        let bytes = std::fs::read(file).with_context(|| format!("reading {}", file.display()))?;
+        Ok(heli_log::read(&bytes))
+    };
+    match action {
+        LogAction::Info { file } => {
+            let contents = read(&file)?;
+            println!("{}", file.display());
+            if let Some((first, last)) = contents.span_us() {
+                println!(
+                    "  time     {:.3} s to {:.3} s",
+                    first as f64 * 1e-6,
+                    last as f64 * 1e-6
+                );
+            }
+            for (channel, count) in contents.counts() {
+                println!("  {channel:<8} {count} messages");
+            }
+            if contents.bad_messages > 0 {
+                println!("  {} messages could not be decoded", contents.bad_messages);
+            }
+            match &contents.stopped {
+                Some(why) => println!("  cut off: read up to the last whole chunk ({why})"),
+                None => println!("  complete"),
+            }
+        }
+        LogAction::Export { file, channel, out } => {
+            let contents = read(&file)?;
+            let csv = heli_log::to_csv(&contents, &channel);
+            if csv.is_empty() {
+                bail!(
+                    "no messages on channel '{channel}' in {} (see `heli log info`)",
+                    file.display()
+                );
+            }
+            match out {
+                Some(path) => std::fs::write(&path, csv)
+                    .with_context(|| format!("writing {}", path.display()))?,
+                None => write_stdout(&csv)?,
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Writes to standard output; a reader that stops early (`| head`) is not an error.
+fn write_stdout(text: &str) -> Result<()> {
+    use std::io::Write;
+    match std::io::stdout().lock().write_all(text.as_bytes()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => Ok(other?),
+    }
 }
 
 fn print_table(s: &Summary) {

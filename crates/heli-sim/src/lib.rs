@@ -15,6 +15,7 @@ pub mod devices;
 pub mod empennage;
 pub mod ground;
 pub mod lockstep;
+pub mod logging;
 pub mod model;
 pub mod params;
 pub mod pilot;

@@ -425,12 +425,24 @@ impl Simulation {
     }
 
     /// Runs to the end of the flight plan, the duration, or a crash.
-    pub fn run(mut self, options: RunOptions, mut progress: impl FnMut(f64, f64)) -> Summary {
+    pub fn run(self, options: RunOptions, progress: impl FnMut(f64, f64)) -> Summary {
+        self.run_observed(options, progress, |_| {})
+    }
+
+    /// Runs like [`Simulation::run`], calling `observe` after every physics step — the place
+    /// for an observer such as the flight logger, which reads the streams and never writes.
+    pub fn run_observed(
+        mut self,
+        options: RunOptions,
+        mut progress: impl FnMut(f64, f64),
+        mut observe: impl FnMut(&Simulation),
+    ) -> Summary {
         let wall_start = Instant::now();
         let duration_s = options.duration_s.unwrap_or(self.scenario.duration_s);
         let end_us = (duration_s * 1e6) as u64;
         let mut next_progress_us = 0;
         while self.advance(end_us) {
+            observe(&self);
             if self.now_us >= next_progress_us {
                 progress(self.now_us as f64 * 1e-6, duration_s);
                 next_progress_us += 1_000_000;
@@ -442,8 +454,14 @@ impl Simulation {
                 }
             }
         }
+        observe(&self);
         let wall = wall_start.elapsed().as_secs_f64();
         self.summarise(wall)
+    }
+
+    /// Events the flight software reported so far, as text.
+    pub fn events(&self) -> &[String] {
+        &self.metrics.events
     }
 
     /// Processes events up to and including the next physics step, unless the run is over
