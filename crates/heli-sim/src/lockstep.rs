@@ -194,6 +194,15 @@ struct Metrics {
     events: Vec<String>,
 }
 
+/// Everything that went into the flight software and everything that came out, in order.
+#[derive(Clone, Debug, Default)]
+pub struct Recording {
+    /// Each input with the time it was handled (µs).
+    pub inputs: Vec<(u64, Input)>,
+    /// Each action, in the order the core produced them.
+    pub actions: Vec<Action>,
+}
+
 /// One simulated flight. Cloning it forks the run: both copies continue identically.
 #[derive(Clone)]
 pub struct Simulation {
@@ -202,6 +211,8 @@ pub struct Simulation {
     actuators: Actuators,
     hands: HoveringPilot,
     hand_sticks: Option<Controls>,
+    core_setup: (CoreConfig, FlightParams),
+    recorded: Option<Recording>,
     turbulence: Turbulence,
     gust_ned_mps: Vector3<f64>,
     rotor_azimuth_rad: f64,
@@ -297,6 +308,8 @@ impl Simulation {
             },
             drop_noise: Noise::new(seed, 5),
             core: FlightCore::new(core_config, params),
+            core_setup: (core_config, params),
+            recorded: None,
             drivers: Drivers::new(heli_proto::baro::DEFAULT_RATE_HZ),
             streams: Streams::with_history_s(10.0),
             queue: BinaryHeap::new(),
@@ -479,6 +492,23 @@ impl Simulation {
             }
         }
         false
+    }
+
+    /// Starts recording every input the flight software handles and every action it takes
+    /// (for replay tests: a fresh core fed the same inputs must take the same actions).
+    pub fn record_flight_software(&mut self) {
+        self.recorded = Some(Recording::default());
+    }
+
+    /// What was recorded since [`Simulation::record_flight_software`].
+    pub fn recording(&self) -> Option<&Recording> {
+        self.recorded.as_ref()
+    }
+
+    /// The configuration and flight parameters the flight software was started with (it was
+    /// started, watchdog armed, at time 0).
+    pub fn flight_software_setup(&self) -> (CoreConfig, FlightParams) {
+        self.core_setup
     }
 
     /// Current simulated time (µs).
@@ -683,9 +713,15 @@ impl Simulation {
 
     fn deliver_to_core(&mut self, input: Input) {
         let now = self.now_us;
+        if let Some(recorded) = self.recorded.as_mut() {
+            recorded.inputs.push((now, input));
+        }
         let mut actions = std::mem::take(&mut self.actions);
         let started = Instant::now();
         self.core.handle(input, now, &mut actions);
+        if let Some(recorded) = self.recorded.as_mut() {
+            recorded.actions.extend(actions.iter().copied());
+        }
         let took = started.elapsed();
         if actions.iter().any(|a| matches!(a, Action::Servo(_))) {
             self.metrics.step_time_max = self.metrics.step_time_max.max(took);
