@@ -32,6 +32,12 @@ enum Command {
     Sim(SimArgs),
     /// Analyse the X-Cell 60 model alone: trim, modes, governor response.
     Model(ModelArgs),
+    /// Measure parser throughput, control-step latency, lockstep speed and memory.
+    Bench {
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Read flight logs.
     Log {
         #[command(subcommand)]
@@ -121,6 +127,7 @@ fn main() -> ExitCode {
         Command::Sim(args) => sim(args),
         Command::Model(args) => model(args),
         Command::Log { action } => log(action),
+        Command::Bench { json } => bench(json),
     };
     match result {
         Ok(code) => code,
@@ -341,6 +348,33 @@ fn log(action: LogAction) -> Result<ExitCode> {
                 None => write_stdout(&csv)?,
             }
         }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn bench(json: bool) -> Result<ExitCode> {
+    let report = heli_sim::bench::run();
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!("parsers (8 MB of back-to-back frames through the flight software's drivers)");
+    for p in &report.parsers {
+        println!(
+            "  {:<8} {:>8.1} MB/s  ({} frames)",
+            p.device, p.mb_per_s, p.frames
+        );
+    }
+    let c = &report.control_step;
+    println!(
+        "control step (hover, {} steps with the estimator running): median {:.1} us, p99 {:.1} us, max {:.1} us (budget 20 000 us)",
+        c.steps, c.median_us, c.p99_us, c.max_us
+    );
+    for (name, rtf) in &report.realtime_factor {
+        println!("lockstep {name:<6} {rtf:.0}x real time");
+    }
+    if let Some(mib) = report.peak_rss_mib {
+        println!("peak memory {mib:.1} MiB");
     }
     Ok(ExitCode::SUCCESS)
 }

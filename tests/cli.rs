@@ -229,3 +229,24 @@ fn sim_writes_a_flight_log_that_reads_back_and_survives_being_cut_off() {
     ]);
     assert_eq!(missing.status.code(), Some(2));
 }
+
+#[test]
+fn bench_measures_parsers_control_step_speed_and_memory() {
+    let out = heli(&["bench", "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    let parsers = v["parsers"].as_array().cloned().unwrap_or_default();
+    assert_eq!(parsers.len(), 3);
+    for p in &parsers {
+        // Every frame of the 8 MB stream was delivered: the parser kept up and lost nothing.
+        let frames = p["frames"].as_u64().unwrap_or(0);
+        assert!(frames > 200_000, "{p}");
+        assert!(p["mb_per_s"].as_f64().unwrap_or(0.0) > 0.0);
+    }
+    assert!(v["control_step"]["steps"].as_u64().unwrap_or(0) > 3000);
+    assert_eq!(v["realtime_factor"].as_array().map(Vec::len), Some(2));
+}

@@ -11,6 +11,7 @@
 
 pub mod actuators;
 pub mod analysis;
+pub mod bench;
 pub mod devices;
 pub mod empennage;
 pub mod ground;

@@ -213,6 +213,7 @@ pub struct Simulation {
     hand_sticks: Option<Controls>,
     core_setup: (CoreConfig, FlightParams),
     recorded: Option<Recording>,
+    step_times: Option<Vec<Duration>>,
     turbulence: Turbulence,
     gust_ned_mps: Vector3<f64>,
     rotor_azimuth_rad: f64,
@@ -310,6 +311,7 @@ impl Simulation {
             core: FlightCore::new(core_config, params),
             core_setup: (core_config, params),
             recorded: None,
+            step_times: None,
             drivers: Drivers::new(heli_proto::baro::DEFAULT_RATE_HZ),
             streams: Streams::with_history_s(10.0),
             queue: BinaryHeap::new(),
@@ -498,6 +500,17 @@ impl Simulation {
     /// (for replay tests: a fresh core fed the same inputs must take the same actions).
     pub fn record_flight_software(&mut self) {
         self.recorded = Some(Recording::default());
+    }
+
+    /// Starts keeping the wall-clock time of every control step once the estimator runs
+    /// (for `heli bench`).
+    pub fn time_control_steps(&mut self) {
+        self.step_times = Some(Vec::new());
+    }
+
+    /// Wall-clock times of the control steps since [`Simulation::time_control_steps`].
+    pub fn control_step_times(&self) -> &[Duration] {
+        self.step_times.as_deref().unwrap_or(&[])
     }
 
     /// What was recorded since [`Simulation::record_flight_software`].
@@ -725,6 +738,13 @@ impl Simulation {
         let took = started.elapsed();
         if actions.iter().any(|a| matches!(a, Action::Servo(_))) {
             self.metrics.step_time_max = self.metrics.step_time_max.max(took);
+            // Timed once the estimator runs: during calibration the step is pass-through.
+            if let (Some(times), true) = (
+                self.step_times.as_mut(),
+                self.core.navigator().state().is_some(),
+            ) {
+                times.push(took);
+            }
         }
         for action in actions.drain(..) {
             match action {
