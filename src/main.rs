@@ -63,6 +63,27 @@ enum LogAction {
         #[arg(long)]
         out: Option<std::path::PathBuf>,
     },
+    /// Plot one channel's fields against time (SVG or PNG), with the flight's events marked.
+    Plot {
+        /// The log file.
+        file: std::path::PathBuf,
+        /// Channel: imu, state, servo, uplink, gps, baro, compass.
+        #[arg(long)]
+        channel: String,
+        /// Field to plot, one panel each; a vector field plots all its components
+        /// (`pos_ned_m`) or one (`pos_ned_m[2]`). Repeat for more. Default: every numeric field.
+        #[arg(long = "field")]
+        fields: Vec<String>,
+        /// Start of the time window (s of vehicle clock).
+        #[arg(long)]
+        from: Option<f64>,
+        /// End of the time window (s of vehicle clock).
+        #[arg(long)]
+        to: Option<f64>,
+        /// Image to write, `.svg` or `.png` [default: <log>_<channel>.svg beside the log].
+        #[arg(long)]
+        out: Option<std::path::PathBuf>,
+    },
 }
 
 #[derive(clap::Args)]
@@ -346,6 +367,42 @@ fn log(action: LogAction) -> Result<ExitCode> {
                 Some(path) => std::fs::write(&path, csv)
                     .with_context(|| format!("writing {}", path.display()))?,
                 None => write_stdout(&csv)?,
+            }
+        }
+        LogAction::Plot {
+            file,
+            channel,
+            fields,
+            from,
+            to,
+            out,
+        } => {
+            use heli_log::plot;
+            let out = out.unwrap_or_else(|| {
+                let stem = file.file_stem().and_then(|s| s.to_str()).unwrap_or("log");
+                file.with_file_name(format!("{stem}_{channel}.svg"))
+            });
+            let format = plot::ImageFormat::from_path(&out)
+                .ok_or_else(|| plot::PlotError::UnknownFormat(out.display().to_string()))?;
+            let contents = read(&file)?;
+            let window = plot::Window {
+                from_s: from,
+                to_s: to,
+            };
+            let (panels, left_out) = plot::panels(&contents, &channel, &fields, window)
+                .with_context(|| format!("plotting {}", file.display()))?;
+            let marks = plot::events(&contents, window);
+            let title = format!("{} - {channel}", file.display());
+            plot::render(&panels, &marks, &title, format, &out)?;
+            println!("wrote {} ({} panels)", out.display(), panels.len());
+            if left_out > 0 {
+                println!(
+                    "  {left_out} more fields not drawn (at most {}): choose with --field",
+                    plot::MAX_PANELS
+                );
+            }
+            if let Some(why) = &contents.stopped {
+                println!("  the log was cut off: plotted up to its last whole chunk ({why})");
             }
         }
     }

@@ -210,6 +210,54 @@ fn sim_writes_a_flight_log_that_reads_back_and_survives_being_cut_off() {
     let csv = String::from_utf8_lossy(&csv.stdout);
     assert!(csv.starts_with("t_s,") && csv.contains("phase") && csv.lines().count() > 3000);
 
+    // Plots: the default SVG beside the log, a PNG of chosen fields, a clear refusal of an
+    // unknown field and of an unknown image format.
+    let plot = heli(&[
+        "log",
+        "plot",
+        log.to_str().unwrap_or_default(),
+        "--channel",
+        "servo",
+    ]);
+    assert!(
+        plot.status.success(),
+        "{}",
+        String::from_utf8_lossy(&plot.stderr)
+    );
+    let svg = std::fs::read_to_string(dir.join("hover_servo.svg")).unwrap_or_default();
+    assert!(svg.starts_with("<svg") && svg.contains("collective") && svg.contains("rotor_rpm"));
+    let log_path = log.to_str().unwrap_or_default();
+    let plot_state =
+        |extra: &[&str]| heli(&[&["log", "plot", log_path, "--channel", "state"], extra].concat());
+    let png = dir.join("attitude.png");
+    let png_path = png.to_str().unwrap_or_default();
+    let plot = plot_state(&[
+        "--field",
+        "roll_rad",
+        "--field",
+        "pos_ned_m",
+        "--from",
+        "100",
+        "--out",
+        png_path,
+    ]);
+    let text = String::from_utf8_lossy(&plot.stdout);
+    assert!(plot.status.success() && text.contains("2 panels"), "{text}");
+    let bytes = std::fs::read(&png).unwrap_or_default();
+    assert!(bytes.starts_with(b"\x89PNG"));
+    for (field, out, complaint) in [
+        ("rol", "x.svg", "roll_rad"),
+        ("roll_rad", "x.jpg", ".svg or .png"),
+    ] {
+        let out = dir.join(out);
+        let refused = plot_state(&["--field", field, "--out", out.to_str().unwrap_or_default()]);
+        let why = String::from_utf8_lossy(&refused.stderr);
+        assert!(
+            refused.status.code() == Some(2) && why.contains(complaint),
+            "{why}"
+        );
+    }
+
     // A crash cuts the file: what was written before the last closed chunk is still there.
     let bytes = std::fs::read(&log).unwrap_or_default();
     let cut = dir.join("cut.mcap");

@@ -12,7 +12,8 @@
 //!   up to its last closed chunk: at most the last 100 ms and the unfinished chunk are lost.
 //! - Reading ([`read`]) never panics on a damaged file: it returns what it could read and
 //!   says where and why it stopped.
-//! - Export ([`to_csv`]) flattens one channel's messages into CSV for plotting.
+//! - Export ([`to_csv`]) flattens one channel's messages into CSV for plotting elsewhere;
+//!   [`plot`] draws a channel's fields against time as SVG or PNG, with the flight's events.
 //!
 //! What it is not: the stream buffers themselves (heli-fsw) or the conversion of flight
 //! records to JSON (done by whoever owns the records).
@@ -24,6 +25,8 @@ use std::io::{BufWriter, Seek, Write};
 use std::path::Path;
 
 use serde_json::Value;
+
+pub mod plot;
 
 /// The seven streams whose histories are logged, in the thesis's order.
 pub const STREAMS: [&str; 7] = ["imu", "state", "servo", "uplink", "gps", "baro", "compass"];
@@ -230,7 +233,8 @@ pub fn read(bytes: &[u8]) -> LogContents {
     contents
 }
 
-fn flatten(prefix: &str, value: &Value, out: &mut Vec<(String, String)>) {
+/// Calls `leaf` with the flattened name (`a.b`, `v[2]`) and value of every scalar in `value`.
+fn for_each_leaf(prefix: &str, value: &Value, leaf: &mut dyn FnMut(String, &Value)) {
     match value {
         Value::Object(map) => {
             for (k, v) in map {
@@ -239,18 +243,27 @@ fn flatten(prefix: &str, value: &Value, out: &mut Vec<(String, String)>) {
                 } else {
                     format!("{prefix}.{k}")
                 };
-                flatten(&key, v, out);
+                for_each_leaf(&key, v, leaf);
             }
         }
         Value::Array(items) => {
             for (i, v) in items.iter().enumerate() {
-                flatten(&format!("{prefix}[{i}]"), v, out);
+                for_each_leaf(&format!("{prefix}[{i}]"), v, leaf);
             }
         }
-        Value::String(s) => out.push((prefix.to_string(), s.replace([',', '\n'], " "))),
-        Value::Null => out.push((prefix.to_string(), String::new())),
-        other => out.push((prefix.to_string(), other.to_string())),
+        scalar => leaf(prefix.to_string(), scalar),
     }
+}
+
+fn flatten(prefix: &str, value: &Value, out: &mut Vec<(String, String)>) {
+    for_each_leaf(prefix, value, &mut |name, v| {
+        let text = match v {
+            Value::String(s) => s.replace([',', '\n'], " "),
+            Value::Null => String::new(),
+            other => other.to_string(),
+        };
+        out.push((name, text));
+    });
 }
 
 /// One channel's messages as CSV: a `t_s` column, then one column per (flattened) field,
