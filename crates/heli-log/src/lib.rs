@@ -200,30 +200,67 @@ impl LogContents {
     }
 }
 
+/// Longest record the reader accepts beyond the file's own length (bytes). A record inside a
+/// compressed chunk may be longer than the file, but the flight software's messages are a few
+/// hundred bytes; the bound stops a corrupt length field from asking for exabytes.
+pub const RECORD_LENGTH_SLACK: usize = 16 << 20;
+
 /// Reads a log's bytes, as far as they go.
+///
+/// Built on mcap's sans-I/O reader with a record length limit: `mcap::MessageStream` sets
+/// none, and a corrupt length inside a chunk made it try to allocate the length it read
+/// (found by the `log_reader` fuzz target, docs/fuzzing.md).
 pub fn read(bytes: &[u8]) -> LogContents {
+    use mcap::records::Record;
+    use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+
     let mut contents = LogContents {
         messages: Vec::new(),
         stopped: None,
         bad_messages: 0,
     };
-    let stream = match mcap::MessageStream::new(bytes) {
-        Ok(s) => s,
-        Err(e) => {
-            contents.stopped = Some(e.to_string());
-            return contents;
-        }
-    };
-    for message in stream {
-        match message {
-            Ok(m) => match serde_json::from_slice::<Value>(&m.data) {
-                Ok(value) => contents.messages.push(LoggedMessage {
-                    topic: m.channel.topic.clone(),
-                    t_us: m.log_time / 1000,
-                    value,
-                }),
-                Err(_) => contents.bad_messages += 1,
+    let options = LinearReaderOptions::default()
+        .with_record_length_limit(bytes.len().saturating_add(RECORD_LENGTH_SLACK));
+    let mut reader = LinearReader::new_with_options(options);
+    let mut rest = bytes;
+    let mut topics: BTreeMap<u16, String> = BTreeMap::new();
+    while let Some(event) = reader.next_event() {
+        let record = match event {
+            Ok(LinearReadEvent::ReadRequest(need)) => {
+                let n = need.min(rest.len());
+                let (now, later) = rest.split_at(n);
+                reader.insert(n).copy_from_slice(now);
+                reader.notify_read(n);
+                rest = later;
+                continue;
+            }
+            // Only channels and messages are needed; other records are not parsed at all.
+            Ok(LinearReadEvent::Record { data, opcode }) => match opcode {
+                OP_CHANNEL if !channel_lengths_fit(data) => {
+                    contents.stopped = Some("channel record with a corrupt length".into());
+                    break;
+                }
+                OP_CHANNEL | OP_MESSAGE => mcap::parse_record(opcode, data),
+                _ => continue,
             },
+            Err(e) => Err(e),
+        };
+        match record {
+            Ok(Record::Channel(channel)) => {
+                topics.insert(channel.id, channel.topic);
+            }
+            Ok(Record::Message { header, data }) => {
+                let topic = topics.get(&header.channel_id);
+                match (topic, serde_json::from_slice::<Value>(&data)) {
+                    (Some(topic), Ok(value)) => contents.messages.push(LoggedMessage {
+                        topic: topic.clone(),
+                        t_us: header.log_time / 1000,
+                        value,
+                    }),
+                    _ => contents.bad_messages += 1,
+                }
+            }
+            Ok(_) => {}
             Err(e) => {
                 contents.stopped = Some(e.to_string());
                 break;
@@ -231,6 +268,46 @@ pub fn read(bytes: &[u8]) -> LogContents {
         }
     }
     contents
+}
+
+/// MCAP opcode of a Channel record.
+const OP_CHANNEL: u8 = 0x04;
+/// MCAP opcode of a Message record.
+const OP_MESSAGE: u8 = 0x05;
+
+/// Whether every length field of a Channel record body fits inside it: topic, message
+/// encoding, and the metadata map with each of its keys and values. mcap's parser reserves a
+/// string's stated length before reading it, so a corrupt length would ask for up to 4 GiB
+/// (found by the `log_reader` fuzz target).
+fn channel_lengths_fit(body: &[u8]) -> bool {
+    /// The `u32`-length-prefixed field at `at`: its contents' range, if it fits in `end`.
+    fn field(body: &[u8], at: usize, end: usize) -> Option<(usize, usize)> {
+        let len_bytes: [u8; 4] = body.get(at..at.checked_add(4)?)?.try_into().ok()?;
+        let start = at + 4;
+        let stop = start.checked_add(u32::from_le_bytes(len_bytes) as usize)?;
+        (stop <= end).then_some((start, stop))
+    }
+    let end = body.len();
+    // id (u16) and schema id (u16), then topic and message encoding.
+    let Some((_, after_topic)) = field(body, 4, end) else {
+        return false;
+    };
+    let Some((_, after_encoding)) = field(body, after_topic, end) else {
+        return false;
+    };
+    let Some((mut at, map_end)) = field(body, after_encoding, end) else {
+        return false;
+    };
+    while at < map_end {
+        let Some((_, after_key)) = field(body, at, map_end) else {
+            return false;
+        };
+        let Some((_, after_value)) = field(body, after_key, map_end) else {
+            return false;
+        };
+        at = after_value;
+    }
+    true
 }
 
 /// Calls `leaf` with the flattened name (`a.b`, `v[2]`) and value of every scalar in `value`.
@@ -377,6 +454,46 @@ mod tests {
                 last_s >= 20.0 * cut - 1.0,
                 "cut at {cut}: recovered up to {last_s} s"
             );
+        }
+    }
+
+    #[test]
+    fn a_corrupt_record_length_is_an_error_not_an_allocation() {
+        // Found by the log_reader fuzz target: the start of a real log with one length field
+        // inside a chunk corrupted to 8.2e18 bytes. mcap's MessageStream tried to allocate it
+        // and the process aborted; read() bounds record lengths and stops with a reason.
+        let bytes = include_bytes!("../tests/data/corrupt_record_length.mcap");
+        let contents = read(bytes);
+        assert!(contents.stopped.is_some());
+        assert!(contents.messages.len() < 200);
+    }
+
+    #[test]
+    fn channel_record_lengths_are_checked_before_parsing() {
+        fn prefixed(out: &mut Vec<u8>, bytes: &[u8]) {
+            out.extend_from_slice(&(bytes.len() as u32).to_le_bytes());
+            out.extend_from_slice(bytes);
+        }
+        let mut map = Vec::new();
+        prefixed(&mut map, b"unit");
+        prefixed(&mut map, b"SI");
+        let mut body = vec![1, 0, 0, 0];
+        prefixed(&mut body, b"state");
+        prefixed(&mut body, b"json");
+        prefixed(&mut body, &map);
+        assert!(channel_lengths_fit(&body));
+        assert!(matches!(
+            mcap::parse_record(OP_CHANNEL, &body),
+            Ok(mcap::records::Record::Channel(c)) if c.topic == "state"
+        ));
+        // Any length field made too long, or the body cut short, is refused.
+        for at in [4, 13, 21, 25, 33] {
+            let mut bad = body.clone();
+            bad[at + 3] = 0xff;
+            assert!(!channel_lengths_fit(&bad), "length at {at}");
+        }
+        for cut in 0..body.len() {
+            assert!(!channel_lengths_fit(&body[..cut]), "cut at {cut}");
         }
     }
 
