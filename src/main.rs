@@ -395,6 +395,10 @@ fn log(action: LogAction) -> Result<ExitCode> {
             let title = format!("{} - {channel}", file.display());
             plot::render(&panels, &marks, &title, format, &out)?;
             println!("wrote {} ({} panels)", out.display(), panels.len());
+            // The event texts begin with their time.
+            for (i, (_, text)) in marks.iter().enumerate() {
+                println!("  {:>3}  {text}", i + 1);
+            }
             if left_out > 0 {
                 println!(
                     "  {left_out} more fields not drawn (at most {}): choose with --field",

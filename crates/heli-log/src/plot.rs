@@ -223,7 +223,8 @@ pub fn events(contents: &LogContents, window: Window) -> Vec<(f64, String)> {
 }
 
 /// Draws `panels` stacked one above the other, a shared time axis, events as red vertical
-/// lines (red), and writes the image to `path` in `format`.
+/// lines numbered 1, 2, … in the top panel in the order of `events`, and writes the image
+/// to `path` in `format`.
 pub fn render(
     panels: &[Panel],
     events: &[(f64, String)],
@@ -276,7 +277,7 @@ fn draw<DB: DrawingBackend>(
         .map_err(|e| PlotError::Draw(e.to_string()))?;
     let (t0, t1) = time_span(panels);
     let areas = root.split_evenly((panels.len().max(1), 1));
-    for (area, panel) in areas.iter().zip(panels) {
+    for (k, (area, panel)) in areas.iter().zip(panels).enumerate() {
         let (y0, y1) = value_span(panel);
         let mut chart = ChartBuilder::on(area)
             .caption(&panel.title, ("sans-serif", 15))
@@ -299,6 +300,30 @@ fn draw<DB: DrawingBackend>(
         chart
             .draw_series(marks)
             .map_err(|e| PlotError::Draw(e.to_string()))?;
+        if k == 0 {
+            // The marks are numbered in the top panel, in the order of `events`; events at
+            // the same instant share one label ("3,4").
+            let mut labels: Vec<(f64, String)> = Vec::new();
+            for (i, &(t, _)) in events.iter().enumerate() {
+                if !(t0..=t1).contains(&t) {
+                    continue;
+                }
+                match labels.last_mut() {
+                    Some((last, label)) if *last == t => label.push_str(&format!(",{}", i + 1)),
+                    _ => labels.push((t, format!("{}", i + 1))),
+                }
+            }
+            let numbers = labels.into_iter().map(|(t, label)| {
+                Text::new(
+                    label,
+                    (t, y1),
+                    ("sans-serif", 11).into_font().color(&EVENT_MARK),
+                )
+            });
+            chart
+                .draw_series(numbers)
+                .map_err(|e| PlotError::Draw(e.to_string()))?;
+        }
         for (i, series) in panel.series.iter().enumerate() {
             let colour = COLOURS.get(i % COLOURS.len()).copied().unwrap_or(BLACK);
             let points = series
@@ -605,6 +630,8 @@ mod tests {
         }
         // 5 traces drawn as polylines, plus the event mark in each of the 3 panels.
         assert!(svg.matches("<polyline").count() >= 5 + 3);
+        // The one event is numbered once, in the marks' colour.
+        assert_eq!(svg.matches(r##"fill="#C81E1E""##).count(), 1, "{svg:.0}");
 
         let png_path = dir.join("state.png");
         render(&panels, &marks, "state", ImageFormat::Png, &png_path).unwrap();
