@@ -380,7 +380,17 @@ fn log(action: LogAction) -> Result<ExitCode> {
             use heli_log::plot;
             let out = out.unwrap_or_else(|| {
                 let stem = file.file_stem().and_then(|s| s.to_str()).unwrap_or("log");
-                file.with_file_name(format!("{stem}_{channel}.svg"))
+                let name: String = channel
+                    .chars()
+                    .map(|c| {
+                        if c.is_alphanumeric() || c == '-' {
+                            c
+                        } else {
+                            '_'
+                        }
+                    })
+                    .collect();
+                file.with_file_name(format!("{stem}_{name}.svg"))
             });
             let format = plot::ImageFormat::from_path(&out)
                 .ok_or_else(|| plot::PlotError::UnknownFormat(out.display().to_string()))?;
@@ -401,12 +411,12 @@ fn log(action: LogAction) -> Result<ExitCode> {
             }
             if left_out > 0 {
                 println!(
-                    "  {left_out} more fields not drawn (at most {}): choose with --field",
+                    "  {left_out} more fields not drawn (at most {} panels per plot): name fewer with --field",
                     plot::MAX_PANELS
                 );
             }
             if let Some(why) = &contents.stopped {
-                println!("  the log was cut off: plotted up to its last whole chunk ({why})");
+                println!("  reading the log stopped early ({why}); plotted what was read");
             }
         }
     }

@@ -11,7 +11,7 @@
 //!   ([`FLUSH_EVERY_US`]), so a file cut off anywhere — power lost, process killed — reads back
 //!   up to its last closed chunk: at most the last 100 ms and the unfinished chunk are lost.
 //! - Reading ([`read`]) never panics on a damaged file: it returns what it could read and
-//!   says where and why it stopped.
+//!   says why it stopped.
 //! - Export ([`to_csv`]) flattens one channel's messages into CSV for plotting elsewhere;
 //!   [`plot`] draws a channel's fields against time as SVG or PNG, with the flight's events.
 //!
@@ -178,7 +178,8 @@ pub struct LogContents {
     /// Why reading stopped early, if it did (a file cut off by a crash stops at the last
     /// closed chunk).
     pub stopped: Option<String>,
-    /// Messages whose content was not valid JSON (counted, skipped).
+    /// Messages whose content was not valid JSON or whose channel was never announced
+    /// (counted, skipped).
     pub bad_messages: u64,
 }
 
@@ -211,14 +212,27 @@ pub const RECORD_LENGTH_SLACK: usize = 16 << 20;
 /// none, and a corrupt length inside a chunk made it try to allocate the length it read
 /// (found by the `log_reader` fuzz target, docs/fuzzing.md).
 pub fn read(bytes: &[u8]) -> LogContents {
-    use mcap::records::Record;
-    use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
-
     let mut contents = LogContents {
         messages: Vec::new(),
         stopped: None,
         bad_messages: 0,
     };
+    // mcap 0.26 subtracts a record's length from an uncompressed chunk's remaining size
+    // unchecked, so a corrupt length panics where overflow checks are on (debug builds). What
+    // was read before stays; the panic becomes the reason reading stopped.
+    let finished = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        read_into(bytes, &mut contents)
+    }));
+    if finished.is_err() {
+        contents.stopped = Some("the MCAP reader failed on a corrupt record".into());
+    }
+    contents
+}
+
+fn read_into(bytes: &[u8], contents: &mut LogContents) {
+    use mcap::records::Record;
+    use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+
     let options = LinearReaderOptions::default()
         .with_record_length_limit(bytes.len().saturating_add(RECORD_LENGTH_SLACK));
     let mut reader = LinearReader::new_with_options(options);
@@ -267,7 +281,6 @@ pub fn read(bytes: &[u8]) -> LogContents {
             }
         }
     }
-    contents
 }
 
 /// MCAP opcode of a Channel record.
@@ -466,6 +479,47 @@ mod tests {
         let contents = read(bytes);
         assert!(contents.stopped.is_some());
         assert!(contents.messages.len() < 200);
+    }
+
+    #[test]
+    fn a_corrupt_length_in_an_uncompressed_chunk_stops_reading() {
+        // mcap subtracts a record's length from an uncompressed chunk's remaining size without
+        // a check (a panic where overflow checks are on); read() must stop with a reason and
+        // keep the messages before it, in any build.
+        let mut w = mcap::WriteOptions::new()
+            .compression(None)
+            .create(Cursor::new(Vec::new()))
+            .unwrap();
+        let schema = w.add_schema("heli.state", "jsonschema", b"{}").unwrap();
+        let channel = w
+            .add_channel(schema, "state", "json", &BTreeMap::new())
+            .unwrap();
+        for i in 0..3u32 {
+            let header = mcap::records::MessageHeader {
+                channel_id: channel,
+                sequence: i,
+                log_time: u64::from(i) * 1000,
+                publish_time: u64::from(i) * 1000,
+            };
+            let data = format!(r#"{{"n":{i},"mark":"message{i}"}}"#);
+            w.write_to_known_channel(&header, data.as_bytes()).unwrap();
+        }
+        w.finish().unwrap();
+        let mut bytes = w.into_inner().into_inner();
+        assert_eq!(read(&bytes).messages.len(), 3);
+        // The third message record's length field: 8 bytes before its 22-byte header.
+        let at = bytes
+            .windows(17)
+            .position(|x| x.starts_with(br#"{"n":2,"#))
+            .unwrap();
+        let length_at = at - 22 - 8;
+        // Longer than what is left of the chunk, but not than the file: the reader takes the
+        // bytes after the chunk as part of the record.
+        let length = u64::from_le_bytes(bytes[length_at..length_at + 8].try_into().unwrap());
+        bytes[length_at..length_at + 8].copy_from_slice(&(length + 20).to_le_bytes());
+        let contents = read(&bytes);
+        assert!(contents.stopped.is_some());
+        assert_eq!(contents.messages.len(), 2);
     }
 
     #[test]

@@ -145,8 +145,9 @@ impl Window {
 ///
 /// Each entry of `fields` selects the field of that name and, for a vector or a record, all
 /// its components (`pos_ned_m` selects `pos_ned_m[0]` to `pos_ned_m[2]`); each entry is one
-/// panel. With no fields, every numeric field is plotted, one panel per top-level field,
-/// up to [`MAX_PANELS`]; the second value returned says how many panels were left out.
+/// panel. With no fields, every numeric field is plotted, one panel per top-level field.
+/// Either way at most [`MAX_PANELS`] are drawn; the second value returned says how many
+/// panels were left out.
 pub fn panels(
     contents: &LogContents,
     channel: &str,
@@ -467,16 +468,26 @@ fn value_span(panel: &Panel) -> (f64, f64) {
     (lo - margin, hi + margin)
 }
 
-/// The range of `values`, widened when it is a single value so that an axis can be drawn.
+/// Largest magnitude an axis reaches: a diverged value (up to ±1.8e308) is drawn at the edge,
+/// and the axis arithmetic (width, margin) stays finite. An infinite axis would never finish
+/// laying out its ticks.
+const AXIS_LIMIT: f64 = 1e300;
+
+/// The range of `values` within ±[`AXIS_LIMIT`], widened when it is (nearly) a single value so
+/// that an axis can be drawn.
 fn padded(values: impl Iterator<Item = f64>) -> (f64, f64) {
-    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-        (lo.min(v), hi.max(v))
-    });
-    if !lo.is_finite() || !hi.is_finite() {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .map(|v| v.clamp(-AXIS_LIMIT, AXIS_LIMIT))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    if lo > hi {
         return (0.0, 1.0);
     }
-    if hi - lo < 1e-9 {
-        let half = (lo.abs() * 0.1).max(0.5);
+    let scale = lo.abs().max(hi.abs());
+    if hi - lo <= 1e-9 * scale || scale == 0.0 {
+        let half = (scale * 0.1).max(0.5);
         return (lo - half, hi + half);
     }
     (lo, hi)
@@ -640,6 +651,49 @@ mod tests {
         let height = u32::from_be_bytes([png[20], png[21], png[22], png[23]]);
         assert_eq!(height, 3 * PANEL_HEIGHT_PX + 40);
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn diverged_and_tiny_values_still_give_a_finite_axis() {
+        for values in [
+            vec![-1e308, 1e308],
+            vec![f64::MAX, f64::MAX],
+            vec![1e-12, 3e-12],
+            vec![0.0, 0.0],
+            vec![],
+        ] {
+            let panel = Panel {
+                title: "x".into(),
+                series: vec![Series {
+                    name: "x".into(),
+                    t_s: (0..values.len()).map(|i| i as f64).collect(),
+                    values: values.clone(),
+                }],
+            };
+            let (lo, hi) = value_span(&panel);
+            assert!(
+                lo.is_finite() && hi.is_finite() && lo < hi,
+                "{values:?}: {lo} {hi}"
+            );
+        }
+        let (lo, hi) = padded([1e-12, 3e-12].into_iter());
+        assert_eq!(
+            (lo, hi),
+            (1e-12, 3e-12),
+            "a small signal keeps its own scale"
+        );
+        // Drawing a diverged trace finishes.
+        let panel = Panel {
+            title: "diverged".into(),
+            series: vec![Series {
+                name: "x".into(),
+                t_s: vec![0.0, 1.0, 2.0],
+                values: vec![0.0, -1e308, 1e308],
+            }],
+        };
+        let path = std::env::temp_dir().join(format!("heli-plot-big-{}.svg", std::process::id()));
+        render(&[panel], &[], "big", ImageFormat::Svg, &path).unwrap();
+        std::fs::remove_file(&path).ok();
     }
 
     #[test]
