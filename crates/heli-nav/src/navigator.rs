@@ -211,6 +211,8 @@ pub struct Navigator {
     last_field: Option<MagField>,
     earth_field_ned: Option<Vector3<f64>>,
     history: VecDeque<Op>,
+    /// Scratch for the operations replayed after a delayed GPS fix, allocated once.
+    replay: Vec<Op>,
     history_len: usize,
     initialised_us: u64,
     stats: NavSensorStats,
@@ -269,6 +271,7 @@ impl Navigator {
             last_field: None,
             earth_field_ned: None,
             history: VecDeque::with_capacity(history_len.saturating_add(1)),
+            replay: Vec::with_capacity(history_len.saturating_add(1)),
             history_len,
             initialised_us: 0,
             stats: NavSensorStats::default(),
@@ -598,8 +601,11 @@ impl Navigator {
             return;
         }
         // Replay what happened since, from the corrected past to the present.
-        let replay: Vec<Op> = self.history.drain(split..).collect();
-        for op in replay {
+        // The scratch buffer is taken out while the replay calls back into `self`, and put
+        // back with its capacity: no allocation in the control step.
+        let mut replay = std::mem::take(&mut self.replay);
+        replay.extend(self.history.drain(split..));
+        for op in replay.drain(..) {
             match op {
                 Op::Propagate { t_us, a, b, .. } => self.propagate(t_us, &a, &b),
                 Op::Baro(p) => {
@@ -612,6 +618,7 @@ impl Navigator {
                 }
             }
         }
+        self.replay = replay;
         self.stats.gps_fused = self.stats.gps_fused.saturating_add(1);
         self.stats.last_gps_fused_us = t_arrival_us;
     }

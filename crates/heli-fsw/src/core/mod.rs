@@ -1168,6 +1168,23 @@ mod tests {
         }
     }
 
+    /// The pilot packet 10 ms after `t`, then four IMU samples 10 ms apart (two control
+    /// steps); returns the time of the last.
+    fn pilot_then_imu(
+        core: &mut FlightCore,
+        out: &mut Vec<Action>,
+        mut t: u64,
+        pilot: PilotUplink,
+    ) -> u64 {
+        t += 10_000;
+        core.handle(Input::Uplink(pilot), t, out);
+        for _ in 0..4 {
+            t += 10_000;
+            core.handle(Input::Imu(still()), t, out);
+        }
+        t
+    }
+
     /// A calibrated core in manual mode; with `height_m` > 0 the altimeter has told it it is
     /// that high (the IMU says it is still, as in a steady hover).
     fn calibrated_manual_core(height_m: f64) -> (FlightCore, Vec<Action>, u64) {
@@ -1203,12 +1220,7 @@ mod tests {
     fn transmitter_lost_on_the_ground_idles_instead_of_taking_off() {
         let (mut core, mut out, mut t) = calibrated_manual_core(0.0);
         assert_eq!(core.phase(), Phase::Manual);
-        t += 10_000;
-        core.handle(Input::Uplink(uplink(false, true)), t, &mut out);
-        for _ in 0..4 {
-            t += 10_000;
-            core.handle(Input::Imu(still()), t, &mut out);
-        }
+        t = pilot_then_imu(&mut core, &mut out, t, uplink(false, true));
         assert_eq!(core.phase(), Phase::GroundFailsafe);
         let servo = last_servo(&out);
         assert_eq!(servo.collective, 0.0);
@@ -1218,30 +1230,20 @@ mod tests {
                 .any(|a| matches!(a, Action::Event(e) if e.value == CoreEvent::PilotSignalLost))
         );
         // The signal comes back: the pilot has the helicopter again.
-        t += 10_000;
-        core.handle(Input::Uplink(uplink(false, false)), t, &mut out);
-        for _ in 0..4 {
-            t += 10_000;
-            core.handle(Input::Imu(still()), t, &mut out);
-        }
+        pilot_then_imu(&mut core, &mut out, t, uplink(false, false));
         assert_eq!(core.phase(), Phase::Manual);
     }
 
     #[test]
     fn transmitter_lost_in_the_air_is_a_command_to_hover_where_it_is() {
-        let (mut core, mut out, mut t) = calibrated_manual_core(8.0);
+        let (mut core, mut out, t) = calibrated_manual_core(8.0);
         let z = core.navigator().state().map_or(0.0, |s| s.pos_ned_m.z);
         assert!(
             z < -5.0,
             "the altimeter should have lifted the estimate: z = {z}"
         );
         assert_eq!(core.phase(), Phase::Manual);
-        t += 10_000;
-        core.handle(Input::Uplink(uplink(false, true)), t, &mut out);
-        for _ in 0..4 {
-            t += 10_000;
-            core.handle(Input::Imu(still()), t, &mut out);
-        }
+        pilot_then_imu(&mut core, &mut out, t, uplink(false, true));
         match core.phase() {
             Phase::Holding { target, .. } => assert!((target.pos_ned_m.z - z).abs() < 0.5),
             other => panic!("expected a hover hold, got {other:?}"),

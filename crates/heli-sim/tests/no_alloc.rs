@@ -1,0 +1,51 @@
+//! The main control process does not allocate once it is flying: the 50 Hz step, the
+//! watchdog, and the GPS fusion that rolls the filter back and replays the last second all
+//! run in memory taken at start-up. Counted (`allocation-counter`, which installs a counting
+//! global allocator in this test binary) on a flight core replaying a simulated hover's inputs.
+
+use heli_fsw::{Action, FlightCore, Phase};
+use heli_sim::{Simulation, scenario};
+
+#[test]
+fn the_flying_control_process_does_not_allocate() {
+    let mut sim = Simulation::new(scenario::hover()).unwrap_or_else(|e| panic!("{e}"));
+    sim.record_flight_software();
+    while sim.advance(140_000_000) {}
+    let recording = sim.recording().cloned().unwrap_or_default();
+    let (config, params) = sim.flight_software_setup();
+
+    let mut core = FlightCore::new(config, params);
+    core.start(0);
+    let mut out: Vec<Action> = Vec::with_capacity(64);
+    let settle_us = 110_000_000;
+    let split = recording
+        .inputs
+        .iter()
+        .position(|(t_us, _)| *t_us >= settle_us)
+        .unwrap_or(recording.inputs.len());
+    let (before, after) = recording.inputs.split_at(split);
+    for (t_us, input) in before {
+        core.handle(*input, *t_us, &mut out);
+        out.clear();
+    }
+    assert!(
+        matches!(core.phase(), Phase::Holding { .. }),
+        "{:?}",
+        core.phase()
+    );
+    let start = core.stats();
+    let counted = allocation_counter::measure(|| {
+        for (t_us, input) in after {
+            core.handle(*input, *t_us, &mut out);
+            out.clear();
+        }
+    });
+    let stats = core.stats();
+    // 30 s of hover: 1500 control steps and 30 GPS fixes, each replaying the filter.
+    assert!(
+        stats.control_steps - start.control_steps > 1400,
+        "{stats:?}"
+    );
+    assert!(stats.gps_fixes - start.gps_fixes > 25, "{stats:?}");
+    assert_eq!(counted.count_total, 0, "{counted:?}");
+}
