@@ -1,4 +1,4 @@
-//! `heli`: the command-line front of the heli avionics (DESIGN.md §7).
+//! `heli`: the command-line front of the heli avionics.
 //!
 //! The binary only parses arguments and wires the library crates together; the work is in
 //! `heli-sim`, `heli-fsw` and the others.

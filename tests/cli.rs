@@ -1,4 +1,4 @@
-//! The command-line contract of DESIGN.md §7, run as a user would.
+//! The command-line contract of docs/scenarios.md, run as a user would.
 
 use std::process::Command;
 

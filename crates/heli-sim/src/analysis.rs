@@ -1,6 +1,6 @@
 //! Analyses of the model alone, behind `heli model`: trim at a forward speed, the linearised
 //! rotor–fuselage modes at hover, and the governor's response to a rotor-speed step. They are
-//! the checks against the published numbers (H15 and `shared/research/heli-model.md` §5–7).
+//! the checks against the published numbers (H15 §5–7).
 
 use nalgebra::{Matrix2, SMatrix, SVector, UnitQuaternion, Vector3};
 use serde::Serialize;

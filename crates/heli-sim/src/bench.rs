@@ -1,4 +1,4 @@
-//! `heli bench`: the numbers DESIGN.md §8 asks for, measured on this machine — parser
+//! `heli bench`: the project's performance numbers, measured on this machine — parser
 //! throughput, control-step latency, lockstep real-time factor, memory. Wall-clock numbers:
 //! for the record (docs/BENCHMARKS.md), never for pass/fail.
 

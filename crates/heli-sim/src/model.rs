@@ -2,7 +2,7 @@
 //! the inflow iteration, first-order lumped rotor/stabilizer-bar flapping, tail rotor, engine
 //! with the rotor-speed governor, fuselage drag and skid contact with the ground.
 //!
-//! Equations follow Gavrilets ch. 15 as collected in `shared/research/heli-model.md` §3; the
+//! Equations follow Gavrilets ch. 15 §3; the
 //! places where the printed equations were corrected on physical grounds are marked
 //! "typo" and listed in `docs/model.md`. Servo dynamics live in [`crate::actuators`]: the
 //! inputs here are blade pitches the servos have already reached.

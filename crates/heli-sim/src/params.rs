@@ -2,7 +2,7 @@
 //!
 //! Values are Table 15.1 of Gavrilets, "Dynamic Model for a Miniature Aerobatic Helicopter"
 //! (Handbook of UAVs, 2015), the MIT instrumented X-Cell 60 SE, plus the constants that
-//! the chapter states in its text (see `shared/research/heli-model.md` §4). One typed struct,
+//! the chapter states in its text (H15 §4). One typed struct,
 //! loadable from TOML, so another airframe can be described without touching the code.
 
 use serde::{Deserialize, Serialize};

@@ -1,4 +1,4 @@
-//! What a run measured, and the JSON object `heli sim --json` prints (DESIGN.md §7).
+//! What a run measured, and the JSON object `heli sim --json` prints.
 
 use serde::Serialize;
 

@@ -1,6 +1,6 @@
 //! Replay: the flight core is a pure function of its inputs. Record every input a simulated
 //! flight gave it, feed them to a fresh core, and it must take the same actions, bit for bit
-//! (DESIGN.md §8) — the property that lets a recorded flight be replayed against new code.
+//! — the property that lets a recorded flight be replayed against new code.
 
 use heli_fsw::FlightCore;
 use heli_sim::Simulation;
