@@ -129,10 +129,10 @@ impl<T: Clone> Stream<T> {
     pub fn publish(&mut self, value: T) {
         if self.history.len() >= self.capacity {
             self.history.pop_front();
-            self.overwritten += 1;
+            self.overwritten = self.overwritten.saturating_add(1);
         }
         self.history.push_back(value);
-        self.next_seq += 1;
+        self.next_seq = self.next_seq.saturating_add(1);
     }
 
     /// The freshest value.
@@ -148,10 +148,10 @@ impl<T: Clone> Stream<T> {
     /// Values an observer has not seen, given the sequence number it will read next; returns
     /// them with the observer's new cursor and how many it missed because they were overwritten.
     pub fn read_since(&self, cursor: u64) -> (Vec<T>, u64, u64) {
-        let oldest = self.next_seq - self.history.len() as u64;
+        let oldest = self.next_seq.saturating_sub(self.history.len() as u64);
         let start = cursor.max(oldest);
-        let missed = start - cursor.min(start);
-        let skip = (start - oldest) as usize;
+        let missed = start.saturating_sub(cursor);
+        let skip = usize::try_from(start.saturating_sub(oldest)).unwrap_or(usize::MAX);
         (
             self.history.iter().skip(skip).cloned().collect(),
             self.next_seq,

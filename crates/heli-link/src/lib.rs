@@ -8,6 +8,18 @@
 //!
 //! What it is not: flight code or ground-station UI; both sides use these types.
 
+#![cfg_attr(
+    test,
+    allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing,
+        clippy::arithmetic_side_effects,
+        clippy::unreachable
+    )
+)]
+
 pub mod messages;
 
 pub use messages::{ControllerChoice, FinalParameters, GroundCommand, LinkError, StartParameters};

@@ -2,6 +2,15 @@
 //! the byte-at-a-time framer must agree exactly with an offline reference
 //! scan of the whole stream, for every format.
 
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing,
+    clippy::arithmetic_side_effects,
+    clippy::unreachable
+)]
+
 use heli_proto::framer::{BinaryFormat, Framer};
 use heli_proto::gps::{self, GpsFormat, GpsNav};
 use heli_proto::imu::{self, ImuFormat, ImuRepr};
