@@ -51,16 +51,6 @@ impl Default for StickScales {
 }
 
 impl AugmentedMode {
-    /// What the ground display writes over the pilot-uplink columns (aileron, elevator,
-    /// rudder, collective, throttle) in this mode.
-    pub fn uplink_labels(self) -> [&'static str; 5] {
-        match self {
-            AugmentedMode::Rate => ["RollRate", "PitchRate", "YawRate", "Coll", "Thro"],
-            AugmentedMode::Attitude => ["Roll", "Pitch", "YawRate", "Coll", "Thro"],
-            AugmentedMode::Velocity => ["Vright", "Vfwd", "YawRate", "Climb", "Thro"],
-        }
-    }
-
     /// The velocity (m/s, forward, right, down) the sticks command in velocity mode.
     pub fn commanded_velocity(sticks: &Controls, scales: &StickScales) -> Vector3<f64> {
         Vector3::new(
@@ -166,7 +156,6 @@ mod tests {
                 _ => assert_eq!(u.collective, 0.3, "collective passes through"),
             }
         }
-        assert_eq!(AugmentedMode::Velocity.uplink_labels()[1], "Vfwd");
     }
 
     #[test]

@@ -27,11 +27,13 @@
 pub mod augmented;
 pub mod hover;
 pub mod manual;
+pub mod mode;
 pub mod roll;
 
 pub use augmented::{AugmentedMode, StickScales, augmented_controls};
 pub use hover::{HoverController, HoverGains, Target};
 pub use manual::{YawDamper, manual_with_yaw_damping};
+pub use mode::FlightMode;
 pub use roll::{RollGains, rolling_controls};
 
 /// Throttle channel that sets the governor to 1600 rpm, the speed of every flight in the

@@ -9,3 +9,4 @@
 //! speaks the link protocol (`heli-link`).
 
 pub mod checks;
+pub mod display;

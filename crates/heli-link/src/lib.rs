@@ -22,4 +22,6 @@
 
 pub mod messages;
 
-pub use messages::{ControllerChoice, FinalParameters, GroundCommand, LinkError, StartParameters};
+pub use messages::{
+    AugmentedMode, FinalParameters, FlightMode, GroundCommand, LinkError, StartParameters,
+};

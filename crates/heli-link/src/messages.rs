@@ -2,47 +2,7 @@
 
 use std::fmt;
 
-/// The control system the operator picks before "Start Logging" (the ground display
-/// relabels the uplink row to what the pilot's sticks mean under it).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ControllerChoice {
-    /// Pilot flies; computer yaw damping only.
-    Manual,
-    /// Computer flies the flight plan when the pilot's auto switch is on.
-    Autonomous,
-    /// Augmented: sticks command roll, pitch and yaw rates.
-    Rate,
-    /// Augmented: sticks command roll and pitch angles and yaw rate.
-    Attitude,
-    /// Augmented: sticks command velocity, climb rate and yaw rate.
-    Velocity,
-}
-
-impl ControllerChoice {
-    /// Parses the name used on the ground display and in scenario files.
-    pub fn from_name(name: &str) -> Result<Self, LinkError> {
-        match name {
-            "manual" => Ok(Self::Manual),
-            "autonomous" => Ok(Self::Autonomous),
-            "rate" => Ok(Self::Rate),
-            "attitude" => Ok(Self::Attitude),
-            "velocity" => Ok(Self::Velocity),
-            other => Err(LinkError::UnknownController(other.to_string())),
-        }
-    }
-
-    /// The labels the ground display writes over the pilot-uplink columns (aileron,
-    /// elevator, rudder, collective, throttle): what the sticks mean under this controller
-    /// (the thesis's display relabels the uplink row).
-    pub fn uplink_labels(self) -> [&'static str; 5] {
-        match self {
-            Self::Manual | Self::Autonomous => ["Aile", "Elev", "Rudd", "Coll", "Thro"],
-            Self::Rate => ["RollRate", "PitchRate", "YawRate", "Coll", "Thro"],
-            Self::Attitude => ["Roll", "Pitch", "YawRate", "Coll", "Thro"],
-            Self::Velocity => ["Vright", "Vfwd", "YawRate", "Climb", "Thro"],
-        }
-    }
-}
+pub use heli_control::{AugmentedMode, FlightMode};
 
 /// Parameters sent with "Start Logging".
 #[derive(Clone, Debug, PartialEq)]
@@ -50,7 +10,7 @@ pub struct StartParameters {
     /// Suffix appended to the names of this flight's log files.
     pub file_suffix: String,
     /// Control system for the flight.
-    pub controller: ControllerChoice,
+    pub controller: FlightMode,
 }
 
 /// Parameters the cleanup routine asks for after "Stop" (thesis §4.1.4).
@@ -118,7 +78,8 @@ impl StartParameters {
         }
         Ok(Self {
             file_suffix: file_suffix.to_string(),
-            controller: ControllerChoice::from_name(controller)?,
+            controller: FlightMode::from_name(controller)
+                .ok_or_else(|| LinkError::UnknownController(controller.to_string()))?,
         })
     }
 }
@@ -134,19 +95,13 @@ mod tests {
             StartParameters::new("../../etc", "manual"),
             Err(LinkError::BadFileSuffix("../../etc".into()))
         );
+        assert_eq!(
+            StartParameters::new("a", "velocity").map(|p| p.controller),
+            Ok(FlightMode::Augmented(heli_control::AugmentedMode::Velocity))
+        );
         assert!(matches!(
             StartParameters::new("a", "loop"),
             Err(LinkError::UnknownController(_))
         ));
-    }
-
-    #[test]
-    fn augmented_controllers_relabel_the_uplink_row() {
-        assert_eq!(
-            ControllerChoice::from_name("velocity"),
-            Ok(ControllerChoice::Velocity)
-        );
-        assert_eq!(ControllerChoice::Velocity.uplink_labels()[3], "Climb");
-        assert_eq!(ControllerChoice::Manual.uplink_labels()[0], "Aile");
     }
 }

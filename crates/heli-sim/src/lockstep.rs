@@ -35,7 +35,7 @@ use crate::devices::scb::{PilotCommand, ScbDevice};
 use crate::devices::{Bytes, Noise, transmit_time_us};
 use crate::model::{Environment, Helicopter};
 use crate::pilot::{HoveringPilot, seen_by_pilot};
-use crate::scenario::{Mode, Scenario, ScenarioError};
+use crate::scenario::{Scenario, ScenarioError};
 use crate::summary::{
     Criterion, DeviceSummary, EstimatorSummary, HoldSummary, LinkSummary, LoopSummary,
     ManeuverSummary, Outcome, Rms, Summary,
@@ -268,13 +268,7 @@ impl Simulation {
         let pilot_col = scenario.pilot.scripted(0.0).collective * heli.airframe.collective_max_rad;
         heli.trim_governor(pilot_col, &env);
         let params = FlightParams {
-            mode: match scenario.mode {
-                Mode::Manual => FlightMode::Manual,
-                Mode::Autonomous => FlightMode::Autonomous,
-                Mode::Rate => FlightMode::Augmented(AugmentedMode::Rate),
-                Mode::Attitude => FlightMode::Augmented(AugmentedMode::Attitude),
-                Mode::Velocity => FlightMode::Augmented(AugmentedMode::Velocity),
-            },
+            mode: scenario.mode,
             plan,
         };
         let actuators =
@@ -922,10 +916,7 @@ impl Simulation {
             })
         };
         let scales = heli_control::StickScales::default();
-        let augmented = matches!(
-            self.scenario.mode,
-            Mode::Rate | Mode::Attitude | Mode::Velocity
-        ) && pilot.auto_mode;
+        let augmented = self.scenario.mode.is_augmented() && pilot.auto_mode;
         if augmented && settling(&[crate::pilot::Channel::Rudder]) {
             let cmd = pilot.sticks.rudder.clamp(-1.0, 1.0) * scales.yaw_rate_rps;
             let err = (s.rate_body_rps.z - cmd).abs().to_degrees();
@@ -933,7 +924,7 @@ impl Simulation {
                 worst(self.metrics.yaw_rate_tracking_max_dps, err);
         }
         if augmented
-            && self.scenario.mode == Mode::Velocity
+            && self.scenario.mode == FlightMode::Augmented(AugmentedMode::Velocity)
             && settling(&[
                 crate::pilot::Channel::Aileron,
                 crate::pilot::Channel::Elevator,

@@ -6,20 +6,26 @@ use serde::{Deserialize, Serialize};
 
 use crate::params::{Airframe, Atmosphere};
 
-/// Control system the flight software is started with.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Mode {
-    /// Pilot flies; computer yaw damping.
-    Manual,
-    /// Computer flies the plan when the pilot's auto switch is on.
-    Autonomous,
-    /// Augmented: the sticks command roll, pitch and yaw rates (auto switch on).
-    Rate,
-    /// Augmented: the sticks command roll and pitch angles and yaw rate (auto switch on).
-    Attitude,
-    /// Augmented: the sticks command velocity, climb rate and yaw rate (auto switch on).
-    Velocity,
+pub use heli_control::FlightMode;
+
+/// A scenario names its control system as the link and the command line do
+/// (`manual`, `autonomous`, `rate`, `attitude`, `velocity`).
+mod flight_mode_name {
+    use heli_control::FlightMode;
+    use serde::{Deserialize, Deserializer, Serializer, de::Error};
+
+    pub fn serialize<S: Serializer>(mode: &FlightMode, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(mode.name())
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<FlightMode, D::Error> {
+        let name = String::deserialize(d)?;
+        FlightMode::from_name(&name).ok_or_else(|| {
+            D::Error::custom(format!(
+                "unknown mode '{name}' (expected manual, autonomous, rate, attitude or velocity)"
+            ))
+        })
+    }
 }
 
 pub use crate::pilot::{Channel, Pilot, Shape, StickInput};
@@ -173,7 +179,8 @@ pub struct Scenario {
     /// The helicopter's parameters (default: the MIT X-Cell 60 SE).
     pub airframe: Airframe,
     /// Control system.
-    pub mode: Mode,
+    #[serde(with = "flight_mode_name")]
+    pub mode: FlightMode,
     /// The autonomous flight plan.
     pub plan: Vec<LegSpec>,
     /// Pilot's transmitter.
@@ -200,7 +207,7 @@ fn base(name: &str, description: &str, plan: Vec<LegSpec>, duration_s: f64) -> S
         turbulence_sigma_mps: 0.0,
         atmosphere: Atmosphere::default(),
         airframe: Airframe::default(),
-        mode: Mode::Autonomous,
+        mode: FlightMode::Autonomous,
         plan,
         pilot: Pilot::default(),
         faults: Faults::default(),
@@ -386,7 +393,7 @@ pub fn augmented() -> Scenario {
         Vec::new(),
         140.0,
     );
-    s.mode = Mode::Velocity;
+    s.mode = FlightMode::Augmented(heli_control::AugmentedMode::Velocity);
     let step = |channel, start_s, duration_s, amplitude| StickInput {
         channel,
         shape: Shape::Step,

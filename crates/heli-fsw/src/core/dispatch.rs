@@ -1,0 +1,133 @@
+//! Control dispatch: the 50 Hz step propagates the estimate, lets the sequencer choose the
+//! phase, and runs the controller that phase calls for.
+
+use super::*;
+
+impl FlightCore {
+    /// The 50 Hz step: propagate, choose the phase, control, publish.
+    pub(super) fn control_step(
+        &mut self,
+        previous: ImuRepr,
+        current: ImuRepr,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) {
+        self.stats.control_steps = self.stats.control_steps.saturating_add(1);
+        let dt_s = self
+            .last_control_us
+            .map_or(0.02, |t| seconds_between(t, now_us));
+        self.last_control_us = Some(now_us);
+        self.nav.propagate(now_us, &previous, &current);
+
+        let estimate = self.nav.state().copied();
+        let gps_lost = self.nav.gps_outage(now_us);
+        if gps_lost != self.gps_lost && estimate.is_some() {
+            self.gps_lost = gps_lost;
+            let event = if gps_lost {
+                CoreEvent::GpsLost
+            } else {
+                CoreEvent::GpsRegained
+            };
+            out.push(Action::Event(Stamped::new(now_us, event)));
+        }
+        let previous_phase = self.phase;
+        let next_phase = self.next_phase(estimate.as_ref(), now_us, dt_s, out);
+        self.phase = next_phase;
+        if !next_phase.same_kind(&previous_phase) {
+            // The trim-trajectory controller keeps its integrators through a climb, a path
+            // and a maneuver; it starts afresh after the pilot or the ground had control.
+            if matches!(
+                previous_phase,
+                Phase::Calibrating
+                    | Phase::Manual
+                    | Phase::GroundFailsafe
+                    | Phase::Landed
+                    | Phase::Augmented(_)
+            ) {
+                self.hover.reset();
+            }
+            out.push(Action::Event(Stamped::new(
+                now_us,
+                CoreEvent::PhaseChanged(next_phase),
+            )));
+        }
+
+        let pilot_sticks = self.pilot.and_then(|p| p.sticks()).unwrap_or_default();
+        let yaw_rate = estimate.map_or(current.rate_rps[2], |s| s.rate_body_rps.z);
+        let controls = match (self.phase, estimate) {
+            (
+                Phase::Maneuver {
+                    stage: RollStage::Rolling { angle_rad, .. },
+                    ..
+                },
+                Some(est),
+            ) => rolling_controls(&est, angle_rad, &self.config.roll),
+            (
+                Phase::TakingOff { target }
+                | Phase::Holding { target, .. }
+                | Phase::Flying { target, .. }
+                | Phase::Maneuver { target, .. }
+                | Phase::Landing { target, .. },
+                Some(est),
+            ) => {
+                let airborne = self.height_above_home(&est) > self.config.airborne_height_m;
+                self.hover.update(&est, &target, dt_s, airborne)
+            }
+            (Phase::Augmented(mode), Some(est)) => {
+                let airborne = self.height_above_home(&est) > self.config.airborne_height_m;
+                // Once it has flown, a low pass near the ground is flight, not ground idle.
+                self.has_flown |= self.height_above_home(&est) > 1.0;
+                if !self.has_flown
+                    && mode == AugmentedMode::Velocity
+                    && pilot_sticks.collective <= 0.1
+                {
+                    // On the skids with the climb stick centred: ground idle, rotor governed.
+                    Controls {
+                        throttle: heli_control::GOVERNED_THROTTLE,
+                        ..Controls::default()
+                    }
+                } else {
+                    augmented_controls(
+                        mode,
+                        &pilot_sticks,
+                        &est,
+                        &self.config.sticks,
+                        &mut self.hover,
+                        dt_s,
+                        airborne,
+                    )
+                }
+            }
+            (Phase::Landed, _) => Controls {
+                collective: -0.1,
+                throttle: heli_control::GOVERNED_THROTTLE,
+                ..Controls::default()
+            },
+            (Phase::GroundFailsafe, _) => Controls::default(),
+            _ => manual_with_yaw_damping(&pilot_sticks, yaw_rate, &self.config.yaw_damper),
+        };
+        let rotor_rpm = self.pilot.map_or(0, |p| p.rotor_rpm);
+        out.push(Action::Servo(Stamped::new(now_us, controls)));
+        out.push(Action::Publish(Record::Servo(Stamped::new(
+            now_us,
+            ServoRecord {
+                controls,
+                rotor_rpm,
+            },
+        ))));
+        if let Some(nav) = estimate {
+            out.push(Action::Publish(Record::State(Stamped::new(
+                now_us,
+                StateRecord {
+                    nav,
+                    phase: self.phase,
+                    target: self.phase.target(),
+                },
+            ))));
+        }
+    }
+
+    pub(super) fn height_above_home(&self, est: &NavState) -> f64 {
+        self.home_ned_m.map_or(0.0, |home| home.z - est.pos_ned_m.z)
+    }
+}

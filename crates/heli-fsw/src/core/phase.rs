@@ -1,0 +1,100 @@
+//! What the flight software is doing: the phases of a flight.
+
+use super::*;
+
+/// What the flight software is doing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Phase {
+    /// Warming up and calibrating the IMU biases; servos follow the pilot.
+    Calibrating,
+    /// The pilot flies (auto switch off, or manual mode), with computer yaw damping.
+    Manual,
+    /// The transmitter was lost while the helicopter was on the ground: cyclic neutral,
+    /// collective flat, throttle closed, until the pilot's signal returns.
+    GroundFailsafe,
+    /// Autonomous climb to the target.
+    TakingOff {
+        /// Where the climb ends.
+        target: Target,
+    },
+    /// Autonomous position hold.
+    Holding {
+        /// Where the helicopter is held.
+        target: Target,
+        /// When the hold began (µs).
+        since_us: u64,
+    },
+    /// Velocity tracking along a straight path: the target moves toward `to_ned_m`.
+    Flying {
+        /// The moving target.
+        target: Target,
+        /// The end of the path (m, NED).
+        to_ned_m: Vector3<f64>,
+    },
+    /// The aileron-roll maneuver.
+    Maneuver {
+        /// The trim trajectory (moving target) used outside the rolls themselves.
+        target: Target,
+        /// Where in the maneuver.
+        stage: RollStage,
+        /// Rolls completed in this maneuver.
+        rolls_done: u32,
+    },
+    /// Vertical descent to the ground.
+    Landing {
+        /// The descending target.
+        target: Target,
+        /// Since when the helicopter has stopped following the target down (µs).
+        settled_since_us: Option<u64>,
+    },
+    /// On the skids after an autonomous landing.
+    Landed,
+    /// The pilot flies through an augmentation system.
+    Augmented(AugmentedMode),
+}
+
+impl Phase {
+    /// The target of an autonomous phase.
+    pub fn target(&self) -> Option<Target> {
+        match self {
+            Phase::TakingOff { target }
+            | Phase::Holding { target, .. }
+            | Phase::Flying { target, .. }
+            | Phase::Maneuver { target, .. }
+            | Phase::Landing { target, .. } => Some(*target),
+            Phase::Calibrating
+            | Phase::Manual
+            | Phase::GroundFailsafe
+            | Phase::Landed
+            | Phase::Augmented(_) => None,
+        }
+    }
+
+    /// Short name for displays and logs.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Phase::Calibrating => "calibrating",
+            Phase::Manual => "manual",
+            Phase::GroundFailsafe => "ground-failsafe",
+            Phase::TakingOff { .. } => "takeoff",
+            Phase::Holding { .. } => "hold",
+            Phase::Flying { .. } => "fly",
+            Phase::Maneuver { stage, .. } => stage.name(),
+            Phase::Landing { .. } => "land",
+            Phase::Landed => "landed",
+            Phase::Augmented(AugmentedMode::Rate) => "augmented-rate",
+            Phase::Augmented(AugmentedMode::Attitude) => "augmented-attitude",
+            Phase::Augmented(AugmentedMode::Velocity) => "augmented-velocity",
+        }
+    }
+
+    /// Same kind of phase (a moving target or a turning roll does not count as a change).
+    pub(super) fn same_kind(&self, other: &Phase) -> bool {
+        match (self, other) {
+            (Phase::Maneuver { stage: a, .. }, Phase::Maneuver { stage: b, .. }) => {
+                core::mem::discriminant(a) == core::mem::discriminant(b)
+            }
+            _ => core::mem::discriminant(self) == core::mem::discriminant(other),
+        }
+    }
+}

@@ -1,0 +1,278 @@
+//! The mission sequencer: which phase comes next, from the pilot's switches, the
+//! transmitter's state and the flight plan's legs.
+
+use super::*;
+
+impl FlightCore {
+    pub(super) fn next_phase(
+        &mut self,
+        estimate: Option<&NavState>,
+        now_us: u64,
+        dt_s: f64,
+        out: &mut Vec<Action>,
+    ) -> Phase {
+        let Some(est) = estimate else {
+            return Phase::Calibrating;
+        };
+        let pilot = self.pilot;
+        let signal_lost = pilot.is_some_and(|p| p.signal_lost());
+        let auto_switch = pilot.is_some_and(|p| p.auto_mode);
+        let (_, _, yaw) = est.euler_rad();
+        // Where the helicopter can stop: ahead by v²/2a at the controller's braking
+        // acceleration, so that a hold begun in motion does not fly back to where it began.
+        let horizontal_vel = Vector3::new(est.vel_ned_mps.x, est.vel_ned_mps.y, 0.0);
+        let braking = self.config.hover.max_accel_mps2.max(0.5);
+        let stop = horizontal_vel * (horizontal_vel.norm() / (2.0 * braking));
+        let here = Target::hold(est.pos_ned_m + stop, yaw);
+        let on_ground = self.height_above_home(est) < self.config.airborne_height_m;
+        let bypass = pilot.is_some_and(|p| p.bypass);
+        let wants_auto =
+            !bypass && (signal_lost || (self.params.mode != FlightMode::Manual && auto_switch));
+        if !wants_auto {
+            // The emergency bypass: the board drives the servos from the pilot; the computer
+            // still supplies the tail with yaw damping.
+            return Phase::Manual;
+        }
+        if let (FlightMode::Augmented(mode), false) = (self.params.mode, signal_lost) {
+            return Phase::Augmented(mode);
+        }
+        if signal_lost {
+            return match self.phase {
+                // The transmitter lost on the ground is no order to take off (nor to finish
+                // one): everything idles.
+                _ if on_ground && !matches!(self.phase, Phase::Holding { .. }) => {
+                    Phase::GroundFailsafe
+                }
+                // A hold already in place (the plan's, or the loss's) is kept; the plan is
+                // given up either way.
+                Phase::Holding { target, since_us } => {
+                    self.plan_abandoned = true;
+                    Phase::Holding {
+                        target: self.braking_target(target, here, est),
+                        since_us,
+                    }
+                }
+                // In the air: the thesis's "all channels zero" is a command to hover here. The
+                // plan is abandoned; the pilot takes over again when the signal returns.
+                _ => {
+                    self.plan_abandoned = true;
+                    self.braking = true;
+                    Phase::Holding {
+                        target: here,
+                        since_us: now_us,
+                    }
+                }
+            };
+        }
+        match self.phase {
+            Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe | Phase::Augmented(_) => {
+                if on_ground && !self.plan_done && !self.plan_abandoned {
+                    self.leg = 0;
+                    self.start_leg(est, now_us, out)
+                } else if on_ground {
+                    // Nothing left to fly: stay on the skids.
+                    Phase::Landed
+                } else {
+                    // Auto switch on in the air: hover here, once stopped.
+                    self.braking = true;
+                    Phase::Holding {
+                        target: here,
+                        since_us: now_us,
+                    }
+                }
+            }
+            Phase::Landed => Phase::Landed,
+            Phase::TakingOff { target } => {
+                if (est.pos_ned_m.z - target.pos_ned_m.z).abs() < self.config.takeoff_tolerance_m {
+                    self.next_leg(est, now_us, out)
+                } else {
+                    self.phase
+                }
+            }
+            Phase::Holding { target, since_us } => match self.plan_leg() {
+                Some(Leg::Hold { seconds })
+                    if !self.plan_done
+                        && !self.plan_abandoned
+                        && seconds_between(since_us, now_us) >= seconds =>
+                {
+                    self.next_leg(est, now_us, out)
+                }
+                _ => Phase::Holding {
+                    target: self.braking_target(target, here, est),
+                    since_us,
+                },
+            },
+            Phase::Flying { target, to_ned_m } => {
+                let speed = target.vel_ned_mps.norm();
+                let remaining = to_ned_m - target.pos_ned_m;
+                let step = speed * dt_s;
+                let target = if remaining.norm() <= step || speed <= 0.0 {
+                    Target {
+                        pos_ned_m: to_ned_m,
+                        vel_ned_mps: Vector3::zeros(),
+                        ..target
+                    }
+                } else {
+                    Target {
+                        pos_ned_m: target.pos_ned_m + remaining.normalize() * step,
+                        ..target
+                    }
+                };
+                let arrived = target.vel_ned_mps.norm() == 0.0
+                    && (est.pos_ned_m - to_ned_m).norm() < 1.5
+                    && est.vel_ned_mps.norm() < 1.0;
+                if arrived {
+                    self.next_leg(est, now_us, out)
+                } else {
+                    Phase::Flying { target, to_ned_m }
+                }
+            }
+            Phase::Maneuver {
+                target,
+                stage,
+                rolls_done,
+            } => self.maneuver(est, now_us, dt_s, target, stage, rolls_done, out),
+            Phase::Landing {
+                target,
+                settled_since_us,
+            } => {
+                // The target descends at its rate but never more than a metre below the
+                // helicopter; when the skids stop the descent the helicopter no longer follows
+                // it. Touchdown is judged against the target, not against home: the landing
+                // spot need not be at the take-off height, and the altimeter drifts.
+                let z =
+                    (target.pos_ned_m.z + target.vel_ned_mps.z * dt_s).min(est.pos_ned_m.z + 1.0);
+                let target = Target {
+                    pos_ned_m: Vector3::new(target.pos_ned_m.x, target.pos_ned_m.y, z),
+                    ..target
+                };
+                let stopped = z - est.pos_ned_m.z > 0.5 && est.vel_ned_mps.norm() < 0.3;
+                let settled_since_us = if stopped {
+                    Some(settled_since_us.unwrap_or(now_us))
+                } else {
+                    None
+                };
+                if settled_since_us.is_some_and(|t| seconds_between(t, now_us) >= 1.0) {
+                    self.plan_done = true;
+                    out.push(Action::Event(Stamped::new(now_us, CoreEvent::PlanComplete)));
+                    Phase::Landed
+                } else {
+                    Phase::Landing {
+                        target,
+                        settled_since_us,
+                    }
+                }
+            }
+        }
+    }
+
+    /// A hold begun in motion keeps its target on the predicted stopping point until the
+    /// helicopter has actually stopped (under 0.3 m/s), then holds that spot.
+    pub(super) fn braking_target(
+        &mut self,
+        target: Target,
+        stopping_point: Target,
+        est: &NavState,
+    ) -> Target {
+        if !self.braking {
+            return target;
+        }
+        if est.vel_ned_mps.xy().norm() < 0.3 {
+            self.braking = false;
+            return target;
+        }
+        Target {
+            yaw_rad: target.yaw_rad,
+            ..stopping_point
+        }
+    }
+
+    pub(super) fn plan_leg(&self) -> Option<Leg> {
+        self.params.plan.get(self.leg)
+    }
+
+    pub(super) fn next_leg(&mut self, est: &NavState, now_us: u64, out: &mut Vec<Action>) -> Phase {
+        self.leg = self.leg.saturating_add(1);
+        self.start_leg(est, now_us, out)
+    }
+
+    /// The phase that flies the current leg, starting from where the helicopter is (or from
+    /// the previous phase's target, so that a hold does not jump by the estimate's jitter).
+    pub(super) fn start_leg(
+        &mut self,
+        est: &NavState,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) -> Phase {
+        let (_, _, yaw) = est.euler_rad();
+        let from = self.phase.target().map_or(est.pos_ned_m, |t| t.pos_ned_m);
+        let home = self.home_ned_m.unwrap_or(est.pos_ned_m);
+        match self.plan_leg() {
+            Some(Leg::Takeoff { alt_m }) => Phase::TakingOff {
+                target: Target::hold(home + Vector3::new(0.0, 0.0, -alt_m), yaw),
+            },
+            Some(Leg::Hold { .. }) => Phase::Holding {
+                target: Target::hold(from, yaw),
+                since_us: now_us,
+            },
+            Some(Leg::Fly {
+                north_m,
+                east_m,
+                alt_m,
+                speed_mps,
+            }) => {
+                let to_ned_m = home + Vector3::new(north_m, east_m, -alt_m);
+                let path = to_ned_m - from;
+                let horizontal = Vector3::new(path.x, path.y, 0.0);
+                let heading = if horizontal.norm() > 5.0 {
+                    path.y.atan2(path.x)
+                } else {
+                    yaw
+                };
+                let vel = if path.norm() > 1e-6 {
+                    path.normalize() * speed_mps
+                } else {
+                    Vector3::zeros()
+                };
+                Phase::Flying {
+                    target: Target {
+                        pos_ned_m: from,
+                        vel_ned_mps: vel,
+                        yaw_rad: heading,
+                    },
+                    to_ned_m,
+                }
+            }
+            Some(Leg::Rolls { speed_mps, .. }) => {
+                let dir = Vector3::new(yaw.cos(), yaw.sin(), 0.0);
+                Phase::Maneuver {
+                    target: Target {
+                        pos_ned_m: from,
+                        vel_ned_mps: dir * speed_mps,
+                        yaw_rad: yaw,
+                    },
+                    stage: RollStage::Accelerate { since_us: now_us },
+                    rolls_done: 0,
+                }
+            }
+            Some(Leg::Land) => Phase::Landing {
+                settled_since_us: None,
+                target: Target {
+                    pos_ned_m: from,
+                    vel_ned_mps: Vector3::new(0.0, 0.0, 0.5),
+                    yaw_rad: yaw,
+                },
+            },
+            None => {
+                if !self.plan_done {
+                    self.plan_done = true;
+                    out.push(Action::Event(Stamped::new(now_us, CoreEvent::PlanComplete)));
+                }
+                Phase::Holding {
+                    target: Target::hold(from, yaw),
+                    since_us: now_us,
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,281 @@
+use super::*;
+
+fn still() -> ImuRepr {
+    ImuRepr {
+        rate_rps: [0.001, 0.0, -0.002],
+        accel_mps2: [0.0, 0.0, -9.81],
+        temp_c: 30.0,
+    }
+}
+
+/// A core with a short calibration, flying `mode` with a 10 m hover plan.
+fn core_with(mode: FlightMode) -> FlightCore {
+    FlightCore::new(
+        CoreConfig {
+            imu_warm_up_s: 0.1,
+            calibration_s: 1.0,
+            ..CoreConfig::default()
+        },
+        FlightParams {
+            mode,
+            plan: Plan::hover(10.0, 60.0),
+        },
+    )
+}
+
+fn short_core() -> FlightCore {
+    FlightCore::new(
+        CoreConfig {
+            imu_warm_up_s: 0.1,
+            calibration_s: 1.0,
+            ..CoreConfig::default()
+        },
+        FlightParams::default(),
+    )
+}
+
+#[test]
+fn every_other_imu_sample_is_a_control_step_with_a_servo_command() {
+    let mut core = short_core();
+    let mut out = Vec::new();
+    for k in 0..10u64 {
+        core.handle(Input::Imu(still()), k * 10_000, &mut out);
+    }
+    let servos = out.iter().filter(|a| matches!(a, Action::Servo(_))).count();
+    assert_eq!(servos, 5);
+    assert_eq!(core.stats().control_steps, 5);
+    assert_eq!(core.stats().imu_samples, 10);
+}
+
+#[test]
+fn watchdog_repeats_the_last_sample_after_12_ms_and_counts_it() {
+    let mut core = short_core();
+    let mut out = Vec::new();
+    core.handle(Input::Imu(still()), 0, &mut out);
+    assert_eq!(core.poll_at(), Some(12_000));
+    core.handle(Input::Timer, 11_000, &mut out);
+    assert_eq!(core.stats().watchdog_fires, 0, "not yet due");
+    out.clear();
+    core.handle(Input::Timer, 12_000, &mut out);
+    assert_eq!(core.stats().watchdog_fires, 1);
+    let repeated: Vec<_> = out
+        .iter()
+        .filter_map(|a| match a {
+            Action::Publish(Record::Imu(r)) => Some(r),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(repeated.len(), 1);
+    assert!(repeated[0].value.repeated);
+    assert_eq!(repeated[0].value.imu, still());
+    assert_eq!(repeated[0].t_us, 12_000);
+    assert_eq!(core.poll_at(), Some(24_000));
+}
+
+#[test]
+fn calibration_then_auto_switch_starts_a_takeoff() {
+    let mut core = core_with(FlightMode::Autonomous);
+    let mut out = Vec::new();
+    let pilot = PilotUplink {
+        rotor_rpm: 1600,
+        pulses: heli_proto::scb::Pulses::from_controls(&Controls {
+            throttle: 0.8,
+            ..Default::default()
+        }),
+        auto_mode: true,
+        bypass: false,
+        receiver_batt_v: 4.8,
+        servo_batt_v: 4.8,
+    };
+    core.handle(Input::Uplink(pilot), 0, &mut out);
+    for k in 0..200u64 {
+        core.handle(Input::Imu(still()), k * 10_000, &mut out);
+    }
+    match core.phase() {
+        Phase::TakingOff { target } => assert!((target.pos_ned_m.z + 10.0).abs() < 1e-6),
+        other => panic!("expected take-off, got {other:?}"),
+    }
+    assert!(out.iter().any(
+        |a| matches!(a, Action::Event(e) if matches!(e.value, CoreEvent::CalibrationDone { .. }))
+    ));
+}
+
+fn uplink(auto_mode: bool, lost: bool) -> PilotUplink {
+    let sticks = Controls {
+        collective: 0.0,
+        throttle: 0.8,
+        ..Default::default()
+    };
+    PilotUplink {
+        rotor_rpm: 1600,
+        pulses: if lost {
+            heli_proto::scb::Pulses::default()
+        } else {
+            heli_proto::scb::Pulses::from_controls(&sticks)
+        },
+        auto_mode,
+        bypass: false,
+        receiver_batt_v: 4.8,
+        servo_batt_v: 4.8,
+    }
+}
+
+/// The pilot packet 10 ms after `t`, then four IMU samples 10 ms apart (two control
+/// steps); returns the time of the last.
+fn pilot_then_imu(
+    core: &mut FlightCore,
+    out: &mut Vec<Action>,
+    mut t: u64,
+    pilot: PilotUplink,
+) -> u64 {
+    t += 10_000;
+    core.handle(Input::Uplink(pilot), t, out);
+    for _ in 0..4 {
+        t += 10_000;
+        core.handle(Input::Imu(still()), t, out);
+    }
+    t
+}
+
+/// A calibrated core in manual mode; with `height_m` > 0 the altimeter has told it it is
+/// that high (the IMU says it is still, as in a steady hover).
+fn calibrated_manual_core(height_m: f64) -> (FlightCore, Vec<Action>, u64) {
+    let mut core = short_core();
+    let mut out = Vec::new();
+    core.handle(Input::Uplink(uplink(false, false)), 0, &mut out);
+    let mut t = 0u64;
+    let p0 = 1013.25;
+    for k in 0..4000u64 {
+        t = k * 10_000;
+        core.handle(Input::Imu(still()), t, &mut out);
+        if k % 20 == 0 {
+            let calibrated = core.navigator().state().is_some();
+            let alt = if calibrated && k > 200 { height_m } else { 0.0 };
+            let pressure_mbar = heli_proto::baro::pressure_at_altitude_mbar(alt, p0);
+            core.handle(Input::Baro { pressure_mbar }, t, &mut out);
+        }
+    }
+    (core, out, t)
+}
+
+fn last_servo(out: &[Action]) -> Controls {
+    out.iter()
+        .rev()
+        .find_map(|a| match a {
+            Action::Servo(s) => Some(s.value),
+            _ => None,
+        })
+        .unwrap_or_default()
+}
+
+#[test]
+fn transmitter_lost_on_the_ground_idles_instead_of_taking_off() {
+    let (mut core, mut out, mut t) = calibrated_manual_core(0.0);
+    assert_eq!(core.phase(), Phase::Manual);
+    t = pilot_then_imu(&mut core, &mut out, t, uplink(false, true));
+    assert_eq!(core.phase(), Phase::GroundFailsafe);
+    let servo = last_servo(&out);
+    assert_eq!(servo.collective, 0.0);
+    assert_eq!(servo.throttle, 0.0);
+    assert!(
+        out.iter()
+            .any(|a| matches!(a, Action::Event(e) if e.value == CoreEvent::PilotSignalLost))
+    );
+    // The signal comes back: the pilot has the helicopter again.
+    pilot_then_imu(&mut core, &mut out, t, uplink(false, false));
+    assert_eq!(core.phase(), Phase::Manual);
+}
+
+#[test]
+fn transmitter_lost_in_the_air_is_a_command_to_hover_where_it_is() {
+    let (mut core, mut out, t) = calibrated_manual_core(8.0);
+    let z = core.navigator().state().map_or(0.0, |s| s.pos_ned_m.z);
+    assert!(
+        z < -5.0,
+        "the altimeter should have lifted the estimate: z = {z}"
+    );
+    assert_eq!(core.phase(), Phase::Manual);
+    pilot_then_imu(&mut core, &mut out, t, uplink(false, true));
+    match core.phase() {
+        Phase::Holding { target, .. } => assert!((target.pos_ned_m.z - z).abs() < 0.5),
+        other => panic!("expected a hover hold, got {other:?}"),
+    }
+    let servo = last_servo(&out);
+    assert!(servo.collective > 0.3 && servo.throttle > 0.7, "{servo:?}");
+}
+
+#[test]
+fn watchdog_armed_at_start_notices_an_imu_that_never_speaks() {
+    let mut core = short_core();
+    let mut out = Vec::new();
+    core.start(0);
+    assert_eq!(core.poll_at(), Some(12_000));
+    core.handle(Input::Timer, 12_000, &mut out);
+    assert_eq!(core.stats().watchdog_fires, 1);
+    assert_eq!(core.stats().control_steps, 0, "nothing to repeat yet");
+    assert!(
+        out.iter()
+            .any(|a| matches!(a, Action::Event(e) if e.value == CoreEvent::WatchdogFired))
+    );
+}
+
+#[test]
+fn inputs_from_the_past_or_not_finite_are_refused_and_counted() {
+    let mut core = short_core();
+    let mut out = Vec::new();
+    core.handle(Input::Imu(still()), 50_000, &mut out);
+    out.clear();
+    core.handle(Input::Imu(still()), 40_000, &mut out);
+    let mut nan = still();
+    nan.rate_rps[1] = f64::NAN;
+    core.handle(Input::Imu(nan), 60_000, &mut out);
+    core.handle(
+        Input::Baro {
+            pressure_mbar: f64::INFINITY,
+        },
+        60_000,
+        &mut out,
+    );
+    assert_eq!(core.stats().rejected_inputs, 3);
+    assert_eq!(core.stats().imu_samples, 1);
+    assert!(out.is_empty(), "a refused input changes nothing");
+}
+
+#[test]
+fn emergency_bypass_hands_the_pilot_the_helicopter_with_yaw_damping() {
+    let mut core = core_with(FlightMode::Autonomous);
+    let mut out = Vec::new();
+    let mut bypassed = uplink(true, false);
+    bypassed.bypass = true;
+    core.handle(Input::Uplink(bypassed), 0, &mut out);
+    let spinning = ImuRepr {
+        rate_rps: [0.0, 0.0, 0.5],
+        ..still()
+    };
+    for k in 0..200u64 {
+        let sample = if k < 150 { still() } else { spinning };
+        core.handle(Input::Imu(sample), k * 10_000, &mut out);
+    }
+    assert_eq!(core.phase(), Phase::Manual, "auto switch on, but bypassed");
+    let rudder = last_servo(&out).rudder;
+    let damper = YawDamper::default();
+    assert!(
+        rudder < damper.trim,
+        "yaw damping opposes the turn: {rudder}"
+    );
+}
+
+#[test]
+fn augmented_mode_follows_the_auto_switch() {
+    let mut core = core_with(FlightMode::Augmented(AugmentedMode::Rate));
+    let mut out = Vec::new();
+    core.handle(Input::Uplink(uplink(true, false)), 0, &mut out);
+    for k in 0..200u64 {
+        core.handle(Input::Imu(still()), k * 10_000, &mut out);
+    }
+    assert_eq!(core.phase(), Phase::Augmented(AugmentedMode::Rate));
+    core.handle(Input::Uplink(uplink(false, false)), 2_000_000, &mut out);
+    core.handle(Input::Imu(still()), 2_000_000, &mut out);
+    core.handle(Input::Imu(still()), 2_010_000, &mut out);
+    assert_eq!(core.phase(), Phase::Manual);
+}
