@@ -26,10 +26,13 @@
     )
 )]
 
+pub mod computer;
 pub mod core;
 pub mod drivers;
+pub mod health;
 pub mod streams;
 
+pub use crate::computer::{DeviceInput, FlightComputer, Port, RecordedInput};
 pub use crate::core::{
     Action, CoreConfig, CoreStats, FlightCore, FlightMode, FlightParams, Input, Phase,
 };

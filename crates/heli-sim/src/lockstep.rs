@@ -13,10 +13,8 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 use std::time::{Duration, Instant};
 
-use heli_fsw::core::{
-    Action, CoreConfig, CoreEvent, FlightCore, FlightMode, FlightParams, Input, Phase,
-};
-use heli_fsw::drivers::{self, Drivers};
+use heli_fsw::computer::{DeviceInput, FlightComputer, Port, RecordedInput};
+use heli_fsw::core::{Action, CoreConfig, CoreEvent, FlightCore, FlightMode, FlightParams, Phase};
 use heli_fsw::streams::{Record, StateRecord, Streams};
 use heli_nav::GeoOrigin;
 use heli_nav::compass_cal::fit_hard_iron;
@@ -61,15 +59,6 @@ pub const CRASH_SINK_MPS: f64 = 3.0;
 /// Tilting beyond this with a skid on the ground is a roll-over (rad).
 pub const CRASH_TILT_RAD: f64 = 1.0;
 
-/// A serial port between the flight computer and a device.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-enum Port {
-    Imu,
-    Scb,
-    Gps,
-    Baro,
-}
-
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum Kind {
     /// Bytes from the flight computer reach a device.
@@ -83,10 +72,8 @@ enum Kind {
     BatteryRead,
     /// Bytes from a device reach the flight computer.
     ToComputer(Port, Bytes),
-    /// The flight core's watchdog deadline.
-    CoreTimer,
-    /// The altimeter driver's reply timeout.
-    BaroDriverPoll,
+    /// The flight computer's next deadline (its watchdogs, the altimeter's reply timeout).
+    Tick,
     /// Advance the physics one step.
     Physics,
 }
@@ -104,7 +91,7 @@ impl Kind {
             | Kind::CompassRead
             | Kind::BatteryRead => 1,
             Kind::ToComputer(..) => 2,
-            Kind::CoreTimer | Kind::BaroDriverPoll => 3,
+            Kind::Tick => 3,
             Kind::Physics => 9,
         }
     }
@@ -197,8 +184,8 @@ struct Metrics {
 /// Everything that went into the flight software and everything that came out, in order.
 #[derive(Clone, Debug, Default)]
 pub struct Recording {
-    /// Each input with the time it was handled (µs).
-    pub inputs: Vec<(u64, Input)>,
+    /// Each device input with the time it reached the flight computer (µs).
+    pub inputs: Vec<(u64, RecordedInput)>,
     /// Each action, in the order the core produced them.
     pub actions: Vec<Action>,
 }
@@ -225,16 +212,14 @@ pub struct Simulation {
     compass: CompassDevice,
     battery: BatteryDevice,
     drop_noise: Noise,
-    core: FlightCore,
-    drivers: Drivers,
+    computer: FlightComputer,
     streams: Streams,
     queue: BinaryHeap<Reverse<Event>>,
     seq: u64,
     now_us: u64,
-    timer_at: Option<u64>,
-    baro_poll_at: Option<u64>,
+    tick_at: Option<u64>,
     actions: Vec<Action>,
-    inputs: Vec<Input>,
+    to_devices: Vec<(Port, Bytes)>,
     metrics: Metrics,
     crash: Option<String>,
 }
@@ -302,19 +287,17 @@ impl Simulation {
                 ..BatteryDevice::default()
             },
             drop_noise: Noise::new(seed, 5),
-            core: FlightCore::new(core_config, params),
+            computer: FlightComputer::new(core_config, params, heli_proto::baro::DEFAULT_RATE_HZ),
             core_setup: (core_config, params),
             recorded: None,
             step_times: None,
-            drivers: Drivers::new(heli_proto::baro::DEFAULT_RATE_HZ),
             streams: Streams::with_history_s(10.0),
             queue: BinaryHeap::new(),
             seq: 0,
             now_us: 0,
-            timer_at: None,
-            baro_poll_at: None,
+            tick_at: None,
             actions: Vec::with_capacity(16),
-            inputs: Vec::with_capacity(4),
+            to_devices: Vec::with_capacity(4),
             metrics: Metrics {
                 battery_min_v: f64::INFINITY,
                 ..Metrics::default()
@@ -331,16 +314,15 @@ impl Simulation {
         sim.schedule(500_000, Kind::GpsEpoch);
         sim.schedule(11_000, Kind::CompassRead);
         sim.schedule(0, Kind::BatteryRead);
-        // The flight software arms its watchdog and starts its altimeter handshake.
-        sim.core.start(0);
+        // The flight software arms its watchdogs and starts its altimeter handshake.
         let mut sent = Vec::new();
-        sim.drivers
-            .baro
-            .start(0, &mut |b: &[u8]| sent.push(Bytes::from_slice(b)));
-        for b in sent {
-            sim.send_to_device(Port::Baro, b, 0);
+        sim.computer.start(0, &mut |port, b: &[u8]| {
+            sent.push((port, Bytes::from_slice(b)))
+        });
+        for (port, b) in sent {
+            sim.send_to_device(port, b, 0);
         }
-        sim.reschedule_driver_timers();
+        sim.reschedule_tick();
         Ok(sim)
     }
 
@@ -540,7 +522,12 @@ impl Simulation {
 
     /// The flight software's main control process.
     pub fn core(&self) -> &FlightCore {
-        &self.core
+        self.computer.core()
+    }
+
+    /// The flight software: drivers and main control process.
+    pub fn computer(&self) -> &FlightComputer {
+        &self.computer
     }
 
     /// The flight software's seven streams.
@@ -549,7 +536,7 @@ impl Simulation {
     }
 
     fn plan_complete(&self) -> bool {
-        self.core.plan_complete()
+        self.computer.core().plan_complete()
     }
 
     fn dispatch(&mut self, kind: Kind) {
@@ -620,7 +607,7 @@ impl Simulation {
             }
             Kind::CompassRead => {
                 let adc = self.compass.read(&self.heli.state.att);
-                self.deliver_to_core(Input::Compass(adc));
+                self.deliver(DeviceInput::Compass(adc));
                 self.schedule(now + COMPASS_PERIOD_US, Kind::CompassRead);
             }
             Kind::BatteryRead => {
@@ -636,26 +623,16 @@ impl Simulation {
                 }
                 Port::Imu | Port::Gps => {}
             },
-            Kind::ToComputer(port, bytes) => self.computer_receives(port, bytes),
-            Kind::CoreTimer => {
+            Kind::ToComputer(port, bytes) => self.deliver(DeviceInput::Bytes {
+                port,
+                bytes: bytes.as_slice(),
+            }),
+            Kind::Tick => {
                 // Only the latest scheduled deadline is live; earlier ones were superseded.
-                if self.timer_at == Some(now) {
-                    self.timer_at = None;
+                if self.tick_at == Some(now) {
+                    self.tick_at = None;
+                    self.deliver(DeviceInput::Tick);
                 }
-                self.deliver_to_core(Input::Timer);
-            }
-            Kind::BaroDriverPoll => {
-                if self.baro_poll_at == Some(now) {
-                    self.baro_poll_at = None;
-                }
-                let mut sent = Vec::new();
-                self.drivers
-                    .baro
-                    .poll(now, &mut |b: &[u8]| sent.push(Bytes::from_slice(b)));
-                for b in sent {
-                    self.send_to_device(Port::Baro, b, now);
-                }
-                self.reschedule_driver_timers();
             }
         }
     }
@@ -674,78 +651,52 @@ impl Simulation {
         }
     }
 
-    fn reschedule_driver_timers(&mut self) {
-        if let Some(at) = self.drivers.baro.poll_at()
-            && self.baro_poll_at != Some(at)
+    fn reschedule_tick(&mut self) {
+        if let Some(at) = self.computer.poll_at()
+            && self.tick_at != Some(at)
         {
-            self.baro_poll_at = Some(at);
-            self.schedule(at, Kind::BaroDriverPoll);
-        }
-        if let Some(at) = self.core.poll_at()
-            && self.timer_at != Some(at)
-        {
-            self.timer_at = Some(at);
-            self.schedule(at, Kind::CoreTimer);
+            self.tick_at = Some(at);
+            self.schedule(at.max(self.now_us), Kind::Tick);
         }
     }
 
-    fn computer_receives(&mut self, port: Port, bytes: Bytes) {
-        let now = self.now_us;
-        let mut inputs = std::mem::take(&mut self.inputs);
-        match port {
-            Port::Imu => self.drivers.imu_bytes(bytes.as_slice(), |i| inputs.push(i)),
-            Port::Scb => self
-                .drivers
-                .uplink_bytes(bytes.as_slice(), |i| inputs.push(i)),
-            Port::Gps => self.drivers.gps_bytes(bytes.as_slice(), |i| inputs.push(i)),
-            Port::Baro => {
-                let mut sent = Vec::new();
-                self.drivers.baro_bytes(
-                    bytes.as_slice(),
-                    now,
-                    &mut |b: &[u8]| sent.push(Bytes::from_slice(b)),
-                    |i| inputs.push(i),
-                );
-                for b in sent {
-                    self.send_to_device(Port::Baro, b, now);
-                }
-            }
-        }
-        for input in inputs.drain(..) {
-            self.deliver_to_core(input);
-        }
-        self.inputs = inputs;
-        self.reschedule_driver_timers();
-    }
-
-    fn deliver_to_core(&mut self, input: Input) {
+    /// Hands one input to the flight computer and carries out what it does.
+    fn deliver(&mut self, input: DeviceInput<'_>) {
         let now = self.now_us;
         if let Some(recorded) = self.recorded.as_mut() {
-            recorded.inputs.push((now, input));
+            recorded.inputs.push((now, RecordedInput::from(input)));
         }
         let mut actions = std::mem::take(&mut self.actions);
+        let mut to_devices = std::mem::take(&mut self.to_devices);
         let started = Instant::now();
-        self.core.handle(input, now, &mut actions);
+        self.computer.receive(
+            now,
+            input,
+            &mut |port, b: &[u8]| to_devices.push((port, Bytes::from_slice(b))),
+            &mut actions,
+        );
+        let took = started.elapsed();
         if let Some(recorded) = self.recorded.as_mut() {
             recorded.actions.extend(actions.iter().copied());
         }
-        let took = started.elapsed();
         if actions.iter().any(|a| matches!(a, Action::Servo(_))) {
             self.metrics.step_time_max = self.metrics.step_time_max.max(took);
             // Timed once the estimator runs: during calibration the step is pass-through.
             if let (Some(times), true) = (
                 self.step_times.as_mut(),
-                self.core.navigator().state().is_some(),
+                self.computer.core().navigator().state().is_some(),
             ) {
                 times.push(took);
             }
         }
+        for (port, bytes) in to_devices.drain(..) {
+            self.send_to_device(port, bytes, now);
+        }
+        self.to_devices = to_devices;
         for action in actions.drain(..) {
             match action {
-                Action::Servo(cmd) => {
-                    let packet = drivers::servo_packet(&cmd.value);
-                    self.send_to_device(Port::Scb, Bytes::from_slice(&packet), now);
-                }
+                // The computer already wrote the packet to the board's port.
+                Action::Servo(_) => {}
                 Action::Publish(record) => {
                     if let Record::State(s) = &record {
                         self.measure(&s.value);
@@ -756,14 +707,14 @@ impl Simulation {
             }
         }
         self.actions = actions;
-        self.reschedule_driver_timers();
+        self.reschedule_tick();
     }
 
     /// True position expressed in the flight software's frame (its origin is its first GPS
     /// fix, not the simulator's origin), so that estimate and truth compare like for like.
     fn truth_in_nav_frame(&self) -> Vector3<f64> {
         let p = self.heli.state.pos_ned_m;
-        match self.core.navigator().origin() {
+        match self.computer.core().navigator().origin() {
             Some(origin) => {
                 let (lat, lon, alt) = FIELD_ORIGIN.to_geodetic([p.x, p.y, p.z]);
                 Vector3::from(origin.to_ned(lat, lon, alt))
@@ -1029,8 +980,8 @@ impl Simulation {
     fn summarise(self, wall_s: f64) -> Summary {
         let m = &self.metrics;
         let sim_time_s = self.now_us as f64 * 1e-6;
-        let stats = self.core.stats();
-        let nav = self.core.navigator().stats();
+        let stats = self.computer.core().stats();
+        let nav = self.computer.core().navigator().stats();
         let hold_duration = m.hold_time_s;
         let limits = self.scenario.limits;
         let mut criteria = Vec::new();
@@ -1141,7 +1092,11 @@ impl Simulation {
             ));
         }
         if limits.plan_complete == Some(true) {
-            let done = if self.core.plan_complete() { 1.0 } else { 0.0 };
+            let done = if self.computer.core().plan_complete() {
+                1.0
+            } else {
+                0.0
+            };
             criteria.push(Criterion::at_least("plan_complete", done, 1.0));
         }
         let outcome = if self.crash.is_some() {
@@ -1208,12 +1163,12 @@ impl Simulation {
                 mean_pitch_deg: m.hold_pitch_sum_deg / m.hold_true.count().max(1) as f64,
             },
             devices: DeviceSummary {
-                imu: link(self.drivers.imu.stats().framer),
-                uplink: link(self.drivers.uplink.stats().framer),
+                imu: link(self.computer.drivers().imu.stats().framer),
+                uplink: link(self.computer.drivers().uplink.stats().framer),
                 servo: link(self.scb.stats()),
-                gps: link(self.drivers.gps.stats().framer),
+                gps: link(self.computer.drivers().gps.stats().framer),
                 baro_readings: stats.baro_readings,
-                baro_link: format!("{:?}", self.drivers.baro.state()),
+                baro_link: format!("{:?}", self.computer.drivers().baro.state()),
                 battery_min_v: if m.battery_min_v.is_finite() {
                     m.battery_min_v
                 } else {
@@ -1257,6 +1212,13 @@ fn describe(t_us: u64, e: &CoreEvent) -> String {
         CoreEvent::PlanComplete => format!("t={t:.2} s flight plan complete"),
         CoreEvent::GpsLost => format!("t={t:.2} s GPS lost: estimate coasting on the IMU"),
         CoreEvent::GpsRegained => format!("t={t:.2} s GPS back"),
+        CoreEvent::DeviceHealth { device, state } => {
+            format!("t={t:.2} s {} {}", device.name(), state.name())
+        }
+        CoreEvent::EstimateInvalid => {
+            format!("t={t:.2} s estimate invalid: IMU silent")
+        }
+        CoreEvent::UplinkLost => format!("t={t:.2} s uplink lost: transmitter loss"),
     }
 }
 

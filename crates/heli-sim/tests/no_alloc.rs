@@ -1,9 +1,9 @@
-//! The main control process does not allocate once it is flying: the 50 Hz step, the
+//! The flight computer (drivers and main control process) does not allocate once it is flying: the 50 Hz step, the
 //! watchdog, and the GPS fusion that rolls the filter back and replays the last second all
 //! run in memory taken at start-up. Counted (`allocation-counter`, which installs a counting
-//! global allocator in this test binary) on a flight core replaying a simulated hover's inputs.
+//! global allocator in this test binary) on a flight computer replaying a simulated hover's inputs.
 
-use heli_fsw::{Action, FlightCore, Phase};
+use heli_fsw::{Action, FlightComputer, Phase};
 use heli_sim::{Simulation, scenario};
 
 #[test]
@@ -14,8 +14,8 @@ fn the_flying_control_process_does_not_allocate() {
     let recording = sim.recording().cloned().unwrap_or_default();
     let (config, params) = sim.flight_software_setup();
 
-    let mut core = FlightCore::new(config, params);
-    core.start(0);
+    let mut computer = FlightComputer::new(config, params, heli_proto::baro::DEFAULT_RATE_HZ);
+    computer.start(0, &mut |_, _| {});
     let mut out: Vec<Action> = Vec::with_capacity(64);
     let settle_us = 110_000_000;
     let split = recording
@@ -25,9 +25,10 @@ fn the_flying_control_process_does_not_allocate() {
         .unwrap_or(recording.inputs.len());
     let (before, after) = recording.inputs.split_at(split);
     for (t_us, input) in before {
-        core.handle(*input, *t_us, &mut out);
+        computer.receive(*t_us, input.as_input(), &mut |_, _| {}, &mut out);
         out.clear();
     }
+    let core = computer.core();
     assert!(
         matches!(core.phase(), Phase::Holding { .. }),
         "{:?}",
@@ -36,11 +37,11 @@ fn the_flying_control_process_does_not_allocate() {
     let start = core.stats();
     let counted = allocation_counter::measure(|| {
         for (t_us, input) in after {
-            core.handle(*input, *t_us, &mut out);
+            computer.receive(*t_us, input.as_input(), &mut |_, _| {}, &mut out);
             out.clear();
         }
     });
-    let stats = core.stats();
+    let stats = computer.core().stats();
     // 30 s of hover: 1500 control steps and 30 GPS fixes, each replaying the filter.
     assert!(
         stats.control_steps - start.control_steps > 1400,

@@ -1,8 +1,9 @@
-//! Replay: the flight core is a pure function of its inputs. Record every input a simulated
-//! flight gave it, feed them to a fresh core, and it must take the same actions, bit for bit
+//! Replay: the flight computer (drivers and core) is a pure function of its device inputs.
+//! Record every byte, ADC reading and tick a simulated flight gave it, feed them to a fresh
+//! flight computer, and it must take the same actions, bit for bit
 //! — the property that lets a recorded flight be replayed against new code.
 
-use heli_fsw::FlightCore;
+use heli_fsw::FlightComputer;
 use heli_sim::Simulation;
 use heli_sim::scenario;
 
@@ -19,11 +20,11 @@ fn a_fresh_core_fed_the_recorded_inputs_takes_the_same_actions() {
     assert!(recording.actions.iter().any(|a| matches!(a, heli_fsw::Action::Event(e) if matches!(e.value, heli_fsw::core::CoreEvent::RollCompleted(1)))));
 
     let (config, params) = sim.flight_software_setup();
-    let mut core = FlightCore::new(config, params);
-    core.start(0);
+    let mut computer = FlightComputer::new(config, params, heli_proto::baro::DEFAULT_RATE_HZ);
+    computer.start(0, &mut |_, _| {});
     let mut actions = Vec::new();
     for (t_us, input) in &recording.inputs {
-        core.handle(*input, *t_us, &mut actions);
+        computer.receive(*t_us, input.as_input(), &mut |_, _| {}, &mut actions);
     }
     assert_eq!(actions.len(), recording.actions.len());
     // PartialEq on f64 fields: bit-for-bit equal numbers (no NaNs flow through).
@@ -32,5 +33,6 @@ fn a_fresh_core_fed_the_recorded_inputs_takes_the_same_actions() {
         .zip(&recording.actions)
         .position(|(a, b)| a != b);
     assert_eq!(first_difference, None);
-    assert_eq!(core.stats(), sim.core().stats());
+    assert_eq!(computer.core().stats(), sim.core().stats());
+    assert_eq!(computer.core().health(), sim.core().health());
 }

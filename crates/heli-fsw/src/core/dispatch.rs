@@ -19,7 +19,8 @@ impl FlightCore {
         self.last_control_us = Some(now_us);
         self.nav.propagate(now_us, &previous, &current);
 
-        let estimate = self.nav.state().copied();
+        // An estimate declared invalid (the IMU went silent) is never flown on again.
+        let estimate = self.nav.state().copied().filter(|_| self.estimate_valid);
         let gps_lost = self.nav.gps_outage(now_us);
         if gps_lost != self.gps_lost && estimate.is_some() {
             self.gps_lost = gps_lost;
@@ -41,6 +42,7 @@ impl FlightCore {
                 Phase::Calibrating
                     | Phase::Manual
                     | Phase::GroundFailsafe
+                    | Phase::BlindDescent
                     | Phase::Landed
                     | Phase::Augmented(_)
             ) {
@@ -52,8 +54,18 @@ impl FlightCore {
             )));
         }
 
-        let pilot_sticks = self.pilot.and_then(|p| p.sticks()).unwrap_or_default();
-        let yaw_rate = estimate.map_or(current.rate_rps[2], |s| s.rate_body_rps.z);
+        // A silent uplink's last sticks are stale: they count as no sticks at all.
+        let pilot_sticks = self
+            .pilot
+            .filter(|_| !self.uplink_lost)
+            .and_then(|p| p.sticks())
+            .unwrap_or_default();
+        // Without a valid estimate the last IMU sample is a stale copy: no yaw damping.
+        let yaw_rate = match (estimate, self.estimate_valid) {
+            (Some(s), _) => s.rate_body_rps.z,
+            (None, true) => current.rate_rps[2],
+            (None, false) => 0.0,
+        };
         let controls = match (self.phase, estimate) {
             (
                 Phase::Maneuver {
@@ -104,6 +116,12 @@ impl FlightCore {
                 ..Controls::default()
             },
             (Phase::GroundFailsafe, _) => Controls::default(),
+            (Phase::BlindDescent, _) => Controls {
+                collective: self.config.hover.hover_collective - BLIND_DESCENT_COLLECTIVE_MARGIN,
+                rudder: self.config.yaw_damper.trim,
+                throttle: heli_control::GOVERNED_THROTTLE,
+                ..Controls::default()
+            },
             _ => manual_with_yaw_damping(&pilot_sticks, yaw_rate, &self.config.yaw_damper),
         };
         let rotor_rpm = self.pilot.map_or(0, |p| p.rotor_rpm);

@@ -11,6 +11,7 @@
 //! core's whole state is a plain value: clone it to snapshot, compare to check replay.
 
 mod dispatch;
+mod event;
 mod main_loop;
 pub mod mission;
 mod phase;
@@ -18,6 +19,7 @@ mod roll;
 mod sequencer;
 pub mod watchdog;
 
+pub use event::{CoreEvent, Severity};
 pub use phase::Phase;
 
 pub use heli_control::FlightMode;
@@ -32,6 +34,7 @@ use heli_proto::imu::ImuRepr;
 use heli_proto::scb::{Controls, PilotUplink};
 use nalgebra::Vector3;
 
+use crate::health::{Device, Health, HealthState, IMU_FIRES_TO_INVALID};
 use crate::streams::{
     BaroRecord, CompassRecord, ImuRecord, Record, ServoRecord, Stamped, StateRecord,
 };
@@ -40,6 +43,10 @@ use watchdog::{WATCHDOG_PERIOD_US, Watchdog};
 
 /// Longest the roll maneuver waits to settle on its trim speed before giving up (s).
 pub const ACCELERATE_TIMEOUT_S: f64 = 20.0;
+
+/// How far under the hover collective the blind failsafe sets the collective: a slow
+/// descent (about 1 m/s on the X-Cell 60 model) rather than a climb or a drop.
+pub const BLIND_DESCENT_COLLECTIVE_MARGIN: f64 = 0.06;
 
 /// Configuration of the main control process.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -120,34 +127,11 @@ pub enum Input {
     },
     /// The compass's three ADC channels.
     Compass(CompassAdc),
+    /// A driver gave up on its device (the altimeter never answered its handshake, the
+    /// port could not be opened or read).
+    DeviceFailed(Device),
     /// The watchdog timer (deliver at [`FlightCore::poll_at`]).
     Timer,
-}
-
-/// Notable things that happened, for the ground's message area.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum CoreEvent {
-    /// The 80 s calibration finished.
-    CalibrationDone {
-        /// Gyro biases found (rad/s).
-        gyro_bias_rps: [f64; 3],
-    },
-    /// The phase changed.
-    PhaseChanged(Phase),
-    /// The watchdog fired: an IMU packet was late or lost and the last one was repeated.
-    WatchdogFired,
-    /// The pilot's receiver signal was lost (all channels zero): hovering.
-    PilotSignalLost,
-    /// An aileron roll was completed (the count so far in this flight).
-    RollCompleted(u32),
-    /// A roll took more than twice its nominal time and was given up.
-    RollAbandoned,
-    /// No GPS fix has been fused for the outage time: the estimate is coasting on the IMU.
-    GpsLost,
-    /// GPS fixes are fused again.
-    GpsRegained,
-    /// The last leg of the flight plan is done.
-    PlanComplete,
 }
 
 /// One output of the main control process.
@@ -212,6 +196,13 @@ pub struct FlightCore {
     has_flown: bool,
     /// A hold begun in motion is still braking to a stop.
     braking: bool,
+    health: Health,
+    /// Watchdog fires since the last real IMU packet.
+    imu_fires_in_row: u32,
+    /// False once the IMU stayed silent too long: the estimate is not used again.
+    estimate_valid: bool,
+    /// The servo board's uplink is silent (or its driver failed): transmitter loss.
+    uplink_lost: bool,
     stats: CoreStats,
 }
 
@@ -238,6 +229,10 @@ impl FlightCore {
             gps_lost: false,
             has_flown: false,
             braking: false,
+            health: Health::default(),
+            imu_fires_in_row: 0,
+            estimate_valid: true,
+            uplink_lost: false,
             stats: CoreStats::default(),
         }
     }
@@ -245,9 +240,25 @@ impl FlightCore {
     /// Arms the watchdog at start-up (the thesis sets it up before entering the main loop),
     /// so that an IMU that never sends is noticed too. Without this call it arms on the first
     /// IMU packet.
+    ///
+    /// Every device's watchdog starts here too: a device that never speaks is reported
+    /// silent after its timeout (`crate::health`).
     pub fn start(&mut self, now_us: u64) {
         self.last_input_us = self.last_input_us.max(now_us);
         self.watchdog.kick(now_us);
+        for device in Device::ALL {
+            self.health.monitor_mut(device).arm(now_us);
+        }
+    }
+
+    /// Every device's watchdog.
+    pub fn health(&self) -> &Health {
+        &self.health
+    }
+
+    /// False once the IMU stayed silent for too long and the estimate was declared invalid.
+    pub fn estimate_valid(&self) -> bool {
+        self.estimate_valid
     }
 
     /// Loop counters.
@@ -273,9 +284,45 @@ impl FlightCore {
         &self.nav
     }
 
-    /// When the caller must deliver [`Input::Timer`] next (the watchdog deadline).
+    /// When the caller must deliver [`Input::Timer`] next: the loop watchdog's deadline or
+    /// a device watchdog's, whichever comes first.
     pub fn poll_at(&self) -> Option<u64> {
-        self.watchdog.deadline_us()
+        match (self.watchdog.deadline_us(), self.health.deadline_us()) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// A device delivered a sample at `now_us`.
+    fn heard(&mut self, device: Device, now_us: u64, out: &mut Vec<Action>) {
+        if let Some(state) = self.health.monitor_mut(device).sample(now_us) {
+            self.health_changed(device, state, now_us, out);
+        }
+    }
+
+    /// Raises a device's change of state and acts on it.
+    fn health_changed(
+        &mut self,
+        device: Device,
+        state: HealthState,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) {
+        // The first sample of a device is no news.
+        let first = state == HealthState::Ok && self.health.monitor(device).counts().samples == 1;
+        if !first {
+            out.push(Action::Event(Stamped::new(
+                now_us,
+                CoreEvent::DeviceHealth { device, state },
+            )));
+        }
+        if device == Device::Uplink {
+            let lost = matches!(state, HealthState::Silent | HealthState::Failed);
+            if lost && !self.uplink_lost {
+                out.push(Action::Event(Stamped::new(now_us, CoreEvent::UplinkLost)));
+            }
+            self.uplink_lost = lost;
+        }
     }
 
     /// Handles one input that arrived at `now_us`, appending what to do to `out`.
@@ -288,16 +335,42 @@ impl FlightCore {
         match input {
             Input::Imu(sample) => {
                 self.stats.imu_samples = self.stats.imu_samples.saturating_add(1);
+                self.heard(Device::Imu, now_us, out);
+                self.imu_fires_in_row = 0;
                 self.watchdog.kick(now_us);
                 self.loop_iteration(sample, false, now_us, out);
             }
+            Input::DeviceFailed(device) => {
+                if let Some(state) = self.health.monitor_mut(device).fail() {
+                    self.health_changed(device, state, now_us, out);
+                }
+            }
             Input::Timer => {
+                let mut changes = [None; 5];
+                let mut n = 0;
+                self.health.check(now_us, |device, state| {
+                    if let Some(slot) = changes.get_mut(n) {
+                        *slot = Some((device, state));
+                        n = n.saturating_add(1);
+                    }
+                });
+                for (device, state) in changes.into_iter().flatten() {
+                    self.health_changed(device, state, now_us, out);
+                }
                 if self.watchdog.expired(now_us) {
                     self.watchdog.kick(now_us);
+                    self.imu_fires_in_row = self.imu_fires_in_row.saturating_add(1);
                     out.push(Action::Event(Stamped::new(
                         now_us,
                         CoreEvent::WatchdogFired,
                     )));
+                    if self.imu_fires_in_row >= IMU_FIRES_TO_INVALID && self.estimate_valid {
+                        self.estimate_valid = false;
+                        out.push(Action::Event(Stamped::new(
+                            now_us,
+                            CoreEvent::EstimateInvalid,
+                        )));
+                    }
                     if let Some(last) = self.last_imu {
                         self.loop_iteration(last, true, now_us, out);
                     }
@@ -305,6 +378,7 @@ impl FlightCore {
             }
             Input::Uplink(uplink) => {
                 self.stats.uplinks = self.stats.uplinks.saturating_add(1);
+                self.heard(Device::Uplink, now_us, out);
                 let was_lost = self.pilot.is_some_and(|p| p.signal_lost());
                 if uplink.signal_lost() && !was_lost {
                     out.push(Action::Event(Stamped::new(
@@ -319,11 +393,13 @@ impl FlightCore {
             }
             Input::Gps(fix) => {
                 self.stats.gps_fixes = self.stats.gps_fixes.saturating_add(1);
+                self.heard(Device::Gps, now_us, out);
                 self.nav.fuse_gps(now_us, &fix);
                 out.push(Action::Publish(Record::Gps(Stamped::new(now_us, fix))));
             }
             Input::Baro { pressure_mbar } => {
                 self.stats.baro_readings = self.stats.baro_readings.saturating_add(1);
+                self.heard(Device::Baro, now_us, out);
                 self.nav.fuse_baro(pressure_mbar);
                 let alt_m = self
                     .nav
@@ -339,6 +415,7 @@ impl FlightCore {
             }
             Input::Compass(adc) => {
                 self.stats.compass_readings = self.stats.compass_readings.saturating_add(1);
+                self.heard(Device::Compass, now_us, out);
                 let field = self.config.compass.apply(&adc.raw_field());
                 self.nav.fuse_compass(&field);
                 let (roll, pitch) = self.nav.state().map_or((0.0, 0.0), |s| {
@@ -374,7 +451,7 @@ fn input_is_finite(input: &Input) -> bool {
                 && f.vel_ned_mps.iter().all(|x| x.is_finite())
         }
         Input::Uplink(u) => u.receiver_batt_v.is_finite() && u.servo_batt_v.is_finite(),
-        Input::Compass(_) | Input::Timer => true,
+        Input::Compass(_) | Input::DeviceFailed(_) | Input::Timer => true,
     }
 }
 

@@ -12,6 +12,10 @@ pub enum Phase {
     /// The transmitter was lost while the helicopter was on the ground: cyclic neutral,
     /// collective flat, throttle closed, until the pilot's signal returns.
     GroundFailsafe,
+    /// The IMU went silent and the estimate was declared invalid while no pilot was there to
+    /// fly: the blind failsafe — cyclic and tail neutral, collective a little under hover for
+    /// a slow descent, rotor governed — until the pilot's signal returns.
+    BlindDescent,
     /// Autonomous climb to the target.
     TakingOff {
         /// Where the climb ends.
@@ -65,6 +69,7 @@ impl Phase {
             Phase::Calibrating
             | Phase::Manual
             | Phase::GroundFailsafe
+            | Phase::BlindDescent
             | Phase::Landed
             | Phase::Augmented(_) => None,
         }
@@ -76,6 +81,7 @@ impl Phase {
             Phase::Calibrating => "calibrating",
             Phase::Manual => "manual",
             Phase::GroundFailsafe => "ground-failsafe",
+            Phase::BlindDescent => "blind-descent",
             Phase::TakingOff { .. } => "takeoff",
             Phase::Holding { .. } => "hold",
             Phase::Flying { .. } => "fly",

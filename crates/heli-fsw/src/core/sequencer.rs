@@ -11,11 +11,21 @@ impl FlightCore {
         dt_s: f64,
         out: &mut Vec<Action>,
     ) -> Phase {
-        let Some(est) = estimate else {
-            return Phase::Calibrating;
-        };
         let pilot = self.pilot;
-        let signal_lost = pilot.is_some_and(|p| p.signal_lost());
+        // The board's line going silent is transmitter loss too.
+        let signal_lost = self.uplink_lost || pilot.is_some_and(|p| p.signal_lost());
+        let Some(est) = estimate else {
+            if self.estimate_valid {
+                return Phase::Calibrating;
+            }
+            // The estimate is gone: the pilot flies if there is one; otherwise the blind
+            // failsafe, the safest thing left without attitude.
+            return if pilot.is_some() && !signal_lost {
+                Phase::Manual
+            } else {
+                Phase::BlindDescent
+            };
+        };
         let auto_switch = pilot.is_some_and(|p| p.auto_mode);
         let (_, _, yaw) = est.euler_rad();
         // Where the helicopter can stop: ahead by v²/2a at the controller's braking
@@ -25,7 +35,7 @@ impl FlightCore {
         let stop = horizontal_vel * (horizontal_vel.norm() / (2.0 * braking));
         let here = Target::hold(est.pos_ned_m + stop, yaw);
         let on_ground = self.height_above_home(est) < self.config.airborne_height_m;
-        let bypass = pilot.is_some_and(|p| p.bypass);
+        let bypass = !self.uplink_lost && pilot.is_some_and(|p| p.bypass);
         let wants_auto =
             !bypass && (signal_lost || (self.params.mode != FlightMode::Manual && auto_switch));
         if !wants_auto {
@@ -65,7 +75,11 @@ impl FlightCore {
             };
         }
         match self.phase {
-            Phase::Calibrating | Phase::Manual | Phase::GroundFailsafe | Phase::Augmented(_) => {
+            Phase::Calibrating
+            | Phase::Manual
+            | Phase::GroundFailsafe
+            | Phase::BlindDescent
+            | Phase::Augmented(_) => {
                 if on_ground && !self.plan_done && !self.plan_abandoned {
                     self.leg = 0;
                     self.start_leg(est, now_us, out)

@@ -279,3 +279,203 @@ fn augmented_mode_follows_the_auto_switch() {
     core.handle(Input::Imu(still()), 2_010_000, &mut out);
     assert_eq!(core.phase(), Phase::Manual);
 }
+
+/// Feeds the core for `duration_us` after `t`: IMU samples every 10 ms when `imu`, pilot
+/// packets every 20 ms when `pilot` is given, and the timer whenever it is due. Returns the
+/// time reached.
+fn fly_for(
+    core: &mut FlightCore,
+    out: &mut Vec<Action>,
+    t: u64,
+    duration_us: u64,
+    imu: bool,
+    pilot: Option<PilotUplink>,
+) -> u64 {
+    let end = t + duration_us;
+    let mut now = t;
+    while now < end {
+        now += 1_000;
+        if let Some(at) = core.poll_at()
+            && at <= now
+        {
+            core.handle(Input::Timer, now, out);
+        }
+        if imu && now % 10_000 == 0 {
+            core.handle(Input::Imu(still()), now, out);
+        }
+        if let Some(p) = pilot
+            && now % 20_000 == 0
+        {
+            core.handle(Input::Uplink(p), now, out);
+        }
+    }
+    now
+}
+
+fn raised(out: &[Action], event: CoreEvent) -> bool {
+    out.iter()
+        .any(|a| matches!(a, Action::Event(e) if e.value == event))
+}
+
+#[test]
+fn a_silent_uplink_in_the_air_is_transmitter_loss() {
+    let (mut core, mut out, t) = calibrated_manual_core(8.0);
+    let t = fly_for(
+        &mut core,
+        &mut out,
+        t,
+        200_000,
+        true,
+        Some(uplink(false, false)),
+    );
+    assert_eq!(core.phase(), Phase::Manual);
+    out.clear();
+    // The board's line goes quiet: late after 60 ms, silent after 500 ms.
+    let t = fly_for(&mut core, &mut out, t, 100_000, true, None);
+    assert!(raised(
+        &out,
+        CoreEvent::DeviceHealth {
+            device: Device::Uplink,
+            state: HealthState::Late
+        }
+    ));
+    assert_eq!(core.phase(), Phase::Manual, "late is not lost");
+    fly_for(&mut core, &mut out, t, 500_000, true, None);
+    assert!(raised(&out, CoreEvent::UplinkLost));
+    assert!(
+        matches!(core.phase(), Phase::Holding { .. }),
+        "{:?}",
+        core.phase()
+    );
+    assert_eq!(core.health().state(Device::Uplink), HealthState::Silent);
+    assert_eq!(
+        CoreEvent::UplinkLost.severity(),
+        Severity::WarningHi,
+        "transmitter loss changes what the software does"
+    );
+}
+
+#[test]
+fn a_silent_uplink_on_the_ground_idles() {
+    let (mut core, mut out, t) = calibrated_manual_core(0.0);
+    let t = fly_for(
+        &mut core,
+        &mut out,
+        t,
+        200_000,
+        true,
+        Some(uplink(false, false)),
+    );
+    fly_for(&mut core, &mut out, t, 700_000, true, None);
+    assert_eq!(core.phase(), Phase::GroundFailsafe);
+    assert_eq!(last_servo(&out).throttle, 0.0);
+}
+
+#[test]
+fn imu_silence_invalidates_the_estimate_and_hands_the_pilot_the_helicopter() {
+    let (mut core, mut out, t) = calibrated_manual_core(8.0);
+    let t = fly_for(
+        &mut core,
+        &mut out,
+        t,
+        200_000,
+        true,
+        Some(uplink(false, false)),
+    );
+    out.clear();
+    // 0.2 s without the IMU: repeated samples, but the estimate still stands.
+    let t = fly_for(
+        &mut core,
+        &mut out,
+        t,
+        200_000,
+        false,
+        Some(uplink(false, false)),
+    );
+    assert!(core.estimate_valid());
+    assert!(!raised(&out, CoreEvent::EstimateInvalid));
+    fly_for(
+        &mut core,
+        &mut out,
+        t,
+        200_000,
+        false,
+        Some(uplink(false, false)),
+    );
+    assert!(raised(&out, CoreEvent::EstimateInvalid));
+    assert!(!core.estimate_valid());
+    assert_eq!(CoreEvent::EstimateInvalid.severity(), Severity::Fatal);
+    assert!(raised(
+        &out,
+        CoreEvent::DeviceHealth {
+            device: Device::Imu,
+            state: HealthState::Silent
+        }
+    ));
+    assert_eq!(core.phase(), Phase::Manual);
+    // The pilot's sticks pass through; the tail gets no damping from a stale yaw rate.
+    let servo = last_servo(&out);
+    assert_eq!(servo.collective, 0.0);
+    assert!(
+        (servo.rudder - YawDamper::default().trim).abs() < 1e-9,
+        "{servo:?}"
+    );
+}
+
+#[test]
+fn imu_silence_without_a_pilot_is_the_blind_descent() {
+    let (mut core, mut out, t) = calibrated_manual_core(8.0);
+    let t = fly_for(
+        &mut core,
+        &mut out,
+        t,
+        200_000,
+        true,
+        Some(uplink(false, true)),
+    );
+    assert!(matches!(core.phase(), Phase::Holding { .. }));
+    fly_for(
+        &mut core,
+        &mut out,
+        t,
+        500_000,
+        false,
+        Some(uplink(false, true)),
+    );
+    assert_eq!(core.phase(), Phase::BlindDescent);
+    let servo = last_servo(&out);
+    let hover = HoverGains::default().hover_collective;
+    assert!((servo.collective - (hover - BLIND_DESCENT_COLLECTIVE_MARGIN)).abs() < 1e-9);
+    assert_eq!((servo.aileron, servo.elevator), (0.0, 0.0));
+}
+
+#[test]
+fn every_device_that_never_speaks_is_reported_silent() {
+    let mut core = short_core();
+    let mut out = Vec::new();
+    core.start(0);
+    fly_for(
+        &mut core,
+        &mut out,
+        0,
+        3_500_000,
+        true,
+        Some(uplink(false, false)),
+    );
+    for device in [Device::Gps, Device::Baro, Device::Compass] {
+        assert_eq!(
+            core.health().state(device),
+            HealthState::Silent,
+            "{device:?}"
+        );
+        assert!(raised(
+            &out,
+            CoreEvent::DeviceHealth {
+                device,
+                state: HealthState::Silent
+            }
+        ));
+    }
+    assert_eq!(core.health().state(Device::Imu), HealthState::Ok);
+    assert_eq!(core.health().state(Device::Uplink), HealthState::Ok);
+}

@@ -1,0 +1,292 @@
+//! The flight computer as one sans-I/O machine: device bytes and ADC readings in, servo and
+//! device commands and the core's actions out.
+//!
+//! This is the single code path of the flight software. The vehicle runtime feeds it what
+//! its driver threads read from serial ports and ADC files; the lockstep simulator feeds it
+//! the simulated devices' bytes; `heli log replay` feeds it the device inputs recorded in a
+//! flight log. Given the same inputs at the same times it takes the same actions, bit for bit.
+//!
+//! Inside: the drivers' protocol halves ([`crate::drivers`]: framing, parsing, the altimeter
+//! handshake) and the main control process ([`crate::core`]). A driver that gives up on its
+//! device (the altimeter handshake, or a port the runtime reports failed) is reported to the
+//! core, which raises it and degrades.
+
+use heli_proto::compass::CompassAdc;
+
+use crate::core::{Action, CoreConfig, FlightCore, FlightParams, Input};
+use crate::drivers::{self, BaroLinkState, Drivers};
+use crate::health::Device;
+
+/// A serial port of the flight computer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Port {
+    /// The IMU (in only).
+    Imu,
+    /// The servo controller board (pilot uplink in, servo commands out).
+    Scb,
+    /// The GPS receiver (in only).
+    Gps,
+    /// The barometric altimeter (readings in, handshake commands out).
+    Baro,
+}
+
+impl Port {
+    /// Every serial port, in a fixed order.
+    pub const ALL: [Port; 4] = [Port::Imu, Port::Scb, Port::Gps, Port::Baro];
+
+    /// Short name, as used for device paths and log channels.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Port::Imu => "imu",
+            Port::Scb => "scb",
+            Port::Gps => "gps",
+            Port::Baro => "baro",
+        }
+    }
+
+    /// The port named `name` (see [`Port::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+
+    /// The device whose samples arrive on this port.
+    pub const fn device(self) -> Device {
+        match self {
+            Port::Imu => Device::Imu,
+            Port::Scb => Device::Uplink,
+            Port::Gps => Device::Gps,
+            Port::Baro => Device::Baro,
+        }
+    }
+}
+
+/// One thing that reaches the flight computer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DeviceInput<'a> {
+    /// Bytes read from a serial port.
+    Bytes {
+        /// Which port.
+        port: Port,
+        /// What was read.
+        bytes: &'a [u8],
+    },
+    /// The compass's three ADC channels were read.
+    Compass(CompassAdc),
+    /// The runtime could not open or read a port: its driver gives up on the device.
+    PortFailed(Port),
+    /// A timer tick: deliver at [`FlightComputer::poll_at`] (extra ticks do no harm).
+    Tick,
+}
+
+/// An owned [`DeviceInput`], for recordings and flight logs.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RecordedInput {
+    /// Bytes read from a serial port.
+    Bytes(Port, Vec<u8>),
+    /// The compass's three ADC channels.
+    Compass(CompassAdc),
+    /// A port failed.
+    PortFailed(Port),
+    /// A timer tick.
+    Tick,
+}
+
+impl RecordedInput {
+    /// The borrowed form, to feed to [`FlightComputer::receive`].
+    pub fn as_input(&self) -> DeviceInput<'_> {
+        match self {
+            RecordedInput::Bytes(port, bytes) => DeviceInput::Bytes { port: *port, bytes },
+            RecordedInput::Compass(adc) => DeviceInput::Compass(*adc),
+            RecordedInput::PortFailed(port) => DeviceInput::PortFailed(*port),
+            RecordedInput::Tick => DeviceInput::Tick,
+        }
+    }
+}
+
+impl From<DeviceInput<'_>> for RecordedInput {
+    fn from(input: DeviceInput<'_>) -> Self {
+        match input {
+            DeviceInput::Bytes { port, bytes } => RecordedInput::Bytes(port, bytes.to_vec()),
+            DeviceInput::Compass(adc) => RecordedInput::Compass(adc),
+            DeviceInput::PortFailed(port) => RecordedInput::PortFailed(port),
+            DeviceInput::Tick => RecordedInput::Tick,
+        }
+    }
+}
+
+/// Drivers and the main control process together.
+#[derive(Clone, Debug)]
+pub struct FlightComputer {
+    drivers: Drivers,
+    core: FlightCore,
+    /// Samples the drivers completed, waiting for the core (kept to avoid allocating).
+    scratch: Vec<Input>,
+    baro_failed_reported: bool,
+}
+
+impl FlightComputer {
+    /// A flight computer with the ground's parameters; the altimeter is asked for
+    /// `baro_rate_hz` readings per second.
+    pub fn new(config: CoreConfig, params: FlightParams, baro_rate_hz: u8) -> Self {
+        Self {
+            drivers: Drivers::new(baro_rate_hz),
+            core: FlightCore::new(config, params),
+            scratch: Vec::with_capacity(8),
+            baro_failed_reported: false,
+        }
+    }
+
+    /// Starts at `now_us`: arms every watchdog and begins the altimeter handshake, whose
+    /// first command goes out through `tx`.
+    pub fn start(&mut self, now_us: u64, tx: &mut impl FnMut(Port, &[u8])) {
+        self.core.start(now_us);
+        self.drivers
+            .baro
+            .start(now_us, &mut |b: &[u8]| tx(Port::Baro, b));
+    }
+
+    /// When the next [`DeviceInput::Tick`] is due (the loop watchdog, a device watchdog or
+    /// the altimeter's reply timeout).
+    pub fn poll_at(&self) -> Option<u64> {
+        match (self.core.poll_at(), self.drivers.baro.poll_at()) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// Handles one input that arrived at `now_us`: bytes for a device go out through `tx`
+    /// (servo commands to the board, handshake commands to the altimeter), the core's
+    /// actions are appended to `out`.
+    pub fn receive(
+        &mut self,
+        now_us: u64,
+        input: DeviceInput<'_>,
+        tx: &mut impl FnMut(Port, &[u8]),
+        out: &mut Vec<Action>,
+    ) {
+        let mut samples = core::mem::take(&mut self.scratch);
+        samples.clear();
+        match input {
+            DeviceInput::Bytes { port, bytes } => match port {
+                Port::Imu => self.drivers.imu_bytes(bytes, |i| samples.push(i)),
+                Port::Scb => self.drivers.uplink_bytes(bytes, |i| samples.push(i)),
+                Port::Gps => self.drivers.gps_bytes(bytes, |i| samples.push(i)),
+                Port::Baro => {
+                    self.drivers
+                        .baro_bytes(bytes, now_us, &mut |b: &[u8]| tx(Port::Baro, b), |i| {
+                            samples.push(i)
+                        })
+                }
+            },
+            DeviceInput::Compass(adc) => samples.push(Input::Compass(adc)),
+            DeviceInput::PortFailed(port) => samples.push(Input::DeviceFailed(port.device())),
+            DeviceInput::Tick => {
+                self.drivers
+                    .baro
+                    .poll(now_us, &mut |b: &[u8]| tx(Port::Baro, b));
+                samples.push(Input::Timer);
+            }
+        }
+        if self.drivers.baro.state() == BaroLinkState::Failed && !self.baro_failed_reported {
+            self.baro_failed_reported = true;
+            samples.insert(0, Input::DeviceFailed(Device::Baro));
+        }
+        let first_new = out.len();
+        for sample in samples.drain(..) {
+            self.core.handle(sample, now_us, out);
+        }
+        self.scratch = samples;
+        for action in out.iter().skip(first_new) {
+            if let Action::Servo(cmd) = action {
+                tx(Port::Scb, &drivers::servo_packet(&cmd.value));
+            }
+        }
+    }
+
+    /// The main control process.
+    pub fn core(&self) -> &FlightCore {
+        &self.core
+    }
+
+    /// The drivers' protocol halves (counters, the altimeter's handshake state).
+    pub fn drivers(&self) -> &Drivers {
+        &self.drivers
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::CoreEvent;
+    use crate::health::HealthState;
+
+    #[test]
+    fn an_altimeter_that_never_answers_is_reported_failed_once() {
+        let mut fc = FlightComputer::new(CoreConfig::default(), FlightParams::default(), 5);
+        let mut resets = 0;
+        fc.start(0, &mut |port, _| resets += usize::from(port == Port::Baro));
+        let mut out = Vec::new();
+        while let Some(at) = fc.poll_at().filter(|at| *at < 5_000_000) {
+            fc.receive(
+                at,
+                DeviceInput::Tick,
+                &mut |port, _| resets += usize::from(port == Port::Baro),
+                &mut out,
+            );
+        }
+        assert_eq!(resets, 3);
+        let failed = out
+            .iter()
+            .filter(|a| {
+                matches!(a, Action::Event(e) if e.value == CoreEvent::DeviceHealth {
+                    device: Device::Baro,
+                    state: HealthState::Failed,
+                })
+            })
+            .count();
+        assert_eq!(failed, 1);
+        assert_eq!(fc.core().health().state(Device::Baro), HealthState::Failed);
+    }
+
+    #[test]
+    fn a_port_the_runtime_cannot_open_fails_its_device() {
+        let mut fc = FlightComputer::new(CoreConfig::default(), FlightParams::default(), 5);
+        fc.start(0, &mut |_, _| {});
+        let mut out = Vec::new();
+        fc.receive(
+            10,
+            DeviceInput::PortFailed(Port::Gps),
+            &mut |_, _| {},
+            &mut out,
+        );
+        assert_eq!(fc.core().health().state(Device::Gps), HealthState::Failed);
+    }
+
+    #[test]
+    fn servo_commands_leave_on_the_board_port() {
+        let mut fc = FlightComputer::new(CoreConfig::default(), FlightParams::default(), 5);
+        let imu = heli_proto::imu::ImuRepr {
+            rate_rps: [0.0; 3],
+            accel_mps2: [0.0, 0.0, -9.81],
+            temp_c: 25.0,
+        };
+        let mut frame = [0u8; heli_proto::imu::FRAME_LEN];
+        let n = imu.emit(&mut frame).unwrap_or(0);
+        let mut sent = Vec::new();
+        let mut out = Vec::new();
+        for k in 0..2u64 {
+            fc.receive(
+                k * 10_000,
+                DeviceInput::Bytes {
+                    port: Port::Imu,
+                    bytes: &frame[..n],
+                },
+                &mut |port, b: &[u8]| sent.push((port, b.to_vec())),
+                &mut out,
+            );
+        }
+        assert_eq!(sent.len(), 1);
+        assert_eq!(sent[0].0, Port::Scb);
+        assert_eq!(sent[0].1.len(), heli_proto::scb::SERVO_LEN);
+    }
+}

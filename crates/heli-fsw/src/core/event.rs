@@ -1,0 +1,97 @@
+//! What the main control process reports: events with an F´-style severity, so the ground
+//! and the log can sort the routine from the alarming.
+
+use super::Phase;
+use crate::health::{Device, HealthState};
+
+/// How much an event matters (F´'s event severities).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Severity {
+    /// Routine, low-rate activity (a phase change, a roll completed).
+    ActivityLo,
+    /// Notable activity (calibration done, the plan complete).
+    ActivityHi,
+    /// Something off that the software handles without changing what it does (a late
+    /// device, one watchdog fire).
+    WarningLo,
+    /// Something off that changes what the software does (a silent device, transmitter
+    /// loss, a GPS outage).
+    WarningHi,
+    /// The flight cannot go on as planned (the estimate is invalid).
+    Fatal,
+}
+
+impl Severity {
+    /// Short name for logs and displays.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Severity::ActivityLo => "activity-lo",
+            Severity::ActivityHi => "activity-hi",
+            Severity::WarningLo => "warning-lo",
+            Severity::WarningHi => "warning-hi",
+            Severity::Fatal => "fatal",
+        }
+    }
+}
+
+/// Notable things that happened, for the ground's message area.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CoreEvent {
+    /// The 80 s calibration finished.
+    CalibrationDone {
+        /// Gyro biases found (rad/s).
+        gyro_bias_rps: [f64; 3],
+    },
+    /// The phase changed.
+    PhaseChanged(Phase),
+    /// The watchdog fired: an IMU packet was late or lost and the last one was repeated.
+    WatchdogFired,
+    /// The pilot's receiver signal was lost (all channels zero): hovering.
+    PilotSignalLost,
+    /// An aileron roll was completed (the count so far in this flight).
+    RollCompleted(u32),
+    /// A roll took more than twice its nominal time and was given up.
+    RollAbandoned,
+    /// No GPS fix has been fused for the outage time: the estimate is coasting on the IMU.
+    GpsLost,
+    /// GPS fixes are fused again.
+    GpsRegained,
+    /// The last leg of the flight plan is done.
+    PlanComplete,
+    /// A device's watchdog changed its verdict.
+    DeviceHealth {
+        /// Which device.
+        device: Device,
+        /// Its new state.
+        state: HealthState,
+    },
+    /// The IMU stayed silent for [`crate::health::IMU_FIRES_TO_INVALID`] watchdog periods in a row: the
+    /// estimate is invalid for the rest of this flight; the pilot flies, or the blind
+    /// failsafe descends.
+    EstimateInvalid,
+    /// The pilot uplink fell silent: treated as transmitter loss.
+    UplinkLost,
+}
+
+impl CoreEvent {
+    /// How much this event matters.
+    pub fn severity(&self) -> Severity {
+        match self {
+            CoreEvent::PhaseChanged(_) | CoreEvent::RollCompleted(_) | CoreEvent::GpsRegained => {
+                Severity::ActivityLo
+            }
+            CoreEvent::CalibrationDone { .. } | CoreEvent::PlanComplete => Severity::ActivityHi,
+            CoreEvent::WatchdogFired | CoreEvent::RollAbandoned => Severity::WarningLo,
+            CoreEvent::PilotSignalLost | CoreEvent::GpsLost | CoreEvent::UplinkLost => {
+                Severity::WarningHi
+            }
+            CoreEvent::DeviceHealth { device, state } => match (device, state) {
+                (_, HealthState::Ok | HealthState::Waiting) => Severity::ActivityLo,
+                (_, HealthState::Late) => Severity::WarningLo,
+                (Device::Imu, HealthState::Silent | HealthState::Failed) => Severity::Fatal,
+                (_, HealthState::Silent | HealthState::Failed) => Severity::WarningHi,
+            },
+            CoreEvent::EstimateInvalid => Severity::Fatal,
+        }
+    }
+}
