@@ -11,6 +11,9 @@ pub struct StartParameters {
     pub file_suffix: String,
     /// Control system for the flight.
     pub controller: FlightMode,
+    /// The flight plan to fly with the auto switch on: a plan the vehicle knows by name, or
+    /// the path of a plan file on the vehicle. `None`: the vehicle's default plan.
+    pub plan: Option<String>,
 }
 
 /// Parameters the cleanup routine asks for after "Stop" (thesis §4.1.4).
@@ -78,6 +81,7 @@ impl StartParameters {
         }
         Ok(Self {
             file_suffix: file_suffix.to_string(),
+            plan: None,
             controller: FlightMode::from_name(controller)
                 .ok_or_else(|| LinkError::UnknownController(controller.to_string()))?,
         })

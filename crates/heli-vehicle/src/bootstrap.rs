@@ -1,0 +1,438 @@
+//! The bootstrap (thesis §2.3.1 and §4.1.3): always on, it starts and stops the flight
+//! process and says what became of it.
+//!
+//! - Connect: a running flight process is killed, a fresh one is started as a separate OS
+//!   process, and the reply waits for its `ready` line.
+//! - Start Logging: the parameters go to the child's standard input; the reply waits for its
+//!   `started` line.
+//! - Stop: the child is told to stop; the reply waits for its exit and gives the status. A
+//!   child that does not exit within [`STOP_TIMEOUT`] is killed.
+//! - A child that exits on its own (a crash, `kill -9`) is reported at once with its exit
+//!   status; a later Connect starts a fresh one.
+//!
+//! The child protocol is line-based. Bootstrap → child (stdin): `start SUFFIX MODE [PLAN]`,
+//! `stop` (and end of input means stop). Child → bootstrap (stdout): `ready`, `started LOG`,
+//! `note TEXT`, `event SEVERITY TEXT`, `telemetry JSON`, `stopped JSON`.
+
+use std::ffi::OsString;
+use std::io::{BufRead, BufReader, Write};
+use std::os::unix::net::{UnixListener, UnixStream};
+use std::os::unix::process::ExitStatusExt;
+use std::path::PathBuf;
+use std::process::{ChildStdin, Command, ExitStatus, Stdio};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
+use std::time::{Duration, Instant};
+
+use heli_link::GroundCommand;
+
+use crate::ctl::Request;
+
+/// How long Connect waits for the flight process's `ready`.
+pub const READY_TIMEOUT: Duration = Duration::from_secs(10);
+/// How long Stop waits for the flight process to clean up before killing it.
+pub const STOP_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// What the bootstrap runs.
+#[derive(Clone, Debug)]
+pub struct BootstrapConfig {
+    /// The control socket to listen on (replaced if a stale one is there).
+    pub socket: PathBuf,
+    /// The flight process's program and arguments.
+    pub child: Vec<OsString>,
+}
+
+/// Where the bootstrap is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum State {
+    /// No flight process.
+    Idle,
+    /// Started, waiting for `ready`.
+    Connecting,
+    /// Up, waiting for Start Logging.
+    Connected,
+    /// Parameters sent, waiting for `started`.
+    Starting,
+    /// Flying and logging.
+    Flying,
+    /// Told to stop, waiting for the exit.
+    Stopping,
+}
+
+impl State {
+    /// Short name.
+    pub fn name(self) -> &'static str {
+        match self {
+            State::Idle => "idle",
+            State::Connecting => "connecting",
+            State::Connected => "connected",
+            State::Starting => "starting",
+            State::Flying => "flying",
+            State::Stopping => "stopping",
+        }
+    }
+}
+
+/// A human reading of an exit status: `exit code 0`, `signal 9 (SIGKILL)`.
+pub fn describe_exit(status: ExitStatus) -> String {
+    match (status.code(), status.signal()) {
+        (Some(code), _) => format!("exit code {code}"),
+        (None, Some(sig)) => {
+            let name = nix::sys::signal::Signal::try_from(sig)
+                .map(|s| s.as_str())
+                .unwrap_or("?");
+            format!("signal {sig} ({name})")
+        }
+        (None, None) => "unknown exit".to_string(),
+    }
+}
+
+enum Msg {
+    Request(Request, Sender<String>),
+    ChildLine(u32, String),
+    ChildExited(u32, ExitStatus),
+}
+
+struct Child {
+    generation: u32,
+    pid: u32,
+    stdin: Option<ChildStdin>,
+}
+
+struct Pending {
+    reply: Sender<String>,
+    until: Instant,
+}
+
+/// The supervisor.
+pub struct Bootstrap {
+    config: BootstrapConfig,
+    state: State,
+    child: Option<Child>,
+    generation: u32,
+    pending: Option<Pending>,
+    last_exit: Option<String>,
+    last_telemetry: Option<String>,
+    log: Option<String>,
+    report: Box<dyn FnMut(&str)>,
+    tx: Sender<Msg>,
+    rx: Receiver<Msg>,
+}
+
+impl Bootstrap {
+    /// A bootstrap that reports every change through `report`.
+    pub fn new(config: BootstrapConfig, report: Box<dyn FnMut(&str)>) -> Self {
+        let (tx, rx) = channel();
+        Self {
+            config,
+            state: State::Idle,
+            child: None,
+            generation: 0,
+            pending: None,
+            last_exit: None,
+            last_telemetry: None,
+            log: None,
+            report,
+            tx,
+            rx,
+        }
+    }
+
+    /// Listens on the control socket and serves until `quit`.
+    pub fn run(mut self) -> Result<(), String> {
+        let socket = &self.config.socket;
+        if socket.exists() {
+            // A stale socket from a bootstrap that died; a live one would answer.
+            if UnixStream::connect(socket).is_ok() {
+                return Err(format!(
+                    "control socket {}: another bootstrap is listening",
+                    socket.display()
+                ));
+            }
+            let _ = std::fs::remove_file(socket);
+        }
+        let listener = UnixListener::bind(socket)
+            .map_err(|e| format!("control socket {}: {e}", socket.display()))?;
+        let tx = self.tx.clone();
+        std::thread::Builder::new()
+            .name("ctl".into())
+            .spawn(move || serve(&listener, &tx))
+            .map_err(|e| e.to_string())?;
+        self.say(&format!("listening on {}", self.config.socket.display()));
+        let result = self.main_loop();
+        let _ = std::fs::remove_file(&self.config.socket);
+        result
+    }
+
+    fn say(&mut self, text: &str) {
+        (self.report)(&format!("bootstrap: {text}"));
+    }
+
+    fn set_state(&mut self, state: State) {
+        if self.state != state {
+            self.state = state;
+            let pid = self.child.as_ref().map(|c| c.pid);
+            match pid {
+                Some(pid) => self.say(&format!("state {} (pid {pid})", state.name())),
+                None => self.say(&format!("state {}", state.name())),
+            }
+        }
+    }
+
+    fn main_loop(&mut self) -> Result<(), String> {
+        loop {
+            let msg = match self.rx.recv_timeout(Duration::from_millis(100)) {
+                Ok(m) => Some(m),
+                Err(RecvTimeoutError::Timeout) => None,
+                Err(RecvTimeoutError::Disconnected) => return Ok(()),
+            };
+            match msg {
+                Some(Msg::Request(Request::Quit, reply)) => {
+                    self.kill_child();
+                    let _ = reply.send("ok quitting".into());
+                    self.say("quit");
+                    return Ok(());
+                }
+                Some(Msg::Request(Request::Ground(cmd), reply)) => self.command(cmd, reply),
+                Some(Msg::ChildLine(generation, line)) => self.child_line(generation, &line),
+                Some(Msg::ChildExited(generation, status)) => self.child_exited(generation, status),
+                None => {}
+            }
+            if self
+                .pending
+                .as_ref()
+                .is_some_and(|p| Instant::now() > p.until)
+            {
+                let state = self.state;
+                self.answer(format!("error timed out while {}", state.name()));
+                if matches!(state, State::Connecting | State::Stopping | State::Starting) {
+                    self.kill_child();
+                }
+            }
+        }
+    }
+
+    fn answer(&mut self, text: String) {
+        if let Some(p) = self.pending.take() {
+            let _ = p.reply.send(text);
+        }
+    }
+
+    fn command(&mut self, cmd: GroundCommand, reply: Sender<String>) {
+        if self.pending.is_some() {
+            let _ = reply.send(format!("error busy ({})", self.state.name()));
+            return;
+        }
+        match cmd {
+            GroundCommand::Connect => {
+                if self.child.is_some() {
+                    self.say("connect: killing the running flight process first");
+                    self.kill_child();
+                }
+                match self.spawn_child() {
+                    Ok(()) => self.wait_for(reply, READY_TIMEOUT, State::Connecting),
+                    Err(e) => {
+                        let _ = reply.send(format!("error {e}"));
+                    }
+                }
+            }
+            GroundCommand::StartLogging(p) => {
+                if self.state != State::Connected {
+                    let _ = reply.send(format!(
+                        "error not connected (state {}): send connect first",
+                        self.state.name()
+                    ));
+                    return;
+                }
+                let mut line = format!("start {} {}", p.file_suffix, p.controller.name());
+                if let Some(plan) = &p.plan {
+                    line.push(' ');
+                    line.push_str(plan);
+                }
+                if self.tell_child(&line) {
+                    self.wait_for(reply, READY_TIMEOUT, State::Starting);
+                } else {
+                    let _ = reply.send("error the flight process is not listening".into());
+                }
+            }
+            GroundCommand::Stop => {
+                if self.child.is_none() {
+                    let _ = reply.send("ok nothing to stop".into());
+                    return;
+                }
+                if !self.tell_child("stop") {
+                    self.kill_child();
+                }
+                self.wait_for(reply, STOP_TIMEOUT, State::Stopping);
+            }
+            GroundCommand::TelemetryRequest | GroundCommand::Final(_) => {
+                let status = serde_json::json!({
+                    "state": self.state.name(),
+                    "pid": self.child.as_ref().map(|c| c.pid),
+                    "last_exit": self.last_exit,
+                    "log": self.log,
+                    "telemetry": self.last_telemetry.as_deref()
+                        .and_then(|t| serde_json::from_str::<serde_json::Value>(t).ok()),
+                });
+                let _ = reply.send(format!("ok {status}"));
+            }
+        }
+    }
+
+    fn wait_for(&mut self, reply: Sender<String>, timeout: Duration, state: State) {
+        self.pending = Some(Pending {
+            reply,
+            until: Instant::now()
+                .checked_add(timeout)
+                .unwrap_or_else(Instant::now),
+        });
+        self.set_state(state);
+    }
+
+    fn tell_child(&mut self, line: &str) -> bool {
+        let Some(stdin) = self.child.as_mut().and_then(|c| c.stdin.as_mut()) else {
+            return false;
+        };
+        writeln!(stdin, "{line}")
+            .and_then(|()| stdin.flush())
+            .is_ok()
+    }
+
+    fn spawn_child(&mut self) -> Result<(), String> {
+        let (program, args) = self
+            .config
+            .child
+            .split_first()
+            .ok_or("no flight process program configured")?;
+        let mut child = Command::new(program)
+            .args(args)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .map_err(|e| format!("starting the flight process: {e}"))?;
+        self.generation = self.generation.saturating_add(1);
+        let generation = self.generation;
+        let pid = child.id();
+        let stdin = child.stdin.take();
+        let stdout = child.stdout.take();
+        let tx = self.tx.clone();
+        std::thread::Builder::new()
+            .name(format!("child-{generation}"))
+            .spawn(move || {
+                if let Some(out) = stdout {
+                    for line in BufReader::new(out).lines() {
+                        let Ok(line) = line else { break };
+                        if tx.send(Msg::ChildLine(generation, line)).is_err() {
+                            break;
+                        }
+                    }
+                }
+                if let Ok(status) = child.wait() {
+                    let _ = tx.send(Msg::ChildExited(generation, status));
+                }
+            })
+            .map_err(|e| e.to_string())?;
+        self.child = Some(Child {
+            generation,
+            pid,
+            stdin,
+        });
+        self.last_telemetry = None;
+        self.say(&format!("flight process started (pid {pid})"));
+        Ok(())
+    }
+
+    fn kill_child(&mut self) {
+        let Some(child) = self.child.take() else {
+            return;
+        };
+        let pid = nix::unistd::Pid::from_raw(i32::try_from(child.pid).unwrap_or(i32::MAX));
+        let _ = nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGKILL);
+        // Its exit arrives as a message of an old generation and is reported then.
+        self.child = None;
+        self.set_state(State::Idle);
+    }
+
+    fn current(&self, generation: u32) -> bool {
+        self.child
+            .as_ref()
+            .is_some_and(|c| c.generation == generation)
+    }
+
+    fn child_line(&mut self, generation: u32, line: &str) {
+        let (word, rest) = line.split_once(' ').unwrap_or((line, ""));
+        if word == "telemetry" {
+            if self.current(generation) {
+                self.last_telemetry = Some(rest.to_string());
+            }
+            return;
+        }
+        (self.report)(&format!("flight: {line}"));
+        if !self.current(generation) {
+            return;
+        }
+        match word {
+            "ready" if self.state == State::Connecting => {
+                let pid = self.child.as_ref().map_or(0, |c| c.pid);
+                self.set_state(State::Connected);
+                self.answer(format!("ok connected (pid {pid})"));
+            }
+            "started" if self.state == State::Starting => {
+                self.log = Some(rest.to_string());
+                self.set_state(State::Flying);
+                self.answer(format!("ok flying, logging to {rest}"));
+            }
+            "error" => {
+                self.answer(format!("error {rest}"));
+            }
+            _ => {}
+        }
+    }
+
+    fn child_exited(&mut self, generation: u32, status: ExitStatus) {
+        let how = describe_exit(status);
+        self.last_exit = Some(how.clone());
+        if !self.current(generation) {
+            self.say(&format!("old flight process ended: {how}"));
+            return;
+        }
+        let stopping = self.state == State::Stopping;
+        self.child = None;
+        if stopping && status.success() {
+            self.say(&format!("flight process stopped cleanly ({how})"));
+            self.answer(format!("ok stopped ({how})"));
+        } else {
+            self.say(&format!("flight process CRASHED: {how}"));
+            self.answer(format!("error the flight process ended: {how}"));
+        }
+        self.set_state(State::Idle);
+    }
+}
+
+/// Accepts control connections: one request line, one reply line.
+fn serve(listener: &UnixListener, tx: &Sender<Msg>) {
+    for stream in listener.incoming() {
+        let Ok(mut stream) = stream else { continue };
+        let mut line = String::new();
+        let read = stream
+            .try_clone()
+            .map(BufReader::new)
+            .and_then(|mut r| r.read_line(&mut line));
+        if read.is_err() {
+            continue;
+        }
+        let reply = match Request::parse(&line) {
+            Ok(request) => {
+                let (reply_tx, reply_rx) = channel();
+                if tx.send(Msg::Request(request, reply_tx)).is_err() {
+                    return;
+                }
+                reply_rx
+                    .recv()
+                    .unwrap_or_else(|_| "error the bootstrap is ending".into())
+            }
+            Err(e) => format!("error {e}"),
+        };
+        let _ = writeln!(stream, "{reply}");
+    }
+}

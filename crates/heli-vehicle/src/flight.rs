@@ -1,0 +1,256 @@
+//! The flight process (thesis §2.3.2, the main control process and its children): driver
+//! threads on the serial ports and the compass ADC, the control loop woken by what they read
+//! (the IMU above all) with its watchdogs on the monotonic clock, the streams, the battery and
+//! telemetry servers, and the logger. The control loop runs the same
+//! [`heli_fsw::FlightComputer`] the lockstep simulator runs.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
+use std::time::Duration;
+
+use heli_fsw::core::{Action, CoreConfig, CoreStats, FlightParams, Severity};
+use heli_fsw::{FlightComputer, Port, RecordedInput};
+use serde_json::Value;
+
+use crate::devices::Devices;
+use crate::logger::{self, LogItem, LogReport, LogSender};
+use crate::rt;
+use crate::streams::LiveStreams;
+use crate::telemetry;
+use crate::threads::{self, Clock, LoopMsg, Writers};
+
+/// Longest the loop sleeps without looking at the stop flag.
+const LOOP_WAKE: Duration = Duration::from_millis(20);
+
+/// What a flight needs.
+#[derive(Clone, Debug)]
+pub struct FlightSetup {
+    /// Where the devices are.
+    pub devices: Devices,
+    /// Flight software configuration.
+    pub config: CoreConfig,
+    /// The ground's parameters.
+    pub params: FlightParams,
+    /// Altimeter readings per second (1..=10).
+    pub baro_rate_hz: u8,
+    /// Where to write the flight log, if anywhere.
+    pub log_path: Option<PathBuf>,
+    /// What to record in the log's `flight` metadata (parameters, version, wall clock).
+    pub metadata: BTreeMap<String, String>,
+}
+
+/// What the flight process reports while it runs.
+#[derive(Clone, Debug)]
+pub enum Report {
+    /// A note from the runtime (real-time settings, a port error, a restarted thread).
+    Note(String),
+    /// An event of the flight computer.
+    Event {
+        /// Flight clock (µs).
+        t_us: u64,
+        /// How much it matters.
+        severity: Severity,
+        /// What happened.
+        text: String,
+    },
+    /// A telemetry snapshot.
+    Telemetry(Value),
+}
+
+/// What a flight did.
+#[derive(Clone, Debug)]
+pub struct FlightSummary {
+    /// The main loop's counters.
+    pub stats: CoreStats,
+    /// Inputs handed to the flight computer.
+    pub inputs: u64,
+    /// The logger's account, if there was a log.
+    pub log: Option<LogReport>,
+    /// Log items dropped because the logger fell behind.
+    pub log_dropped: u64,
+}
+
+/// Runs a flight until `stop` is set. Reports go to `report` (from several threads).
+pub fn run(
+    setup: FlightSetup,
+    stop: Arc<AtomicBool>,
+    report: Arc<dyn Fn(Report) + Send + Sync>,
+) -> Result<FlightSummary, String> {
+    let clock = Clock::start();
+    report(Report::Note(rt::lock_memory()));
+    let (tx, rx) = channel::<LoopMsg>();
+    let writers = Arc::new(Writers::default());
+    let streams = Arc::new(LiveStreams::default());
+    let (log, log_thread) = match &setup.log_path {
+        Some(path) => {
+            let (sender, handle) = logger::spawn(path, &setup.metadata)?;
+            (Some(sender), Some(handle))
+        }
+        None => (None, None),
+    };
+    let spawn_error = |what: &str, e: std::io::Error| format!("starting the {what} thread: {e}");
+    let mut helpers = Vec::new();
+    for port in Port::ALL {
+        helpers.push(
+            threads::spawn_port(
+                port,
+                &setup.devices,
+                clock,
+                tx.clone(),
+                Arc::clone(&writers),
+                Arc::clone(&stop),
+            )
+            .map_err(|e| spawn_error(port.name(), e))?,
+        );
+    }
+    helpers.push(
+        threads::spawn_compass(&setup.devices, clock, tx.clone(), Arc::clone(&stop))
+            .map_err(|e| spawn_error("compass", e))?,
+    );
+    let (battery, battery_thread) = telemetry::spawn_battery_server(
+        setup.devices.adc.dir.clone(),
+        setup.devices.adc.battery,
+        clock,
+        Arc::clone(&streams),
+        log.clone(),
+        Arc::clone(&stop),
+    )
+    .map_err(|e| spawn_error("battery", e))?;
+    helpers.push(battery_thread);
+    let telemetry_report = {
+        let report = Arc::clone(&report);
+        Arc::new(move |v: Value| report(Report::Telemetry(v))) as Arc<dyn Fn(Value) + Send + Sync>
+    };
+    helpers.push(
+        telemetry::spawn_telemetry(
+            clock,
+            Arc::clone(&streams),
+            battery,
+            telemetry_report,
+            Arc::clone(&stop),
+        )
+        .map_err(|e| spawn_error("telemetry", e))?,
+    );
+    drop(tx);
+
+    let control = {
+        let stop = Arc::clone(&stop);
+        let report = Arc::clone(&report);
+        let log = log.clone();
+        std::thread::Builder::new()
+            .name("control".into())
+            .spawn(move || {
+                report(Report::Note(rt::realtime_thread(rt::LOOP_PRIORITY)));
+                control_loop(
+                    &setup,
+                    clock,
+                    &rx,
+                    &writers,
+                    &streams,
+                    log.as_ref(),
+                    &stop,
+                    &*report,
+                )
+            })
+            .map_err(|e| spawn_error("control", e))?
+    };
+    let outcome = control.join();
+    // The loop ends only when stopped; make sure every helper sees it.
+    stop.store(true, Ordering::Release);
+    for h in helpers {
+        let _ = h.join();
+    }
+    let log_dropped = log.as_ref().map_or(0, LogSender::dropped);
+    drop(log);
+    let log_report = log_thread.and_then(|h| h.join().ok());
+    let (stats, inputs) = outcome.map_err(|_| "the control loop panicked".to_string())?;
+    Ok(FlightSummary {
+        stats,
+        inputs,
+        log: log_report,
+        log_dropped,
+    })
+}
+
+/// The control loop: every input to the flight computer in arrival order, ticks at its
+/// deadlines, servo and altimeter bytes out, records to the streams and the logger.
+#[allow(clippy::too_many_arguments)]
+fn control_loop(
+    setup: &FlightSetup,
+    clock: Clock,
+    rx: &Receiver<LoopMsg>,
+    writers: &Writers,
+    streams: &LiveStreams,
+    log: Option<&LogSender>,
+    stop: &AtomicBool,
+    report: &(dyn Fn(Report) + Send + Sync),
+) -> (CoreStats, u64) {
+    let mut computer = FlightComputer::new(setup.config, setup.params, setup.baro_rate_hz);
+    let mut actions: Vec<Action> = Vec::with_capacity(64);
+    let mut tx = |port: Port, bytes: &[u8]| {
+        writers.write(port, bytes);
+    };
+    let mut last_t_us = clock.now_us();
+    computer.start(last_t_us, &mut tx);
+    let mut inputs = 0u64;
+    let mut feed = |computer: &mut FlightComputer, t_us: u64, input: RecordedInput| {
+        if let Some(log) = log {
+            log.send(LogItem::Input(t_us, input.clone()));
+        }
+        actions.clear();
+        computer.receive(t_us, input.as_input(), &mut tx, &mut actions);
+        inputs = inputs.saturating_add(1);
+        for action in &actions {
+            match action {
+                Action::Publish(record) => streams.publish(record),
+                Action::Event(e) => {
+                    if logger::worth_reporting(&e.value) {
+                        report(Report::Event {
+                            t_us: e.t_us,
+                            severity: e.value.severity(),
+                            text: heli_log::events::event_text(e.t_us, &e.value),
+                        });
+                    }
+                }
+                Action::Servo(_) => {}
+            }
+            if let Some(log) = log {
+                log.send(LogItem::Action(*action));
+            }
+        }
+        streams.health.publish(*computer.core().health());
+    };
+    while !stop.load(Ordering::Acquire) {
+        let now = clock.now_us();
+        let wait = computer
+            .poll_at()
+            .map_or(LOOP_WAKE, |at| {
+                Duration::from_micros(at.saturating_sub(now))
+            })
+            .min(LOOP_WAKE);
+        match rx.recv_timeout(wait) {
+            Ok(LoopMsg::Input(t_us, input)) => {
+                // Threads stamp independently: keep the computer's time from going back.
+                last_t_us = last_t_us.max(t_us);
+                feed(&mut computer, last_t_us, input);
+            }
+            Ok(LoopMsg::Note(text)) => {
+                if let Some(log) = log {
+                    log.send(LogItem::Note(clock.now_us(), text.clone()));
+                }
+                report(Report::Note(text));
+            }
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+        let now = clock.now_us();
+        if computer.poll_at().is_some_and(|at| at <= now) {
+            last_t_us = last_t_us.max(now);
+            feed(&mut computer, last_t_us, RecordedInput::Tick);
+        }
+    }
+    (computer.core().stats(), inputs)
+}

@@ -1,0 +1,126 @@
+//! The flight computer's device inputs as log messages (channel `device`), so a flight can be
+//! replayed from its log: every byte each port delivered, every compass reading and every
+//! timer tick, with the time the flight computer took it and in the order it took them.
+//!
+//! Message fields: `kind` (`bytes`, `compass`, `port_failed`, `tick`), and for bytes `port`
+//! (`imu`, `scb`, `gps`, `baro`) and `hex` (the bytes, two lowercase hex digits each); for a
+//! compass reading `counts` (x, y, z); for a failed port `port`.
+
+use heli_fsw::{Port, RecordedInput};
+use heli_proto::compass::CompassAdc;
+use serde_json::{Value, json};
+
+/// The log channel of the device inputs.
+pub const CHANNEL: &str = "device";
+
+/// An input as a log message.
+pub fn input_json(input: &RecordedInput) -> Value {
+    match input {
+        RecordedInput::Bytes(port, bytes) => {
+            json!({"kind": "bytes", "port": port.name(), "hex": to_hex(bytes)})
+        }
+        RecordedInput::Compass(adc) => json!({"kind": "compass", "counts": adc.counts}),
+        RecordedInput::PortFailed(port) => json!({"kind": "port_failed", "port": port.name()}),
+        RecordedInput::Tick => json!({"kind": "tick"}),
+    }
+}
+
+/// A log message back as an input; `Err` says what is wrong with it.
+pub fn input_from_json(value: &Value) -> Result<RecordedInput, String> {
+    let port = || {
+        let name = value.get("port").and_then(Value::as_str).unwrap_or("");
+        Port::from_name(name).ok_or_else(|| format!("unknown port '{name}'"))
+    };
+    match value.get("kind").and_then(Value::as_str) {
+        Some("bytes") => {
+            let hex = value
+                .get("hex")
+                .and_then(Value::as_str)
+                .ok_or("bytes without 'hex'")?;
+            Ok(RecordedInput::Bytes(port()?, from_hex(hex)?))
+        }
+        Some("compass") => {
+            let counts: Vec<u16> = value
+                .get("counts")
+                .and_then(Value::as_array)
+                .map(|a| {
+                    a.iter()
+                        .filter_map(|c| c.as_u64().and_then(|c| u16::try_from(c).ok()))
+                        .collect()
+                })
+                .unwrap_or_default();
+            match counts.as_slice() {
+                [x, y, z] => Ok(RecordedInput::Compass(CompassAdc {
+                    counts: [*x, *y, *z],
+                })),
+                _ => Err("compass without three counts".into()),
+            }
+        }
+        Some("port_failed") => Ok(RecordedInput::PortFailed(port()?)),
+        Some("tick") => Ok(RecordedInput::Tick),
+        Some(other) => Err(format!("unknown input kind '{other}'")),
+        None => Err("input without 'kind'".into()),
+    }
+}
+
+fn to_hex(bytes: &[u8]) -> String {
+    const DIGITS: &[u8; 16] = b"0123456789abcdef";
+    let mut s = String::with_capacity(bytes.len().saturating_mul(2));
+    for b in bytes {
+        for nibble in [b >> 4, b & 0x0f] {
+            if let Some(d) = DIGITS.get(usize::from(nibble)) {
+                s.push(char::from(*d));
+            }
+        }
+    }
+    s
+}
+
+fn from_hex(hex: &str) -> Result<Vec<u8>, String> {
+    let digit = |c: u8| match c {
+        b'0'..=b'9' => Some(c.wrapping_sub(b'0')),
+        b'a'..=b'f' => Some(c.wrapping_sub(b'a').wrapping_add(10)),
+        b'A'..=b'F' => Some(c.wrapping_sub(b'A').wrapping_add(10)),
+        _ => None,
+    };
+    let bytes = hex.as_bytes();
+    if !bytes.len().is_multiple_of(2) {
+        return Err(format!("odd-length hex '{hex}'"));
+    }
+    bytes
+        .chunks(2)
+        .map(|pair| match pair {
+            [h, l] => match (digit(*h), digit(*l)) {
+                (Some(h), Some(l)) => Ok((h << 4) | l),
+                _ => Err(format!("not hex: '{hex}'")),
+            },
+            _ => Err(format!("not hex: '{hex}'")),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_kind_round_trips_and_bad_messages_are_named() {
+        let inputs = [
+            RecordedInput::Bytes(Port::Scb, vec![0x00, 0xa5, 0xff, 0x10]),
+            RecordedInput::Compass(CompassAdc {
+                counts: [1, 2048, 4095],
+            }),
+            RecordedInput::PortFailed(Port::Gps),
+            RecordedInput::Tick,
+        ];
+        for i in &inputs {
+            assert_eq!(input_from_json(&input_json(i)).as_ref(), Ok(i));
+        }
+        let bad = json!({"kind": "bytes", "port": "imu", "hex": "0g"});
+        assert!(input_from_json(&bad).unwrap_err().contains("not hex"));
+        let bad = json!({"kind": "bytes", "port": "tty", "hex": "00"});
+        assert!(input_from_json(&bad).unwrap_err().contains("tty"));
+        assert!(input_from_json(&json!({"kind": "x"})).is_err());
+        assert!(input_from_json(&json!(3)).is_err());
+    }
+}

@@ -1,0 +1,153 @@
+//! The in-flight logger: a thread that writes what the loop hands it to the flight log
+//! (thesis ch. 4: write sensor data to non-volatile memory in flight, so that a crash no
+//! longer loses it). The loop never waits for it: items go through a bounded channel with
+//! `try_send`, and an item that does not fit is counted as dropped, never blocks.
+//!
+//! What it writes: the seven streams (with Foxglove views), the events with their level, the
+//! battery, notes, and on channel `device` every device input in the order the flight
+//! computer took it, which is what `heli log replay` feeds to a fresh flight computer. The
+//! log is flushed (a complete chunk written and synced) at heli-log's interval, so a kill or a
+//! power cut loses at most the last interval.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use heli_fsw::RecordedInput;
+use heli_fsw::core::{Action, CoreEvent};
+use heli_log::FlightLog;
+use serde_json::json;
+
+use crate::inputs;
+
+/// Items the logger's channel holds before the loop's items are dropped (about 30 s of a
+/// flight's traffic).
+pub const LOG_QUEUE: usize = 32_768;
+
+/// Something to log.
+// By value through the channel: no allocation per record in the loop.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug)]
+pub enum LogItem {
+    /// A device input the flight computer took at `t_us`.
+    Input(u64, RecordedInput),
+    /// What the flight computer did.
+    Action(Action),
+    /// A battery reading (V) at `t_us`.
+    Battery(u64, f64),
+    /// A note from the runtime (a port error, a restarted thread) at `t_us`.
+    Note(u64, String),
+}
+
+/// The loop's end of the logger's channel.
+#[derive(Clone)]
+pub struct LogSender {
+    tx: SyncSender<LogItem>,
+    dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
+}
+
+impl LogSender {
+    /// Hands an item to the logger without waiting; counts it dropped if the queue is full.
+    pub fn send(&self, item: LogItem) {
+        match self.tx.try_send(item) {
+            Ok(()) => {}
+            Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => {
+                self.dropped
+                    .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
+    }
+
+    /// Items dropped so far.
+    pub fn dropped(&self) -> u64 {
+        self.dropped.load(std::sync::atomic::Ordering::Relaxed)
+    }
+}
+
+/// What the logger did.
+#[derive(Clone, Debug, Default)]
+pub struct LogReport {
+    /// The file.
+    pub path: PathBuf,
+    /// Messages written.
+    pub messages: u64,
+    /// Why it stopped early, if it did.
+    pub error: Option<String>,
+}
+
+/// Creates the log at `path`, writes `metadata` (MCAP metadata named `flight`) and starts the
+/// logger thread. The thread ends, closing the log, when every sender is gone.
+pub fn spawn(
+    path: &Path,
+    metadata: &BTreeMap<String, String>,
+) -> Result<(LogSender, JoinHandle<LogReport>), String> {
+    let mut log =
+        FlightLog::create(path).map_err(|e| format!("flight log {}: {e}", path.display()))?;
+    log.write_metadata("flight", metadata)
+        .map_err(|e| format!("flight log {}: {e}", path.display()))?;
+    let (tx, rx) = std::sync::mpsc::sync_channel(LOG_QUEUE);
+    let path = path.to_path_buf();
+    let handle = std::thread::Builder::new()
+        .name("logger".into())
+        .spawn(move || run(log, &rx, path))
+        .map_err(|e| format!("logger thread: {e}"))?;
+    Ok((
+        LogSender {
+            tx,
+            dropped: Default::default(),
+        },
+        handle,
+    ))
+}
+
+fn run(mut log: FlightLog<std::fs::File>, rx: &Receiver<LogItem>, path: PathBuf) -> LogReport {
+    let mut report = LogReport {
+        path,
+        ..LogReport::default()
+    };
+    loop {
+        let item = match rx.recv_timeout(Duration::from_millis(20)) {
+            Ok(item) => item,
+            Err(RecvTimeoutError::Timeout) => {
+                if let Err(e) = log.flush_if_due() {
+                    report.error.get_or_insert(e.to_string());
+                }
+                continue;
+            }
+            Err(RecvTimeoutError::Disconnected) => break,
+        };
+        if let Err(e) = write(&mut log, &item) {
+            // Keep going: one bad write must not end the flight's record.
+            report.error.get_or_insert(e.to_string());
+        }
+    }
+    report.messages = log.messages();
+    if let Err(e) = log.finish() {
+        report.error.get_or_insert(e.to_string());
+    }
+    report
+}
+
+fn write(log: &mut FlightLog<std::fs::File>, item: &LogItem) -> Result<(), heli_log::LogError> {
+    match item {
+        LogItem::Input(t_us, input) => {
+            log.write(inputs::CHANNEL, *t_us, &inputs::input_json(input))
+        }
+        LogItem::Action(Action::Publish(record)) => log.write_record(record),
+        LogItem::Action(Action::Event(e)) => log.write_event(e.t_us, &e.value),
+        // The servo stream carries the command; the action adds nothing.
+        LogItem::Action(Action::Servo(_)) => Ok(()),
+        LogItem::Battery(t_us, volts) => log.write("battery", *t_us, &json!({ "volts": volts })),
+        LogItem::Note(t_us, text) => {
+            log.write("notes", *t_us, &json!({ "text": text, "level": "warning" }))
+        }
+    }
+}
+
+/// Whether an event is worth a line on the flight process's output (everything but routine
+/// activity and single watchdog fires, which the counters show).
+pub fn worth_reporting(event: &CoreEvent) -> bool {
+    !matches!(event, CoreEvent::WatchdogFired)
+}

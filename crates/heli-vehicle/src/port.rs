@@ -1,0 +1,142 @@
+//! Opening serial ports, with errors that name the path and the likely fix.
+
+use std::fmt;
+use std::io;
+use std::os::unix::fs::FileTypeExt;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use serialport::{SerialPort, TTYPort};
+
+/// How long a read waits for bytes before it returns empty-handed (so a driver thread can
+/// notice it should stop).
+pub const READ_TIMEOUT: Duration = Duration::from_millis(50);
+
+/// Why a port could not be opened.
+#[derive(Debug)]
+pub struct PortError {
+    /// The path.
+    pub path: PathBuf,
+    /// What went wrong.
+    pub reason: String,
+    /// What usually fixes it.
+    pub hint: &'static str,
+}
+
+impl fmt::Display for PortError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "serial port {}: {} ({})",
+            self.path.display(),
+            self.reason,
+            self.hint
+        )
+    }
+}
+
+impl std::error::Error for PortError {}
+
+/// Opens `path` as a raw 8N1 serial line at `baud`.
+pub fn open(path: &Path, baud: u32) -> Result<TTYPort, PortError> {
+    let error = |reason: String, hint: &'static str| PortError {
+        path: path.to_path_buf(),
+        reason,
+        hint,
+    };
+    let meta = std::fs::metadata(path).map_err(|e| match e.kind() {
+        io::ErrorKind::NotFound => error(
+            "no such device".into(),
+            "is the device plugged in and the path right? for HIL, is `heli hilsim --ptys DIR` running?",
+        ),
+        io::ErrorKind::PermissionDenied => error(
+            "permission denied".into(),
+            "add the user to the `dialout` group, or run as root",
+        ),
+        _ => error(e.to_string(), "check the path"),
+    })?;
+    if !meta.file_type().is_char_device() {
+        return Err(error(
+            "not a terminal device".into(),
+            "give the path of a tty such as /dev/ttyS0, /dev/ttyUSB0 or a HILSim pseudo-terminal",
+        ));
+    }
+    let port = serialport::new(path.to_string_lossy(), baud)
+        .timeout(READ_TIMEOUT)
+        .open_native()
+        .map_err(|e| {
+            let hint = match e.kind() {
+                serialport::ErrorKind::NoDevice => "is another program using the port?",
+                serialport::ErrorKind::Io(io::ErrorKind::PermissionDenied) => {
+                    "add the user to the `dialout` group, or run as root"
+                }
+                _ => "is it a serial device?",
+            };
+            error(e.to_string(), hint)
+        })?;
+    Ok(port)
+}
+
+/// Reads what is there (up to `buf.len()` bytes), waiting at most [`READ_TIMEOUT`]; `Ok(0)`
+/// when nothing came.
+pub fn read_some(port: &mut TTYPort, buf: &mut [u8]) -> io::Result<usize> {
+    match io::Read::read(port, buf) {
+        Ok(n) => Ok(n),
+        Err(e) if e.kind() == io::ErrorKind::TimedOut || e.kind() == io::ErrorKind::WouldBlock => {
+            Ok(0)
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// Writes all of `bytes`.
+pub fn write_all(port: &mut TTYPort, bytes: &[u8]) -> io::Result<()> {
+    io::Write::write_all(port, bytes)?;
+    io::Write::flush(port)
+}
+
+/// A second handle on the same port (for the loop's writes while a driver thread reads).
+pub fn clone(port: &TTYPort) -> io::Result<TTYPort> {
+    port.try_clone_native().map_err(io::Error::other)
+}
+
+/// Bytes waiting to be read (for the stand-alone drivers' statistics).
+pub fn waiting(port: &TTYPort) -> u32 {
+    port.bytes_to_read().unwrap_or(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_missing_port_and_a_file_that_is_no_tty_say_so() {
+        let e = open(Path::new("/nonexistent/ttyHELI"), 115_200).unwrap_err();
+        assert!(e.to_string().contains("no such device"), "{e}");
+        assert!(e.to_string().contains("/nonexistent/ttyHELI"));
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("plain");
+        std::fs::write(&file, b"x").unwrap();
+        let e = open(&file, 115_200).unwrap_err();
+        assert!(e.to_string().contains("not a terminal device"), "{e}");
+    }
+
+    #[test]
+    fn a_pseudo_terminal_opens_and_carries_bytes_unchanged() {
+        let (mut master, slave) = TTYPort::pair().unwrap();
+        let path = PathBuf::from(slave.name().unwrap());
+        let mut port = open(&path, 115_200).unwrap();
+        let bytes: Vec<u8> = (0..=255u8).collect();
+        write_all(&mut master, &bytes).unwrap();
+        let mut got = Vec::new();
+        let mut buf = [0u8; 512];
+        for _ in 0..20 {
+            let n = read_some(&mut port, &mut buf).unwrap();
+            got.extend_from_slice(&buf[..n]);
+            if got.len() >= bytes.len() {
+                break;
+            }
+        }
+        assert_eq!(got, bytes, "raw mode: no echo, no translation");
+    }
+}

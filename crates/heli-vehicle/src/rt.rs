@@ -1,0 +1,38 @@
+//! Real-time settings for the flight process: memory locked (`mlockall`), the control loop
+//! under `SCHED_FIFO`. Both need privileges (root or `CAP_SYS_NICE` / `CAP_IPC_LOCK`); when
+//! refused the flight goes on with a one-line note, as on a development machine.
+
+use thread_priority::{
+    RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue, ThreadSchedulePolicy,
+    set_thread_priority_and_policy, thread_native_id,
+};
+
+/// `SCHED_FIFO` priority of the control loop (1..=99; PX4 runs its rate loops near the top).
+pub const LOOP_PRIORITY: u8 = 80;
+
+/// Locks the process's memory so no page fault stalls the loop. Returns a note.
+pub fn lock_memory() -> String {
+    use nix::sys::mman::{MlockAllFlags, mlockall};
+    match mlockall(MlockAllFlags::MCL_CURRENT | MlockAllFlags::MCL_FUTURE) {
+        Ok(()) => "memory locked (mlockall)".to_string(),
+        Err(e) => format!("memory not locked: mlockall refused ({e}); needs root or CAP_IPC_LOCK"),
+    }
+}
+
+/// Puts the calling thread under `SCHED_FIFO` at `priority`. Returns a note.
+pub fn realtime_thread(priority: u8) -> String {
+    let value = match ThreadPriorityValue::try_from(priority) {
+        Ok(v) => v,
+        Err(e) => return format!("loop priority {priority} refused: {e}"),
+    };
+    match set_thread_priority_and_policy(
+        thread_native_id(),
+        ThreadPriority::Crossplatform(value),
+        ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo),
+    ) {
+        Ok(()) => format!("control loop under SCHED_FIFO priority {priority}"),
+        Err(e) => format!(
+            "control loop under the normal scheduler: SCHED_FIFO refused ({e:?}); needs root or CAP_SYS_NICE"
+        ),
+    }
+}

@@ -1,0 +1,148 @@
+//! The observers of the running flight: the battery server (thesis §2.3: it reads the
+//! battery's analog channel and answers requests for the voltage) and the telemetry server,
+//! which samples the freshest value of each stream at [`TELEMETRY_PERIOD`] and reports it.
+//! Both only read the streams; neither can delay the control loop.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use heli_fsw::Stamped;
+use heli_fsw::health::Device;
+use heli_proto::battery::BatteryAdc;
+use serde_json::{Value, json};
+
+use crate::adc;
+use crate::logger::{LogItem, LogSender};
+use crate::streams::LiveStreams;
+use crate::threads::{Clock, sleep_unless_stopped};
+
+/// Battery read period.
+pub const BATTERY_PERIOD: Duration = Duration::from_secs(1);
+/// Telemetry report period (the thesis's display refreshes a few times a second).
+pub const TELEMETRY_PERIOD: Duration = Duration::from_millis(500);
+
+/// A request to the battery server: the reply goes to the enclosed sender.
+pub type BatteryRequest = Sender<Option<Stamped<f64>>>;
+
+/// Starts the battery server. It reads channel `adc_channel` of `dir` every [`BATTERY_PERIOD`],
+/// publishes the voltage, logs it, and answers requests on the returned sender.
+pub fn spawn_battery_server(
+    dir: PathBuf,
+    adc_channel: u8,
+    clock: Clock,
+    streams: Arc<LiveStreams>,
+    log: Option<LogSender>,
+    stop: Arc<AtomicBool>,
+) -> std::io::Result<(Sender<BatteryRequest>, JoinHandle<()>)> {
+    let (tx, rx): (Sender<BatteryRequest>, Receiver<BatteryRequest>) = channel();
+    let handle = std::thread::Builder::new()
+        .name("battery".into())
+        .spawn(move || {
+            let mut latest: Option<Stamped<f64>> = None;
+            let mut next_read_us = 0u64;
+            let period_us = u64::try_from(BATTERY_PERIOD.as_micros()).unwrap_or(1_000_000);
+            while !stop.load(Ordering::Acquire) {
+                let now = clock.now_us();
+                if now >= next_read_us {
+                    next_read_us = now.saturating_add(period_us);
+                    if let Ok(counts) = adc::read_channel(&dir, adc_channel) {
+                        let volts = BatteryAdc { counts }.volts();
+                        let reading = Stamped::new(now, volts);
+                        latest = Some(reading);
+                        streams.battery_v.publish(reading);
+                        if let Some(log) = &log {
+                            log.send(LogItem::Battery(now, volts));
+                        }
+                    }
+                }
+                // Answer what came in, then wait a little for more.
+                match rx.recv_timeout(Duration::from_millis(50)) {
+                    Ok(reply) => {
+                        let _ = reply.send(latest);
+                    }
+                    Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => return,
+                }
+            }
+        })?;
+    Ok((tx, handle))
+}
+
+/// Asks the battery server for the voltage (waits at most 200 ms).
+pub fn ask_battery(server: &Sender<BatteryRequest>) -> Option<Stamped<f64>> {
+    let (tx, rx) = channel();
+    server.send(tx).ok()?;
+    rx.recv_timeout(Duration::from_millis(200)).ok().flatten()
+}
+
+/// One telemetry report: the freshest value of each stream, as the ground display's rows.
+pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u64) -> Value {
+    let state = streams.state.latest().map(|s| {
+        let nav = &s.value.nav;
+        let (roll, pitch, yaw) = nav.euler_rad();
+        json!({
+            "t_us": s.t_us,
+            "phase": s.value.phase.name(),
+            "roll_rad": roll, "pitch_rad": pitch, "yaw_rad": yaw,
+            "pos_ned_m": [nav.pos_ned_m.x, nav.pos_ned_m.y, nav.pos_ned_m.z],
+            "vel_ned_mps": [nav.vel_ned_mps.x, nav.vel_ned_mps.y, nav.vel_ned_mps.z],
+        })
+    });
+    let servo = streams.servo.latest().map(|s| {
+        let c = s.value.controls;
+        json!({"t_us": s.t_us, "aileron": c.aileron, "elevator": c.elevator,
+               "rudder": c.rudder, "collective": c.collective, "throttle": c.throttle,
+               "rotor_rpm": s.value.rotor_rpm})
+    });
+    let gps = streams.gps.latest().map(|g| {
+        json!({"t_us": g.t_us, "satellites": g.value.satellites,
+               "lat_deg": g.value.lat_deg, "lon_deg": g.value.lon_deg})
+    });
+    let health = streams.health.latest().map(|h| {
+        Device::ALL
+            .iter()
+            .map(|d| (d.name().to_string(), json!(h.state(*d).name())))
+            .collect::<serde_json::Map<String, Value>>()
+    });
+    json!({
+        "t_us": now_us,
+        "state": state,
+        "servo": servo,
+        "gps": gps,
+        "battery_v": battery.map(|b| b.value),
+        "health": health,
+        "published": {
+            "imu": streams.imu.published(),
+            "state": streams.state.published(),
+            "servo": streams.servo.published(),
+            "uplink": streams.uplink.published(),
+            "gps": streams.gps.published(),
+            "baro": streams.baro.published(),
+            "compass": streams.compass.published(),
+        },
+    })
+}
+
+/// Starts the telemetry server: every [`TELEMETRY_PERIOD`] it takes a [`snapshot`] and hands
+/// it to `report`.
+pub fn spawn_telemetry(
+    clock: Clock,
+    streams: Arc<LiveStreams>,
+    battery: Sender<BatteryRequest>,
+    report: Arc<dyn Fn(Value) + Send + Sync>,
+    stop: Arc<AtomicBool>,
+) -> std::io::Result<JoinHandle<()>> {
+    std::thread::Builder::new()
+        .name("telemetry".into())
+        .spawn(move || {
+            while !stop.load(Ordering::Acquire) {
+                sleep_unless_stopped(TELEMETRY_PERIOD, &stop);
+                let volts = ask_battery(&battery);
+                report(snapshot(&streams, volts, clock.now_us()));
+            }
+        })
+}

@@ -1,0 +1,261 @@
+//! The driver threads: one per serial port and one for the compass's ADC channels. Each
+//! reads its device, stamps what it read with the flight clock and hands it to the control
+//! loop; the protocol half (framing, parsing, watchdogs) runs in the loop's
+//! [`heli_fsw::FlightComputer`], the same code the simulator and the replay run.
+//!
+//! A port's thread runs under a supervisor: if it dies (a read error, a panic) the death is
+//! reported and a fresh thread reopens the port after [`RESTART_DELAY`]. A port that cannot be
+//! opened is reported once to the flight computer (its device is failed) and retried every
+//! [`REOPEN_DELAY`].
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Sender;
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use heli_fsw::{Port, RecordedInput};
+use heli_proto::compass::CompassAdc;
+use serialport::TTYPort;
+
+use crate::adc;
+use crate::devices::{Devices, baud};
+use crate::port;
+
+/// Wait before a dead driver thread is replaced.
+pub const RESTART_DELAY: Duration = Duration::from_millis(200);
+/// Wait between tries to open a port that could not be opened.
+pub const REOPEN_DELAY: Duration = Duration::from_secs(1);
+/// Compass read period (20 Hz, as the thesis's analog monitor).
+pub const COMPASS_PERIOD: Duration = Duration::from_millis(50);
+
+/// The flight process's monotonic clock: microseconds since the flight process started.
+#[derive(Clone, Copy, Debug)]
+pub struct Clock {
+    start: Instant,
+}
+
+impl Clock {
+    /// A clock starting now.
+    pub fn start() -> Self {
+        Self {
+            start: Instant::now(),
+        }
+    }
+
+    /// Microseconds since the start.
+    pub fn now_us(&self) -> u64 {
+        u64::try_from(self.start.elapsed().as_micros()).unwrap_or(u64::MAX)
+    }
+
+    /// The instant `t_us` after the start.
+    pub fn instant(&self, t_us: u64) -> Instant {
+        self.start
+            .checked_add(Duration::from_micros(t_us))
+            .unwrap_or(self.start)
+    }
+}
+
+/// What driver threads tell the loop.
+#[derive(Debug)]
+pub enum LoopMsg {
+    /// An input for the flight computer, stamped when it was read (µs).
+    Input(u64, RecordedInput),
+    /// Something to report (a port error, a thread that died and was restarted).
+    Note(String),
+}
+
+/// The write half of each serial port, shared between its driver thread (which opens it)
+/// and the loop (which writes servo and altimeter commands).
+#[derive(Default)]
+pub struct Writers {
+    scb: Mutex<Option<TTYPort>>,
+    baro: Mutex<Option<TTYPort>>,
+}
+
+impl Writers {
+    fn slot(&self, port: Port) -> Option<&Mutex<Option<TTYPort>>> {
+        match port {
+            Port::Scb => Some(&self.scb),
+            Port::Baro => Some(&self.baro),
+            Port::Imu | Port::Gps => None,
+        }
+    }
+
+    /// Writes `bytes` to `port`; false if the port is not open or the write failed.
+    pub fn write(&self, port: Port, bytes: &[u8]) -> bool {
+        let Some(slot) = self.slot(port) else {
+            return false;
+        };
+        let mut guard = slot.lock().unwrap_or_else(|e| e.into_inner());
+        match guard.as_mut() {
+            Some(p) => port::write_all(p, bytes).is_ok(),
+            None => false,
+        }
+    }
+
+    fn set(&self, port: Port, handle: Option<TTYPort>) {
+        if let Some(slot) = self.slot(port) {
+            *slot.lock().unwrap_or_else(|e| e.into_inner()) = handle;
+        }
+    }
+}
+
+/// Starts the supervised driver thread of `port`.
+pub fn spawn_port(
+    port: Port,
+    devices: &Devices,
+    clock: Clock,
+    tx: Sender<LoopMsg>,
+    writers: Arc<Writers>,
+    stop: Arc<AtomicBool>,
+) -> std::io::Result<JoinHandle<()>> {
+    let path = devices.port(port).to_path_buf();
+    std::thread::Builder::new()
+        .name(format!("sup-{}", port.name()))
+        .spawn(move || {
+            let mut reported_failed = false;
+            let mut generation = 0u32;
+            while !stop.load(Ordering::Acquire) {
+                let opened = match port::open(&path, baud(port)) {
+                    Ok(p) => p,
+                    Err(e) => {
+                        if !reported_failed {
+                            reported_failed = true;
+                            let _ = tx.send(LoopMsg::Note(format!("{e}")));
+                            let _ = tx.send(LoopMsg::Input(
+                                clock.now_us(),
+                                RecordedInput::PortFailed(port),
+                            ));
+                        }
+                        sleep_unless_stopped(REOPEN_DELAY, &stop);
+                        continue;
+                    }
+                };
+                if reported_failed {
+                    let _ = tx.send(LoopMsg::Note(format!(
+                        "serial port {}: open again",
+                        path.display()
+                    )));
+                    reported_failed = false;
+                }
+                writers.set(port, port::clone(&opened).ok());
+                generation = generation.saturating_add(1);
+                let worker = {
+                    let tx = tx.clone();
+                    let stop = Arc::clone(&stop);
+                    std::thread::Builder::new()
+                        .name(format!("drv-{}-{generation}", port.name()))
+                        .spawn(move || read_port(port, opened, clock, &tx, &stop))
+                };
+                let outcome = match worker {
+                    Ok(handle) => handle.join(),
+                    Err(e) => Ok(Err(e.to_string())),
+                };
+                writers.set(port, None);
+                if stop.load(Ordering::Acquire) {
+                    break;
+                }
+                let why = match outcome {
+                    Ok(Ok(())) => "stopped".to_string(),
+                    Ok(Err(e)) => e,
+                    Err(_) => "panicked".to_string(),
+                };
+                let _ = tx.send(LoopMsg::Note(format!(
+                    "driver thread of {} died ({why}); restarting",
+                    port.name()
+                )));
+                sleep_unless_stopped(RESTART_DELAY, &stop);
+            }
+        })
+}
+
+/// The driver thread proper: read, stamp, hand over, until stopped or the port fails.
+fn read_port(
+    port: Port,
+    mut serial: TTYPort,
+    clock: Clock,
+    tx: &Sender<LoopMsg>,
+    stop: &AtomicBool,
+) -> Result<(), String> {
+    let mut buf = [0u8; 256];
+    while !stop.load(Ordering::Acquire) {
+        let n = port::read_some(&mut serial, &mut buf).map_err(|e| format!("read: {e}"))?;
+        if n == 0 {
+            continue;
+        }
+        let t_us = clock.now_us();
+        let bytes = buf.get(..n).unwrap_or_default().to_vec();
+        if tx
+            .send(LoopMsg::Input(t_us, RecordedInput::Bytes(port, bytes)))
+            .is_err()
+        {
+            return Ok(());
+        }
+    }
+    Ok(())
+}
+
+/// Starts the compass's analog monitor: reads the three channels every [`COMPASS_PERIOD`].
+pub fn spawn_compass(
+    devices: &Devices,
+    clock: Clock,
+    tx: Sender<LoopMsg>,
+    stop: Arc<AtomicBool>,
+) -> std::io::Result<JoinHandle<()>> {
+    let dir = devices.adc.dir.clone();
+    let channels = devices.adc.compass;
+    std::thread::Builder::new()
+        .name("drv-compass".into())
+        .spawn(move || {
+            let mut next = Instant::now();
+            let mut failing = false;
+            while !stop.load(Ordering::Acquire) {
+                let read: Result<Vec<u16>, _> = channels
+                    .iter()
+                    .map(|n| adc::read_channel(&dir, *n))
+                    .collect();
+                match read.as_deref() {
+                    Ok([x, y, z]) => {
+                        failing = false;
+                        let adc = CompassAdc {
+                            counts: [*x, *y, *z],
+                        };
+                        let input = LoopMsg::Input(clock.now_us(), RecordedInput::Compass(adc));
+                        if tx.send(input).is_err() {
+                            return;
+                        }
+                    }
+                    Ok(_) => {}
+                    Err(e) => {
+                        // Reported once per failing spell; the core's compass watchdog
+                        // raises the silence.
+                        if !failing {
+                            failing = true;
+                            let _ = tx.send(LoopMsg::Note(format!("compass: {e}")));
+                        }
+                    }
+                }
+                next = next.checked_add(COMPASS_PERIOD).unwrap_or(next);
+                if let Some(wait) = next.checked_duration_since(Instant::now()) {
+                    std::thread::sleep(wait);
+                } else {
+                    next = Instant::now();
+                }
+            }
+        })
+}
+
+/// Sleeps `d`, waking early when `stop` is set.
+pub fn sleep_unless_stopped(d: Duration, stop: &AtomicBool) {
+    let end = Instant::now().checked_add(d);
+    while let Some(end) = end {
+        if stop.load(Ordering::Acquire) {
+            return;
+        }
+        let Some(left) = end.checked_duration_since(Instant::now()) else {
+            return;
+        };
+        std::thread::sleep(left.min(Duration::from_millis(20)));
+    }
+}
