@@ -136,10 +136,16 @@ impl FlightComputer {
         }
     }
 
-    /// Starts at `now_us`: arms every watchdog and begins the altimeter handshake, whose
-    /// first command goes out through `tx`.
+    /// Starts at `now_us`: arms every watchdog, sends the servo board its start-up check
+    /// (nine non-header bytes, which the board answers with an uplink packet; a board that
+    /// does not is caught by the uplink watchdog) and begins the altimeter handshake. What
+    /// goes to the devices goes out through `tx`.
     pub fn start(&mut self, now_us: u64, tx: &mut impl FnMut(Port, &[u8])) {
         self.core.start(now_us);
+        tx(
+            Port::Scb,
+            &[heli_proto::scb::CHECK_BYTE; heli_proto::scb::CHECK_LEN],
+        );
         self.drivers
             .baro
             .start(now_us, &mut |b: &[u8]| tx(Port::Baro, b));

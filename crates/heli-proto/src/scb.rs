@@ -51,6 +51,15 @@ pub const THROTTLE_RANGE_US: u16 = 1000;
 /// Serial line speed, bit/s (8N1), both directions.
 pub const BAUD: u32 = 38_400;
 
+/// The start-up check (thesis §2.3.4: the driver "ensures that the servo controller board is
+/// functioning properly by sending nine consecutive non-header bytes"): [`CHECK_LEN`] bytes of
+/// [`CHECK_BYTE`]. A servo packet never holds two zero bytes in a row (every pulse is
+/// 1000–2000 µs, so no high byte is zero), so the board cannot mistake a command for the
+/// check. The board answers with a pilot uplink packet at once.
+pub const CHECK_BYTE: u8 = 0x00;
+/// Length of the start-up check.
+pub const CHECK_LEN: usize = 9;
+
 /// First byte of a pilot uplink packet.
 pub const UPLINK_HEADER: u8 = 0xA5;
 /// Length of a pilot uplink packet, header and checksum included.

@@ -4,7 +4,9 @@
 //! parameters in [`params`]); the actuators between servo board and rotor ([`actuators`]);
 //! simulated devices that emit the real byte streams at their real rates ([`devices`]);
 //! scenarios ([`scenario`]); and the lockstep runner that flies the flight software against
-//! all of it on one virtual clock ([`lockstep`]), with the summary it measures ([`summary`]).
+//! all of it on one virtual clock ([`lockstep`]), with the summary it measures ([`summary`]);
+//! and the same simulation in real time against a flight computer outside, its devices on
+//! pseudo-terminals and IIO-style ADC files ([`hil`], `heli hilsim --ptys`).
 //!
 //! What it is not: flight software. It drives `heli-fsw` from the outside, through device
 //! bytes only; the flight code never knows it is simulated.
@@ -15,6 +17,7 @@ pub mod bench;
 pub mod devices;
 pub mod empennage;
 pub mod ground;
+pub mod hil;
 pub mod lockstep;
 pub mod logging;
 pub mod model;

@@ -38,6 +38,7 @@ pub mod inputs;
 pub mod logger;
 pub mod port;
 pub mod rt;
+pub mod standalone;
 pub mod streams;
 pub mod telemetry;
 pub mod threads;

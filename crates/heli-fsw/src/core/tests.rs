@@ -300,11 +300,11 @@ fn fly_for(
         {
             core.handle(Input::Timer, now, out);
         }
-        if imu && now % 10_000 == 0 {
+        if imu && now.is_multiple_of(10_000) {
             core.handle(Input::Imu(still()), now, out);
         }
         if let Some(p) = pilot
-            && now % 20_000 == 0
+            && now.is_multiple_of(20_000)
         {
             core.handle(Input::Uplink(p), now, out);
         }

@@ -26,6 +26,12 @@ pub struct PilotCommand {
 pub struct ScbDevice {
     framer: ServoFramer,
     computer: Option<Controls>,
+    /// Check bytes seen in a row.
+    check_run: usize,
+    /// The computer's start-up check was received and wants an answer.
+    check_due: bool,
+    /// Start-up checks answered.
+    pub checks_answered: u32,
     /// Receiver battery (V).
     pub receiver_batt_v: f64,
     /// Servo battery (V).
@@ -37,6 +43,9 @@ impl Default for ScbDevice {
         Self {
             framer: ServoFramer::new(),
             computer: None,
+            check_run: 0,
+            check_due: false,
+            checks_answered: 0,
             receiver_batt_v: 4.9,
             servo_batt_v: 4.9,
         }
@@ -65,12 +74,31 @@ impl ScbDevice {
     /// Bytes from the flight computer's port.
     pub fn receive(&mut self, bytes: &[u8]) {
         for &b in bytes {
+            if b == heli_proto::scb::CHECK_BYTE {
+                self.check_run += 1;
+                if self.check_run == heli_proto::scb::CHECK_LEN {
+                    self.check_due = true;
+                    self.check_run = 0;
+                }
+            } else {
+                self.check_run = 0;
+            }
             if let Some(frame) = self.framer.push(b)
                 && let Ok(packet) = ServoPacket::parse(frame)
             {
                 self.computer = Some(packet.pulses.to_controls());
             }
         }
+    }
+
+    /// True (once) when the computer's start-up check came in and must be answered with an
+    /// uplink packet at once.
+    pub fn take_check(&mut self) -> bool {
+        let due = std::mem::take(&mut self.check_due);
+        if due {
+            self.checks_answered += 1;
+        }
+        due
     }
 
     /// What the servos are driven with: the computer's last command; in bypass the pilot's,

@@ -9,6 +9,14 @@
 //! Events are ordered by (time, class, sequence), so a run is a pure function of the scenario
 //! and seed: same inputs, same outputs, bit for bit.
 
+mod criteria;
+mod hil;
+mod metrics;
+
+use criteria::describe;
+use hil::Hil;
+pub use hil::{HIL_BATTERY_CHANNEL, HilOut};
+use metrics::Metrics;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 use std::time::{Duration, Instant};
@@ -138,49 +146,6 @@ pub fn field_earth_field_gauss() -> Vector3<f64> {
     Vector3::new(0.19, 0.0, 0.48)
 }
 
-#[derive(Clone, Default)]
-struct Metrics {
-    att: Rms,
-    pos: Rms,
-    vel: Rms,
-    hold_horizontal: Rms,
-    hold_altitude: Rms,
-    hold_true: Rms,
-    hold_roll_sum_deg: f64,
-    hold_pitch_sum_deg: f64,
-    hold_start_us: Option<u64>,
-    hold_last_us: u64,
-    imu_dropped: u32,
-    gps_lost: u32,
-    target_key: Option<(f64, f64, f64)>,
-    maneuver_start_alt_m: Option<f64>,
-    maneuver_min_alt_m: f64,
-    maneuver_done: bool,
-    recovery_attitude_deg: Option<f64>,
-    recovery_speed_error_mps: Option<f64>,
-    last_phase: Option<Phase>,
-    rc_lost_at_us: Option<u64>,
-    rc_hover_at_us: Option<u64>,
-    rc_hover_pos: Option<Vector3<f64>>,
-    rc_drift_max_m: f64,
-    gps_outage_pos_err: Vec<f64>,
-    manual_start: Option<Vector3<f64>>,
-    manual_yaw_rate_max_dps: Option<f64>,
-    manual_distance_max_m: Option<f64>,
-    sweep_roll_rate: Rms,
-    velocity_tracking_max_mps: Option<f64>,
-    yaw_rate_tracking_max_dps: Option<f64>,
-    rc_slow_since_us: Option<u64>,
-    start_alt_m: Option<f64>,
-    max_alt_m: f64,
-    hold_time_s: f64,
-    home_offset: Option<Vector3<f64>>,
-    target_offset: Vector3<f64>,
-    step_time_max: Duration,
-    battery_min_v: f64,
-    events: Vec<String>,
-}
-
 /// Everything that went into the flight software and everything that came out, in order.
 #[derive(Clone, Debug, Default)]
 pub struct Recording {
@@ -222,6 +187,8 @@ pub struct Simulation {
     to_devices: Vec<(Port, Bytes)>,
     metrics: Metrics,
     crash: Option<String>,
+    /// Set when the flight software runs elsewhere (hardware in the loop).
+    hil: Option<Hil>,
 }
 
 impl Simulation {
@@ -231,12 +198,8 @@ impl Simulation {
         Self::with_flight_software(scenario, CoreConfig::default())
     }
 
-    /// Sets up the scenario's flight with the flight software configured as `config` (its
-    /// compass calibration is replaced by the one the lab measures before the flight).
-    pub fn with_flight_software(
-        scenario: Scenario,
-        config: CoreConfig,
-    ) -> Result<Self, ScenarioError> {
+    /// The helicopter, its devices and the flight software, set up but not started.
+    fn build(scenario: Scenario, config: CoreConfig) -> Result<Self, ScenarioError> {
         let legs: Vec<_> = scenario.plan.iter().map(|l| l.to_leg()).collect();
         let plan = Plan::new(&legs).map_err(|e| ScenarioError::Invalid(format!("plan: {e}")))?;
         let seed = scenario.seed;
@@ -303,6 +266,7 @@ impl Simulation {
                 ..Metrics::default()
             },
             crash: None,
+            hil: None,
             scenario,
             heli,
             env,
@@ -314,6 +278,16 @@ impl Simulation {
         sim.schedule(500_000, Kind::GpsEpoch);
         sim.schedule(11_000, Kind::CompassRead);
         sim.schedule(0, Kind::BatteryRead);
+        Ok(sim)
+    }
+
+    /// Sets up the scenario's flight with the flight software configured as `config` (its
+    /// compass calibration is replaced by the one the lab measures before the flight).
+    pub fn with_flight_software(
+        scenario: Scenario,
+        config: CoreConfig,
+    ) -> Result<Self, ScenarioError> {
+        let mut sim = Self::build(scenario, config)?;
         // The flight software arms its watchdogs and starts its altimeter handshake.
         let mut sent = Vec::new();
         sim.computer.start(0, &mut |port, b: &[u8]| {
@@ -450,6 +424,11 @@ impl Simulation {
         self.summarise(wall)
     }
 
+    /// Ends the run here and judges it; `wall_s` is how long it took.
+    pub fn finish(self, wall_s: f64) -> Summary {
+        self.summarise(wall_s)
+    }
+
     /// Events the flight software reported so far, as text.
     pub fn events(&self) -> &[String] {
         &self.metrics.events
@@ -544,6 +523,9 @@ impl Simulation {
         match kind {
             Kind::Physics => {
                 self.physics_step();
+                if self.hil.is_some() {
+                    self.measure_hil_truth();
+                }
                 self.schedule(now + PHYSICS_STEP_US, Kind::Physics);
             }
             Kind::ImuSample => {
@@ -607,26 +589,51 @@ impl Simulation {
             }
             Kind::CompassRead => {
                 let adc = self.compass.read(&self.heli.state.att);
-                self.deliver(DeviceInput::Compass(adc));
+                match self.hil.as_mut() {
+                    Some(hil) => {
+                        for (channel, counts) in (0u8..).zip(adc.counts) {
+                            hil.outbox.push(HilOut::Adc { channel, counts });
+                        }
+                    }
+                    None => self.deliver(DeviceInput::Compass(adc)),
+                }
                 self.schedule(now + COMPASS_PERIOD_US, Kind::CompassRead);
             }
             Kind::BatteryRead => {
-                let v = self.battery.read(now as f64 * 1e-6).volts();
+                let battery = self.battery.read(now as f64 * 1e-6);
+                let v = battery.volts();
                 self.metrics.battery_min_v = self.metrics.battery_min_v.min(v);
+                if let Some(hil) = self.hil.as_mut() {
+                    hil.outbox.push(HilOut::Adc {
+                        channel: HIL_BATTERY_CHANNEL,
+                        counts: battery.counts,
+                    });
+                }
                 self.schedule(now + BATTERY_PERIOD_US, Kind::BatteryRead);
             }
             Kind::ToDevice(port, bytes) => match port {
-                Port::Scb => self.scb.receive(bytes.as_slice()),
+                Port::Scb => {
+                    self.scb.receive(bytes.as_slice());
+                    if self.scb.take_check() {
+                        // The board answers the computer's start-up check with an uplink now.
+                        let rpm = self.heli.state.rotor_rps * 30.0 / std::f64::consts::PI;
+                        let bytes = self.scb.uplink(&self.pilot(), rpm);
+                        self.send_to_computer(Port::Scb, bytes, now);
+                    }
+                }
                 Port::Baro => {
                     self.baro.receive(bytes.as_slice(), now);
                     self.reschedule_baro_device();
                 }
                 Port::Imu | Port::Gps => {}
             },
-            Kind::ToComputer(port, bytes) => self.deliver(DeviceInput::Bytes {
-                port,
-                bytes: bytes.as_slice(),
-            }),
+            Kind::ToComputer(port, bytes) => match self.hil.as_mut() {
+                Some(hil) => hil.outbox.push(HilOut::Bytes(port, bytes)),
+                None => self.deliver(DeviceInput::Bytes {
+                    port,
+                    bytes: bytes.as_slice(),
+                }),
+            },
             Kind::Tick => {
                 // Only the latest scheduled deadline is live; earlier ones were superseded.
                 if self.tick_at == Some(now) {
@@ -710,220 +717,6 @@ impl Simulation {
         self.reschedule_tick();
     }
 
-    /// True position expressed in the flight software's frame (its origin is its first GPS
-    /// fix, not the simulator's origin), so that estimate and truth compare like for like.
-    fn truth_in_nav_frame(&self) -> Vector3<f64> {
-        let p = self.heli.state.pos_ned_m;
-        match self.computer.core().navigator().origin() {
-            Some(origin) => {
-                let (lat, lon, alt) = FIELD_ORIGIN.to_geodetic([p.x, p.y, p.z]);
-                Vector3::from(origin.to_ned(lat, lon, alt))
-            }
-            None => p,
-        }
-    }
-
-    fn measure(&mut self, s: &StateRecord) {
-        let truth = self.heli.state;
-        let truth_pos = self.truth_in_nav_frame();
-        let est = &s.nav;
-        self.metrics
-            .att
-            .add((est.att.inverse() * truth.att).angle().to_degrees());
-        // Relative navigation, as the thesis judges its GPS: position is measured from where
-        // the estimate started (the take-off point), so the GPS error the estimate inherited
-        // at that moment is common to both and only what it has drifted since counts.
-        let home_offset = *self
-            .metrics
-            .home_offset
-            .get_or_insert(est.pos_ned_m - truth_pos);
-        let pos_err = (est.pos_ned_m - truth_pos - home_offset).norm();
-        self.metrics.pos.add(pos_err);
-        self.measure_gps_outages(pos_err);
-        self.measure_maneuver(s);
-        self.measure_rc_loss();
-        self.measure_pilot();
-        self.metrics
-            .vel
-            .add((est.vel_ned_mps - truth.vel_ned_mps()).norm());
-        // Where the target truly is: the flight software set it in its own frame, which is
-        // off from the truth by its estimate error when the target was set. Held against the
-        // true position of that moment, the target is a true place, and the distance to it
-        // measures what the helicopter really did (drift of the GPS error included).
-        if let Some(target) = s.target {
-            let key = (target.pos_ned_m.x, target.pos_ned_m.y, target.pos_ned_m.z);
-            if self.metrics.target_key != Some(key) {
-                self.metrics.target_key = Some(key);
-                self.metrics.target_offset = est.pos_ned_m - truth_pos;
-            }
-        }
-        if let (Phase::Holding { since_us, .. }, Some(target)) = (s.phase, s.target) {
-            self.metrics.hold_start_us.get_or_insert(since_us);
-            if matches!(self.metrics.last_phase, Some(Phase::Holding { .. })) {
-                self.metrics.hold_time_s +=
-                    self.now_us.saturating_sub(self.metrics.hold_last_us) as f64 * 1e-6;
-            }
-            self.metrics.hold_last_us = self.now_us;
-            let err = est.pos_ned_m - target.pos_ned_m;
-            self.metrics.hold_horizontal.add(err.xy().norm());
-            self.metrics.hold_altitude.add(err.z);
-            let true_target = target.pos_ned_m - self.metrics.target_offset;
-            self.metrics.hold_true.add((truth_pos - true_target).norm());
-            let (roll, pitch, _) = truth.att.euler_angles();
-            self.metrics.hold_roll_sum_deg += roll.to_degrees();
-            self.metrics.hold_pitch_sum_deg += pitch.to_degrees();
-        }
-        self.metrics.last_phase = Some(s.phase);
-    }
-
-    /// The position error when each GPS outage ends.
-    fn measure_gps_outages(&mut self, pos_err: f64) {
-        // The first fix after an outage arrives a latency after it ends; the estimate coasts
-        // until then, so it is judged just before that fix.
-        let t_s = self.now_us as f64 * 1e-6 - (self.gps.errors.latency_s - 0.05);
-        let ended = self
-            .scenario
-            .faults
-            .gps_outages
-            .iter()
-            .filter(|[_, end]| t_s >= *end)
-            .count();
-        // The fix that follows an outage arrives a latency after it; judge just before.
-        while self.metrics.gps_outage_pos_err.len() < ended {
-            self.metrics.gps_outage_pos_err.push(pos_err);
-        }
-    }
-
-    /// Altitude loss over the roll sequence and the state at the end of its recovery.
-    fn measure_maneuver(&mut self, s: &StateRecord) {
-        let alt = -self.heli.state.pos_ned_m.z;
-        let in_maneuver = matches!(s.phase, Phase::Maneuver { .. });
-        if self.metrics.maneuver_done {
-            return;
-        }
-        if let Phase::Maneuver {
-            stage: RollStage::PullUp { .. },
-            ..
-        } = s.phase
-            && self.metrics.maneuver_start_alt_m.is_none()
-        {
-            self.metrics.maneuver_start_alt_m = Some(alt);
-            self.metrics.maneuver_min_alt_m = alt;
-        }
-        if self.metrics.maneuver_start_alt_m.is_some() {
-            self.metrics.maneuver_min_alt_m = self.metrics.maneuver_min_alt_m.min(alt);
-            if !in_maneuver {
-                self.metrics.maneuver_done = true;
-                let (roll, pitch, _) = self.heli.state.att.euler_angles();
-                self.metrics.recovery_attitude_deg = Some(roll.abs().max(pitch.abs()).to_degrees());
-                let trim = self
-                    .scenario
-                    .plan
-                    .iter()
-                    .find_map(|l| match l {
-                        crate::scenario::LegSpec::Rolls { speed_mps, .. } => Some(*speed_mps),
-                        _ => None,
-                    })
-                    .unwrap_or(0.0);
-                let speed = self.heli.state.vel_ned_mps().xy().norm();
-                self.metrics.recovery_speed_error_mps = Some((speed - trim).abs());
-            }
-        }
-    }
-
-    /// Manual flight, sweeps and augmented tracking, judged on the truth.
-    fn measure_pilot(&mut self) {
-        let t_s = self.now_us as f64 * 1e-6;
-        let s = self.heli.state;
-        let alt = -s.pos_ned_m.z;
-        let start_alt = *self.metrics.start_alt_m.get_or_insert(alt);
-        self.metrics.max_alt_m = self.metrics.max_alt_m.max(alt - start_alt);
-        let pilot = self.pilot();
-        let worst = |m: Option<f64>, v: f64| Some(m.map_or(v, |m| m.max(v)));
-        if !pilot.auto_mode || pilot.bypass {
-            let start = *self.metrics.manual_start.get_or_insert(s.pos_ned_m);
-            self.metrics.manual_yaw_rate_max_dps = worst(
-                self.metrics.manual_yaw_rate_max_dps,
-                s.rate_body_rps.z.abs().to_degrees(),
-            );
-            self.metrics.manual_distance_max_m = worst(
-                self.metrics.manual_distance_max_m,
-                (s.pos_ned_m - start).xy().norm(),
-            );
-        }
-        let inputs = &self.scenario.pilot.inputs;
-        if inputs.iter().any(|i| {
-            i.shape == crate::pilot::Shape::Sweep
-                && (0.0..i.duration_s).contains(&(t_s - i.start_s))
-        }) {
-            self.metrics
-                .sweep_roll_rate
-                .add(s.rate_body_rps.x.to_degrees());
-        }
-        let settling = |channels: &[crate::pilot::Channel]| {
-            inputs.iter().any(|i| {
-                channels.contains(&i.channel)
-                    && (i.duration_s - 1.0..i.duration_s).contains(&(t_s - i.start_s))
-            })
-        };
-        let scales = heli_control::StickScales::default();
-        let augmented = self.scenario.mode.is_augmented() && pilot.auto_mode;
-        if augmented && settling(&[crate::pilot::Channel::Rudder]) {
-            let cmd = pilot.sticks.rudder.clamp(-1.0, 1.0) * scales.yaw_rate_rps;
-            let err = (s.rate_body_rps.z - cmd).abs().to_degrees();
-            self.metrics.yaw_rate_tracking_max_dps =
-                worst(self.metrics.yaw_rate_tracking_max_dps, err);
-        }
-        if augmented
-            && self.scenario.mode == FlightMode::Augmented(AugmentedMode::Velocity)
-            && settling(&[
-                crate::pilot::Channel::Aileron,
-                crate::pilot::Channel::Elevator,
-            ])
-        {
-            let cmd = AugmentedMode::commanded_velocity(&pilot.sticks, &scales);
-            let (_, _, yaw) = s.att.euler_angles();
-            let v = s.vel_ned_mps();
-            let (sy, cy) = yaw.sin_cos();
-            let fwd = cy * v.x + sy * v.y;
-            let right = -sy * v.x + cy * v.y;
-            let err = ((fwd - cmd.x).powi(2) + (right - cmd.y).powi(2)).sqrt();
-            self.metrics.velocity_tracking_max_mps =
-                worst(self.metrics.velocity_tracking_max_mps, err);
-        }
-    }
-
-    /// How soon the helicopter hovers after the transmitter is lost, and how far it drifts.
-    fn measure_rc_loss(&mut self) {
-        let now = self.now_us;
-        if self.pilot().signal_lost {
-            self.metrics.rc_lost_at_us.get_or_insert(now);
-        }
-        if self.metrics.rc_lost_at_us.is_none() {
-            return;
-        }
-        let p = self.heli.state.pos_ned_m;
-        let v = self.heli.state.vel_ned_mps();
-        // Hovering: slower than 0.5 m/s and staying so for a second; it counts from when
-        // that second began.
-        if self.metrics.rc_hover_at_us.is_none() {
-            if v.xy().norm() < 0.5 {
-                let since = *self.metrics.rc_slow_since_us.get_or_insert(now);
-                if now.saturating_sub(since) >= 1_000_000 {
-                    self.metrics.rc_hover_at_us = Some(since);
-                    self.metrics.rc_hover_pos = Some(p);
-                }
-            } else {
-                self.metrics.rc_slow_since_us = None;
-            }
-        }
-        if let (Some(at), Some(pos)) = (self.metrics.rc_hover_at_us, self.metrics.rc_hover_pos)
-            && now <= at + 20_000_000
-        {
-            self.metrics.rc_drift_max_m = self.metrics.rc_drift_max_m.max((p - pos).xy().norm());
-        }
-    }
-
     /// Pressure the downwash adds at the altimeter's port near the ground (mbar).
     fn baro_ground_effect_mbar(&self) -> f64 {
         let a = &self.heli.airframe;
@@ -976,209 +769,6 @@ impl Simulation {
             }
         }
     }
-
-    fn summarise(self, wall_s: f64) -> Summary {
-        let m = &self.metrics;
-        let sim_time_s = self.now_us as f64 * 1e-6;
-        let stats = self.computer.core().stats();
-        let nav = self.computer.core().navigator().stats();
-        let hold_duration = m.hold_time_s;
-        let limits = self.scenario.limits;
-        let mut criteria = Vec::new();
-        let mut at_most = |name: &str, value: f64, limit: Option<f64>| {
-            if let Some(limit) = limit {
-                criteria.push(Criterion::at_most(name, value, limit));
-            }
-        };
-        at_most(
-            "hold_horizontal_rms_m",
-            m.hold_horizontal.rms(),
-            limits
-                .hold_horizontal_rms_m
-                .filter(|_| m.hold_start_us.is_some()),
-        );
-        at_most(
-            "hold_altitude_rms_m",
-            m.hold_altitude.rms(),
-            limits
-                .hold_altitude_rms_m
-                .filter(|_| m.hold_start_us.is_some()),
-        );
-        at_most(
-            "hold_true_max_m",
-            m.hold_true.max(),
-            limits.hold_true_max_m.filter(|_| m.hold_start_us.is_some()),
-        );
-        let altitude_loss = m.maneuver_start_alt_m.map_or(f64::INFINITY, |start| {
-            (start - m.maneuver_min_alt_m).max(0.0)
-        });
-        at_most("altitude_loss_m", altitude_loss, limits.altitude_loss_max_m);
-        at_most(
-            "recovery_attitude_deg",
-            m.recovery_attitude_deg.unwrap_or(f64::INFINITY),
-            limits.recovery_attitude_max_deg,
-        );
-        at_most(
-            "recovery_speed_error_mps",
-            m.recovery_speed_error_mps.unwrap_or(f64::INFINITY),
-            limits.recovery_speed_max_mps,
-        );
-        at_most("att_err_rms_deg", m.att.rms(), limits.att_err_rms_max_deg);
-        at_most("att_err_max_deg", m.att.max(), limits.att_err_max_deg);
-        at_most("pos_err_rms_m", m.pos.rms(), limits.pos_err_rms_max_m);
-        let hover_after = match (m.rc_lost_at_us, m.rc_hover_at_us) {
-            (Some(lost), Some(hover)) => hover.saturating_sub(lost) as f64 * 1e-6,
-            _ => f64::INFINITY,
-        };
-        at_most(
-            "rc_loss_hover_after_s",
-            hover_after,
-            limits.rc_loss_hover_within_s,
-        );
-        let drift = if m.rc_hover_at_us.is_some() {
-            m.rc_drift_max_m
-        } else {
-            f64::INFINITY
-        };
-        at_most("rc_loss_drift_m", drift, limits.rc_loss_drift_max_m);
-        let outage_err = if m.gps_outage_pos_err.is_empty() {
-            f64::INFINITY
-        } else {
-            m.gps_outage_pos_err.iter().copied().fold(0.0, f64::max)
-        };
-        at_most(
-            "gps_outage_pos_err_m",
-            outage_err,
-            limits.gps_outage_pos_err_max_m,
-        );
-        at_most(
-            "manual_yaw_rate_max_dps",
-            m.manual_yaw_rate_max_dps.unwrap_or(f64::INFINITY),
-            limits.manual_yaw_rate_max_dps,
-        );
-        at_most(
-            "manual_distance_max_m",
-            m.manual_distance_max_m.unwrap_or(f64::INFINITY),
-            limits.manual_distance_max_m,
-        );
-        at_most(
-            "velocity_tracking_max_mps",
-            m.velocity_tracking_max_mps.unwrap_or(f64::INFINITY),
-            limits.velocity_tracking_max_mps,
-        );
-        at_most(
-            "yaw_rate_tracking_max_dps",
-            m.yaw_rate_tracking_max_dps.unwrap_or(f64::INFINITY),
-            limits.yaw_rate_tracking_max_dps,
-        );
-        if let Some(min) = limits.sweep_roll_rate_rms_min_dps {
-            criteria.push(Criterion::at_least(
-                "sweep_roll_rate_rms_dps",
-                m.sweep_roll_rate.rms(),
-                min,
-            ));
-        }
-        if let Some(min) = limits.climb_min_m {
-            criteria.push(Criterion::at_least("climb_m", m.max_alt_m, min));
-        }
-        if let Some(min) = limits.hold_min_s {
-            criteria.push(Criterion::at_least("hold_duration_s", hold_duration, min));
-        }
-        if let Some(min) = limits.rolls_min {
-            criteria.push(Criterion::at_least(
-                "rolls_completed",
-                f64::from(stats.rolls_completed),
-                min,
-            ));
-        }
-        if limits.plan_complete == Some(true) {
-            let done = if self.computer.core().plan_complete() {
-                1.0
-            } else {
-                0.0
-            };
-            criteria.push(Criterion::at_least("plan_complete", done, 1.0));
-        }
-        let outcome = if self.crash.is_some() {
-            Outcome::Crash
-        } else if criteria.iter().all(|c| c.pass) {
-            Outcome::Pass
-        } else {
-            Outcome::Fail
-        };
-        let link = |s: heli_proto::framer::FramerStats| LinkSummary {
-            frames: s.frames,
-            checksum_errors: s.checksum_errors,
-            framing_errors: s.framing_errors,
-            discarded_bytes: s.discarded_bytes,
-        };
-        Summary {
-            scenario: self.scenario.name.clone(),
-            seed: self.scenario.seed,
-            sim_time_s,
-            wall_time_s: wall_s,
-            realtime_factor: if wall_s > 0.0 {
-                sim_time_s / wall_s
-            } else {
-                0.0
-            },
-            outcome,
-            crash: self.crash.clone(),
-            criteria,
-            estimator: EstimatorSummary {
-                att_err_rms_deg: m.att.rms(),
-                att_err_max_deg: m.att.max(),
-                pos_err_rms_m: m.pos.rms(),
-                vel_err_rms_mps: m.vel.rms(),
-                samples: m.att.count(),
-                gps_fused: nav.gps_fused,
-                gps_rejected: nav.gps_rejected,
-                baro_fused: nav.baro_fused,
-                compass_fused: nav.compass_fused,
-            },
-            loop_: LoopSummary {
-                imu_samples: stats.imu_samples,
-                imu_dropped: m.imu_dropped,
-                watchdog_fires: stats.watchdog_fires,
-                control_steps: stats.control_steps,
-                step_time_max_us: m.step_time_max.as_secs_f64() * 1e6,
-            },
-            maneuvers: ManeuverSummary {
-                rolls_completed: stats.rolls_completed,
-                altitude_loss_m: if altitude_loss.is_finite() {
-                    altitude_loss
-                } else {
-                    0.0
-                },
-                recovery_attitude_deg: m.recovery_attitude_deg,
-                recovery_speed_error_mps: m.recovery_speed_error_mps,
-            },
-            hold: HoldSummary {
-                start_s: m.hold_start_us.map(|t| t as f64 * 1e-6),
-                duration_s: hold_duration,
-                horizontal_rms_m: m.hold_horizontal.rms(),
-                altitude_rms_m: m.hold_altitude.rms(),
-                true_max_m: m.hold_true.max(),
-                mean_roll_deg: m.hold_roll_sum_deg / m.hold_true.count().max(1) as f64,
-                mean_pitch_deg: m.hold_pitch_sum_deg / m.hold_true.count().max(1) as f64,
-            },
-            devices: DeviceSummary {
-                imu: link(self.computer.drivers().imu.stats().framer),
-                uplink: link(self.computer.drivers().uplink.stats().framer),
-                servo: link(self.scb.stats()),
-                gps: link(self.computer.drivers().gps.stats().framer),
-                baro_readings: stats.baro_readings,
-                baro_link: format!("{:?}", self.computer.drivers().baro.state()),
-                battery_min_v: if m.battery_min_v.is_finite() {
-                    m.battery_min_v
-                } else {
-                    0.0
-                },
-            },
-            events: m.events.clone(),
-            log: None,
-        }
-    }
 }
 
 /// The compass calibration routine as the lab runs it before a flight: the helicopter is
@@ -1195,31 +785,6 @@ pub fn calibrate_compass(errors: CompassErrors, noise: Noise) -> CompassCalibrat
         }
     }
     fit_hard_iron(&readings).unwrap_or_default()
-}
-
-fn describe(t_us: u64, e: &CoreEvent) -> String {
-    let t = t_us as f64 * 1e-6;
-    match e {
-        CoreEvent::CalibrationDone { gyro_bias_rps } => format!(
-            "t={t:.2} s calibration done, gyro bias [{:.4}, {:.4}, {:.4}] rad/s",
-            gyro_bias_rps[0], gyro_bias_rps[1], gyro_bias_rps[2]
-        ),
-        CoreEvent::PhaseChanged(p) => format!("t={t:.2} s phase {}", p.name()),
-        CoreEvent::WatchdogFired => format!("t={t:.2} s watchdog fired"),
-        CoreEvent::PilotSignalLost => format!("t={t:.2} s pilot signal lost"),
-        CoreEvent::RollCompleted(n) => format!("t={t:.2} s roll {n} completed"),
-        CoreEvent::RollAbandoned => format!("t={t:.2} s roll abandoned: took too long"),
-        CoreEvent::PlanComplete => format!("t={t:.2} s flight plan complete"),
-        CoreEvent::GpsLost => format!("t={t:.2} s GPS lost: estimate coasting on the IMU"),
-        CoreEvent::GpsRegained => format!("t={t:.2} s GPS back"),
-        CoreEvent::DeviceHealth { device, state } => {
-            format!("t={t:.2} s {} {}", device.name(), state.name())
-        }
-        CoreEvent::EstimateInvalid => {
-            format!("t={t:.2} s estimate invalid: IMU silent")
-        }
-        CoreEvent::UplinkLost => format!("t={t:.2} s uplink lost: transmitter loss"),
-    }
 }
 
 /// Runs a scenario to completion with default options and no progress output.

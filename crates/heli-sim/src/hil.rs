@@ -1,0 +1,208 @@
+//! `heli hilsim --ptys DIR`: the simulator alone, in real time, as the thesis's HILSim
+//! computer — the helicopter's devices on the flight computer's own interfaces.
+//!
+//! Each serial device is a pseudo-terminal: `DIR/imu`, `DIR/scb`, `DIR/gps`, `DIR/baro` are
+//! symlinks to the terminal ends a flight computer opens like any serial port. The simulator
+//! writes each device's bytes when the last byte would have arrived at the device's baud
+//! rate, and reads back what the computer writes (servo commands on `scb`, the handshake on
+//! `baro`). The analog channels are an IIO-style directory, `DIR/adc/in_voltageN_raw`
+//! (compass x, y, z on 0, 1, 2; battery on 3), each file replaced atomically at the
+//! channel's rate, so the same driver reads a real `/sys/bus/iio/devices/iio:deviceN`.
+//!
+//! The run is paced to the wall clock times `speed`. Bytes that no one reads are dropped once
+//! a terminal's buffer is full, as a serial line with no listener loses them.
+
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, channel};
+use std::time::{Duration, Instant};
+
+use heli_fsw::Port;
+use serialport::{SerialPort, TTYPort};
+
+use crate::lockstep::{HilOut, Simulation};
+use crate::scenario::Scenario;
+use crate::summary::Summary;
+
+/// What the HILSim exposes.
+#[derive(Clone, Debug)]
+pub struct HilDevices {
+    /// The directory.
+    pub dir: PathBuf,
+    /// Each serial port's symlink and the terminal it points to.
+    pub ports: Vec<(Port, PathBuf, PathBuf)>,
+    /// The IIO-style ADC directory.
+    pub adc: PathBuf,
+}
+
+/// How to run.
+#[derive(Clone, Copy, Debug)]
+pub struct HilOptions {
+    /// Simulated seconds per wall-clock second.
+    pub speed: f64,
+    /// Stop after this many simulated seconds (default: the scenario's duration).
+    pub duration_s: Option<f64>,
+}
+
+struct PtyPort {
+    port: Port,
+    master: TTYPort,
+    /// Held open so the terminal exists (and reads on the master never fail) while no
+    /// flight computer has it open.
+    _slave: TTYPort,
+}
+
+/// Creates the pseudo-terminals and the ADC directory under `dir`.
+fn expose(dir: &Path) -> Result<(Vec<PtyPort>, HilDevices), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let adc = dir.join("adc");
+    std::fs::create_dir_all(&adc).map_err(|e| format!("{}: {e}", adc.display()))?;
+    let mut ptys = Vec::new();
+    let mut listed = Vec::new();
+    for port in Port::ALL {
+        let (mut master, slave) =
+            TTYPort::pair().map_err(|e| format!("creating a pseudo-terminal: {e}"))?;
+        master
+            .set_timeout(Duration::from_millis(1))
+            .map_err(|e| e.to_string())?;
+        let target = slave
+            .name()
+            .map(PathBuf::from)
+            .ok_or("a pseudo-terminal without a name")?;
+        let link = dir.join(port.name());
+        if link.symlink_metadata().is_ok() {
+            std::fs::remove_file(&link).map_err(|e| format!("{}: {e}", link.display()))?;
+        }
+        std::os::unix::fs::symlink(&target, &link)
+            .map_err(|e| format!("{}: {e}", link.display()))?;
+        listed.push((port, link, target));
+        ptys.push(PtyPort {
+            port,
+            master,
+            _slave: slave,
+        });
+    }
+    Ok((
+        ptys,
+        HilDevices {
+            dir: dir.to_path_buf(),
+            ports: listed,
+            adc,
+        },
+    ))
+}
+
+/// Writes an ADC channel file atomically (a temporary file renamed over the old one).
+fn write_adc(dir: &Path, channel: u8, counts: u16) -> std::io::Result<()> {
+    let path = dir.join(format!("in_voltage{channel}_raw"));
+    let tmp = dir.join(format!(".in_voltage{channel}_raw.tmp"));
+    std::fs::write(&tmp, format!("{counts}\n"))?;
+    std::fs::rename(&tmp, &path)
+}
+
+/// Reads what the flight computer writes on the ports that take commands.
+fn spawn_readers(
+    ptys: &[PtyPort],
+    stop: &Arc<AtomicBool>,
+) -> Result<Receiver<(Port, Vec<u8>)>, String> {
+    let (tx, rx) = channel();
+    for pty in ptys
+        .iter()
+        .filter(|p| matches!(p.port, Port::Scb | Port::Baro))
+    {
+        let mut master = pty.master.try_clone_native().map_err(|e| e.to_string())?;
+        master
+            .set_timeout(Duration::from_millis(20))
+            .map_err(|e| e.to_string())?;
+        let tx = tx.clone();
+        let stop = Arc::clone(stop);
+        let port = pty.port;
+        std::thread::Builder::new()
+            .name(format!("hil-{}", port.name()))
+            .spawn(move || {
+                let mut buf = [0u8; 256];
+                while !stop.load(Ordering::Acquire) {
+                    match master.read(&mut buf) {
+                        Ok(n) if n > 0 => {
+                            if tx.send((port, buf[..n].to_vec())).is_err() {
+                                return;
+                            }
+                        }
+                        Ok(_) => {}
+                        // No one has the terminal open (EIO), or nothing came: wait.
+                        Err(_) => std::thread::sleep(Duration::from_millis(5)),
+                    }
+                }
+            })
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(rx)
+}
+
+/// Runs the scenario's helicopter against a flight computer on the devices under `dir`,
+/// until the duration is reached, it crashes, or `stop` is set. `ready` is called once the
+/// devices exist.
+pub fn run(
+    scenario: Scenario,
+    dir: &Path,
+    options: HilOptions,
+    stop: &Arc<AtomicBool>,
+    ready: impl FnOnce(&HilDevices),
+) -> Result<Summary, String> {
+    if !(options.speed.is_finite() && options.speed > 0.0 && options.speed <= 100.0) {
+        return Err(format!(
+            "--speed {}: must be more than 0 and at most 100",
+            options.speed
+        ));
+    }
+    let duration_s = options.duration_s.unwrap_or(scenario.duration_s);
+    let mut sim = Simulation::hil(scenario).map_err(|e| e.to_string())?;
+    let (mut ptys, devices) = expose(dir)?;
+    let from_computer = spawn_readers(&ptys, stop)?;
+    // The ADC files exist before anyone looks.
+    for channel in 0..=crate::lockstep::HIL_BATTERY_CHANNEL {
+        write_adc(&devices.adc, channel, 0).map_err(|e| e.to_string())?;
+    }
+    ready(&devices);
+    let end_us = (duration_s * 1e6) as u64;
+    let wall_start = Instant::now();
+    let mut dropped = 0u64;
+    loop {
+        if stop.load(Ordering::Acquire) {
+            break;
+        }
+        while let Ok((port, bytes)) = from_computer.try_recv() {
+            sim.inject(port, &bytes);
+        }
+        if !sim.advance(end_us) {
+            break;
+        }
+        let due = wall_start + Duration::from_secs_f64(sim.now_us() as f64 * 1e-6 / options.speed);
+        if let Some(wait) = due.checked_duration_since(Instant::now()) {
+            std::thread::sleep(wait);
+        }
+        for out in sim.take_outbox() {
+            match out {
+                HilOut::Bytes(port, bytes) => {
+                    if let Some(pty) = ptys.iter_mut().find(|p| p.port == port)
+                        && pty.master.write_all(bytes.as_slice()).is_err()
+                    {
+                        dropped += 1;
+                    }
+                }
+                HilOut::Adc { channel, counts } => {
+                    let _ = write_adc(&devices.adc, channel, counts);
+                }
+            }
+        }
+    }
+    let mut summary = sim.finish(wall_start.elapsed().as_secs_f64());
+    if dropped > 0 {
+        summary.events.push(format!(
+            "{dropped} device writes found no reader and were dropped"
+        ));
+    }
+    Ok(summary)
+}

@@ -1,0 +1,263 @@
+//! What a run measures as it goes: estimate against truth, holds, the roll sequence, the
+//! transmitter-loss hover, manual and augmented flight.
+
+use super::*;
+
+#[derive(Clone, Default)]
+pub(super) struct Metrics {
+    pub(super) att: Rms,
+    pub(super) pos: Rms,
+    pub(super) vel: Rms,
+    pub(super) hold_horizontal: Rms,
+    pub(super) hold_altitude: Rms,
+    pub(super) hold_true: Rms,
+    pub(super) hold_roll_sum_deg: f64,
+    pub(super) hold_pitch_sum_deg: f64,
+    pub(super) hold_start_us: Option<u64>,
+    pub(super) hold_last_us: u64,
+    pub(super) imu_dropped: u32,
+    pub(super) gps_lost: u32,
+    pub(super) target_key: Option<(f64, f64, f64)>,
+    pub(super) maneuver_start_alt_m: Option<f64>,
+    pub(super) maneuver_min_alt_m: f64,
+    pub(super) maneuver_done: bool,
+    pub(super) recovery_attitude_deg: Option<f64>,
+    pub(super) recovery_speed_error_mps: Option<f64>,
+    pub(super) last_phase: Option<Phase>,
+    pub(super) rc_lost_at_us: Option<u64>,
+    pub(super) rc_hover_at_us: Option<u64>,
+    pub(super) rc_hover_pos: Option<Vector3<f64>>,
+    pub(super) rc_drift_max_m: f64,
+    pub(super) gps_outage_pos_err: Vec<f64>,
+    pub(super) manual_start: Option<Vector3<f64>>,
+    pub(super) manual_yaw_rate_max_dps: Option<f64>,
+    pub(super) manual_distance_max_m: Option<f64>,
+    pub(super) sweep_roll_rate: Rms,
+    pub(super) velocity_tracking_max_mps: Option<f64>,
+    pub(super) yaw_rate_tracking_max_dps: Option<f64>,
+    pub(super) rc_slow_since_us: Option<u64>,
+    pub(super) start_alt_m: Option<f64>,
+    pub(super) max_alt_m: f64,
+    pub(super) hold_time_s: f64,
+    pub(super) home_offset: Option<Vector3<f64>>,
+    pub(super) target_offset: Vector3<f64>,
+    pub(super) step_time_max: Duration,
+    pub(super) battery_min_v: f64,
+    pub(super) events: Vec<String>,
+}
+
+impl Simulation {
+    /// True position expressed in the flight software's frame (its origin is its first GPS
+    /// fix, not the simulator's origin), so that estimate and truth compare like for like.
+    pub(super) fn truth_in_nav_frame(&self) -> Vector3<f64> {
+        let p = self.heli.state.pos_ned_m;
+        match self.computer.core().navigator().origin() {
+            Some(origin) => {
+                let (lat, lon, alt) = FIELD_ORIGIN.to_geodetic([p.x, p.y, p.z]);
+                Vector3::from(origin.to_ned(lat, lon, alt))
+            }
+            None => p,
+        }
+    }
+
+    pub(super) fn measure(&mut self, s: &StateRecord) {
+        let truth = self.heli.state;
+        let truth_pos = self.truth_in_nav_frame();
+        let est = &s.nav;
+        self.metrics
+            .att
+            .add((est.att.inverse() * truth.att).angle().to_degrees());
+        // Relative navigation, as the thesis judges its GPS: position is measured from where
+        // the estimate started (the take-off point), so the GPS error the estimate inherited
+        // at that moment is common to both and only what it has drifted since counts.
+        let home_offset = *self
+            .metrics
+            .home_offset
+            .get_or_insert(est.pos_ned_m - truth_pos);
+        let pos_err = (est.pos_ned_m - truth_pos - home_offset).norm();
+        self.metrics.pos.add(pos_err);
+        self.measure_gps_outages(pos_err);
+        self.measure_maneuver(s);
+        self.measure_rc_loss();
+        self.measure_pilot();
+        self.metrics
+            .vel
+            .add((est.vel_ned_mps - truth.vel_ned_mps()).norm());
+        // Where the target truly is: the flight software set it in its own frame, which is
+        // off from the truth by its estimate error when the target was set. Held against the
+        // true position of that moment, the target is a true place, and the distance to it
+        // measures what the helicopter really did (drift of the GPS error included).
+        if let Some(target) = s.target {
+            let key = (target.pos_ned_m.x, target.pos_ned_m.y, target.pos_ned_m.z);
+            if self.metrics.target_key != Some(key) {
+                self.metrics.target_key = Some(key);
+                self.metrics.target_offset = est.pos_ned_m - truth_pos;
+            }
+        }
+        if let (Phase::Holding { since_us, .. }, Some(target)) = (s.phase, s.target) {
+            self.metrics.hold_start_us.get_or_insert(since_us);
+            if matches!(self.metrics.last_phase, Some(Phase::Holding { .. })) {
+                self.metrics.hold_time_s +=
+                    self.now_us.saturating_sub(self.metrics.hold_last_us) as f64 * 1e-6;
+            }
+            self.metrics.hold_last_us = self.now_us;
+            let err = est.pos_ned_m - target.pos_ned_m;
+            self.metrics.hold_horizontal.add(err.xy().norm());
+            self.metrics.hold_altitude.add(err.z);
+            let true_target = target.pos_ned_m - self.metrics.target_offset;
+            self.metrics.hold_true.add((truth_pos - true_target).norm());
+            let (roll, pitch, _) = truth.att.euler_angles();
+            self.metrics.hold_roll_sum_deg += roll.to_degrees();
+            self.metrics.hold_pitch_sum_deg += pitch.to_degrees();
+        }
+        self.metrics.last_phase = Some(s.phase);
+    }
+
+    /// The position error when each GPS outage ends.
+    pub(super) fn measure_gps_outages(&mut self, pos_err: f64) {
+        // The first fix after an outage arrives a latency after it ends; the estimate coasts
+        // until then, so it is judged just before that fix.
+        let t_s = self.now_us as f64 * 1e-6 - (self.gps.errors.latency_s - 0.05);
+        let ended = self
+            .scenario
+            .faults
+            .gps_outages
+            .iter()
+            .filter(|[_, end]| t_s >= *end)
+            .count();
+        // The fix that follows an outage arrives a latency after it; judge just before.
+        while self.metrics.gps_outage_pos_err.len() < ended {
+            self.metrics.gps_outage_pos_err.push(pos_err);
+        }
+    }
+
+    /// Altitude loss over the roll sequence and the state at the end of its recovery.
+    pub(super) fn measure_maneuver(&mut self, s: &StateRecord) {
+        let alt = -self.heli.state.pos_ned_m.z;
+        let in_maneuver = matches!(s.phase, Phase::Maneuver { .. });
+        if self.metrics.maneuver_done {
+            return;
+        }
+        if let Phase::Maneuver {
+            stage: RollStage::PullUp { .. },
+            ..
+        } = s.phase
+            && self.metrics.maneuver_start_alt_m.is_none()
+        {
+            self.metrics.maneuver_start_alt_m = Some(alt);
+            self.metrics.maneuver_min_alt_m = alt;
+        }
+        if self.metrics.maneuver_start_alt_m.is_some() {
+            self.metrics.maneuver_min_alt_m = self.metrics.maneuver_min_alt_m.min(alt);
+            if !in_maneuver {
+                self.metrics.maneuver_done = true;
+                let (roll, pitch, _) = self.heli.state.att.euler_angles();
+                self.metrics.recovery_attitude_deg = Some(roll.abs().max(pitch.abs()).to_degrees());
+                let trim = self
+                    .scenario
+                    .plan
+                    .iter()
+                    .find_map(|l| match l {
+                        crate::scenario::LegSpec::Rolls { speed_mps, .. } => Some(*speed_mps),
+                        _ => None,
+                    })
+                    .unwrap_or(0.0);
+                let speed = self.heli.state.vel_ned_mps().xy().norm();
+                self.metrics.recovery_speed_error_mps = Some((speed - trim).abs());
+            }
+        }
+    }
+
+    /// Manual flight, sweeps and augmented tracking, judged on the truth.
+    pub(super) fn measure_pilot(&mut self) {
+        let t_s = self.now_us as f64 * 1e-6;
+        let s = self.heli.state;
+        let alt = -s.pos_ned_m.z;
+        let start_alt = *self.metrics.start_alt_m.get_or_insert(alt);
+        self.metrics.max_alt_m = self.metrics.max_alt_m.max(alt - start_alt);
+        let pilot = self.pilot();
+        let worst = |m: Option<f64>, v: f64| Some(m.map_or(v, |m| m.max(v)));
+        if !pilot.auto_mode || pilot.bypass {
+            let start = *self.metrics.manual_start.get_or_insert(s.pos_ned_m);
+            self.metrics.manual_yaw_rate_max_dps = worst(
+                self.metrics.manual_yaw_rate_max_dps,
+                s.rate_body_rps.z.abs().to_degrees(),
+            );
+            self.metrics.manual_distance_max_m = worst(
+                self.metrics.manual_distance_max_m,
+                (s.pos_ned_m - start).xy().norm(),
+            );
+        }
+        let inputs = &self.scenario.pilot.inputs;
+        if inputs.iter().any(|i| {
+            i.shape == crate::pilot::Shape::Sweep
+                && (0.0..i.duration_s).contains(&(t_s - i.start_s))
+        }) {
+            self.metrics
+                .sweep_roll_rate
+                .add(s.rate_body_rps.x.to_degrees());
+        }
+        let settling = |channels: &[crate::pilot::Channel]| {
+            inputs.iter().any(|i| {
+                channels.contains(&i.channel)
+                    && (i.duration_s - 1.0..i.duration_s).contains(&(t_s - i.start_s))
+            })
+        };
+        let scales = heli_control::StickScales::default();
+        let augmented = self.scenario.mode.is_augmented() && pilot.auto_mode;
+        if augmented && settling(&[crate::pilot::Channel::Rudder]) {
+            let cmd = pilot.sticks.rudder.clamp(-1.0, 1.0) * scales.yaw_rate_rps;
+            let err = (s.rate_body_rps.z - cmd).abs().to_degrees();
+            self.metrics.yaw_rate_tracking_max_dps =
+                worst(self.metrics.yaw_rate_tracking_max_dps, err);
+        }
+        if augmented
+            && self.scenario.mode == FlightMode::Augmented(AugmentedMode::Velocity)
+            && settling(&[
+                crate::pilot::Channel::Aileron,
+                crate::pilot::Channel::Elevator,
+            ])
+        {
+            let cmd = AugmentedMode::commanded_velocity(&pilot.sticks, &scales);
+            let (_, _, yaw) = s.att.euler_angles();
+            let v = s.vel_ned_mps();
+            let (sy, cy) = yaw.sin_cos();
+            let fwd = cy * v.x + sy * v.y;
+            let right = -sy * v.x + cy * v.y;
+            let err = ((fwd - cmd.x).powi(2) + (right - cmd.y).powi(2)).sqrt();
+            self.metrics.velocity_tracking_max_mps =
+                worst(self.metrics.velocity_tracking_max_mps, err);
+        }
+    }
+
+    /// How soon the helicopter hovers after the transmitter is lost, and how far it drifts.
+    pub(super) fn measure_rc_loss(&mut self) {
+        let now = self.now_us;
+        if self.pilot().signal_lost {
+            self.metrics.rc_lost_at_us.get_or_insert(now);
+        }
+        if self.metrics.rc_lost_at_us.is_none() {
+            return;
+        }
+        let p = self.heli.state.pos_ned_m;
+        let v = self.heli.state.vel_ned_mps();
+        // Hovering: slower than 0.5 m/s and staying so for a second; it counts from when
+        // that second began.
+        if self.metrics.rc_hover_at_us.is_none() {
+            if v.xy().norm() < 0.5 {
+                let since = *self.metrics.rc_slow_since_us.get_or_insert(now);
+                if now.saturating_sub(since) >= 1_000_000 {
+                    self.metrics.rc_hover_at_us = Some(since);
+                    self.metrics.rc_hover_pos = Some(p);
+                }
+            } else {
+                self.metrics.rc_slow_since_us = None;
+            }
+        }
+        if let (Some(at), Some(pos)) = (self.metrics.rc_hover_at_us, self.metrics.rc_hover_pos)
+            && now <= at + 20_000_000
+        {
+            self.metrics.rc_drift_max_m = self.metrics.rc_drift_max_m.max((p - pos).xy().norm());
+        }
+    }
+}

@@ -1,0 +1,99 @@
+//! `heli hilsim --ptys DIR`: the simulator alone, in real time, with its devices on
+//! pseudo-terminals and IIO-style ADC files for a flight computer outside.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+
+use anyhow::{Context, Result, bail};
+use heli_sim::hil::{self, HilOptions};
+use heli_sim::lockstep::Simulation;
+use heli_sim::scenario;
+use heli_sim::summary::Outcome;
+
+/// Arguments of `heli hilsim`.
+#[derive(clap::Args)]
+pub struct HilsimArgs {
+    /// Directory for the devices: symlinks imu, scb, gps, baro to pseudo-terminals, and
+    /// adc/in_voltageN_raw (compass x, y, z on 0-2, battery on 3).
+    #[arg(long)]
+    pub ptys: PathBuf,
+    /// Built-in scenario name or scenario file: the helicopter, wind, pilot and faults.
+    #[arg(long, default_value = "hover")]
+    pub scenario: String,
+    /// Simulated seconds per wall-clock second.
+    #[arg(long, default_value_t = 1.0)]
+    pub speed: f64,
+    /// Stop after this many simulated seconds (default: the scenario's duration).
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Seed for every noise source (overrides the scenario's).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Print the truth summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs the HILSim until its duration, a crash, or SIGINT / SIGTERM.
+pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
+    let mut scenario = scenario::load(&args.scenario)
+        .with_context(|| format!("loading scenario '{}'", args.scenario))?;
+    if let Some(seed) = args.seed {
+        scenario.seed = seed;
+    }
+    if let Some(d) = args.duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        bail!("--duration must be a positive number of seconds, not {d}");
+    }
+    // The lab's compass calibration of this simulated compass, where the vehicle finds it.
+    let compass = Simulation::new(scenario.clone())?
+        .flight_software_setup()
+        .0
+        .compass;
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&stop))
+            .context("installing the signal handler")?;
+    }
+    let options = HilOptions {
+        speed: args.speed,
+        duration_s: args.duration,
+    };
+    let dir = args.ptys.clone();
+    let name = scenario.name.clone();
+    let summary = hil::run(scenario, &dir, options, &stop, |devices| {
+        let cal = devices.dir.join(crate::vehicle_cmd::HIL_COMPASS_CAL);
+        if let Err(e) = crate::vehicle_cmd::write_compass_cal(&cal, &compass) {
+            eprintln!("heli hilsim: {e:#}");
+        }
+        println!("hilsim: scenario {name}, {}x real time", args.speed);
+        for (port, link, target) in &devices.ports {
+            println!(
+                "hilsim: {:<5} {} -> {}",
+                port.name(),
+                link.display(),
+                target.display()
+            );
+        }
+        println!(
+            "hilsim: adc   {} (compass x,y,z: in_voltage0-2_raw, battery: in_voltage3_raw)",
+            devices.adc.display()
+        );
+        println!("hilsim: compass calibration {}", cal.display());
+        println!("hilsim: ready");
+    })
+    .map_err(anyhow::Error::msg)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        crate::print_table(&summary);
+    }
+    Ok(if summary.outcome == Outcome::Pass {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}

@@ -1,0 +1,331 @@
+//! `heli vehicle` (the bootstrap), `heli vehicle ctl …` (its control client) and the flight
+//! process the bootstrap starts (`heli flight`, not for people to run by hand).
+
+use std::ffi::OsString;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::{Context, Result, bail};
+use heli_fsw::core::mission::Plan;
+use heli_fsw::core::{CoreConfig, FlightParams};
+use heli_proto::compass::CompassCalibration;
+use heli_vehicle::bootstrap::{Bootstrap, BootstrapConfig};
+use heli_vehicle::ctl::{self, Request};
+use heli_vehicle::devices::Devices;
+use heli_vehicle::flight::{self, FlightSetup, Report};
+
+/// The control socket when none is given.
+pub const DEFAULT_SOCKET: &str = "/tmp/heli-vehicle.sock";
+/// The compass calibration the HILSim leaves in its directory (the vehicle keeps its own in
+/// flash; this is the simulated compass's).
+pub const HIL_COMPASS_CAL: &str = "compass-cal.toml";
+
+/// Where the devices are and how the flight software is set up: shared by the bootstrap
+/// (which passes them on) and the flight process.
+#[derive(clap::Args, Clone, Debug)]
+pub struct FlightArgs {
+    /// Device paths and ADC channels (TOML; see docs/architecture.md).
+    #[arg(long, conflicts_with = "hilsim")]
+    pub devices: Option<PathBuf>,
+    /// Fly against `heli hilsim --ptys DIR`: its pseudo-terminals, ADC files and compass
+    /// calibration.
+    #[arg(long)]
+    pub hilsim: Option<PathBuf>,
+    /// Directory for the flight logs (`flight_<suffix>.mcap`).
+    #[arg(long, default_value = ".")]
+    pub log_dir: PathBuf,
+    /// Compass calibration (TOML: bias_gauss = [x, y, z], scale = [x, y, z]).
+    #[arg(long)]
+    pub compass_cal: Option<PathBuf>,
+    /// Altimeter readings per second (1-10).
+    #[arg(long, default_value_t = heli_proto::baro::DEFAULT_RATE_HZ)]
+    pub baro_rate: u8,
+    /// IMU bias calibration window (s). 80 as in the thesis; shorter only for tests.
+    #[arg(long, default_value_t = 80.0)]
+    pub calibration_s: f64,
+    /// IMU warm-up before the calibration (s). Shorter only for tests.
+    #[arg(long, default_value_t = 5.0)]
+    pub warm_up_s: f64,
+}
+
+impl FlightArgs {
+    fn devices(&self) -> Result<Devices> {
+        match (&self.devices, &self.hilsim) {
+            (Some(file), _) => Ok(Devices::from_file(file)?),
+            (None, Some(dir)) => Ok(Devices::hilsim(dir)),
+            (None, None) => bail!("say where the devices are: --devices FILE or --hilsim DIR"),
+        }
+    }
+
+    fn validate(&self) -> Result<()> {
+        if !(1..=10).contains(&self.baro_rate) {
+            bail!(
+                "--baro-rate {}: the altimeter does 1 to 10 readings a second",
+                self.baro_rate
+            );
+        }
+        for (name, v) in [
+            ("--calibration-s", self.calibration_s),
+            ("--warm-up-s", self.warm_up_s),
+        ] {
+            if !(v.is_finite() && (0.0..=600.0).contains(&v)) {
+                bail!("{name} {v}: must be between 0 and 600 seconds");
+            }
+        }
+        if !self.log_dir.is_dir() {
+            bail!("--log-dir {}: not a directory", self.log_dir.display());
+        }
+        Ok(())
+    }
+
+    fn compass(&self) -> Result<CompassCalibration> {
+        let path = match (&self.compass_cal, &self.hilsim) {
+            (Some(p), _) => p.clone(),
+            (None, Some(dir)) if dir.join(HIL_COMPASS_CAL).exists() => dir.join(HIL_COMPASS_CAL),
+            _ => return Ok(CompassCalibration::default()),
+        };
+        read_compass_cal(&path)
+    }
+
+    /// The same settings as arguments, for the flight process's command line.
+    fn to_args(&self) -> Vec<OsString> {
+        let mut args: Vec<OsString> = Vec::new();
+        if let Some(d) = &self.devices {
+            args.extend(["--devices".into(), d.clone().into_os_string()]);
+        }
+        if let Some(d) = &self.hilsim {
+            args.extend(["--hilsim".into(), d.clone().into_os_string()]);
+        }
+        if let Some(c) = &self.compass_cal {
+            args.extend(["--compass-cal".into(), c.clone().into_os_string()]);
+        }
+        args.extend([
+            "--log-dir".into(),
+            self.log_dir.clone().into_os_string(),
+            "--baro-rate".into(),
+            self.baro_rate.to_string().into(),
+            "--calibration-s".into(),
+            self.calibration_s.to_string().into(),
+            "--warm-up-s".into(),
+            self.warm_up_s.to_string().into(),
+        ]);
+        args
+    }
+}
+
+/// Reads a compass calibration file.
+pub fn read_compass_cal(path: &Path) -> Result<CompassCalibration> {
+    #[derive(serde::Deserialize)]
+    #[serde(deny_unknown_fields)]
+    struct Cal {
+        bias_gauss: [f64; 3],
+        scale: [f64; 3],
+    }
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("compass calibration {}", path.display()))?;
+    let cal: Cal =
+        toml::from_str(&text).with_context(|| format!("compass calibration {}", path.display()))?;
+    if !cal
+        .bias_gauss
+        .iter()
+        .chain(&cal.scale)
+        .all(|v| v.is_finite())
+    {
+        bail!(
+            "compass calibration {}: values must be finite",
+            path.display()
+        );
+    }
+    Ok(CompassCalibration {
+        bias_gauss: cal.bias_gauss,
+        scale: cal.scale,
+    })
+}
+
+/// Writes a compass calibration file.
+pub fn write_compass_cal(path: &Path, cal: &CompassCalibration) -> Result<()> {
+    let text = format!(
+        "# Compass calibration (hard-iron bias and scale), as stored in the vehicle's flash.\nbias_gauss = {:?}\nscale = {:?}\n",
+        cal.bias_gauss, cal.scale
+    );
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
+/// `heli vehicle`: the bootstrap.
+pub fn vehicle(args: &FlightArgs, socket: &Path) -> Result<ExitCode> {
+    args.validate()?;
+    // Fail now, not at the first Connect, on a devices file that cannot be used.
+    args.devices()?;
+    args.compass()?;
+    let exe = std::env::current_exe().context("finding the heli program")?;
+    let mut child = vec![exe.into_os_string(), "flight".into()];
+    child.extend(args.to_args());
+    let config = BootstrapConfig {
+        socket: socket.to_path_buf(),
+        child,
+    };
+    let report = Box::new(|line: &str| {
+        let mut out = std::io::stdout().lock();
+        let _ = writeln!(out, "{line}");
+        let _ = out.flush();
+    });
+    Bootstrap::new(config, report)
+        .run()
+        .map_err(anyhow::Error::msg)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `heli vehicle ctl …`: one command to the bootstrap.
+pub fn ctl(words: &[String], socket: &Path) -> Result<ExitCode> {
+    let request = Request::parse(&words.join(" ")).map_err(anyhow::Error::msg)?;
+    match ctl::send(socket, &request) {
+        Ok(reply) => {
+            println!("{reply}");
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(e) => {
+            eprintln!("heli vehicle: {e}");
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+/// One line of standard input (the stdin buffer is shared, so threads may take turns);
+/// `None` at its end.
+fn read_line() -> Option<String> {
+    let mut line = String::new();
+    match std::io::stdin().read_line(&mut line) {
+        Ok(0) | Err(_) => None,
+        Ok(_) => Some(line.trim_end().to_string()),
+    }
+}
+
+fn say(line: &str) {
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "{line}");
+    let _ = out.flush();
+}
+
+/// The flight plan named at Start Logging: a built-in scenario's plan, or a scenario file's.
+fn plan_named(name: Option<&str>) -> Result<(String, Plan)> {
+    let name = name.unwrap_or("hover");
+    let scenario = heli_sim::scenario::load(name).with_context(|| {
+        format!("flight plan '{name}' (a built-in scenario or a scenario file)")
+    })?;
+    let legs: Vec<_> = scenario.plan.iter().map(|l| l.to_leg()).collect();
+    let plan = Plan::new(&legs).map_err(|e| anyhow::anyhow!("flight plan '{name}': {e}"))?;
+    Ok((name.to_string(), plan))
+}
+
+/// `heli flight`: the flight process. It says `ready`, waits for `start SUFFIX MODE [PLAN]`
+/// on its standard input, flies until `stop` (or the end of its input), and says `stopped`.
+pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
+    args.validate()?;
+    let devices = args.devices()?;
+    let compass = args.compass()?;
+    say("ready");
+    let (suffix, mode, plan_name) = loop {
+        let Some(line) = read_line() else {
+            say("stopped {}");
+            return Ok(ExitCode::SUCCESS);
+        };
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            ["start", suffix, mode, rest @ ..] if rest.len() <= 1 => {
+                break (
+                    suffix.to_string(),
+                    mode.to_string(),
+                    rest.first().map(|p| p.to_string()),
+                );
+            }
+            ["stop"] => {
+                say("stopped {}");
+                return Ok(ExitCode::SUCCESS);
+            }
+            _ => say(&format!("error not understood: '{line}'")),
+        }
+    };
+    let started = heli_link::StartParameters::new(&suffix, &mode);
+    let (mode, plan_name, plan) = match started
+        .map_err(anyhow::Error::from)
+        .and_then(|p| Ok((p.controller, plan_named(plan_name.as_deref())?)))
+    {
+        Ok((mode, (name, plan))) => (mode, name, plan),
+        Err(e) => {
+            say(&format!("error {e:#}"));
+            bail!("{e:#}");
+        }
+    };
+    let log_path = args
+        .log_dir
+        .join(heli_log::file_name("flight", &suffix, "mcap"));
+    let config = CoreConfig {
+        calibration_s: args.calibration_s,
+        imu_warm_up_s: args.warm_up_s,
+        compass,
+        ..CoreConfig::default()
+    };
+    let software = concat!("heli ", env!("CARGO_PKG_VERSION"));
+    let parameters = [
+        ("suffix".to_string(), suffix.clone()),
+        ("mode".to_string(), mode.name().to_string()),
+        ("plan".to_string(), plan_name),
+        ("calibration_s".to_string(), args.calibration_s.to_string()),
+        ("warm_up_s".to_string(), args.warm_up_s.to_string()),
+        ("baro_rate_hz".to_string(), args.baro_rate.to_string()),
+        (
+            "compass_bias_gauss".to_string(),
+            format!("{:?}", compass.bias_gauss),
+        ),
+        ("compass_scale".to_string(), format!("{:?}", compass.scale)),
+        ("devices".to_string(), format!("{devices:?}")),
+    ];
+    let metadata = heli_log::metadata::flight(software, std::time::SystemTime::now(), parameters);
+    let setup = FlightSetup {
+        devices,
+        config,
+        params: FlightParams { mode, plan },
+        baro_rate_hz: args.baro_rate,
+        log_path: Some(log_path.clone()),
+        metadata,
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            while let Some(line) = read_line() {
+                if line.trim() == "stop" {
+                    break;
+                }
+            }
+            // `stop`, or the bootstrap is gone: clean up either way.
+            stop.store(true, Ordering::Release);
+        });
+    }
+    say(&format!("started {}", log_path.display()));
+    let report = Arc::new(|r: Report| match r {
+        Report::Note(text) => say(&format!("note {text}")),
+        Report::Event { severity, text, .. } => say(&format!("event {} {text}", severity.name())),
+        Report::Telemetry(v) => say(&format!("telemetry {v}")),
+    });
+    let summary = flight::run(setup, stop, report).map_err(anyhow::Error::msg)?;
+    let s = summary.stats;
+    let json = serde_json::json!({
+        "imu_samples": s.imu_samples,
+        "watchdog_fires": s.watchdog_fires,
+        "control_steps": s.control_steps,
+        "uplinks": s.uplinks,
+        "gps_fixes": s.gps_fixes,
+        "baro_readings": s.baro_readings,
+        "compass_readings": s.compass_readings,
+        "inputs": summary.inputs,
+        "log_messages": summary.log.as_ref().map(|l| l.messages),
+        "log_error": summary.log.as_ref().and_then(|l| l.error.clone()),
+        "log_dropped": summary.log_dropped,
+    });
+    say(&format!("stopped {json}"));
+    Ok(ExitCode::SUCCESS)
+}
