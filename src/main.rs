@@ -196,10 +196,22 @@ fn sim(args: SimArgs) -> Result<ExitCode> {
     });
     let name = scenario.name.clone();
     let mut logger = match &args.log {
-        Some(path) => Some(StreamLogger::new(
-            FlightLog::create(path)
-                .with_context(|| format!("creating the flight log {}", path.display()))?,
-        )),
+        Some(path) => {
+            let mut log = FlightLog::create(path)
+                .with_context(|| format!("creating the flight log {}", path.display()))?;
+            // What flew, when, and the whole scenario, so that the flight can be flown again.
+            let parameters = [
+                ("scenario".to_string(), scenario.name.clone()),
+                ("seed".to_string(), scenario.seed.to_string()),
+                ("scenario_toml".to_string(), toml::to_string(&scenario)?),
+            ];
+            let software = concat!("heli ", env!("CARGO_PKG_VERSION"));
+            let entries =
+                heli_log::metadata::flight(software, std::time::SystemTime::now(), parameters);
+            log.write_metadata(heli_log::metadata::FLIGHT, &entries)
+                .with_context(|| format!("writing the flight log {}", path.display()))?;
+            Some(StreamLogger::new(log))
+        }
         None => None,
     };
     let mut log_error = None;
@@ -330,29 +342,18 @@ fn model(args: ModelArgs) -> Result<ExitCode> {
 fn log(action: LogAction) -> Result<ExitCode> {
     let read = |file: &std::path::Path| -> Result<heli_log::LogContents> {
         let bytes = std::fs::read(file).with_context(|| format!("reading {}", file.display()))?;
-        Ok(heli_log::read(&bytes))
+        let contents = heli_log::read(&bytes);
+        if let Some(stop) = &contents.stopped
+            && stop.kind == heli_log::StopKind::NotMcap
+        {
+            bail!("{} is {stop}", file.display());
+        }
+        Ok(contents)
     };
     match action {
         LogAction::Info { file } => {
             let contents = read(&file)?;
-            println!("{}", file.display());
-            if let Some((first, last)) = contents.span_us() {
-                println!(
-                    "  time     {:.3} s to {:.3} s",
-                    first as f64 * 1e-6,
-                    last as f64 * 1e-6
-                );
-            }
-            for (channel, count) in contents.counts() {
-                println!("  {channel:<8} {count} messages");
-            }
-            if contents.bad_messages > 0 {
-                println!("  {} messages could not be decoded", contents.bad_messages);
-            }
-            match &contents.stopped {
-                Some(why) => println!("  cut off: read up to the last whole chunk ({why})"),
-                None => println!("  complete"),
-            }
+            print_log_info(&file, &contents)?;
         }
         LogAction::Export { file, channel, out } => {
             let contents = read(&file)?;
@@ -421,6 +422,101 @@ fn log(action: LogAction) -> Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Most faults `heli log info` lists one by one.
+const FAULTS_LISTED: usize = 20;
+
+/// `heli log info`: channels with their counts, rates, gaps and schemas, the metadata, the
+/// warnings and worse, and whether the file is whole. A log with no message, or a corrupt
+/// one, is an error (after what could be read is shown).
+fn print_log_info(file: &std::path::Path, contents: &heli_log::LogContents) -> Result<()> {
+    use heli_log::StopKind;
+    if contents.messages.is_empty() {
+        let why = contents
+            .stopped
+            .as_ref()
+            .map_or(String::new(), |s| format!(" ({s})"));
+        bail!("{} holds no messages{why}", file.display());
+    }
+    println!("{}", file.display());
+    if let Some((first, last)) = contents.span_us() {
+        println!(
+            "  time     {:.3} s to {:.3} s",
+            first as f64 * 1e-6,
+            last as f64 * 1e-6
+        );
+    }
+    println!("  channel       messages            rate  largest interval        sequence");
+    for c in heli_log::stats::channels(contents) {
+        let rate = c.rate_hz.map_or("-".to_string(), |hz| {
+            if hz >= 1.0 {
+                format!("{hz:.1} Hz")
+            } else {
+                format!("{hz:.3} Hz")
+            }
+        });
+        let interval = format!(
+            "{:.3} s before {:.2} s",
+            c.largest_interval_us as f64 * 1e-6,
+            c.largest_interval_end_us as f64 * 1e-6
+        );
+        let sequence = match (c.sequence_gaps, c.sequence_breaks) {
+            (0, 0) => "no gaps".to_string(),
+            (gaps, 0) => format!("{gaps} gaps, {} missing", c.missing),
+            (gaps, breaks) => format!("{gaps} gaps, {} missing, {breaks} restarts", c.missing),
+        };
+        println!(
+            "  {:<12} {:>6} messages {:>10}  {interval:<22}  {sequence}  [{}]",
+            c.topic,
+            c.messages,
+            rate,
+            c.schema.as_deref().unwrap_or("no schema")
+        );
+    }
+    for m in &contents.metadata {
+        println!("  metadata '{}'", m.name);
+        for (key, value) in &m.entries {
+            let lines = value.lines().count();
+            if lines > 1 {
+                println!("    {key:<26} ({lines} lines)");
+            } else {
+                println!("    {key:<26} {value}");
+            }
+        }
+    }
+    let faults = heli_log::stats::faults(contents);
+    if faults.is_empty() {
+        println!("  faults   none (no event at level warning or worse)");
+    } else {
+        println!(
+            "  faults   {} events at level warning or worse",
+            faults.len()
+        );
+        for f in faults.iter().take(FAULTS_LISTED) {
+            println!("    {:<8} {}", f.level.name(), f.text);
+        }
+        if faults.len() > FAULTS_LISTED {
+            println!("    ... and {} more", faults.len() - FAULTS_LISTED);
+        }
+    }
+    if contents.bad_messages > 0 {
+        println!("  {} messages could not be decoded", contents.bad_messages);
+    }
+    match &contents.stopped {
+        None if contents.closed => println!("  complete: closed by its writer"),
+        None => println!(
+            "  complete up to its last flush, not closed by its writer (crash, kill or power loss)"
+        ),
+        Some(stop) if stop.kind == StopKind::Truncated => {
+            println!("  cut off: read up to the last whole chunk; {stop}")
+        }
+        Some(stop) => bail!(
+            "{} is damaged: {stop}; the messages before it are listed above",
+            file.display()
+        ),
+    }
+    Ok(())
 }
 
 fn bench(json: bool) -> Result<ExitCode> {

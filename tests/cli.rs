@@ -298,3 +298,195 @@ fn bench_measures_parsers_control_step_speed_and_memory() {
     assert!(v["control_step"]["steps"].as_u64().unwrap_or(0) > 3000);
     assert_eq!(v["realtime_factor"].as_array().map(Vec::len), Some(2));
 }
+
+fn log_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("heli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap_or_default();
+    dir
+}
+
+#[test]
+fn log_info_gives_rates_gaps_metadata_and_the_faults() {
+    let dir = log_dir("log-info");
+    let log = dir.join("gps-outage.mcap");
+    let log_path = log.to_str().unwrap_or_default();
+    let out = heli(&[
+        "sim",
+        "--scenario",
+        "gps-outage",
+        "--json",
+        "--log",
+        log_path,
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let info = heli(&["log", "info", log_path]);
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(info.status.success(), "{text}");
+    let line = |channel: &str| {
+        text.lines()
+            .find(|l| l.trim_start().starts_with(&format!("{channel} ")))
+            .unwrap_or_default()
+            .to_string()
+    };
+    // Rates per stream, and the foxglove views with their well-known schemas.
+    assert!(
+        line("imu").contains("100.0 Hz") && line("imu").contains("no gaps"),
+        "{text}"
+    );
+    assert!(line("state").contains("50.0 Hz"), "{text}");
+    assert!(
+        line("foxglove/tf").contains("[foxglove.FrameTransform]"),
+        "{text}"
+    );
+    assert!(
+        line("foxglove/fix").contains("[foxglove.LocationFix]"),
+        "{text}"
+    );
+    assert!(line("foxglove/log").contains("[foxglove.Log]"), "{text}");
+    // The 10 s outage is the GPS channel's largest interval.
+    let gps = line("gps");
+    let gap_s: f64 = gps
+        .split(" s before ")
+        .next()
+        .and_then(|before| before.split_whitespace().last())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0.0);
+    assert!((9.0..13.0).contains(&gap_s), "{gps}");
+    // The metadata, and the outage among the faults with its level.
+    assert!(
+        text.contains("metadata 'flight'")
+            && text.contains("scenario                   gps-outage"),
+        "{text}"
+    );
+    assert!(text.contains("software                   heli "), "{text}");
+    assert!(text.contains("wall_clock_start_utc"), "{text}");
+    let faults = text.split("faults").nth(1).unwrap_or_default();
+    assert!(
+        faults.contains("error    t=") && faults.contains("GPS lost"),
+        "{text}"
+    );
+    assert!(
+        !faults.contains("phase hold"),
+        "routine events are not faults: {text}"
+    );
+    assert!(text.contains("complete: closed by its writer"), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn log_info_refuses_what_is_not_a_log_and_a_log_without_messages() {
+    let dir = log_dir("log-refuse");
+    let mut empty_mcap = b"\x89MCAP0\r\n".to_vec();
+    // Header record (empty profile and library), DataEnd, Footer, magic.
+    empty_mcap.extend_from_slice(&[0x01, 8, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]);
+    empty_mcap.extend_from_slice(&[0x0f, 4, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]);
+    empty_mcap.extend_from_slice(&[0x02, 20, 0, 0, 0, 0, 0, 0, 0]);
+    empty_mcap.extend_from_slice(&[0; 20]);
+    empty_mcap.extend_from_slice(b"\x89MCAP0\r\n");
+    for (name, bytes, complaint) in [
+        (
+            "text.mcap",
+            &b"flight notes, not a log\n"[..],
+            "not an MCAP file",
+        ),
+        ("empty.mcap", &b""[..], "the file is empty"),
+        ("no-messages.mcap", &empty_mcap[..], "holds no messages"),
+    ] {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).unwrap_or_default();
+        let out = heli(&["log", "info", path.to_str().unwrap_or_default()]);
+        let why = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{name}: {why}");
+        assert!(
+            why.contains(complaint) && why.contains(name),
+            "{name}: {why}"
+        );
+        let export = heli(&[
+            "log",
+            "export",
+            path.to_str().unwrap_or_default(),
+            "--channel",
+            "imu",
+        ]);
+        assert_eq!(export.status.code(), Some(2), "{name}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn log_info_on_a_damaged_log_shows_what_it_read_then_fails_without_panicking() {
+    let dir = log_dir("log-damaged");
+    let log = dir.join("hover.mcap");
+    let log_path = log.to_str().unwrap_or_default();
+    let out = heli(&[
+        "sim",
+        "--scenario",
+        "hover",
+        "--duration",
+        "30",
+        "--log",
+        log_path,
+    ]);
+    assert!(
+        out.status.code().is_some(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut bytes = std::fs::read(&log).unwrap_or_default();
+    let middle = bytes.len() / 2;
+    for b in bytes.iter_mut().skip(middle).take(200) {
+        *b ^= 0xa5;
+    }
+    let damaged = dir.join("damaged.mcap");
+    std::fs::write(&damaged, &bytes).unwrap_or_default();
+    let info = heli(&["log", "info", damaged.to_str().unwrap_or_default()]);
+    let (text, why) = (
+        String::from_utf8_lossy(&info.stdout),
+        String::from_utf8_lossy(&info.stderr),
+    );
+    assert_eq!(info.status.code(), Some(2), "{text}{why}");
+    assert!(why.contains("damaged") && why.contains("byte"), "{why}");
+    assert!(text.contains("imu "), "what was read is shown: {text}");
+    assert!(!why.contains("panicked"), "{why}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_killed_sim_leaves_a_log_that_reads_to_its_last_flush() {
+    let dir = log_dir("log-killed");
+    let log = dir.join("demo.mcap");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_heli"))
+        .args(["sim", "--log", log.to_str().unwrap_or_default()])
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot run heli: {e}"));
+    // Kill it mid-flight, once the log holds a few hundred kilobytes.
+    let start = std::time::Instant::now();
+    while std::fs::metadata(&log).map_or(0, |m| m.len()) < 300_000
+        && start.elapsed() < std::time::Duration::from_secs(60)
+    {
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    let _ = child.kill();
+    let finished = child.wait().is_ok_and(|s| s.success());
+    let info = heli(&["log", "info", log.to_str().unwrap_or_default()]);
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(
+        info.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&info.stderr)
+    );
+    assert!(text.contains("imu "), "{text}");
+    if !finished {
+        // Between flushes the file is whole up to its last one.
+        assert!(
+            text.contains("not closed by its writer") || text.contains("cut off"),
+            "{text}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -20,4 +20,6 @@ fuzz_target!(|data: &[u8]| {
         let _ = plot::panels(&contents, topic, &[], Window::default());
     }
     let _ = plot::events(&contents, Window::default());
+    let _ = heli_log::stats::channels(&contents);
+    let _ = heli_log::stats::faults(&contents);
 });

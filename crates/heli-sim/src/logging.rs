@@ -1,114 +1,26 @@
-//! The flight software's stream records as JSON messages for the flight log (one channel per
-//! stream, SI units named in the field names).
+//! The simulator's flight logger: an observer of a [`crate::Simulation`]'s seven streams and
+//! events that appends what is new to a [`heli_log::FlightLog`]. The conversion of records
+//! and events into log messages is heli-log's ([`heli_log::records`], [`heli_log::events`]),
+//! shared with the vehicle runtime.
 
 use heli_fsw::streams::Record;
-use serde_json::{Value, json};
+use heli_log::records::record_time;
+use heli_log::{FlightLog, LogError, LogFile};
 
-fn xyz(v: &nalgebra::Vector3<f64>) -> [f64; 3] {
-    [v.x, v.y, v.z]
-}
-
-/// The channel, time and content of a record.
-pub fn record_json(record: &Record) -> (&'static str, u64, Value) {
-    match record {
-        Record::Imu(r) => (
-            "imu",
-            r.t_us,
-            json!({
-                "rate_rps": r.value.imu.rate_rps,
-                "accel_mps2": r.value.imu.accel_mps2,
-                "temp_c": r.value.imu.temp_c,
-                "repeated": r.value.repeated,
-            }),
-        ),
-        Record::State(r) => {
-            let nav = &r.value.nav;
-            let (roll, pitch, yaw) = nav.euler_rad();
-            (
-                "state",
-                r.t_us,
-                json!({
-                    "phase": r.value.phase.name(),
-                    "roll_rad": roll,
-                    "pitch_rad": pitch,
-                    "yaw_rad": yaw,
-                    "pos_ned_m": xyz(&nav.pos_ned_m),
-                    "vel_ned_mps": xyz(&nav.vel_ned_mps),
-                    "rate_body_rps": xyz(&nav.rate_body_rps),
-                    "gyro_bias_rps": xyz(&nav.gyro_bias_rps),
-                    "accel_bias_mps2": xyz(&nav.accel_bias_mps2),
-                    "target_ned_m": r.value.target.map(|t| xyz(&t.pos_ned_m)),
-                }),
-            )
-        }
-        Record::Servo(r) => {
-            let c = &r.value.controls;
-            (
-                "servo",
-                r.t_us,
-                json!({
-                    "aileron": c.aileron, "elevator": c.elevator, "rudder": c.rudder,
-                    "collective": c.collective, "throttle": c.throttle, "rotor_rpm": r.value.rotor_rpm,
-                }),
-            )
-        }
-        Record::Uplink(r) => {
-            let u = &r.value;
-            let p = &u.pulses;
-            (
-                "uplink",
-                r.t_us,
-                json!({
-                    "rotor_rpm": u.rotor_rpm,
-                    "aileron_us": p.aileron_us, "elevator_us": p.elevator_us, "rudder_us": p.rudder_us,
-                    "collective_us": p.collective_us, "throttle_us": p.throttle_us,
-                    "auto": u.auto_mode, "bypass": u.bypass,
-                    "receiver_batt_v": u.receiver_batt_v, "servo_batt_v": u.servo_batt_v,
-                }),
-            )
-        }
-        Record::Gps(r) => {
-            let g = &r.value;
-            (
-                "gps",
-                r.t_us,
-                json!({
-                    "tow_ms": g.tow_ms, "lat_deg": g.lat_deg, "lon_deg": g.lon_deg, "alt_m": g.alt_m,
-                    "vel_ned_mps": g.vel_ned_mps, "satellites": g.satellites, "fix": format!("{:?}", g.fix),
-                }),
-            )
-        }
-        Record::Baro(r) => (
-            "baro",
-            r.t_us,
-            json!({"pressure_mbar": r.value.pressure_mbar, "alt_m": r.value.alt_m}),
-        ),
-        Record::Compass(r) => (
-            "compass",
-            r.t_us,
-            json!({
-                "counts": r.value.adc.counts,
-                "field_gauss": r.value.field.field_gauss,
-                "heading_rad": r.value.heading_rad,
-            }),
-        ),
-    }
-}
-
-/// The flight logger: an observer of the seven streams and the event list that appends what
-/// is new to a [`heli_log::FlightLog`]. It only reads; it can fall behind by as much as the
-/// streams keep (10 s here) before it misses anything, and counts what it missed.
-pub struct StreamLogger<W: std::io::Write + std::io::Seek> {
-    log: heli_log::FlightLog<W>,
+/// The flight logger. It only reads; it can fall behind by as much as the streams keep (10 s
+/// here) before it misses anything, and counts what it missed. Each record keeps its
+/// stream's sequence number in the log, so a record it missed is a gap in its channel.
+pub struct StreamLogger<W: LogFile> {
+    log: FlightLog<W>,
     cursors: [u64; 7],
     events: usize,
     /// Records the streams had overwritten before the logger read them.
     pub missed: u64,
 }
 
-impl<W: std::io::Write + std::io::Seek> StreamLogger<W> {
+impl<W: LogFile> StreamLogger<W> {
     /// A logger writing to `log`.
-    pub fn new(log: heli_log::FlightLog<W>) -> Self {
+    pub fn new(log: FlightLog<W>) -> Self {
         Self {
             log,
             cursors: [0; 7],
@@ -118,15 +30,21 @@ impl<W: std::io::Write + std::io::Seek> StreamLogger<W> {
     }
 
     /// Appends everything published since the last call.
-    pub fn drain(&mut self, sim: &crate::Simulation) -> Result<(), heli_log::LogError> {
+    pub fn drain(&mut self, sim: &crate::Simulation) -> Result<(), LogError> {
         let streams = sim.streams();
-        let mut records: Vec<Record> = Vec::new();
+        let mut records: Vec<(Record, u64)> = Vec::new();
         macro_rules! take {
             ($i:expr, $stream:expr, $variant:path) => {{
                 let (new, next, missed) = $stream.read_since(self.cursors[$i]);
                 self.cursors[$i] = next;
                 self.missed += missed;
-                records.extend(new.into_iter().map($variant));
+                // The stream's sequence number of the first new record.
+                let first = next.saturating_sub(new.len() as u64);
+                records.extend(
+                    new.into_iter()
+                        .zip(first..)
+                        .map(|(r, seq)| ($variant(r), seq)),
+                );
             }};
         }
         take!(0, streams.imu, Record::Imu);
@@ -137,18 +55,14 @@ impl<W: std::io::Write + std::io::Seek> StreamLogger<W> {
         take!(5, streams.baro, Record::Baro);
         take!(6, streams.compass, Record::Compass);
         // Written in time order across streams, as a flight recorder would.
-        records.sort_by_key(record_time);
-        for record in &records {
-            let (topic, t_us, value) = record_json(record);
-            self.log.write(topic, t_us, &value)?;
+        records.sort_by_key(|(record, _)| record_time(record));
+        for (record, sequence) in &records {
+            self.log.write_record_sequenced(record, *sequence)?;
         }
+        // The simulation keeps its events as the texts heli-log's event_text makes; the
+        // level comes back from the text.
         for text in sim.events().iter().skip(self.events) {
-            let t_us = text
-                .strip_prefix("t=")
-                .and_then(|rest| rest.split(' ').next())
-                .and_then(|t| t.parse::<f64>().ok())
-                .map_or(sim.now_us(), |t| (t * 1e6) as u64);
-            self.log.write("events", t_us, &json!({ "text": text }))?;
+            self.log.write_event_text(text, sim.now_us())?;
         }
         self.events = sim.events().len();
         Ok(())
@@ -159,20 +73,74 @@ impl<W: std::io::Write + std::io::Seek> StreamLogger<W> {
         self.log.messages()
     }
 
+    /// The log, to record metadata or flush.
+    pub fn log_mut(&mut self) -> &mut FlightLog<W> {
+        &mut self.log
+    }
+
     /// Closes the log.
-    pub fn finish(self) -> Result<W, heli_log::LogError> {
+    pub fn finish(self) -> Result<W, LogError> {
         self.log.finish()
     }
 }
 
-fn record_time(record: &Record) -> u64 {
-    match record {
-        Record::Imu(r) => r.t_us,
-        Record::State(r) => r.t_us,
-        Record::Servo(r) => r.t_us,
-        Record::Uplink(r) => r.t_us,
-        Record::Gps(r) => r.t_us,
-        Record::Baro(r) => r.t_us,
-        Record::Compass(r) => r.t_us,
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lockstep::{RunOptions, Simulation};
+    use std::io::Cursor;
+
+    #[test]
+    fn every_stream_and_event_is_logged_with_its_streams_numbers() {
+        let mut scenario = crate::scenario::builtins()
+            .into_iter()
+            .find(|s| s.name == "hover")
+            .unwrap_or_default();
+        scenario.duration_s = 90.0;
+        let log = FlightLog::new(Cursor::new(Vec::new())).unwrap_or_else(|e| panic!("{e}"));
+        let mut logger = StreamLogger::new(log);
+        let mut error = None;
+        let sim = Simulation::new(scenario).unwrap_or_else(|e| panic!("{e}"));
+        sim.run_observed(
+            RunOptions {
+                realtime: false,
+                duration_s: Some(90.0),
+            },
+            |_, _| {},
+            |sim| {
+                if error.is_none() {
+                    error = logger.drain(sim).err();
+                }
+            },
+        );
+        assert!(error.is_none(), "{error:?}");
+        assert_eq!(logger.missed, 0);
+        let bytes = logger
+            .finish()
+            .unwrap_or_else(|e| panic!("{e}"))
+            .into_inner();
+        let contents = heli_log::read(&bytes);
+        assert_eq!(contents.stopped, None);
+        let stats = heli_log::stats::channels(&contents);
+        for topic in heli_log::STREAMS
+            .iter()
+            .chain(&["events", "foxglove/tf", "foxglove/log"])
+        {
+            let s = stats.iter().find(|s| s.topic == *topic);
+            let s = s.unwrap_or_else(|| panic!("no {topic} channel"));
+            // Nothing missed: the stream numbers run without a gap.
+            assert_eq!((s.sequence_gaps, s.sequence_breaks), (0, 0), "{topic}");
+        }
+        // Calibration ends at 80 s: its event is there, with its level.
+        let calibrated = contents.messages.iter().find(|m| {
+            m.topic == "events"
+                && m.value["text"]
+                    .as_str()
+                    .is_some_and(|t| t.contains("calibration done"))
+        });
+        assert_eq!(
+            calibrated.map(|m| m.value["level"].clone()),
+            Some("info".into())
+        );
     }
 }

@@ -1,0 +1,282 @@
+//! The flight core's events as log messages: a text for people and a level for sorting the
+//! routine from the alarming.
+//!
+//! [`event_text`] is the one place the event texts are made (`t=85.02 s phase takeoff`);
+//! [`event_json`] is the `events` channel's message. An owner that kept only the text (the
+//! simulator's event list today) gets the level back with [`event_json_from_text`], which
+//! recognises every text [`event_text`] makes (tested for each kind of event).
+//!
+//! Levels follow Foxglove's `foxglove.Log` levels so that the same number serves its log
+//! panel. They are the flight software's severities ([`CoreEvent::severity`]): routine and
+//! notable activity is `info`; something off that the software absorbs (a watchdog fire, a
+//! late device, an abandoned roll) is `warning`; something that changes what it does
+//! (transmitter lost, GPS outage, a silent device) is `error`; an invalid estimate is `fatal`.
+
+use heli_fsw::core::{CoreEvent, Severity};
+use heli_fsw::health::{Device, HealthState};
+use serde_json::{Value, json};
+
+/// How much an event matters (Foxglove's `foxglove.LogLevel` numbers).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum EventLevel {
+    /// Not known (an event kind this crate does not name yet, or an old log's event).
+    Unknown = 0,
+    /// Detail for debugging.
+    Debug = 1,
+    /// Routine or notable activity.
+    Info = 2,
+    /// Something off that the software handles without changing what it does.
+    Warning = 3,
+    /// Something off that changes what the software does.
+    Error = 4,
+    /// The flight cannot go on as planned.
+    Fatal = 5,
+}
+
+impl EventLevel {
+    /// Every level, lowest first.
+    pub const ALL: [EventLevel; 6] = [
+        EventLevel::Unknown,
+        EventLevel::Debug,
+        EventLevel::Info,
+        EventLevel::Warning,
+        EventLevel::Error,
+        EventLevel::Fatal,
+    ];
+
+    /// The name written in the `events` channel's `level` field.
+    pub const fn name(self) -> &'static str {
+        match self {
+            EventLevel::Unknown => "unknown",
+            EventLevel::Debug => "debug",
+            EventLevel::Info => "info",
+            EventLevel::Warning => "warning",
+            EventLevel::Error => "error",
+            EventLevel::Fatal => "fatal",
+        }
+    }
+
+    /// The level named `name` (as [`EventLevel::name`] writes it).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|l| l.name() == name)
+    }
+
+    /// Foxglove's number for this level.
+    pub const fn foxglove(self) -> u8 {
+        self as u8
+    }
+
+    /// Warning or worse: what `heli log info` lists as faults.
+    pub fn is_fault(self) -> bool {
+        self >= EventLevel::Warning
+    }
+}
+
+/// The text of an event at `t_us`, beginning with its time (`t=85.02 s phase takeoff`).
+pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
+    let t = t_us as f64 * 1e-6;
+    match e {
+        CoreEvent::CalibrationDone { gyro_bias_rps } => format!(
+            "t={t:.2} s calibration done, gyro bias [{:.4}, {:.4}, {:.4}] rad/s",
+            gyro_bias_rps[0], gyro_bias_rps[1], gyro_bias_rps[2]
+        ),
+        CoreEvent::PhaseChanged(p) => format!("t={t:.2} s phase {}", p.name()),
+        CoreEvent::WatchdogFired => format!("t={t:.2} s watchdog fired"),
+        CoreEvent::PilotSignalLost => format!("t={t:.2} s pilot signal lost"),
+        CoreEvent::RollCompleted(n) => format!("t={t:.2} s roll {n} completed"),
+        CoreEvent::RollAbandoned => format!("t={t:.2} s roll abandoned: took too long"),
+        CoreEvent::PlanComplete => format!("t={t:.2} s flight plan complete"),
+        CoreEvent::GpsLost => format!("t={t:.2} s GPS lost: estimate coasting on the IMU"),
+        CoreEvent::GpsRegained => format!("t={t:.2} s GPS back"),
+        CoreEvent::DeviceHealth { device, state } => {
+            format!("t={t:.2} s {} {}", device.name(), state.name())
+        }
+        CoreEvent::EstimateInvalid => format!("t={t:.2} s estimate invalid: IMU silent"),
+        CoreEvent::UplinkLost => format!("t={t:.2} s uplink lost: transmitter loss"),
+    }
+}
+
+/// How much an event matters: the flight software's severity as a log level (routine and
+/// notable activity `info`, low warnings `warning`, high warnings `error`, fatal `fatal`).
+pub fn event_level(e: &CoreEvent) -> EventLevel {
+    match e.severity() {
+        Severity::ActivityLo | Severity::ActivityHi => EventLevel::Info,
+        Severity::WarningLo => EventLevel::Warning,
+        Severity::WarningHi => EventLevel::Error,
+        Severity::Fatal => EventLevel::Fatal,
+    }
+}
+
+/// Every event whose text has no number in it, for recognising texts.
+fn events_without_numbers() -> Vec<CoreEvent> {
+    let mut events = vec![
+        CoreEvent::WatchdogFired,
+        CoreEvent::PilotSignalLost,
+        CoreEvent::RollAbandoned,
+        CoreEvent::PlanComplete,
+        CoreEvent::GpsLost,
+        CoreEvent::GpsRegained,
+        CoreEvent::EstimateInvalid,
+        CoreEvent::UplinkLost,
+    ];
+    for device in Device::ALL {
+        for state in [
+            HealthState::Waiting,
+            HealthState::Ok,
+            HealthState::Late,
+            HealthState::Silent,
+            HealthState::Failed,
+        ] {
+            events.push(CoreEvent::DeviceHealth { device, state });
+        }
+    }
+    events
+}
+
+/// The `events` channel's message for an event at `t_us`: `{"text": …, "level": …}`.
+pub fn event_json(t_us: u64, e: &CoreEvent) -> Value {
+    text_event_json(&event_text(t_us, e), event_level(e))
+}
+
+/// The `events` channel's message for an event known by its text and level.
+pub fn text_event_json(text: &str, level: EventLevel) -> Value {
+    json!({ "text": text, "level": level.name() })
+}
+
+/// The time (µs) and level of an event text made by [`event_text`]; `None` for a text that
+/// does not begin with its time. A kind of event it does not know gets
+/// [`EventLevel::Unknown`]. The time has the text's resolution (10 ms).
+pub fn parse_event_text(text: &str) -> Option<(u64, EventLevel)> {
+    let rest = text.strip_prefix("t=")?;
+    let (seconds, what) = rest.split_once(" s ")?;
+    let seconds: f64 = seconds
+        .parse()
+        .ok()
+        .filter(|s: &f64| s.is_finite() && *s >= 0.0)?;
+    let t_us = (seconds * 1e6).round() as u64;
+    // The kinds whose texts carry numbers or names, by their fixed part.
+    let with_numbers = [
+        (
+            "calibration done",
+            CoreEvent::CalibrationDone {
+                gyro_bias_rps: [0.0; 3],
+            },
+        ),
+        (
+            "phase ",
+            CoreEvent::PhaseChanged(heli_fsw::core::Phase::Manual),
+        ),
+        ("roll ", CoreEvent::RollCompleted(1)),
+    ];
+    let level = events_without_numbers()
+        .iter()
+        .find(|e| event_text(0, e).strip_prefix("t=0.00 s ") == Some(what))
+        .or_else(|| {
+            with_numbers
+                .iter()
+                .find(|(start, e)| {
+                    what.starts_with(start)
+                        && (!matches!(e, CoreEvent::RollCompleted(_))
+                            || what.ends_with(" completed"))
+                })
+                .map(|(_, e)| e)
+        })
+        .map_or(EventLevel::Unknown, event_level);
+    Some((t_us, level))
+}
+
+/// The time (µs) and `events` message of an event text made by [`event_text`]; `None` if the
+/// text does not begin with its time. Kinds of event it does not know get level `unknown`.
+pub fn event_json_from_text(text: &str) -> Option<(u64, Value)> {
+    let (t_us, level) = parse_event_text(text)?;
+    Some((t_us, text_event_json(text, level)))
+}
+
+/// The level of an `events` message: its `level` field, or for a log written before events had
+/// levels, the level of its text.
+pub fn level_of(message: &Value) -> EventLevel {
+    if let Some(level) = message["level"].as_str().and_then(EventLevel::from_name) {
+        return level;
+    }
+    message["text"]
+        .as_str()
+        .and_then(parse_event_text)
+        .map_or(EventLevel::Unknown, |(_, level)| level)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use heli_fsw::core::Phase;
+
+    fn every_kind() -> Vec<CoreEvent> {
+        let mut events = vec![
+            CoreEvent::CalibrationDone {
+                gyro_bias_rps: [0.001, -0.002, 0.0005],
+            },
+            CoreEvent::PhaseChanged(Phase::Manual),
+            CoreEvent::PhaseChanged(Phase::Landed),
+            CoreEvent::RollCompleted(2),
+        ];
+        events.extend(events_without_numbers());
+        events
+    }
+
+    #[test]
+    fn every_event_text_is_recognised_with_its_time_and_level() {
+        for e in every_kind() {
+            let text = event_text(85_020_000, &e);
+            assert!(text.starts_with("t=85.02 s "), "{text}");
+            assert_ne!(event_level(&e), EventLevel::Unknown, "{text}");
+            assert!(!text.contains('{'), "a text, not a Debug form: {text}");
+            assert_eq!(
+                parse_event_text(&text),
+                Some((85_020_000, event_level(&e))),
+                "{text}"
+            );
+            let message = event_json(85_020_000, &e);
+            assert_eq!(message["text"], text.as_str());
+            assert_eq!(level_of(&message), event_level(&e));
+            assert_eq!(event_json_from_text(&text), Some((85_020_000, message)));
+        }
+    }
+
+    #[test]
+    fn levels_sort_the_routine_from_the_alarming() {
+        assert_eq!(event_level(&CoreEvent::GpsLost), EventLevel::Error);
+        assert_eq!(event_level(&CoreEvent::WatchdogFired), EventLevel::Warning);
+        assert_eq!(event_level(&CoreEvent::PlanComplete), EventLevel::Info);
+        assert_eq!(event_level(&CoreEvent::EstimateInvalid), EventLevel::Fatal);
+        let silent_gps = CoreEvent::DeviceHealth {
+            device: Device::Gps,
+            state: HealthState::Silent,
+        };
+        assert_eq!(event_level(&silent_gps), EventLevel::Error);
+        assert_eq!(
+            parse_event_text("t=12.00 s gps silent"),
+            Some((12_000_000, EventLevel::Error))
+        );
+        assert!(EventLevel::Warning.is_fault() && !EventLevel::Info.is_fault());
+        assert_eq!(EventLevel::Error.foxglove(), 4);
+        for level in EventLevel::ALL {
+            assert_eq!(EventLevel::from_name(level.name()), Some(level));
+        }
+    }
+
+    #[test]
+    fn texts_it_did_not_make_are_not_given_a_level() {
+        assert_eq!(parse_event_text("hello"), None);
+        assert_eq!(parse_event_text("t=x s phase hold"), None);
+        assert_eq!(parse_event_text("t=-1.00 s phase hold"), None);
+        assert_eq!(
+            parse_event_text("t=1.00 s something new"),
+            Some((1_000_000, EventLevel::Unknown))
+        );
+        // An old log's event, without a level field: the level comes from its text.
+        assert_eq!(
+            level_of(&json!({"text": "t=3.00 s watchdog fired"})),
+            EventLevel::Warning
+        );
+        assert_eq!(level_of(&json!({"other": 1})), EventLevel::Unknown);
+    }
+}

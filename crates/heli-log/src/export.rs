@@ -1,0 +1,110 @@
+//! One channel's messages as CSV, for plotting elsewhere.
+
+use std::collections::BTreeMap;
+
+use serde_json::Value;
+
+use crate::LogContents;
+
+/// Calls `leaf` with the flattened name (`a.b`, `v[2]`) and value of every scalar in `value`.
+pub(crate) fn for_each_leaf(prefix: &str, value: &Value, leaf: &mut dyn FnMut(String, &Value)) {
+    match value {
+        Value::Object(map) => {
+            for (k, v) in map {
+                let key = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                for_each_leaf(&key, v, leaf);
+            }
+        }
+        Value::Array(items) => {
+            for (i, v) in items.iter().enumerate() {
+                for_each_leaf(&format!("{prefix}[{i}]"), v, leaf);
+            }
+        }
+        scalar => leaf(prefix.to_string(), scalar),
+    }
+}
+
+fn flatten(prefix: &str, value: &Value, out: &mut Vec<(String, String)>) {
+    for_each_leaf(prefix, value, &mut |name, v| {
+        let text = match v {
+            Value::String(s) => s.replace([',', '\n'], " "),
+            Value::Null => String::new(),
+            other => other.to_string(),
+        };
+        out.push((name, text));
+    });
+}
+
+/// One channel's messages as CSV: a `t_s` column, then one column per (flattened) field,
+/// named after the first message.
+pub fn to_csv(contents: &LogContents, topic: &str) -> String {
+    let rows: Vec<(u64, Vec<(String, String)>)> = contents
+        .messages
+        .iter()
+        .filter(|m| m.topic == topic)
+        .map(|m| {
+            let mut fields = Vec::new();
+            flatten("", &m.value, &mut fields);
+            (m.t_us, fields)
+        })
+        .collect();
+    let Some((_, first)) = rows.first() else {
+        return String::new();
+    };
+    let columns: Vec<String> = first.iter().map(|(k, _)| k.clone()).collect();
+    let mut csv = String::from("t_s");
+    for c in &columns {
+        csv.push(',');
+        csv.push_str(c);
+    }
+    csv.push('\n');
+    for (t_us, fields) in &rows {
+        let map: BTreeMap<&str, &str> = fields
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.as_str()))
+            .collect();
+        csv.push_str(&format!("{:.6}", *t_us as f64 * 1e-6));
+        for c in &columns {
+            csv.push(',');
+            csv.push_str(map.get(c.as_str()).copied().unwrap_or(""));
+        }
+        csv.push('\n');
+    }
+    csv
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::LoggedMessage;
+    use serde_json::json;
+
+    #[test]
+    fn csv_export_flattens_fields() {
+        let messages = (0..50)
+            .map(|k| LoggedMessage {
+                topic: "state".into(),
+                t_us: k * 20_000,
+                sequence: k as u32,
+                value: json!({"phase": "hold", "pos_ned_m": [1.0, 2.0, -10.0]}),
+            })
+            .collect();
+        let contents = LogContents {
+            messages,
+            ..Default::default()
+        };
+        let csv = to_csv(&contents, "state");
+        let mut lines = csv.lines();
+        assert_eq!(
+            lines.next(),
+            Some("t_s,phase,pos_ned_m[0],pos_ned_m[1],pos_ned_m[2]")
+        );
+        assert_eq!(lines.next(), Some("0.000000,hold,1.0,2.0,-10.0"));
+        assert_eq!(csv.lines().count(), 51);
+        assert_eq!(to_csv(&contents, "nothing"), "");
+    }
+}

@@ -1,0 +1,205 @@
+//! Tests of the writer: complete records only, a complete file after every flush.
+
+use super::*;
+use crate::read;
+use crate::testutil::{SharedFile, write_flight, write_flight_to};
+use serde_json::json;
+
+#[test]
+fn after_every_flush_the_file_is_a_complete_mcap_file() {
+    let file = SharedFile::default();
+    let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));
+    write_flight_to(&mut log, 5);
+    let written = log.messages();
+    log.finish().unwrap_or_else(|e| panic!("{e}"));
+    let state = file.0.borrow();
+    assert!(
+        state.snapshots.len() > 45,
+        "{} flushes",
+        state.snapshots.len()
+    );
+    let mut previous = 0;
+    for (i, snapshot) in state.snapshots.iter().enumerate() {
+        let contents = read(snapshot);
+        let last = i + 1 == state.snapshots.len();
+        assert_eq!(contents.stopped, None, "flush {i}");
+        assert_eq!(contents.closed, last, "flush {i}");
+        let n = contents.messages.len();
+        assert!(n >= previous, "flush {i} lost messages");
+        previous = n;
+    }
+    assert_eq!(previous as u64, written);
+    // One write per flush, at the provisional end of the file before it: everything before
+    // that end is written once and never again.
+    assert_eq!(state.writes.len(), state.snapshots.len());
+    let mut length = 0u64;
+    for (i, &(at, n)) in state.writes.iter().enumerate() {
+        assert_eq!(at, length.saturating_sub(50), "write {i}");
+        length = at + n as u64;
+    }
+}
+
+#[test]
+fn a_crash_loses_at_most_the_last_100_ms_of_log_time() {
+    let file = SharedFile::default();
+    let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));
+    for k in 0..300u64 {
+        let t_us = k * 10_000;
+        log.write("imu", t_us, &json!({ "k": k }))
+            .unwrap_or_else(|e| panic!("{e}"));
+        // A crash now leaves the file as it is: everything older than 100 ms is in it.
+        let contents = read(&file.bytes());
+        assert_eq!(contents.stopped, None);
+        let kept = contents.messages.last().map_or(0, |m| m.t_us + 10_000);
+        assert!(
+            t_us + 10_000 - kept <= FLUSH_EVERY_US,
+            "at {t_us} us only up to {kept}"
+        );
+    }
+}
+
+#[test]
+fn each_channel_numbers_its_own_messages() {
+    let mut log = FlightLog::new(Cursor::new(Vec::new())).unwrap_or_else(|e| panic!("{e}"));
+    let v = json!({});
+    for (topic, t) in [
+        ("imu", 0),
+        ("imu", 10),
+        ("state", 10),
+        ("imu", 20),
+        ("state", 30),
+    ] {
+        log.write(topic, t, &v).unwrap_or_else(|e| panic!("{e}"));
+    }
+    log.write_sequenced("gps", 41, 40, &v)
+        .unwrap_or_else(|e| panic!("{e}"));
+    log.write("gps", 50, &v).unwrap_or_else(|e| panic!("{e}"));
+    let bytes = log.finish().unwrap_or_else(|e| panic!("{e}")).into_inner();
+    let contents = read(&bytes);
+    let sequences = |topic: &str| -> Vec<u32> {
+        contents
+            .messages
+            .iter()
+            .filter(|m| m.topic == topic)
+            .map(|m| m.sequence)
+            .collect()
+    };
+    assert_eq!(sequences("imu"), [0, 1, 2]);
+    assert_eq!(sequences("state"), [0, 1]);
+    assert_eq!(sequences("gps"), [41, 42]);
+}
+
+#[test]
+fn metadata_is_in_the_file_at_once_and_reads_back() {
+    let file = SharedFile::default();
+    let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));
+    let entries: BTreeMap<String, String> =
+        [("software".to_string(), "heli 0.1.0".to_string())].into();
+    log.write_metadata("flight", &entries)
+        .unwrap_or_else(|e| panic!("{e}"));
+    // Not finished: the record is there already.
+    let contents = read(&file.bytes());
+    assert_eq!(contents.metadata.len(), 1);
+    assert_eq!(contents.metadata[0].name, "flight");
+    assert_eq!(contents.metadata[0].entries, entries);
+    drop(log);
+    assert_eq!(read(&file.bytes()).metadata[0].entries, entries);
+}
+
+#[test]
+fn wall_clock_time_flushes_when_log_time_stands_still() {
+    let file = SharedFile::default();
+    let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));
+    log.write("imu", 0, &json!({}))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let before = log.stats().flushes;
+    assert!(!log.flush_if_due().unwrap_or(true), "nothing due yet");
+    std::thread::sleep(FLUSH_EVERY_WALL + Duration::from_millis(5));
+    assert!(log.flush_if_due().unwrap_or(false));
+    assert_eq!(log.stats().flushes, before + 1);
+    assert_eq!(read(&file.bytes()).messages.len(), 1);
+    // The same through a write that does not advance the log time.
+    std::thread::sleep(FLUSH_EVERY_WALL + Duration::from_millis(5));
+    log.write("imu", 0, &json!({}))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(log.stats().flushes, before + 2);
+}
+
+#[test]
+fn flushes_are_synced_at_most_every_50_ms_and_always_at_the_end() {
+    let file = SharedFile::default();
+    let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(file.0.borrow().syncs, 1, "the empty file is synced");
+    // 10 s of log time written far faster than real time: 100 flushes, few syncs.
+    write_flight_to(&mut log, 10);
+    let stats = log.stats();
+    assert!(stats.flushes >= 100);
+    assert!(stats.syncs < stats.flushes / 2, "{stats:?}");
+    std::thread::sleep(SYNC_EVERY_WALL + Duration::from_millis(5));
+    log.flush().unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(log.stats().syncs, stats.syncs + 1);
+    let syncs = log.stats().syncs;
+    log.finish().unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(file.0.borrow().syncs, syncs + 1, "finish syncs");
+}
+
+#[test]
+fn a_failed_write_is_retried_and_nothing_is_lost() {
+    let file = SharedFile::default();
+    let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));
+    log.write("imu", 0, &json!({"k": 0}))
+        .unwrap_or_else(|e| panic!("{e}"));
+    file.0.borrow_mut().fail_writes = 1;
+    assert!(log.write("imu", 200_000, &json!({"k": 1})).is_err());
+    log.write("imu", 400_000, &json!({"k": 2}))
+        .unwrap_or_else(|e| panic!("{e}"));
+    log.finish().unwrap_or_else(|e| panic!("{e}"));
+    let contents = read(&file.bytes());
+    assert_eq!((contents.stopped, contents.closed), (None, true));
+    assert_eq!(contents.messages.len(), 3);
+}
+
+#[test]
+fn a_log_dropped_without_finish_is_closed() {
+    let file = SharedFile::default();
+    let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));
+    write_flight_to(&mut log, 1);
+    drop(log);
+    let contents = read(&file.bytes());
+    assert!(contents.closed);
+    assert_eq!(contents.messages.len(), 150);
+}
+
+#[test]
+fn indexes_are_optional_and_change_nothing_that_is_read() {
+    let plain = write_flight(5);
+    let mut log = FlightLog::with_options(
+        Cursor::new(Vec::new()),
+        LogOptions {
+            indexed: true,
+            ..Default::default()
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    write_flight_to(&mut log, 5);
+    let indexed = log.finish().unwrap_or_else(|e| panic!("{e}")).into_inner();
+    assert_eq!(read(&plain).messages, read(&indexed).messages);
+    // With a chunk every 100 ms the indexes are a large part of the file.
+    assert!(
+        indexed.len() as f64 > plain.len() as f64 * 1.2,
+        "{} vs {}",
+        indexed.len(),
+        plain.len()
+    );
+}
+
+#[test]
+fn writing_after_finish_is_an_error_not_a_panic() {
+    let mut log = FlightLog::new(Cursor::new(Vec::new())).unwrap_or_else(|e| panic!("{e}"));
+    assert!(log.close().is_ok());
+    assert!(matches!(
+        log.write("imu", 0, &json!({})),
+        Err(LogError::Finished)
+    ));
+    assert!(matches!(log.flush(), Err(LogError::Finished)));
+}
