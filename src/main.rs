@@ -3,6 +3,11 @@
 //! The binary only parses arguments and wires the library crates together; the work is in
 //! `heli-sim`, `heli-fsw` and the others.
 
+mod driver_cmd;
+mod hilsim_cmd;
+mod replay_cmd;
+mod vehicle_cmd;
+
 use std::io::IsTerminal;
 use std::process::ExitCode;
 
@@ -38,10 +43,41 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// The HILSim alone, in real time: the helicopter's devices on pseudo-terminals and
+    /// IIO-style ADC files for a flight computer outside (`heli vehicle --hilsim DIR`).
+    Hilsim(hilsim_cmd::HilsimArgs),
+    /// The vehicle's bootstrap: starts and stops the flight process on Connect / Stop from
+    /// its control socket; `heli vehicle ctl COMMAND` sends it one.
+    #[command(args_conflicts_with_subcommands = true)]
+    Vehicle {
+        #[command(flatten)]
+        flight: vehicle_cmd::FlightArgs,
+        /// The bootstrap's control socket.
+        #[arg(long, global = true, env = "HELI_VEHICLE_SOCKET", default_value = vehicle_cmd::DEFAULT_SOCKET)]
+        socket: std::path::PathBuf,
+        #[command(subcommand)]
+        ctl: Option<VehicleCtl>,
+    },
+    /// The flight process the bootstrap starts (speaks a line protocol on stdin/stdout).
+    #[command(hide = true)]
+    Flight(vehicle_cmd::FlightArgs),
+    /// One device's stand-alone driver: readable lines per packet, logging with --log.
+    Driver(driver_cmd::DriverArgs),
     /// Read flight logs.
     Log {
         #[command(subcommand)]
         action: LogAction,
+    },
+}
+
+#[derive(Subcommand)]
+enum VehicleCtl {
+    /// Send the bootstrap one command: connect, start-logging SUFFIX MODE [PLAN], stop,
+    /// status, quit.
+    Ctl {
+        /// The command and its arguments.
+        #[arg(required = true, num_args = 1..)]
+        command: Vec<String>,
     },
 }
 
@@ -62,6 +98,12 @@ enum LogAction {
         /// Write here instead of standard output.
         #[arg(long)]
         out: Option<std::path::PathBuf>,
+    },
+    /// Feed the log's recorded device inputs to a fresh flight computer and compare its
+    /// servo commands and state estimates with the log's, bit for bit.
+    Replay {
+        /// The log file.
+        file: std::path::PathBuf,
     },
     /// Plot one channel's fields against time (SVG or PNG), with the flight's events marked.
     Plot {
@@ -149,6 +191,17 @@ fn main() -> ExitCode {
         Command::Model(args) => model(args),
         Command::Log { action } => log(action),
         Command::Bench { json } => bench(json),
+        Command::Hilsim(args) => hilsim_cmd::hilsim(&args),
+        Command::Vehicle {
+            flight,
+            socket,
+            ctl,
+        } => match ctl {
+            Some(VehicleCtl::Ctl { command }) => vehicle_cmd::ctl(&command, &socket),
+            None => vehicle_cmd::vehicle(&flight, &socket),
+        },
+        Command::Flight(args) => vehicle_cmd::flight_process(&args),
+        Command::Driver(args) => driver_cmd::driver(&args),
     };
     match result {
         Ok(code) => code,
@@ -351,6 +404,7 @@ fn log(action: LogAction) -> Result<ExitCode> {
         Ok(contents)
     };
     match action {
+        LogAction::Replay { file } => return replay_cmd::replay(&file, &read(&file)?),
         LogAction::Info { file } => {
             let contents = read(&file)?;
             print_log_info(&file, &contents)?;
@@ -555,7 +609,7 @@ fn write_stdout(text: &str) -> Result<()> {
     }
 }
 
-fn print_table(s: &Summary) {
+pub(crate) fn print_table(s: &Summary) {
     println!("scenario   {} (seed {})", s.scenario, s.seed);
     println!(
         "simulated  {:.1} s in {:.2} s wall time: {:.0}x real time",

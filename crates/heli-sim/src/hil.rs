@@ -179,11 +179,13 @@ pub fn run(
         if !sim.advance(end_us) {
             break;
         }
-        let due = wall_start + Duration::from_secs_f64(sim.now_us() as f64 * 1e-6 / options.speed);
-        if let Some(wait) = due.checked_duration_since(Instant::now()) {
-            std::thread::sleep(wait);
-        }
-        for out in sim.take_outbox() {
+        let wall_of =
+            |t_us: u64| wall_start + Duration::from_secs_f64(t_us as f64 * 1e-6 / options.speed);
+        // Each transmission leaves when its last byte would have reached the computer.
+        for (t_us, out) in sim.take_outbox() {
+            if let Some(wait) = wall_of(t_us).checked_duration_since(Instant::now()) {
+                std::thread::sleep(wait);
+            }
             match out {
                 HilOut::Bytes(port, bytes) => {
                     if let Some(pty) = ptys.iter_mut().find(|p| p.port == port)
@@ -196,6 +198,9 @@ pub fn run(
                     let _ = write_adc(&devices.adc, channel, counts);
                 }
             }
+        }
+        if let Some(wait) = wall_of(sim.now_us()).checked_duration_since(Instant::now()) {
+            std::thread::sleep(wait);
         }
     }
     let mut summary = sim.finish(wall_start.elapsed().as_secs_f64());

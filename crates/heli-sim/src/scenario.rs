@@ -96,6 +96,25 @@ pub struct Faults {
     /// Intervals [start, end) in seconds during which the pilot's transmitter is lost (the
     /// receiver then commands every channel to zero).
     pub transmitter_lost: Vec<[f64; 2]>,
+    /// Intervals during which the servo board's uplink line is silent (the board sends
+    /// nothing at all, unlike a lost transmitter).
+    pub uplink_silent: Vec<[f64; 2]>,
+    /// Intervals during which the IMU sends nothing.
+    pub imu_silent: Vec<[f64; 2]>,
+    /// Intervals during which the altimeter neither answers nor sends (from 0: its handshake
+    /// fails).
+    pub baro_silent: Vec<[f64; 2]>,
+    /// Intervals during which the compass channels are not read.
+    pub compass_silent: Vec<[f64; 2]>,
+}
+
+impl Faults {
+    /// True when `t_s` falls in one of `windows`.
+    pub fn active(windows: &[[f64; 2]], t_s: f64) -> bool {
+        windows
+            .iter()
+            .any(|[start, end]| t_s >= *start && t_s < *end)
+    }
 }
 
 /// One leg of the autonomous flight plan, as written in a scenario file.
@@ -189,6 +208,9 @@ pub struct Scenario {
     pub faults: Faults,
     /// Pass/fail limits.
     pub limits: Limits,
+    /// Texts that must appear among the flight software's events (each is a criterion):
+    /// how a fault scenario checks that the fault was raised, e.g. `"uplink lost"`.
+    pub expect_events: Vec<String>,
 }
 
 impl Default for Scenario {
@@ -197,7 +219,7 @@ impl Default for Scenario {
     }
 }
 
-fn base(name: &str, description: &str, plan: Vec<LegSpec>, duration_s: f64) -> Scenario {
+pub(crate) fn base(name: &str, description: &str, plan: Vec<LegSpec>, duration_s: f64) -> Scenario {
     Scenario {
         name: name.into(),
         description: description.into(),
@@ -212,6 +234,7 @@ fn base(name: &str, description: &str, plan: Vec<LegSpec>, duration_s: f64) -> S
         pilot: Pilot::default(),
         faults: Faults::default(),
         limits: Limits::default(),
+        expect_events: Vec::new(),
     }
 }
 
@@ -347,6 +370,8 @@ pub fn gps_outage() -> Scenario {
         "10 s without GPS while hovering: no divergence, position error under 5 m".into();
     s.faults.gps_outages = vec![[120.0, 130.0]];
     s.limits.gps_outage_pos_err_max_m = Some(5.0);
+    // The GPS watchdog raises the silence; the filter reports its coasting.
+    s.expect_events = vec!["gps silent".into(), "GPS lost".into(), "GPS back".into()];
     s.limits.hold_true_max_m = Some(6.0);
     s
 }
@@ -428,6 +453,10 @@ pub fn builtins() -> Vec<Scenario> {
         gps_outage(),
         manual_sweep(),
         augmented(),
+        crate::device_faults::uplink_silent(),
+        crate::device_faults::imu_failure(),
+        crate::device_faults::baro_failure(),
+        crate::device_faults::compass_silent(),
     ]
 }
 

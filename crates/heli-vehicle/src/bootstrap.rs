@@ -116,6 +116,8 @@ pub struct Bootstrap {
     report: Box<dyn FnMut(&str)>,
     tx: Sender<Msg>,
     rx: Receiver<Msg>,
+    /// Told each time the control thread has written a reply.
+    written: Option<Receiver<()>>,
 }
 
 impl Bootstrap {
@@ -134,6 +136,7 @@ impl Bootstrap {
             report,
             tx,
             rx,
+            written: None,
         }
     }
 
@@ -153,9 +156,11 @@ impl Bootstrap {
         let listener = UnixListener::bind(socket)
             .map_err(|e| format!("control socket {}: {e}", socket.display()))?;
         let tx = self.tx.clone();
+        let (written_tx, written_rx) = channel();
+        self.written = Some(written_rx);
         std::thread::Builder::new()
             .name("ctl".into())
-            .spawn(move || serve(&listener, &tx))
+            .spawn(move || serve(&listener, &tx, &written_tx))
             .map_err(|e| e.to_string())?;
         self.say(&format!("listening on {}", self.config.socket.display()));
         let result = self.main_loop();
@@ -188,8 +193,15 @@ impl Bootstrap {
             match msg {
                 Some(Msg::Request(Request::Quit, reply)) => {
                     self.kill_child();
+                    if let Some(written) = &self.written {
+                        while written.try_recv().is_ok() {}
+                    }
                     let _ = reply.send("ok quitting".into());
                     self.say("quit");
+                    // Let the control thread write the reply before the process ends.
+                    if let Some(written) = &self.written {
+                        let _ = written.recv_timeout(Duration::from_secs(1));
+                    }
                     return Ok(());
                 }
                 Some(Msg::Request(Request::Ground(cmd), reply)) => self.command(cmd, reply),
@@ -410,7 +422,7 @@ impl Bootstrap {
 }
 
 /// Accepts control connections: one request line, one reply line.
-fn serve(listener: &UnixListener, tx: &Sender<Msg>) {
+fn serve(listener: &UnixListener, tx: &Sender<Msg>, written: &Sender<()>) {
     for stream in listener.incoming() {
         let Ok(mut stream) = stream else { continue };
         let mut line = String::new();
@@ -434,5 +446,7 @@ fn serve(listener: &UnixListener, tx: &Sender<Msg>) {
             Err(e) => format!("error {e}"),
         };
         let _ = writeln!(stream, "{reply}");
+        let _ = stream.flush();
+        let _ = written.send(());
     }
 }

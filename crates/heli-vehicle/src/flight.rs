@@ -194,6 +194,9 @@ fn control_loop(
         writers.write(port, bytes);
     };
     let mut last_t_us = clock.now_us();
+    if let Some(log) = log {
+        log.send(LogItem::Start(last_t_us));
+    }
     computer.start(last_t_us, &mut tx);
     let mut inputs = 0u64;
     let mut feed = |computer: &mut FlightComputer, t_us: u64, input: RecordedInput| {

@@ -2,7 +2,7 @@
 //! replayed from its log: every byte each port delivered, every compass reading and every
 //! timer tick, with the time the flight computer took it and in the order it took them.
 //!
-//! Message fields: `kind` (`bytes`, `compass`, `port_failed`, `tick`), and for bytes `port`
+//! Message fields: `kind` (`start`, `bytes`, `compass`, `port_failed`, `tick`), and for bytes `port`
 //! (`imu`, `scb`, `gps`, `baro`) and `hex` (the bytes, two lowercase hex digits each); for a
 //! compass reading `counts` (x, y, z); for a failed port `port`.
 
@@ -12,6 +12,28 @@ use serde_json::{Value, json};
 
 /// The log channel of the device inputs.
 pub const CHANNEL: &str = "device";
+
+/// What the channel holds: the moment the flight computer was started, then its inputs.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Logged {
+    /// [`heli_fsw::FlightComputer::start`] was called at this message's time.
+    Start,
+    /// An input.
+    Input(RecordedInput),
+}
+
+/// The message that marks the flight computer's start.
+pub fn start_json() -> Value {
+    json!({"kind": "start"})
+}
+
+/// A message of the channel back; `Err` says what is wrong with it.
+pub fn logged_from_json(value: &Value) -> Result<Logged, String> {
+    match value.get("kind").and_then(Value::as_str) {
+        Some("start") => Ok(Logged::Start),
+        _ => input_from_json(value).map(Logged::Input),
+    }
+}
 
 /// An input as a log message.
 pub fn input_json(input: &RecordedInput) -> Value {
@@ -122,5 +144,6 @@ mod tests {
         assert!(input_from_json(&bad).unwrap_err().contains("tty"));
         assert!(input_from_json(&json!({"kind": "x"})).is_err());
         assert!(input_from_json(&json!(3)).is_err());
+        assert_eq!(logged_from_json(&start_json()), Ok(Logged::Start));
     }
 }

@@ -37,6 +37,7 @@ pub mod flight;
 pub mod inputs;
 pub mod logger;
 pub mod port;
+pub mod replay;
 pub mod rt;
 pub mod standalone;
 pub mod streams;

@@ -31,6 +31,8 @@ pub const LOG_QUEUE: usize = 32_768;
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug)]
 pub enum LogItem {
+    /// The flight computer was started at `t_us`.
+    Start(u64),
     /// A device input the flight computer took at `t_us`.
     Input(u64, RecordedInput),
     /// What the flight computer did.
@@ -132,6 +134,7 @@ fn run(mut log: FlightLog<std::fs::File>, rx: &Receiver<LogItem>, path: PathBuf)
 
 fn write(log: &mut FlightLog<std::fs::File>, item: &LogItem) -> Result<(), heli_log::LogError> {
     match item {
+        LogItem::Start(t_us) => log.write(inputs::CHANNEL, *t_us, &inputs::start_json()),
         LogItem::Input(t_us, input) => {
             log.write(inputs::CHANNEL, *t_us, &inputs::input_json(input))
         }

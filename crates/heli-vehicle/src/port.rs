@@ -74,6 +74,9 @@ pub fn open(path: &Path, baud: u32) -> Result<TTYPort, PortError> {
             };
             error(e.to_string(), hint)
         })?;
+    // Whatever waited in the line's buffer before the flight began is stale: a driver stamps
+    // bytes when it reads them, so old bytes would arrive as a burst of "new" samples.
+    let _ = port.clear(serialport::ClearBuffer::Input);
     Ok(port)
 }
 

@@ -252,7 +252,7 @@ fn serial_driver(
         Port::Gps => {}
     }
     let mut buf = [0u8; 256];
-    while !stop.load(Ordering::Acquire) && !max_samples.is_some_and(|m| report.samples >= m) {
+    while !stop.load(Ordering::Acquire) && max_samples.is_none_or(|m| report.samples < m) {
         for w in writes.drain(..) {
             port::write_all(serial, &w).map_err(|e| format!("writing to the device: {e}"))?;
         }

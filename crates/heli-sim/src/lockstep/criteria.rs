@@ -125,6 +125,14 @@ impl Simulation {
             };
             criteria.push(Criterion::at_least("plan_complete", done, 1.0));
         }
+        for text in &self.scenario.expect_events {
+            let raised = m.events.iter().any(|e| e.contains(text.as_str()));
+            criteria.push(Criterion::at_least(
+                &format!("event '{text}'"),
+                if raised { 1.0 } else { 0.0 },
+                1.0,
+            ));
+        }
         // Hardware in the loop: only the truth can be judged.
         if let Some(hil) = self.hil_criteria() {
             criteria = hil;

@@ -33,7 +33,7 @@ pub enum HilOut {
 /// The HIL side of a simulation.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Hil {
-    pub(super) outbox: Vec<HilOut>,
+    pub(super) outbox: Vec<(u64, HilOut)>,
     /// Where the helicopter was when the hover began to be judged.
     hold_origin: Option<(u64, Vector3<f64>)>,
     reached_at_us: Option<u64>,
@@ -56,8 +56,9 @@ impl Simulation {
         self.hil.is_some()
     }
 
-    /// What the devices sent since the last call, in time order.
-    pub fn take_outbox(&mut self) -> Vec<HilOut> {
+    /// What the devices sent since the last call, with the time each is due (µs), in time
+    /// order.
+    pub fn take_outbox(&mut self) -> Vec<(u64, HilOut)> {
         self.hil
             .as_mut()
             .map(|h| std::mem::take(&mut h.outbox))

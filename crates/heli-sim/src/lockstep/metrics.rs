@@ -233,7 +233,7 @@ impl Simulation {
     /// How soon the helicopter hovers after the transmitter is lost, and how far it drifts.
     pub(super) fn measure_rc_loss(&mut self) {
         let now = self.now_us;
-        if self.pilot().signal_lost {
+        if self.pilot().signal_lost || self.fault(|f| &f.uplink_silent) {
             self.metrics.rc_lost_at_us.get_or_insert(now);
         }
         if self.metrics.rc_lost_at_us.is_none() {

@@ -329,6 +329,11 @@ impl Simulation {
         self.schedule(at, Kind::ToComputer(port, bytes));
     }
 
+    /// True while the scenario's fault `windows` are active.
+    fn fault(&self, windows: impl Fn(&crate::scenario::Faults) -> &Vec<[f64; 2]>) -> bool {
+        crate::scenario::Faults::active(windows(&self.scenario.faults), self.now_us as f64 * 1e-6)
+    }
+
     fn pilot(&self) -> PilotCommand {
         let t_s = self.now_us as f64 * 1e-6;
         let lost = self
@@ -542,7 +547,9 @@ impl Simulation {
                     rotor,
                     self.env.atmosphere.temperature_c,
                 );
-                if self.drop_noise.uniform() < self.scenario.faults.imu_drop_rate {
+                if self.fault(|f| &f.imu_silent) {
+                    self.metrics.imu_dropped += 1;
+                } else if self.drop_noise.uniform() < self.scenario.faults.imu_drop_rate {
                     self.metrics.imu_dropped += 1;
                 } else {
                     self.send_to_computer(Port::Imu, bytes, now);
@@ -553,7 +560,9 @@ impl Simulation {
                 self.move_hands();
                 let rpm = self.heli.state.rotor_rps * 30.0 / std::f64::consts::PI;
                 let bytes = self.scb.uplink(&self.pilot(), rpm);
-                self.send_to_computer(Port::Scb, bytes, now);
+                if !self.fault(|f| &f.uplink_silent) {
+                    self.send_to_computer(Port::Scb, bytes, now);
+                }
                 self.schedule(now + UPLINK_PERIOD_US, Kind::UplinkSample);
             }
             Kind::GpsEpoch => {
@@ -582,17 +591,21 @@ impl Simulation {
                 let p = pressure_at_altitude_mbar(alt_m, p0);
                 let mbar_per_m = p - pressure_at_altitude_mbar(alt_m + 1.0, p0);
                 let seen_alt_m = alt_m - self.baro_ground_effect_mbar() / mbar_per_m;
-                if let Some(bytes) = self.baro.transmit(now, seen_alt_m, p0) {
+                if let Some(bytes) = self.baro.transmit(now, seen_alt_m, p0)
+                    && !self.fault(|f| &f.baro_silent)
+                {
                     self.send_to_computer(Port::Baro, bytes, now);
                 }
                 self.reschedule_baro_device();
             }
             Kind::CompassRead => {
                 let adc = self.compass.read(&self.heli.state.att);
+                let silent = self.fault(|f| &f.compass_silent);
                 match self.hil.as_mut() {
+                    _ if silent => {}
                     Some(hil) => {
                         for (channel, counts) in (0u8..).zip(adc.counts) {
-                            hil.outbox.push(HilOut::Adc { channel, counts });
+                            hil.outbox.push((now, HilOut::Adc { channel, counts }));
                         }
                     }
                     None => self.deliver(DeviceInput::Compass(adc)),
@@ -604,10 +617,13 @@ impl Simulation {
                 let v = battery.volts();
                 self.metrics.battery_min_v = self.metrics.battery_min_v.min(v);
                 if let Some(hil) = self.hil.as_mut() {
-                    hil.outbox.push(HilOut::Adc {
-                        channel: HIL_BATTERY_CHANNEL,
-                        counts: battery.counts,
-                    });
+                    hil.outbox.push((
+                        now,
+                        HilOut::Adc {
+                            channel: HIL_BATTERY_CHANNEL,
+                            counts: battery.counts,
+                        },
+                    ));
                 }
                 self.schedule(now + BATTERY_PERIOD_US, Kind::BatteryRead);
             }
@@ -621,6 +637,8 @@ impl Simulation {
                         self.send_to_computer(Port::Scb, bytes, now);
                     }
                 }
+                // A dead altimeter hears nothing either.
+                Port::Baro if self.fault(|f| &f.baro_silent) => {}
                 Port::Baro => {
                     self.baro.receive(bytes.as_slice(), now);
                     self.reschedule_baro_device();
@@ -628,7 +646,7 @@ impl Simulation {
                 Port::Imu | Port::Gps => {}
             },
             Kind::ToComputer(port, bytes) => match self.hil.as_mut() {
-                Some(hil) => hil.outbox.push(HilOut::Bytes(port, bytes)),
+                Some(hil) => hil.outbox.push((now, HilOut::Bytes(port, bytes))),
                 None => self.deliver(DeviceInput::Bytes {
                     port,
                     bytes: bytes.as_slice(),

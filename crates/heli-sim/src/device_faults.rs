@@ -1,0 +1,79 @@
+//! Built-in scenarios of device faults: each device's watchdog must raise the fault, and the
+//! flight software must act on it as documented (docs/architecture.md, device health).
+
+use crate::scenario::{LegSpec, Limits, Scenario, base, hover, manual_sweep};
+
+/// `uplink-silent`: the servo board's line goes quiet while flying a path, which is
+/// transmitter loss: hover within 2 s where it is.
+pub fn uplink_silent() -> Scenario {
+    let mut s = base(
+        "uplink-silent",
+        "the servo board's uplink falls silent while flying a path at 3 m/s: treated as transmitter loss, hover within 2 s",
+        vec![
+            LegSpec::Takeoff { alt_m: 10.0 },
+            LegSpec::Fly {
+                north_m: 150.0,
+                east_m: 0.0,
+                alt_m: 10.0,
+                speed_mps: 3.0,
+            },
+            LegSpec::Land,
+        ],
+        150.0,
+    );
+    s.faults.uplink_silent = vec![[110.0, 1000.0]];
+    s.limits = Limits {
+        rc_loss_hover_within_s: Some(2.5),
+        rc_loss_drift_max_m: Some(3.0),
+        ..Limits::default()
+    };
+    s.expect_events = vec![
+        "uplink late".into(),
+        "uplink silent".into(),
+        "uplink lost".into(),
+    ];
+    s
+}
+
+/// `imu-failure`: the IMU dies while the pilot hovers by hand: the estimate is declared
+/// invalid and the pilot keeps the helicopter, without yaw damping.
+pub fn imu_failure() -> Scenario {
+    let mut s = manual_sweep();
+    s.name = "imu-failure".into();
+    s.description =
+        "the IMU falls silent while the pilot hovers by hand: estimate declared invalid, the pilot keeps flying".into();
+    s.duration_s = 140.0;
+    s.pilot.inputs.clear();
+    s.faults.imu_silent = vec![[115.0, 1000.0]];
+    s.limits = Limits {
+        manual_distance_max_m: Some(10.0),
+        ..Limits::default()
+    };
+    s.expect_events = vec!["imu silent".into(), "estimate invalid".into()];
+    s
+}
+
+/// `baro-failure`: the altimeter never answers its handshake: the driver gives up after
+/// three tries, the fault is raised, and the hover holds height on GPS and the IMU.
+pub fn baro_failure() -> Scenario {
+    let mut s = hover();
+    s.name = "baro-failure".into();
+    s.description =
+        "the altimeter never answers: handshake failed, raised, hover on GPS and IMU height".into();
+    s.faults.baro_silent = vec![[0.0, 1000.0]];
+    s.limits.hold_altitude_rms_m = Some(1.0);
+    s.limits.hold_true_max_m = Some(4.0);
+    s.expect_events = vec!["baro failed".into()];
+    s
+}
+
+/// `compass-silent`: the compass channels stop for 30 s in hover: raised, and the hold
+/// goes on with heading from the IMU and GPS.
+pub fn compass_silent() -> Scenario {
+    let mut s = hover();
+    s.name = "compass-silent".into();
+    s.description = "the compass stops for 30 s in hover: raised, the hold goes on".into();
+    s.faults.compass_silent = vec![[110.0, 140.0]];
+    s.expect_events = vec!["compass silent".into(), "compass ok".into()];
+    s
+}

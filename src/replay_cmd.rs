@@ -1,0 +1,106 @@
+//! `heli log replay FILE`: the flight's recorded device inputs fed to a fresh flight
+//! computer; reports whether its servo commands and state estimates match the log bit for
+//! bit, and where the first difference is.
+
+use std::path::Path;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, anyhow, bail};
+use heli_fsw::core::{CoreConfig, FlightParams};
+use heli_link::FlightMode;
+use heli_log::LogContents;
+use heli_sim::lockstep::Simulation;
+use heli_vehicle::replay::{self, ReplaySetup};
+
+/// How the logged flight's computer was set up, from the log's `flight` metadata: a lockstep
+/// flight records its whole scenario, a vehicle flight its parameters and configuration.
+fn setup_of(contents: &LogContents) -> Result<ReplaySetup> {
+    let entries = contents
+        .metadata
+        .iter()
+        .find(|m| m.name == heli_log::metadata::FLIGHT)
+        .map(|m| &m.entries)
+        .context("the log has no 'flight' metadata, so its flight computer's setup is unknown")?;
+    let get = |key: &str| {
+        entries
+            .get(key)
+            .with_context(|| format!("the flight metadata has no '{key}'"))
+    };
+    if let Some(toml_text) = entries.get("scenario_toml") {
+        let scenario: heli_sim::Scenario =
+            toml::from_str(toml_text).context("the logged scenario does not parse")?;
+        let (config, params) = Simulation::new(scenario)?.flight_software_setup();
+        return Ok(ReplaySetup {
+            config,
+            params,
+            baro_rate_hz: heli_proto::baro::DEFAULT_RATE_HZ,
+        });
+    }
+    let number = |key: &str| -> Result<f64> {
+        get(key)?
+            .parse::<f64>()
+            .with_context(|| format!("flight metadata '{key}' is not a number"))
+    };
+    let triple = |key: &str| -> Result<[f64; 3]> {
+        let text = get(key)?;
+        let v: Vec<f64> = serde_json::from_str(text)
+            .with_context(|| format!("flight metadata '{key}' is not [x, y, z]"))?;
+        <[f64; 3]>::try_from(v).map_err(|_| anyhow!("flight metadata '{key}' is not [x, y, z]"))
+    };
+    let mode = FlightMode::from_name(get("mode")?)
+        .with_context(|| format!("unknown mode '{}' in the flight metadata", entries["mode"]))?;
+    let plan_name = get("plan")?;
+    let scenario = heli_sim::scenario::load(plan_name)
+        .with_context(|| format!("the logged flight plan '{plan_name}'"))?;
+    let legs: Vec<_> = scenario.plan.iter().map(|l| l.to_leg()).collect();
+    let plan = heli_fsw::core::mission::Plan::new(&legs)
+        .map_err(|e| anyhow!("the logged flight plan '{plan_name}': {e}"))?;
+    let config = CoreConfig {
+        calibration_s: number("calibration_s")?,
+        imu_warm_up_s: number("warm_up_s")?,
+        compass: heli_proto::compass::CompassCalibration {
+            bias_gauss: triple("compass_bias_gauss")?,
+            scale: triple("compass_scale")?,
+        },
+        ..CoreConfig::default()
+    };
+    let baro_rate_hz = get("baro_rate_hz")?
+        .parse::<u8>()
+        .context("flight metadata 'baro_rate_hz' is not a rate")?;
+    Ok(ReplaySetup {
+        config,
+        params: FlightParams { mode, plan },
+        baro_rate_hz,
+    })
+}
+
+/// Replays a log; exit 0 on an exact match, 1 on a difference.
+pub fn replay(file: &Path, contents: &LogContents) -> Result<ExitCode> {
+    let setup = setup_of(contents).with_context(|| format!("{}", file.display()))?;
+    let outcome = replay::replay(&setup, contents)
+        .map_err(anyhow::Error::msg)
+        .with_context(|| format!("{}", file.display()))?;
+    println!("{}", file.display());
+    println!("  device inputs fed  {}", outcome.inputs);
+    for (channel, n) in &outcome.compared {
+        println!("  {channel:<8} {n} messages compared");
+    }
+    match &outcome.first_difference {
+        None if outcome.exact() => {
+            println!("  EXACT MATCH: servo commands and state estimates identical bit for bit");
+            Ok(ExitCode::SUCCESS)
+        }
+        None => bail!("nothing to compare: the log has no servo or state messages"),
+        Some(d) => {
+            let t = d.logged_t_us.or(d.replayed_t_us).unwrap_or(0) as f64 * 1e-6;
+            println!(
+                "  FIRST DIFFERENCE  {} message {} at t={t:.6} s",
+                d.channel, d.index
+            );
+            for f in &d.fields {
+                println!("    {f}");
+            }
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}

@@ -1,0 +1,306 @@
+//! Hardware in the loop, as the lab runs it: `heli hilsim --ptys` and `heli vehicle` as
+//! separate processes on pseudo-terminals, commanded through the bootstrap's control socket.
+//!
+//! The flights use a documented test-only shortening: 1 s warm-up and 5 s calibration
+//! (`--warm-up-s 1 --calibration-s 5`) instead of 5 s and 80 s.
+
+mod procs;
+
+use std::time::{Duration, Instant};
+
+use procs::{Hilsim, Vehicle, heli, log_info};
+
+#[test]
+fn the_vehicle_flies_the_hover_scenario_against_the_hilsim_in_real_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let hil = Hilsim::start(dir.path(), "hover", 1.0, 42.0);
+    let vehicle = Vehicle::start(dir.path(), &hil.dev);
+    assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
+    let reply = vehicle.ctl(&["start-logging", "hover1", "autonomous", "hover"]);
+    assert!(reply.starts_with("ok flying"), "{reply}");
+    // The flight goes on while the HILSim runs; its truth summary decides.
+    let summary = hil.wait_json(Duration::from_secs(90));
+    let reply = vehicle.ctl(&["stop"]);
+    assert!(reply.starts_with("ok stopped (exit code 0)"), "{reply}");
+    vehicle.quit();
+    assert_eq!(summary["outcome"], "pass", "{summary:#}");
+
+    let log = dir.path().join("flight_hover1.mcap");
+    let info = log_info(&log);
+    // All streams at their rates (the flight's whole span, warm-up included).
+    for (channel, hz) in [
+        ("imu", 100.0),
+        ("state", 50.0),
+        ("servo", 50.0),
+        ("uplink", 50.0),
+        ("gps", 1.0),
+        ("baro", 5.0),
+        ("compass", 20.0),
+    ] {
+        let rate = procs::channel_rate(&info, channel)
+            .unwrap_or_else(|| panic!("no {channel} channel in\n{info}"));
+        // state starts only after the calibration: judged from its own first message.
+        assert!(
+            (rate - hz).abs() < 0.12 * hz,
+            "{channel}: {rate} Hz, expected {hz}\n{info}"
+        );
+    }
+    assert!(
+        info.contains("mode") && info.contains("autonomous"),
+        "{info}"
+    );
+}
+
+#[test]
+fn a_flight_process_killed_mid_flight_is_reported_and_its_log_survives() {
+    let dir = tempfile::tempdir().unwrap();
+    let hil = Hilsim::start(dir.path(), "hover", 1.0, 200.0);
+    let vehicle = Vehicle::start(dir.path(), &hil.dev);
+    // Several kills at moments spread over calibration and flight.
+    for (k, after_ms) in [2_300u64, 4_100, 6_700].into_iter().enumerate() {
+        assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
+        let suffix = format!("kill{k}");
+        let reply = vehicle.ctl(&["start-logging", &suffix, "autonomous", "hover"]);
+        assert!(reply.starts_with("ok flying"), "{reply}");
+        std::thread::sleep(Duration::from_millis(after_ms));
+        let pid = vehicle.child_pid();
+        let killed_at = Instant::now();
+        let killed_wall = std::time::SystemTime::now();
+        procs::kill9(pid);
+        let line = vehicle.wait_for_line("CRASHED", Duration::from_secs(5));
+        let noticed = killed_at.elapsed();
+        assert!(line.contains("signal 9 (SIGKILL)"), "{line}");
+        assert!(
+            noticed < Duration::from_secs(1),
+            "crash reported after {noticed:?}"
+        );
+
+        let log = dir.path().join(format!("flight_{suffix}.mcap"));
+        let info = log_info(&log);
+        assert!(info.contains("imu"), "{info}");
+        let (first_wall_ms, last_t_s) = procs::log_span(&log);
+        procs::python_reads(&log);
+        // The last record is at most the flush interval plus 100 ms before the kill.
+        let kill_ms = killed_wall
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_millis() as f64;
+        let last_ms = first_wall_ms + last_t_s * 1000.0;
+        let gap_ms = kill_ms - last_ms;
+        assert!(
+            gap_ms <= 100.0 + procs::FLUSH_INTERVAL_MS + 50.0,
+            "kill {k}: the log ends {gap_ms:.0} ms before the kill"
+        );
+    }
+    // A later Connect starts a fresh flight process.
+    assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
+    assert!(vehicle.ctl(&["stop"]).starts_with("ok stopped"));
+    vehicle.quit();
+    drop(hil);
+}
+
+#[test]
+fn every_stand_alone_driver_runs_against_the_hilsim_and_logs() {
+    let dir = tempfile::tempdir().unwrap();
+    let hil = Hilsim::start(dir.path(), "hover", 1.0, 60.0);
+    let dev = hil.dev.clone();
+    let adc = dev.join("adc");
+    let cases: [(&str, Vec<String>, &str); 6] = [
+        (
+            "imu",
+            vec![
+                "--port".into(),
+                dev.join("imu").display().to_string(),
+                "--count".into(),
+                "150".into(),
+            ],
+            "imu rate",
+        ),
+        (
+            "scb",
+            vec![
+                "--port".into(),
+                dev.join("scb").display().to_string(),
+                "--count".into(),
+                "60".into(),
+            ],
+            "scb ail",
+        ),
+        (
+            "gps",
+            vec![
+                "--port".into(),
+                dev.join("gps").display().to_string(),
+                "--count".into(),
+                "2".into(),
+            ],
+            "gps 42.3",
+        ),
+        (
+            "baro",
+            vec![
+                "--port".into(),
+                dev.join("baro").display().to_string(),
+                "--count".into(),
+                "6".into(),
+                "--rate".into(),
+                "10".into(),
+            ],
+            "baro ",
+        ),
+        (
+            "compass",
+            vec![
+                "--adc".into(),
+                adc.display().to_string(),
+                "--count".into(),
+                "10".into(),
+            ],
+            "compass counts",
+        ),
+        (
+            "battery",
+            vec![
+                "--adc".into(),
+                adc.display().to_string(),
+                "--count".into(),
+                "2".into(),
+            ],
+            "battery 1",
+        ),
+    ];
+    for (device, args, expect) in cases {
+        let log = dir.path().join(format!("driver_{device}.mcap"));
+        let mut all = vec!["driver".to_string(), device.to_string()];
+        all.extend(args);
+        all.extend(["--log".to_string(), log.display().to_string()]);
+        let all: Vec<&str> = all.iter().map(String::as_str).collect();
+        let out = heli(&all);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{device}: {stderr}");
+        assert!(stdout.contains(expect), "{device}: {stdout}");
+        let info = log_info(&log);
+        assert!(info.contains("messages"), "{device}: {info}");
+        if device == "scb" {
+            // Emergency mode: the pilot's commands went back to the servos.
+            assert!(!stderr.contains(" 0 servo packets"), "{stderr}");
+        }
+    }
+    drop(hil);
+}
+
+#[test]
+fn bad_input_to_the_new_commands_is_a_clear_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("plain.txt");
+    std::fs::write(&file, "not a tty").unwrap();
+    let bad_devices = dir.path().join("devices.toml");
+    std::fs::write(&bad_devices, "[ports]\nimu = 3\n").unwrap();
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "driver".into(),
+                "imu".into(),
+                "--port".into(),
+                "/nonexistent/tty".into(),
+            ],
+            "no such device",
+        ),
+        (
+            vec![
+                "driver".into(),
+                "gps".into(),
+                "--port".into(),
+                file.display().to_string(),
+            ],
+            "not a terminal device",
+        ),
+        (vec!["driver".into(), "imu".into()], "--port"),
+        (vec!["driver".into(), "compass".into()], "--adc"),
+        (
+            vec![
+                "driver".into(),
+                "baro".into(),
+                "--port".into(),
+                "/dev/null".into(),
+                "--rate".into(),
+                "11".into(),
+            ],
+            "1 to 10",
+        ),
+        (
+            vec![
+                "vehicle".into(),
+                "--devices".into(),
+                bad_devices.display().to_string(),
+                "--socket".into(),
+                dir.path().join("s").display().to_string(),
+            ],
+            "devices file",
+        ),
+        (
+            vec![
+                "vehicle".into(),
+                "--socket".into(),
+                dir.path().join("s").display().to_string(),
+            ],
+            "--devices FILE or --hilsim DIR",
+        ),
+        (
+            vec![
+                "vehicle".into(),
+                "ctl".into(),
+                "status".into(),
+                "--socket".into(),
+                dir.path().join("none.sock").display().to_string(),
+            ],
+            "is `heli vehicle` running",
+        ),
+        (
+            vec![
+                "vehicle".into(),
+                "ctl".into(),
+                "fly".into(),
+                "--socket".into(),
+                dir.path().join("none.sock").display().to_string(),
+            ],
+            "unknown command",
+        ),
+        (
+            vec![
+                "hilsim".into(),
+                "--ptys".into(),
+                dir.path().join("p").display().to_string(),
+                "--speed".into(),
+                "0".into(),
+            ],
+            "--speed",
+        ),
+        (
+            vec![
+                "hilsim".into(),
+                "--ptys".into(),
+                dir.path().join("p").display().to_string(),
+                "--scenario".into(),
+                "nope".into(),
+            ],
+            "nope",
+        ),
+        (
+            vec!["log".into(), "replay".into(), file.display().to_string()],
+            "not",
+        ),
+    ];
+    for (args, expect) in cases {
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = heli(&a);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains(expect),
+            "{args:?}: expected '{expect}' in: {stderr}"
+        );
+    }
+}

@@ -1,0 +1,285 @@
+//! The processes of a HIL test: `heli hilsim`, `heli vehicle`, and readers of their output.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// The log's flush interval (ms): heli-log closes a chunk at least this often.
+pub const FLUSH_INTERVAL_MS: f64 = heli_log::FLUSH_EVERY_US as f64 / 1000.0;
+
+/// Runs `heli ARGS` to completion.
+pub fn heli(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_heli"))
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run heli: {e}"))
+}
+
+/// A process whose standard output is collected line by line.
+struct Lines {
+    child: Child,
+    lines: Arc<Mutex<Vec<String>>>,
+}
+
+impl Lines {
+    fn spawn(args: &[String]) -> Self {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_heli"))
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot run heli: {e}"));
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let out = child.stdout.take().unwrap();
+        let sink = Arc::clone(&lines);
+        std::thread::spawn(move || {
+            for line in BufReader::new(out).lines().map_while(Result::ok) {
+                sink.lock().unwrap().push(line);
+            }
+        });
+        Self { child, lines }
+    }
+
+    fn wait_for(&self, needle: &str, timeout: Duration) -> String {
+        let end = Instant::now() + timeout;
+        while Instant::now() < end {
+            if let Some(l) = self
+                .lines
+                .lock()
+                .unwrap()
+                .iter()
+                .find(|l| l.contains(needle))
+            {
+                return l.clone();
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        panic!(
+            "no line with '{needle}' within {timeout:?}; got:\n{}",
+            self.lines.lock().unwrap().join("\n")
+        );
+    }
+
+    fn all(&self) -> String {
+        self.lines.lock().unwrap().join("\n")
+    }
+}
+
+impl Drop for Lines {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A running `heli hilsim --ptys`.
+pub struct Hilsim {
+    proc: Lines,
+    /// Its device directory.
+    pub dev: PathBuf,
+}
+
+impl Hilsim {
+    /// Starts the HILSim flying `scenario` for `duration_s` at `speed`, and waits until its
+    /// devices exist.
+    pub fn start(dir: &Path, scenario: &str, speed: f64, duration_s: f64) -> Self {
+        let dev = dir.join("dev");
+        let args: Vec<String> = [
+            "hilsim",
+            "--ptys",
+            &dev.display().to_string(),
+            "--scenario",
+            scenario,
+            "--speed",
+            &speed.to_string(),
+            "--duration",
+            &duration_s.to_string(),
+            "--json",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let proc = Lines::spawn(&args);
+        proc.wait_for("hilsim: ready", Duration::from_secs(10));
+        Self { proc, dev }
+    }
+
+    /// Waits for the end of the run and returns its JSON truth summary.
+    pub fn wait_json(mut self, timeout: Duration) -> serde_json::Value {
+        let end = Instant::now() + timeout;
+        loop {
+            if let Some(status) = self.proc.child.try_wait().unwrap() {
+                // Give the reader a moment to take the last lines.
+                std::thread::sleep(Duration::from_millis(200));
+                let text = self.proc.all();
+                let json: String = text
+                    .lines()
+                    .skip_while(|l| !l.starts_with('{'))
+                    .collect::<Vec<_>>()
+                    .join("\n");
+                return serde_json::from_str(&json).unwrap_or_else(|e| {
+                    panic!("hilsim ended ({status}) without a JSON summary ({e}):\n{text}")
+                });
+            }
+            assert!(
+                Instant::now() < end,
+                "hilsim still running after {timeout:?}"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+}
+
+/// A running `heli vehicle` (the bootstrap) against a HILSim.
+pub struct Vehicle {
+    proc: Lines,
+    socket: PathBuf,
+}
+
+impl Vehicle {
+    /// Starts the bootstrap with the test-only short calibration.
+    pub fn start(dir: &Path, dev: &Path) -> Self {
+        let socket = dir.join("ctl.sock");
+        let args: Vec<String> = [
+            "vehicle",
+            "--hilsim",
+            &dev.display().to_string(),
+            "--log-dir",
+            &dir.display().to_string(),
+            "--socket",
+            &socket.display().to_string(),
+            "--warm-up-s",
+            "1",
+            "--calibration-s",
+            "5",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let proc = Lines::spawn(&args);
+        proc.wait_for("bootstrap: listening", Duration::from_secs(10));
+        Self { proc, socket }
+    }
+
+    /// Sends one control command; returns the reply (stdout, or stderr on failure).
+    pub fn ctl(&self, words: &[&str]) -> String {
+        let mut args = vec!["vehicle", "ctl"];
+        args.extend_from_slice(words);
+        let socket = self.socket.display().to_string();
+        args.extend(["--socket", &socket]);
+        let out = heli(&args);
+        let text = if out.status.success() {
+            out.stdout
+        } else {
+            out.stderr
+        };
+        String::from_utf8_lossy(&text).trim().to_string()
+    }
+
+    /// The flight process's pid.
+    pub fn child_pid(&self) -> u32 {
+        let status = self.ctl(&["status"]);
+        let json: serde_json::Value =
+            serde_json::from_str(status.trim_start_matches("ok ")).unwrap();
+        json["pid"]
+            .as_u64()
+            .unwrap_or_else(|| panic!("no pid in {status}")) as u32
+    }
+
+    /// Waits for a line of the bootstrap's output.
+    pub fn wait_for_line(&self, needle: &str, timeout: Duration) -> String {
+        self.proc.wait_for(needle, timeout)
+    }
+
+    /// Ends the bootstrap.
+    pub fn quit(self) {
+        let reply = self.ctl(&["quit"]);
+        assert!(reply.starts_with("ok"), "{reply}");
+    }
+}
+
+/// `kill -9 PID`.
+pub fn kill9(pid: u32) {
+    let status = Command::new("kill")
+        .args(["-9", &pid.to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+}
+
+/// `heli log info FILE`, which must succeed.
+pub fn log_info(log: &Path) -> String {
+    let out = heli(&["log", "info", &log.display().to_string()]);
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "heli log info {}: {}{}",
+        log.display(),
+        text,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
+/// The rate (Hz) `heli log info` gives a channel.
+pub fn channel_rate(info: &str, channel: &str) -> Option<f64> {
+    info.lines().find_map(|l| {
+        let words: Vec<&str> = l.split_whitespace().collect();
+        match words.as_slice() {
+            [name, _, "messages", rate, "Hz", ..] if *name == channel => rate.parse().ok(),
+            _ => None,
+        }
+    })
+}
+
+/// The flight's wall-clock start (Unix ms) and the time of its last message (s of flight
+/// clock), from `heli log info`.
+pub fn log_span(log: &Path) -> (f64, f64) {
+    let info = log_info(log);
+    let start = info
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("wall_clock_start_unix_ms"))
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("no wall-clock start in\n{info}"));
+    let last = info
+        .lines()
+        .find_map(|l| {
+            let words: Vec<&str> = l.split_whitespace().collect();
+            match words.as_slice() {
+                ["time", _, "s", "to", last, "s", ..] => last.parse::<f64>().ok(),
+                _ => None,
+            }
+        })
+        .unwrap_or_else(|| panic!("no time span in\n{info}"));
+    (start, last)
+}
+
+/// The official Python `mcap` reader reads every message of the log (when `.ci/run` or the
+/// developer installed it and named it in `HELI_MCAP_PYTHON`).
+pub fn python_reads(log: &Path) {
+    let Ok(python) = std::env::var("HELI_MCAP_PYTHON") else {
+        eprintln!("note: HELI_MCAP_PYTHON not set; the official Python reader was not tried");
+        return;
+    };
+    let script = "import sys\nfrom mcap.reader import make_reader\nn = 0\nwith open(sys.argv[1], 'rb') as f:\n    for _ in make_reader(f).iter_messages():\n        n += 1\nprint(n)\n";
+    let out = Command::new(python)
+        .args(["-c", script, &log.display().to_string()])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "python mcap could not read {}: {}",
+        log.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let n: u64 = stdout.trim().parse().unwrap_or(0);
+    assert!(
+        n > 100,
+        "python mcap read only {n} messages of {}",
+        log.display()
+    );
+}
