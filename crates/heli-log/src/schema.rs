@@ -274,6 +274,7 @@ pub fn for_topic(topic: &str) -> ChannelSchema {
                 ),
             ],
         ),
+        "device" => device_schema(),
         foxglove::TF_TOPIC => ChannelSchema {
             name: "foxglove.FrameTransform".into(),
             json: foxglove::frame_transform_schema(),
@@ -294,6 +295,38 @@ pub fn for_topic(topic: &str) -> ChannelSchema {
                 "type": "object",
             }),
         },
+    }
+}
+
+/// The `device` channel the vehicle runtime writes (heli-vehicle's `inputs` module): every
+/// device input the flight computer took, in order, so that a flight can be replayed from its
+/// log. Only `kind` is always there; the other fields belong to some kinds.
+fn device_schema() -> ChannelSchema {
+    let ports: Vec<&str> = heli_fsw::Port::ALL.iter().map(|p| p.name()).collect();
+    let name = "heli.device".to_string();
+    ChannelSchema {
+        json: json!({
+            "$schema": "https://json-schema.org/draft/2020-12/schema",
+            "title": name,
+            "description": "device inputs of the flight computer, in the order it took them (for replay)",
+            "type": "object",
+            "properties": {
+                "kind": {
+                    "type": "string", "enum": ["bytes", "compass", "port_failed", "tick"],
+                    "description": "bytes read from a port, a compass reading, a port that failed, or a timer tick",
+                },
+                "port": { "type": "string", "enum": ports, "description": "serial port (kinds bytes and port_failed)" },
+                "hex": string("the bytes read, two lowercase hex digits per byte (kind bytes)"),
+                "counts": {
+                    "type": "array", "items": { "type": "integer", "minimum": 0, "maximum": 65535 },
+                    "minItems": 3, "maxItems": 3,
+                    "description": "compass ADC counts of x, y, z, body FRD (counts; kind compass)",
+                },
+            },
+            "required": ["kind"],
+            "additionalProperties": false,
+        }),
+        name,
     }
 }
 
@@ -406,6 +439,18 @@ mod tests {
             "foxglove.FrameTransform"
         );
         assert_eq!(for_topic("mine").json["type"], "object");
+        // The vehicle's device inputs, as heli-vehicle's inputs module documents them.
+        let device = for_topic("device").json;
+        for message in [
+            json!({"kind": "bytes", "port": "imu", "hex": "a5010203"}),
+            json!({"kind": "compass", "counts": [2048, 2000, 2100]}),
+            json!({"kind": "port_failed", "port": "baro"}),
+            json!({"kind": "tick"}),
+        ] {
+            assert_eq!(validate(&device, &message, "device"), Ok(()), "{message}");
+        }
+        let usb = json!({"kind": "bytes", "port": "usb", "hex": ""});
+        assert!(validate(&device, &usb, "device").is_err());
     }
 
     #[test]
