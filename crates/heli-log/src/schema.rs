@@ -312,8 +312,8 @@ fn device_schema() -> ChannelSchema {
             "type": "object",
             "properties": {
                 "kind": {
-                    "type": "string", "enum": ["bytes", "compass", "port_failed", "tick"],
-                    "description": "bytes read from a port, a compass reading, a port that failed, or a timer tick",
+                    "type": "string", "enum": ["start", "bytes", "compass", "port_failed", "tick"],
+                    "description": "the flight computer started (the origin of a replay), bytes read from a port, a compass reading, a port that failed, or a timer tick",
                 },
                 "port": { "type": "string", "enum": ports, "description": "serial port (kinds bytes and port_failed)" },
                 "hex": string("the bytes read, two lowercase hex digits per byte (kind bytes)"),
@@ -446,6 +446,7 @@ mod tests {
             json!({"kind": "compass", "counts": [2048, 2000, 2100]}),
             json!({"kind": "port_failed", "port": "baro"}),
             json!({"kind": "tick"}),
+            json!({"kind": "start"}),
         ] {
             assert_eq!(validate(&device, &message, "device"), Ok(()), "{message}");
         }
