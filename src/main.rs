@@ -268,7 +268,12 @@ fn sim(args: SimArgs) -> Result<ExitCode> {
         None => None,
     };
     let mut log_error = None;
-    let mut summary = Simulation::new(scenario)?.run_observed(
+    let mut simulation = Simulation::new(scenario)?;
+    if logger.is_some() {
+        // So that the log can be replayed (`heli log replay`).
+        simulation.log_device_inputs();
+    }
+    let mut summary = simulation.run_observed(
         options,
         |t, total| {
             if let Some(bar) = &bar {

@@ -30,6 +30,7 @@ use std::fmt;
 pub mod events;
 pub mod export;
 pub mod foxglove;
+pub mod inputs;
 pub mod metadata;
 pub mod plot;
 pub mod reader;

@@ -14,6 +14,8 @@ pub struct StreamLogger<W: LogFile> {
     log: FlightLog<W>,
     cursors: [u64; 7],
     events: usize,
+    /// Device inputs written so far (`None` until the start marker is written).
+    inputs: Option<usize>,
     /// Records the streams had overwritten before the logger read them.
     pub missed: u64,
 }
@@ -25,12 +27,31 @@ impl<W: LogFile> StreamLogger<W> {
             log,
             cursors: [0; 7],
             events: 0,
+            inputs: None,
             missed: 0,
         }
     }
 
-    /// Appends everything published since the last call.
+    /// Appends everything published since the last call, and the device inputs when the
+    /// simulation keeps them ([`crate::Simulation::log_device_inputs`]).
     pub fn drain(&mut self, sim: &crate::Simulation) -> Result<(), LogError> {
+        let inputs = sim.device_inputs();
+        if self.inputs.is_none() && !inputs.is_empty() {
+            // The flight computer was started at 0 s (watchdogs armed, handshakes begun).
+            self.log.write(
+                heli_log::inputs::CHANNEL,
+                0,
+                &heli_log::inputs::start_json(),
+            )?;
+            self.inputs = Some(0);
+        }
+        if let Some(done) = self.inputs {
+            for (t_us, input) in inputs.iter().skip(done) {
+                let value = heli_log::inputs::input_json(input);
+                self.log.write(heli_log::inputs::CHANNEL, *t_us, &value)?;
+            }
+            self.inputs = Some(inputs.len());
+        }
         let streams = sim.streams();
         let mut records: Vec<(Record, u64)> = Vec::new();
         macro_rules! take {
@@ -59,12 +80,10 @@ impl<W: LogFile> StreamLogger<W> {
         for (record, sequence) in &records {
             self.log.write_record_sequenced(record, *sequence)?;
         }
-        // The simulation keeps its events as the texts heli-log's event_text makes; the
-        // level comes back from the text.
-        for text in sim.events().iter().skip(self.events) {
-            self.log.write_event_text(text, sim.now_us())?;
+        for e in sim.core_events().iter().skip(self.events) {
+            self.log.write_event(e.t_us, &e.value)?;
         }
-        self.events = sim.events().len();
+        self.events = sim.core_events().len();
         Ok(())
     }
 

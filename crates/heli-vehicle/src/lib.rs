@@ -11,7 +11,7 @@
 //!   monitor ([`adc`]: Linux IIO files), the control loop woken by the drivers and timed by
 //!   the IMU with its watchdogs, the live [`streams`], the battery and telemetry servers
 //!   ([`telemetry`]) and the in-flight [`logger`], which records every device input
-//!   ([`inputs`]) so a flight can be replayed.
+//!   ([`heli_log::inputs`]) so a flight can be replayed.
 //! - [`devices`]: where the devices are (a TOML file, or the HILSim's directory).
 //! - [`rt`]: `SCHED_FIFO` and `mlockall` when permitted.
 //!
@@ -34,7 +34,6 @@ pub mod bootstrap;
 pub mod ctl;
 pub mod devices;
 pub mod flight;
-pub mod inputs;
 pub mod logger;
 pub mod port;
 pub mod replay;

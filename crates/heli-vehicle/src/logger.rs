@@ -20,7 +20,7 @@ use heli_fsw::core::{Action, CoreEvent};
 use heli_log::FlightLog;
 use serde_json::json;
 
-use crate::inputs;
+use heli_log::inputs;
 
 /// Items the logger's channel holds before the loop's items are dropped (about 30 s of a
 /// flight's traffic).

@@ -10,7 +10,7 @@ use heli_fsw::core::{Action, CoreConfig, FlightParams};
 use heli_log::{LogContents, LoggedMessage};
 use serde_json::Value;
 
-use crate::inputs::{self, Logged};
+use heli_log::inputs::{self, Logged};
 
 /// The channels compared.
 pub const COMPARED: [&str; 2] = ["servo", "state"];

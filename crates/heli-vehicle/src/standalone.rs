@@ -22,7 +22,8 @@ use heli_proto::battery::BatteryAdc;
 use heli_proto::compass::{CompassAdc, CompassCalibration, heading_rad};
 use serialport::TTYPort;
 
-use crate::{adc, devices, inputs, port};
+use crate::{adc, devices, port};
+use heli_log::inputs;
 
 /// Which device.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -218,28 +218,3 @@ impl Simulation {
         }
     }
 }
-
-pub(super) fn describe(t_us: u64, e: &CoreEvent) -> String {
-    let t = t_us as f64 * 1e-6;
-    match e {
-        CoreEvent::CalibrationDone { gyro_bias_rps } => format!(
-            "t={t:.2} s calibration done, gyro bias [{:.4}, {:.4}, {:.4}] rad/s",
-            gyro_bias_rps[0], gyro_bias_rps[1], gyro_bias_rps[2]
-        ),
-        CoreEvent::PhaseChanged(p) => format!("t={t:.2} s phase {}", p.name()),
-        CoreEvent::WatchdogFired => format!("t={t:.2} s watchdog fired"),
-        CoreEvent::PilotSignalLost => format!("t={t:.2} s pilot signal lost"),
-        CoreEvent::RollCompleted(n) => format!("t={t:.2} s roll {n} completed"),
-        CoreEvent::RollAbandoned => format!("t={t:.2} s roll abandoned: took too long"),
-        CoreEvent::PlanComplete => format!("t={t:.2} s flight plan complete"),
-        CoreEvent::GpsLost => format!("t={t:.2} s GPS lost: estimate coasting on the IMU"),
-        CoreEvent::GpsRegained => format!("t={t:.2} s GPS back"),
-        CoreEvent::DeviceHealth { device, state } => {
-            format!("t={t:.2} s {} {}", device.name(), state.name())
-        }
-        CoreEvent::EstimateInvalid => {
-            format!("t={t:.2} s estimate invalid: IMU silent")
-        }
-        CoreEvent::UplinkLost => format!("t={t:.2} s uplink lost: transmitter loss"),
-    }
-}

@@ -13,7 +13,6 @@ mod criteria;
 mod hil;
 mod metrics;
 
-use criteria::describe;
 use hil::Hil;
 pub use hil::{HIL_BATTERY_CHANNEL, HilOut};
 use metrics::Metrics;
@@ -189,6 +188,10 @@ pub struct Simulation {
     crash: Option<String>,
     /// Set when the flight software runs elsewhere (hardware in the loop).
     hil: Option<Hil>,
+    /// The flight software's events, as it raised them.
+    core_events: Vec<heli_fsw::Stamped<CoreEvent>>,
+    /// Every device input, kept for the flight log when asked for.
+    input_log: Option<Vec<(u64, RecordedInput)>>,
 }
 
 impl Simulation {
@@ -267,6 +270,8 @@ impl Simulation {
             },
             crash: None,
             hil: None,
+            core_events: Vec::new(),
+            input_log: None,
             scenario,
             heli,
             env,
@@ -434,6 +439,22 @@ impl Simulation {
         self.summarise(wall_s)
     }
 
+    /// Keeps every device input from now on, for the flight log (`heli log replay` feeds
+    /// them back). The flight computer was started at 0 s.
+    pub fn log_device_inputs(&mut self) {
+        self.input_log.get_or_insert_with(Vec::new);
+    }
+
+    /// The device inputs kept since [`Simulation::log_device_inputs`].
+    pub fn device_inputs(&self) -> &[(u64, RecordedInput)] {
+        self.input_log.as_deref().unwrap_or_default()
+    }
+
+    /// The flight software's events so far, with their times.
+    pub fn core_events(&self) -> &[heli_fsw::Stamped<CoreEvent>] {
+        &self.core_events
+    }
+
     /// Events the flight software reported so far, as text.
     pub fn events(&self) -> &[String] {
         &self.metrics.events
@@ -547,9 +568,10 @@ impl Simulation {
                     rotor,
                     self.env.atmosphere.temperature_c,
                 );
-                if self.fault(|f| &f.imu_silent) {
-                    self.metrics.imu_dropped += 1;
-                } else if self.drop_noise.uniform() < self.scenario.faults.imu_drop_rate {
+                // A silent IMU sends nothing (and draws no random drop).
+                if self.fault(|f| &f.imu_silent)
+                    || self.drop_noise.uniform() < self.scenario.faults.imu_drop_rate
+                {
                     self.metrics.imu_dropped += 1;
                 } else {
                     self.send_to_computer(Port::Imu, bytes, now);
@@ -691,6 +713,9 @@ impl Simulation {
         if let Some(recorded) = self.recorded.as_mut() {
             recorded.inputs.push((now, RecordedInput::from(input)));
         }
+        if let Some(log) = self.input_log.as_mut() {
+            log.push((now, RecordedInput::from(input)));
+        }
         let mut actions = std::mem::take(&mut self.actions);
         let mut to_devices = std::mem::take(&mut self.to_devices);
         let started = Instant::now();
@@ -728,7 +753,12 @@ impl Simulation {
                     }
                     self.streams.publish(record);
                 }
-                Action::Event(e) => self.metrics.events.push(describe(e.t_us, &e.value)),
+                Action::Event(e) => {
+                    self.metrics
+                        .events
+                        .push(heli_log::events::event_text(e.t_us, &e.value));
+                    self.core_events.push(e);
+                }
             }
         }
         self.actions = actions;

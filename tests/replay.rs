@@ -1,0 +1,128 @@
+//! `heli log replay`: a flight log's recorded device inputs, fed to a fresh flight computer,
+//! give the logged servo commands and state estimates bit for bit; one corrupted byte is
+//! found and located.
+
+use std::path::Path;
+use std::process::Command;
+
+fn heli(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_heli"))
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run heli: {e}"))
+}
+
+/// Copies a log, changing one byte of the first IMU input at or after `at_us`.
+fn corrupt_one_byte(from: &Path, to: &Path, at_us: u64) -> u64 {
+    let contents = heli_log::read(&std::fs::read(from).unwrap());
+    let mut log = heli_log::FlightLog::create(to).unwrap();
+    for m in &contents.metadata {
+        log.write_metadata(&m.name, &m.entries).unwrap();
+    }
+    let mut corrupted_at = None;
+    for m in &contents.messages {
+        let mut value = m.value.clone();
+        if corrupted_at.is_none()
+            && m.topic == "device"
+            && m.t_us >= at_us
+            && value["port"] == "imu"
+            && value["hex"].as_str().is_some_and(|h| h.len() >= 12)
+        {
+            let hex = value["hex"].as_str().unwrap().to_string();
+            // The sixth byte (a gyro byte): flip its low bit.
+            let byte = u8::from_str_radix(&hex[10..12], 16).unwrap() ^ 0x01;
+            let changed = format!("{}{byte:02x}{}", &hex[..10], &hex[12..]);
+            value["hex"] = changed.into();
+            corrupted_at = Some(m.t_us);
+        }
+        log.write(&m.topic, m.t_us, &value).unwrap();
+    }
+    log.finish().unwrap();
+    corrupted_at.expect("no IMU input to corrupt")
+}
+
+#[test]
+fn a_lockstep_log_replays_exactly_and_a_corrupted_byte_is_located() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("hover.mcap");
+    let log_s = log.display().to_string();
+    let out = heli(&[
+        "sim",
+        "--scenario",
+        "hover",
+        "--duration",
+        "100",
+        "--log",
+        &log_s,
+    ]);
+    assert!(out.status.success() || out.status.code() == Some(1));
+
+    let out = heli(&["log", "replay", &log_s]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("EXACT MATCH"), "{stdout}");
+
+    let bad = dir.path().join("corrupt.mcap");
+    let at_us = corrupt_one_byte(&log, &bad, 95_000_000);
+    let out = heli(&["log", "replay", &bad.display().to_string()]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{stdout}");
+    let line = stdout
+        .lines()
+        .find(|l| l.contains("FIRST DIFFERENCE"))
+        .unwrap_or_else(|| panic!("no difference reported: {stdout}"));
+    // "FIRST DIFFERENCE  servo message N at t=T s": at or just after the corrupted packet.
+    let t_s: f64 = line
+        .split("t=")
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no time in {line}"));
+    let corrupted_s = at_us as f64 * 1e-6;
+    assert!(
+        t_s >= corrupted_s && t_s < corrupted_s + 0.1,
+        "difference at {t_s} s, byte corrupted at {corrupted_s} s"
+    );
+}
+
+#[test]
+fn replay_of_a_log_without_device_inputs_or_not_a_log_fails_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let junk = dir.path().join("junk.mcap");
+    std::fs::write(&junk, b"definitely not mcap").unwrap();
+    let out = heli(&["log", "replay", &junk.display().to_string()]);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("not an MCAP file") || stderr.contains("not MCAP"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"));
+
+    // A log with streams but no device inputs cannot be replayed, and says why.
+    let plain = dir.path().join("plain.mcap");
+    let mut log = heli_log::FlightLog::create(&plain).unwrap();
+    let mut entries = std::collections::BTreeMap::new();
+    entries.insert("mode".to_string(), "autonomous".to_string());
+    entries.insert("plan".to_string(), "hover".to_string());
+    entries.insert("calibration_s".to_string(), "80".to_string());
+    entries.insert("warm_up_s".to_string(), "5".to_string());
+    entries.insert("baro_rate_hz".to_string(), "5".to_string());
+    entries.insert(
+        "compass_bias_gauss".to_string(),
+        "[0.0, 0.0, 0.0]".to_string(),
+    );
+    entries.insert("compass_scale".to_string(), "[1.0, 1.0, 1.0]".to_string());
+    log.write_metadata("flight", &entries).unwrap();
+    log.write("servo", 10, &serde_json::json!({"aileron": 0.0}))
+        .unwrap();
+    log.finish().unwrap();
+    let out = heli(&["log", "replay", &plain.display().to_string()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("no device inputs"), "{stderr}");
+}
