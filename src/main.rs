@@ -3,6 +3,7 @@
 //! The binary only parses arguments and wires the library crates together; the work is in
 //! `heli-sim`, `heli-fsw` and the others.
 
+mod bench_hil;
 mod driver_cmd;
 mod hilsim_cmd;
 mod replay_cmd;
@@ -42,6 +43,11 @@ enum Command {
         /// Print JSON instead of a table.
         #[arg(long)]
         json: bool,
+        /// Instead: fly the hover scenario this many seconds in real time against the
+        /// flight process on the HILSim's pseudo-terminals, and measure the IMU-to-servo
+        /// latency and the flight process's CPU share and memory.
+        #[arg(long, value_name = "SECONDS")]
+        hil: Option<f64>,
     },
     /// The HILSim alone, in real time: the helicopter's devices on pseudo-terminals and
     /// IIO-style ADC files for a flight computer outside (`heli vehicle --hilsim DIR`).
@@ -190,7 +196,11 @@ fn main() -> ExitCode {
         Command::Sim(args) => sim(args),
         Command::Model(args) => model(args),
         Command::Log { action } => log(action),
-        Command::Bench { json } => bench(json),
+        Command::Bench { json, hil: None } => bench(json),
+        Command::Bench {
+            json,
+            hil: Some(seconds),
+        } => bench_hil::command(seconds, json),
         Command::Hilsim(args) => hilsim_cmd::hilsim(&args),
         Command::Vehicle {
             flight,

@@ -24,7 +24,40 @@ use serialport::{SerialPort, TTYPort};
 
 use crate::lockstep::{HilOut, Simulation};
 use crate::scenario::Scenario;
-use crate::summary::Summary;
+use crate::summary::{HilSummary, Percentiles, Summary};
+
+/// The flight computer's reaction time as the HILSim sees it: from the write of an IMU
+/// packet to the first whole servo packet read back after it.
+#[derive(Default)]
+struct Latency {
+    /// When IMU packets were written, newest last (a few kept).
+    imu_writes: std::collections::VecDeque<Instant>,
+    framer: heli_proto::scb::ServoFramer,
+    samples_us: Vec<f64>,
+    servo_packets: u64,
+}
+
+impl Latency {
+    fn imu_written(&mut self, at: Instant) {
+        if self.imu_writes.len() >= 16 {
+            self.imu_writes.pop_front();
+        }
+        self.imu_writes.push_back(at);
+    }
+
+    fn servo_bytes(&mut self, bytes: &[u8], read_at: Instant) {
+        for &b in bytes {
+            if self.framer.push(b).is_some() {
+                self.servo_packets += 1;
+                // The newest IMU packet written before the read is what the command answers.
+                if let Some(imu) = self.imu_writes.iter().rev().find(|t| **t <= read_at) {
+                    self.samples_us
+                        .push(read_at.duration_since(*imu).as_secs_f64() * 1e6);
+                }
+            }
+        }
+    }
+}
 
 /// What the HILSim exposes.
 #[derive(Clone, Debug)]
@@ -106,7 +139,7 @@ fn write_adc(dir: &Path, channel: u8, counts: u16) -> std::io::Result<()> {
 fn spawn_readers(
     ptys: &[PtyPort],
     stop: &Arc<AtomicBool>,
-) -> Result<Receiver<(Port, Vec<u8>)>, String> {
+) -> Result<Receiver<(Port, Vec<u8>, Instant)>, String> {
     let (tx, rx) = channel();
     for pty in ptys
         .iter()
@@ -126,7 +159,8 @@ fn spawn_readers(
                 while !stop.load(Ordering::Acquire) {
                     match master.read(&mut buf) {
                         Ok(n) if n > 0 => {
-                            if tx.send((port, buf[..n].to_vec())).is_err() {
+                            let read_at = Instant::now();
+                            if tx.send((port, buf[..n].to_vec(), read_at)).is_err() {
                                 return;
                             }
                         }
@@ -169,11 +203,15 @@ pub fn run(
     let end_us = (duration_s * 1e6) as u64;
     let wall_start = Instant::now();
     let mut dropped = 0u64;
+    let mut latency = Latency::default();
     loop {
         if stop.load(Ordering::Acquire) {
             break;
         }
-        while let Ok((port, bytes)) = from_computer.try_recv() {
+        while let Ok((port, bytes, read_at)) = from_computer.try_recv() {
+            if port == Port::Scb {
+                latency.servo_bytes(&bytes, read_at);
+            }
             sim.inject(port, &bytes);
         }
         if !sim.advance(end_us) {
@@ -188,10 +226,12 @@ pub fn run(
             }
             match out {
                 HilOut::Bytes(port, bytes) => {
-                    if let Some(pty) = ptys.iter_mut().find(|p| p.port == port)
-                        && pty.master.write_all(bytes.as_slice()).is_err()
-                    {
-                        dropped += 1;
+                    if let Some(pty) = ptys.iter_mut().find(|p| p.port == port) {
+                        if pty.master.write_all(bytes.as_slice()).is_err() {
+                            dropped += 1;
+                        } else if port == Port::Imu {
+                            latency.imu_written(Instant::now());
+                        }
                     }
                 }
                 HilOut::Adc { channel, counts } => {
@@ -204,6 +244,11 @@ pub fn run(
         }
     }
     let mut summary = sim.finish(wall_start.elapsed().as_secs_f64());
+    summary.hil = Some(HilSummary {
+        servo_packets: latency.servo_packets,
+        latency_us: Percentiles::of(&mut latency.samples_us),
+        dropped_writes: dropped,
+    });
     if dropped > 0 {
         summary.events.push(format!(
             "{dropped} device writes found no reader and were dropped"

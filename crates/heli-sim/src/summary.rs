@@ -187,6 +187,58 @@ pub struct Summary {
     pub events: Vec<String>,
     /// Flight log written, if any.
     pub log: Option<String>,
+    /// Hardware in the loop only: what the HILSim measured of the flight computer.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hil: Option<HilSummary>,
+}
+
+/// What a HIL run measured of the flight computer outside.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct HilSummary {
+    /// Servo packets received from the flight computer.
+    pub servo_packets: u64,
+    /// From writing the last byte of an IMU packet to its terminal until a whole servo
+    /// packet could be read back from the servo board's terminal (µs): the flight
+    /// computer's reaction time through its driver threads, loop and ports.
+    pub latency_us: Percentiles,
+    /// Device writes that found no reader (a terminal's buffer full).
+    pub dropped_writes: u64,
+}
+
+/// Percentiles of a sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Percentiles {
+    /// How many.
+    pub samples: usize,
+    /// Median.
+    pub p50: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// 99.9th percentile.
+    pub p999: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+impl Percentiles {
+    /// The percentiles of `values` (sorted here; nearest rank).
+    pub fn of(values: &mut [f64]) -> Self {
+        values.sort_by(f64::total_cmp);
+        let at = |q: f64| {
+            if values.is_empty() {
+                return 0.0;
+            }
+            let rank = ((q * values.len() as f64).ceil() as usize).clamp(1, values.len());
+            values[rank - 1]
+        };
+        Self {
+            samples: values.len(),
+            p50: at(0.5),
+            p99: at(0.99),
+            p999: at(0.999),
+            max: values.last().copied().unwrap_or(0.0),
+        }
+    }
 }
 
 /// Running sum of squares for an RMS, with the maximum.

@@ -10,6 +10,10 @@ use thread_priority::{
 /// `SCHED_FIFO` priority of the control loop (1..=99; PX4 runs its rate loops near the top).
 pub const LOOP_PRIORITY: u8 = 80;
 
+/// `SCHED_FIFO` priority of the serial driver threads: under the loop, over everything else,
+/// so that a byte read is handed on at once even when the logger is compressing.
+pub const DRIVER_PRIORITY: u8 = 70;
+
 /// Locks the process's memory so no page fault stalls the loop. Returns a note.
 pub fn lock_memory() -> String {
     use nix::sys::mman::{MlockAllFlags, mlockall};

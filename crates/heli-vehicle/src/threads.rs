@@ -146,7 +146,11 @@ pub fn spawn_port(
                     let stop = Arc::clone(&stop);
                     std::thread::Builder::new()
                         .name(format!("drv-{}-{generation}", port.name()))
-                        .spawn(move || read_port(port, opened, clock, &tx, &stop))
+                        .spawn(move || {
+                            // Refused without privileges: the loop's note says so already.
+                            let _ = crate::rt::realtime_thread(crate::rt::DRIVER_PRIORITY);
+                            read_port(port, opened, clock, &tx, &stop)
+                        })
                 };
                 let outcome = match worker {
                     Ok(handle) => handle.join(),

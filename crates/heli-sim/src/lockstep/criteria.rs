@@ -215,6 +215,7 @@ impl Simulation {
             },
             events: m.events.clone(),
             log: None,
+            hil: None,
         }
     }
 }
