@@ -645,28 +645,42 @@ pub(crate) fn print_table(s: &Summary) {
         );
     }
     println!();
-    let e = &s.estimator;
-    println!(
-        "estimator  attitude error rms {:.2} deg (max {:.2}), position rms {:.2} m, velocity rms {:.2} m/s",
-        e.att_err_rms_deg, e.att_err_max_deg, e.pos_err_rms_m, e.vel_err_rms_mps
-    );
-    let l = &s.loop_;
-    println!(
-        "main loop  {} IMU packets ({} dropped), {} watchdog fires, {} control steps, slowest step {:.0} us",
-        l.imu_samples, l.imu_dropped, l.watchdog_fires, l.control_steps, l.step_time_max_us
-    );
-    println!(
-        "links      imu {} frames / {} bad, uplink {} / {}, gps {} / {}, altimeter {} readings ({}), battery min {:.2} V",
-        s.devices.imu.frames,
-        s.devices.imu.checksum_errors,
-        s.devices.uplink.frames,
-        s.devices.uplink.checksum_errors,
-        s.devices.gps.frames,
-        s.devices.gps.checksum_errors,
-        s.devices.baro_readings,
-        s.devices.baro_link,
-        s.devices.battery_min_v
-    );
+    if let Some(h) = &s.hil {
+        // Hardware in the loop: the flight software is elsewhere; only what crossed the
+        // wires is known here.
+        let l = &h.latency_us;
+        println!(
+            "flight computer  {} servo packets; IMU written -> servo readable p50 {:.0} us, p99 {:.0} us, p99.9 {:.0} us, max {:.0} us",
+            h.servo_packets, l.p50, l.p99, l.p999, l.max
+        );
+        if h.dropped_writes > 0 {
+            println!("devices    {} writes found no reader", h.dropped_writes);
+        }
+        println!("battery    min {:.2} V", s.devices.battery_min_v);
+    } else {
+        let e = &s.estimator;
+        println!(
+            "estimator  attitude error rms {:.2} deg (max {:.2}), position rms {:.2} m, velocity rms {:.2} m/s",
+            e.att_err_rms_deg, e.att_err_max_deg, e.pos_err_rms_m, e.vel_err_rms_mps
+        );
+        let l = &s.loop_;
+        println!(
+            "main loop  {} IMU packets ({} dropped), {} watchdog fires, {} control steps, slowest step {:.0} us",
+            l.imu_samples, l.imu_dropped, l.watchdog_fires, l.control_steps, l.step_time_max_us
+        );
+        println!(
+            "links      imu {} frames / {} bad, uplink {} / {}, gps {} / {}, altimeter {} readings ({}), battery min {:.2} V",
+            s.devices.imu.frames,
+            s.devices.imu.checksum_errors,
+            s.devices.uplink.frames,
+            s.devices.uplink.checksum_errors,
+            s.devices.gps.frames,
+            s.devices.gps.checksum_errors,
+            s.devices.baro_readings,
+            s.devices.baro_link,
+            s.devices.battery_min_v
+        );
+    }
     let watchdog_events = s
         .events
         .iter()

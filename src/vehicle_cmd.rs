@@ -49,6 +49,10 @@ pub struct FlightArgs {
     /// IMU warm-up before the calibration (s). Shorter only for tests.
     #[arg(long, default_value_t = 5.0)]
     pub warm_up_s: f64,
+    /// Run the flight clock this many times as fast as the wall clock, to fly against
+    /// `heli hilsim --speed` above 1. Never on a vehicle.
+    #[arg(long, default_value_t = 1.0)]
+    pub clock_speed: f64,
 }
 
 impl FlightArgs {
@@ -74,6 +78,12 @@ impl FlightArgs {
             if !(v.is_finite() && (0.0..=600.0).contains(&v)) {
                 bail!("{name} {v}: must be between 0 and 600 seconds");
             }
+        }
+        if !(self.clock_speed.is_finite() && self.clock_speed > 0.0 && self.clock_speed <= 100.0) {
+            bail!(
+                "--clock-speed {}: must be more than 0 and at most 100",
+                self.clock_speed
+            );
         }
         if !self.log_dir.is_dir() {
             bail!("--log-dir {}: not a directory", self.log_dir.display());
@@ -111,6 +121,8 @@ impl FlightArgs {
             self.calibration_s.to_string().into(),
             "--warm-up-s".into(),
             self.warm_up_s.to_string().into(),
+            "--clock-speed".into(),
+            self.clock_speed.to_string().into(),
         ]);
         args
     }
@@ -276,6 +288,7 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
         ("calibration_s".to_string(), args.calibration_s.to_string()),
         ("warm_up_s".to_string(), args.warm_up_s.to_string()),
         ("baro_rate_hz".to_string(), args.baro_rate.to_string()),
+        ("clock_speed".to_string(), args.clock_speed.to_string()),
         (
             "compass_bias_gauss".to_string(),
             format!("{:?}", compass.bias_gauss),
@@ -291,6 +304,7 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
         baro_rate_hz: args.baro_rate,
         log_path: Some(log_path.clone()),
         metadata,
+        clock_speed: args.clock_speed,
     };
     let stop = Arc::new(AtomicBool::new(false));
     {

@@ -86,6 +86,11 @@ impl Hilsim {
     /// Starts the HILSim flying `scenario` for `duration_s` at `speed`, and waits until its
     /// devices exist.
     pub fn start(dir: &Path, scenario: &str, speed: f64, duration_s: f64) -> Self {
+        Self::start_with(dir, scenario, speed, duration_s)
+    }
+
+    /// The same; kept apart so a faster-than-real-time run reads as such.
+    pub fn start_with(dir: &Path, scenario: &str, speed: f64, duration_s: f64) -> Self {
         let dev = dir.join("dev");
         let args: Vec<String> = [
             "hilsim",
@@ -142,6 +147,11 @@ pub struct Vehicle {
 impl Vehicle {
     /// Starts the bootstrap with the test-only short calibration.
     pub fn start(dir: &Path, dev: &Path) -> Self {
+        Self::start_with(dir, dev, 1.0)
+    }
+
+    /// Starts the bootstrap with its flight clock running `clock_speed` times real time.
+    pub fn start_with(dir: &Path, dev: &Path, clock_speed: f64) -> Self {
         let socket = dir.join("ctl.sock");
         let args: Vec<String> = [
             "vehicle",
@@ -155,6 +165,8 @@ impl Vehicle {
             "1",
             "--calibration-s",
             "5",
+            "--clock-speed",
+            &clock_speed.to_string(),
         ]
         .iter()
         .map(|s| s.to_string())

@@ -1,32 +1,18 @@
 //! Built-in scenarios of device faults: each device's watchdog must raise the fault, and the
 //! flight software must act on it as documented (docs/architecture.md, device health).
 
-use crate::scenario::{LegSpec, Limits, Scenario, base, hover, manual_sweep};
+use crate::scenario::{Limits, Scenario, hover, manual_sweep, rc_loss};
 
 /// `uplink-silent`: the servo board's line goes quiet while flying a path, which is
 /// transmitter loss: hover within 2 s where it is.
 pub fn uplink_silent() -> Scenario {
-    let mut s = base(
-        "uplink-silent",
-        "the servo board's uplink falls silent while flying a path at 3 m/s: treated as transmitter loss, hover within 2 s",
-        vec![
-            LegSpec::Takeoff { alt_m: 10.0 },
-            LegSpec::Fly {
-                north_m: 150.0,
-                east_m: 0.0,
-                alt_m: 10.0,
-                speed_mps: 3.0,
-            },
-            LegSpec::Land,
-        ],
-        150.0,
-    );
-    s.faults.uplink_silent = vec![[110.0, 1000.0]];
-    s.limits = Limits {
-        rc_loss_hover_within_s: Some(2.5),
-        rc_loss_drift_max_m: Some(3.0),
-        ..Limits::default()
-    };
+    // The transmitter-loss flight, with the board's line cut instead of the receiver's signal.
+    let mut s = rc_loss();
+    s.name = "uplink-silent".into();
+    s.description = "the servo board's uplink falls silent while flying a path at 3 m/s: treated as transmitter loss, hover within 2.5 s".into();
+    s.duration_s = 150.0;
+    s.faults.uplink_silent = std::mem::take(&mut s.faults.transmitter_lost);
+    s.limits.rc_loss_hover_within_s = Some(2.5);
     s.expect_events = vec![
         "uplink late".into(),
         "uplink silent".into(),

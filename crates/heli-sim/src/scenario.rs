@@ -219,7 +219,7 @@ impl Default for Scenario {
     }
 }
 
-pub(crate) fn base(name: &str, description: &str, plan: Vec<LegSpec>, duration_s: f64) -> Scenario {
+fn base(name: &str, description: &str, plan: Vec<LegSpec>, duration_s: f64) -> Scenario {
     Scenario {
         name: name.into(),
         description: description.into(),

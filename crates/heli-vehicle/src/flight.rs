@@ -40,6 +40,9 @@ pub struct FlightSetup {
     pub log_path: Option<PathBuf>,
     /// What to record in the log's `flight` metadata (parameters, version, wall clock).
     pub metadata: BTreeMap<String, String>,
+    /// How many times as fast as the wall clock the flight clock runs: 1 on a vehicle;
+    /// more only against a HILSim run at `--speed` above 1.
+    pub clock_speed: f64,
 }
 
 /// What the flight process reports while it runs.
@@ -79,7 +82,7 @@ pub fn run(
     stop: Arc<AtomicBool>,
     report: Arc<dyn Fn(Report) + Send + Sync>,
 ) -> Result<FlightSummary, String> {
-    let clock = Clock::start();
+    let clock = Clock::with_speed(setup.clock_speed);
     report(Report::Note(rt::lock_memory()));
     let (tx, rx) = channel::<LoopMsg>();
     let writers = Arc::new(Writers::default());

@@ -29,30 +29,47 @@ pub const REOPEN_DELAY: Duration = Duration::from_secs(1);
 /// Compass read period (20 Hz, as the thesis's analog monitor).
 pub const COMPASS_PERIOD: Duration = Duration::from_millis(50);
 
-/// The flight process's monotonic clock: microseconds since the flight process started.
+/// The flight process's monotonic clock: microseconds since the flight process started,
+/// running `speed` times as fast as the wall clock (1 on a vehicle; more only to fly against a
+/// HILSim run faster than real time).
 #[derive(Clone, Copy, Debug)]
 pub struct Clock {
     start: Instant,
+    speed: f64,
 }
 
 impl Clock {
-    /// A clock starting now.
+    /// A clock starting now, at wall-clock speed.
     pub fn start() -> Self {
+        Self::with_speed(1.0)
+    }
+
+    /// A clock starting now, running `speed` times as fast as the wall clock (values that
+    /// are not finite and positive count as 1).
+    pub fn with_speed(speed: f64) -> Self {
         Self {
             start: Instant::now(),
+            speed: if speed.is_finite() && speed > 0.0 {
+                speed
+            } else {
+                1.0
+            },
         }
     }
 
     /// Microseconds since the start.
     pub fn now_us(&self) -> u64 {
-        u64::try_from(self.start.elapsed().as_micros()).unwrap_or(u64::MAX)
+        let us = self.start.elapsed().as_secs_f64() * 1e6 * self.speed;
+        if us.is_finite() && us >= 0.0 {
+            us as u64
+        } else {
+            0
+        }
     }
 
-    /// The instant `t_us` after the start.
-    pub fn instant(&self, t_us: u64) -> Instant {
-        self.start
-            .checked_add(Duration::from_micros(t_us))
-            .unwrap_or(self.start)
+    /// The wall-clock time `flight_us` of this clock take.
+    pub fn wall(&self, flight_us: u64) -> Duration {
+        Duration::from_secs_f64(flight_us as f64 * 1e-6 / self.speed)
     }
 }
 
