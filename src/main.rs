@@ -190,7 +190,27 @@ struct SimArgs {
     log: Option<std::path::PathBuf>,
 }
 
+/// A reader that stops early (`heli log info x.mcap | head`) closes the pipe; Rust ignores
+/// SIGPIPE, so the next `println!` panics. Every command prints with `println!`, so the
+/// whole class is handled here: such a panic ends the program quietly, as SIGPIPE would.
+fn quiet_on_closed_stdout() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.starts_with("failed printing to stdout") && message.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> ExitCode {
+    quiet_on_closed_stdout();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Sim(args) => sim(args),

@@ -490,3 +490,26 @@ fn a_killed_sim_leaves_a_log_that_reads_to_its_last_flush() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_reader_that_stops_early_is_no_crash() {
+    use std::io::{BufRead, BufReader};
+    // `heli sim --list | head -1`: the rest of the output meets a closed pipe.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_heli"))
+        .args(["sim", "--list"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot run heli: {e}"));
+    let stdout = child.stdout.take().unwrap_or_else(|| panic!("no stdout"));
+    let mut first = String::new();
+    let _ = BufReader::new(stdout).read_line(&mut first);
+    // The pipe closes here, with most of the list unread.
+    let out = child
+        .wait_with_output()
+        .unwrap_or_else(|e| panic!("heli did not end: {e}"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(first.starts_with("demo"), "{first}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(out.status.success(), "{:?} {stderr}", out.status);
+}

@@ -10,8 +10,17 @@ use std::time::{Duration, Instant};
 
 use procs::{Hilsim, Vehicle, heli, log_info};
 
+/// The real-time flights run one at a time: on a 2-core machine, two at once would judge the
+/// machine's load rather than the flight software.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn exclusive() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 #[test]
 fn the_vehicle_flies_the_hover_scenario_against_the_hilsim_in_real_time() {
+    let _one = exclusive();
     let dir = tempfile::tempdir().unwrap();
     let hil = Hilsim::start(dir.path(), "hover", 1.0, 42.0);
     let vehicle = Vehicle::start(dir.path(), &hil.dev);
@@ -53,6 +62,7 @@ fn the_vehicle_flies_the_hover_scenario_against_the_hilsim_in_real_time() {
 
 #[test]
 fn the_same_flight_faster_than_real_time_is_reported_not_asserted() {
+    let _one = exclusive();
     // The HILSim at 4x and the flight clock at 4x: whether this machine keeps up is reported.
     let dir = tempfile::tempdir().unwrap();
     let hil = Hilsim::start_with(dir.path(), "hover", 4.0, 60.0);
@@ -71,6 +81,7 @@ fn the_same_flight_faster_than_real_time_is_reported_not_asserted() {
 
 #[test]
 fn a_flight_process_killed_mid_flight_is_reported_and_its_log_survives() {
+    let _one = exclusive();
     let dir = tempfile::tempdir().unwrap();
     let hil = Hilsim::start(dir.path(), "hover", 1.0, 200.0);
     let vehicle = Vehicle::start(dir.path(), &hil.dev);
@@ -119,6 +130,7 @@ fn a_flight_process_killed_mid_flight_is_reported_and_its_log_survives() {
 
 #[test]
 fn every_stand_alone_driver_runs_against_the_hilsim_and_logs() {
+    let _one = exclusive();
     let dir = tempfile::tempdir().unwrap();
     let hil = Hilsim::start(dir.path(), "hover", 1.0, 60.0);
     let dev = hil.dev.clone();

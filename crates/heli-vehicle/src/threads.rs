@@ -280,3 +280,92 @@ pub fn sleep_unless_stopped(d: Duration, stop: &AtomicBool) {
         std::thread::sleep(left.min(Duration::from_millis(20)));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serialport::SerialPort;
+    use std::path::PathBuf;
+    use std::time::Duration;
+
+    fn devices_with_imu(path: PathBuf) -> Devices {
+        let mut d = Devices::hilsim(std::path::Path::new("/nonexistent"));
+        d.ports.imu = path;
+        d
+    }
+
+    #[test]
+    fn a_driver_thread_that_dies_is_reported_and_replaced() {
+        let (master, slave) = TTYPort::pair().unwrap();
+        let path = PathBuf::from(slave.name().unwrap());
+        let stop = Arc::new(AtomicBool::new(false));
+        let (tx, rx) = std::sync::mpsc::channel();
+        let handle = spawn_port(
+            Port::Imu,
+            &devices_with_imu(path),
+            Clock::start(),
+            tx,
+            Arc::new(Writers::default()),
+            Arc::clone(&stop),
+        )
+        .unwrap();
+        std::thread::sleep(Duration::from_millis(200));
+        // The other end goes away: the driver's reads fail and its thread ends.
+        drop(master);
+        drop(slave);
+        let mut notes = Vec::new();
+        let end = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < end && !notes.iter().any(|n: &String| n.contains("restarting")) {
+            if let Ok(LoopMsg::Note(n)) = rx.recv_timeout(Duration::from_millis(100)) {
+                notes.push(n);
+            }
+        }
+        assert!(
+            notes
+                .iter()
+                .any(|n| n.contains("driver thread of imu died")),
+            "{notes:?}"
+        );
+        // Its replacement cannot open the port (it is gone): the device is failed, once.
+        let mut failed = 0;
+        let end = Instant::now() + Duration::from_secs(3);
+        while Instant::now() < end {
+            if let Ok(LoopMsg::Input(_, RecordedInput::PortFailed(Port::Imu))) =
+                rx.recv_timeout(Duration::from_millis(100))
+            {
+                failed += 1;
+            }
+        }
+        assert_eq!(failed, 1);
+        stop.store(true, Ordering::Release);
+        handle.join().unwrap();
+    }
+
+    #[test]
+    fn a_port_that_never_opens_fails_its_device_once_and_is_retried_quietly() {
+        let stop = Arc::new(AtomicBool::new(false));
+        let (tx, rx) = std::sync::mpsc::channel();
+        let handle = spawn_port(
+            Port::Imu,
+            &devices_with_imu(PathBuf::from("/nonexistent/ttyIMU")),
+            Clock::start(),
+            tx,
+            Arc::new(Writers::default()),
+            Arc::clone(&stop),
+        )
+        .unwrap();
+        std::thread::sleep(Duration::from_millis(2_300));
+        stop.store(true, Ordering::Release);
+        handle.join().unwrap();
+        let msgs: Vec<LoopMsg> = rx.try_iter().collect();
+        let notes = msgs
+            .iter()
+            .filter(|m| matches!(m, LoopMsg::Note(n) if n.contains("no such device")))
+            .count();
+        let failed = msgs
+            .iter()
+            .filter(|m| matches!(m, LoopMsg::Input(_, RecordedInput::PortFailed(Port::Imu))))
+            .count();
+        assert_eq!((notes, failed), (1, 1), "{msgs:?}");
+    }
+}
