@@ -50,11 +50,17 @@ fn setup_of(contents: &LogContents) -> Result<ReplaySetup> {
     let mode = FlightMode::from_name(get("mode")?)
         .with_context(|| format!("unknown mode '{}' in the flight metadata", entries["mode"]))?;
     let plan_name = get("plan")?;
-    let scenario = heli_sim::scenario::load(plan_name)
+    // The legs themselves are in the log; older logs name a plan to look up.
+    let legs: Vec<heli_sim::scenario::LegSpec> = match entries.get("plan_legs_json") {
+        Some(json) => serde_json::from_str(json).context("the logged plan's legs do not parse")?,
+        None => {
+            heli_sim::scenario::load(plan_name)
+                .with_context(|| format!("the logged flight plan '{plan_name}'"))?
+                .plan
+        }
+    };
+    let plan = crate::vehicle_cmd::plan_of(&legs)
         .with_context(|| format!("the logged flight plan '{plan_name}'"))?;
-    let legs: Vec<_> = scenario.plan.iter().map(|l| l.to_leg()).collect();
-    let plan = heli_fsw::core::mission::Plan::new(&legs)
-        .map_err(|e| anyhow!("the logged flight plan '{plan_name}': {e}"))?;
     let config = CoreConfig {
         calibration_s: number("calibration_s")?,
         imu_warm_up_s: number("warm_up_s")?,
@@ -77,6 +83,18 @@ fn setup_of(contents: &LogContents) -> Result<ReplaySetup> {
 /// Replays a log; exit 0 on an exact match, 1 on a difference.
 pub fn replay(file: &Path, contents: &LogContents) -> Result<ExitCode> {
     let setup = setup_of(contents).with_context(|| format!("{}", file.display()))?;
+    let software = concat!("heli ", env!("CARGO_PKG_VERSION"));
+    let logged = contents
+        .metadata
+        .iter()
+        .find_map(|m| m.entries.get("software"))
+        .map(String::as_str);
+    if logged.is_some_and(|l| l != software) {
+        eprintln!(
+            "heli log replay: the log was written by {}, this is {software}: a difference may be the software's",
+            logged.unwrap_or("?")
+        );
+    }
     let outcome = replay::replay(&setup, contents)
         .map_err(anyhow::Error::msg)
         .with_context(|| format!("{}", file.display()))?;

@@ -222,14 +222,49 @@ fn say(line: &str) {
 }
 
 /// The flight plan named at Start Logging: a built-in scenario's plan, or a scenario file's.
-fn plan_named(name: Option<&str>) -> Result<(String, Plan)> {
+/// Returns its name, its legs as JSON (recorded in the log, so a replay needs no file) and
+/// the plan.
+fn plan_named(name: Option<&str>) -> Result<(String, String, Plan)> {
     let name = name.unwrap_or("hover");
     let scenario = heli_sim::scenario::load(name).with_context(|| {
         format!("flight plan '{name}' (a built-in scenario or a scenario file)")
     })?;
-    let legs: Vec<_> = scenario.plan.iter().map(|l| l.to_leg()).collect();
-    let plan = Plan::new(&legs).map_err(|e| anyhow::anyhow!("flight plan '{name}': {e}"))?;
-    Ok((name.to_string(), plan))
+    let legs_json = serde_json::to_string(&scenario.plan)?;
+    let plan = plan_of(&scenario.plan).with_context(|| format!("flight plan '{name}'"))?;
+    Ok((name.to_string(), legs_json, plan))
+}
+
+/// The flight software's plan of a scenario's legs.
+pub fn plan_of(legs: &[heli_sim::scenario::LegSpec]) -> Result<Plan> {
+    let legs: Vec<_> = legs.iter().map(|l| l.to_leg()).collect();
+    Plan::new(&legs).map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+/// Where the flight process's lines go: a printer thread, so that no flight thread (the
+/// control loop least of all) ever waits on the pipe to the bootstrap. Lines that do not
+/// fit are counted and the count said when there is room.
+fn reporter() -> impl Fn(String) + Send + Sync + Clone {
+    let (tx, rx) = std::sync::mpsc::sync_channel::<String>(4096);
+    let dropped = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    {
+        let dropped = Arc::clone(&dropped);
+        std::thread::spawn(move || {
+            for line in rx {
+                let lost = dropped.swap(0, Ordering::AcqRel);
+                if lost > 0 {
+                    say(&format!(
+                        "note {lost} report lines dropped (the bootstrap was not reading)"
+                    ));
+                }
+                say(&line);
+            }
+        });
+    }
+    move |line: String| {
+        if tx.try_send(line).is_err() {
+            dropped.fetch_add(1, Ordering::AcqRel);
+        }
+    }
 }
 
 /// `heli flight`: the flight process. It says `ready`, waits for `start SUFFIX MODE [PLAN]`
@@ -261,11 +296,11 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
         }
     };
     let started = heli_link::StartParameters::new(&suffix, &mode);
-    let (mode, plan_name, plan) = match started
+    let (mode, plan_name, plan_legs, plan) = match started
         .map_err(anyhow::Error::from)
         .and_then(|p| Ok((p.controller, plan_named(plan_name.as_deref())?)))
     {
-        Ok((mode, (name, plan))) => (mode, name, plan),
+        Ok((mode, (name, legs, plan))) => (mode, name, legs, plan),
         Err(e) => {
             say(&format!("error {e:#}"));
             bail!("{e:#}");
@@ -285,6 +320,7 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
         ("suffix".to_string(), suffix.clone()),
         ("mode".to_string(), mode.name().to_string()),
         ("plan".to_string(), plan_name),
+        ("plan_legs_json".to_string(), plan_legs),
         ("calibration_s".to_string(), args.calibration_s.to_string()),
         ("warm_up_s".to_string(), args.warm_up_s.to_string()),
         ("baro_rate_hz".to_string(), args.baro_rate.to_string()),
@@ -319,13 +355,24 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
             stop.store(true, Ordering::Release);
         });
     }
-    say(&format!("started {}", log_path.display()));
-    let report = Arc::new(|r: Report| match r {
-        Report::Note(text) => say(&format!("note {text}")),
-        Report::Event { severity, text, .. } => say(&format!("event {} {text}", severity.name())),
-        Report::Telemetry(v) => say(&format!("telemetry {v}")),
+    let line = reporter();
+    let report = Arc::new(move |r: Report| match r {
+        Report::Started { log } => line(format!(
+            "started {}",
+            log.map_or("(no log)".to_string(), |p| p.display().to_string())
+        )),
+        Report::Note(text) => line(format!("note {text}")),
+        Report::Event { severity, text, .. } => line(format!("event {} {text}", severity.name())),
+        Report::Telemetry(v) => line(format!("telemetry {v}")),
     });
-    let summary = flight::run(setup, stop, report).map_err(anyhow::Error::msg)?;
+    let summary = match flight::run(setup, stop, report) {
+        Ok(s) => s,
+        Err(e) => {
+            // The bootstrap answers the pending Start Logging with this.
+            say(&format!("error {e}"));
+            bail!("{e}");
+        }
+    };
     let s = summary.stats;
     let json = serde_json::json!({
         "imu_samples": s.imu_samples,

@@ -106,7 +106,13 @@ fn a_flight_process_killed_mid_flight_is_reported_and_its_log_survives() {
 
         let log = dir.path().join(format!("flight_{suffix}.mcap"));
         let info = log_info(&log);
-        assert!(info.contains("imu"), "{info}");
+        // Streams were flowing when it was killed (not only metadata naming the ports).
+        for channel in ["imu", "servo", "uplink", "device"] {
+            assert!(
+                procs::channel_rate(&info, channel).is_some_and(|hz| hz > 1.0),
+                "kill {k}: no {channel} stream in\n{info}"
+            );
+        }
         let (first_wall_ms, last_t_s) = procs::log_span(&log);
         procs::python_reads(&log);
         // The last record is at most the flush interval plus 100 ms before the kill.

@@ -174,6 +174,16 @@ impl FlightLog<File> {
     pub fn create(path: &Path) -> Result<Self, LogError> {
         Self::new(File::create(path)?)
     }
+
+    /// Creates a log file at `path`, refusing to replace one that is there (a flight's log
+    /// is never overwritten by the next flight that reuses its name).
+    pub fn create_new(path: &Path) -> Result<Self, LogError> {
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(path)?;
+        Self::new(file)
+    }
 }
 
 impl<F: LogFile> FlightLog<F> {

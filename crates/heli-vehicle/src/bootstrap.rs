@@ -17,7 +17,7 @@
 use std::ffi::OsString;
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
-use std::os::unix::process::ExitStatusExt;
+use std::os::unix::process::{CommandExt, ExitStatusExt};
 use std::path::PathBuf;
 use std::process::{ChildStdin, Command, ExitStatus, Stdio};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
@@ -192,7 +192,7 @@ impl Bootstrap {
             };
             match msg {
                 Some(Msg::Request(Request::Quit, reply)) => {
-                    self.kill_child();
+                    self.stop_child_and_wait();
                     if let Some(written) = &self.written {
                         while written.try_recv().is_ok() {}
                     }
@@ -221,6 +221,33 @@ impl Bootstrap {
                 }
             }
         }
+    }
+
+    /// Tells the flight process to stop and waits for it (up to [`STOP_TIMEOUT`]); kills it
+    /// if it does not go.
+    fn stop_child_and_wait(&mut self) {
+        let Some(generation) = self.child.as_ref().map(|c| c.generation) else {
+            return;
+        };
+        if self.tell_child("stop") {
+            self.set_state(State::Stopping);
+            let until = Instant::now().checked_add(STOP_TIMEOUT);
+            while let Some(left) = until.and_then(|u| u.checked_duration_since(Instant::now())) {
+                match self.rx.recv_timeout(left) {
+                    Ok(Msg::ChildExited(g, status)) if g == generation => {
+                        self.child_exited(g, status);
+                        return;
+                    }
+                    Ok(Msg::ChildLine(g, line)) => self.child_line(g, &line),
+                    Ok(Msg::Request(_, reply)) => {
+                        let _ = reply.send("error the bootstrap is quitting".into());
+                    }
+                    Ok(Msg::ChildExited(g, status)) => self.child_exited(g, status),
+                    Err(_) => break,
+                }
+            }
+        }
+        self.kill_child();
     }
 
     fn answer(&mut self, text: String) {
@@ -271,10 +298,14 @@ impl Bootstrap {
                     let _ = reply.send("ok nothing to stop".into());
                     return;
                 }
-                if !self.tell_child("stop") {
+                if self.tell_child("stop") {
+                    self.wait_for(reply, STOP_TIMEOUT, State::Stopping);
+                } else {
+                    // Already dying: its exit is reported when it arrives.
                     self.kill_child();
+                    let _ = reply
+                        .send("ok stopped (the flight process was not listening; killed)".into());
                 }
-                self.wait_for(reply, STOP_TIMEOUT, State::Stopping);
             }
             GroundCommand::TelemetryRequest | GroundCommand::Final(_) => {
                 let status = serde_json::json!({
@@ -315,7 +346,10 @@ impl Bootstrap {
             .child
             .split_first()
             .ok_or("no flight process program configured")?;
+        // Its own process group: a Ctrl-C or hang-up meant for the bootstrap's terminal must
+        // not kill the flight.
         let mut child = Command::new(program)
+            .process_group(0)
             .args(args)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
@@ -424,14 +458,27 @@ impl Bootstrap {
 /// Accepts control connections: one request line, one reply line.
 fn serve(listener: &UnixListener, tx: &Sender<Msg>, written: &Sender<()>) {
     for stream in listener.incoming() {
-        let Ok(mut stream) = stream else { continue };
+        let Ok(stream) = stream else { continue };
+        // One thread a connection, with a read timeout: an idle client holds up no one.
+        let tx = tx.clone();
+        let written = written.clone();
+        let _ = std::thread::Builder::new()
+            .name("ctl-conn".into())
+            .spawn(move || serve_one(stream, &tx, &written));
+    }
+}
+
+/// One control connection: one request line, one reply line.
+fn serve_one(mut stream: UnixStream, tx: &Sender<Msg>, written: &Sender<()>) {
+    {
+        let _ = stream.set_read_timeout(Some(Duration::from_secs(2)));
         let mut line = String::new();
         let read = stream
             .try_clone()
             .map(BufReader::new)
             .and_then(|mut r| r.read_line(&mut line));
         if read.is_err() {
-            continue;
+            return;
         }
         let reply = match Request::parse(&line) {
             Ok(request) => {
@@ -439,6 +486,7 @@ fn serve(listener: &UnixListener, tx: &Sender<Msg>, written: &Sender<()>) {
                 if tx.send(Msg::Request(request, reply_tx)).is_err() {
                     return;
                 }
+                // The reply may wait for the flight process (connect, stop).
                 reply_rx
                     .recv()
                     .unwrap_or_else(|_| "error the bootstrap is ending".into())

@@ -48,6 +48,11 @@ pub struct FlightSetup {
 /// What the flight process reports while it runs.
 #[derive(Clone, Debug)]
 pub enum Report {
+    /// The log is open and the loop is about to start.
+    Started {
+        /// The log file, if any.
+        log: Option<PathBuf>,
+    },
     /// A note from the runtime (real-time settings, a port error, a restarted thread).
     Note(String),
     /// An event of the flight computer.
@@ -89,7 +94,12 @@ pub fn run(
     let streams = Arc::new(LiveStreams::default());
     let (log, log_thread) = match &setup.log_path {
         Some(path) => {
-            let (sender, handle) = logger::spawn(path, &setup.metadata)?;
+            let note = {
+                let report = Arc::clone(&report);
+                Arc::new(move |text: String| report(Report::Note(text)))
+                    as Arc<dyn Fn(String) + Send + Sync>
+            };
+            let (sender, handle) = logger::spawn(path, &setup.metadata, note)?;
             (Some(sender), Some(handle))
         }
         None => (None, None),
@@ -138,6 +148,15 @@ pub fn run(
         .map_err(|e| spawn_error("telemetry", e))?,
     );
     drop(tx);
+    // The first commands (the board's check, the altimeter's reset) go out at start: give
+    // every port its first try at opening before the loop starts (up to 2 s).
+    let opening = std::time::Instant::now();
+    while writers.first_attempts() < Port::ALL.len() && opening.elapsed() < Duration::from_secs(2) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    report(Report::Started {
+        log: setup.log_path.clone(),
+    });
 
     let control = {
         let stop = Arc::clone(&stop);
@@ -193,8 +212,18 @@ fn control_loop(
 ) -> (CoreStats, u64) {
     let mut computer = FlightComputer::new(setup.config, setup.params, setup.baro_rate_hz);
     let mut actions: Vec<Action> = Vec::with_capacity(64);
+    let write_failures = std::cell::Cell::new(0u64);
     let mut tx = |port: Port, bytes: &[u8]| {
-        writers.write(port, bytes);
+        if !writers.write(port, bytes) {
+            // Counted, and the first one said: a command that found its port closed.
+            if write_failures.get() == 0 {
+                report(Report::Note(format!(
+                    "write to {} failed (port not open): commands to it are being lost",
+                    port.name()
+                )));
+            }
+            write_failures.set(write_failures.get().saturating_add(1));
+        }
     };
     let mut last_t_us = clock.now_us();
     if let Some(log) = log {
@@ -202,9 +231,17 @@ fn control_loop(
     }
     computer.start(last_t_us, &mut tx);
     let mut inputs = 0u64;
+    let mut log_dropped = false;
     let mut feed = |computer: &mut FlightComputer, t_us: u64, input: RecordedInput| {
-        if let Some(log) = log {
-            log.send(LogItem::Input(t_us, input.clone()));
+        if let Some(log) = log
+            && !log.send(LogItem::Input(t_us, inputs, input.clone()))
+            && !log_dropped
+        {
+            log_dropped = true;
+            report(Report::Note(
+                "the logger fell behind and dropped items: the log has a gap and cannot be replayed past it"
+                    .into(),
+            ));
         }
         actions.clear();
         computer.receive(t_us, input.as_input(), &mut tx, &mut actions);
@@ -257,6 +294,12 @@ fn control_loop(
             last_t_us = last_t_us.max(now);
             feed(&mut computer, last_t_us, RecordedInput::Tick);
         }
+    }
+    if write_failures.get() > 0 {
+        report(Report::Note(format!(
+            "{} device writes failed during the flight",
+            write_failures.get()
+        )));
     }
     (computer.core().stats(), inputs)
 }

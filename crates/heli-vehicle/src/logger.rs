@@ -11,6 +11,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -33,8 +34,9 @@ pub const LOG_QUEUE: usize = 32_768;
 pub enum LogItem {
     /// The flight computer was started at `t_us`.
     Start(u64),
-    /// A device input the flight computer took at `t_us`.
-    Input(u64, RecordedInput),
+    /// A device input the flight computer took at `t_us`, numbered in the order taken (the
+    /// `device` channel's sequence, so a dropped input shows as a gap).
+    Input(u64, u64, RecordedInput),
     /// What the flight computer did.
     Action(Action),
     /// A battery reading (V) at `t_us`.
@@ -52,12 +54,14 @@ pub struct LogSender {
 
 impl LogSender {
     /// Hands an item to the logger without waiting; counts it dropped if the queue is full.
-    pub fn send(&self, item: LogItem) {
+    /// Returns false when it was dropped.
+    pub fn send(&self, item: LogItem) -> bool {
         match self.tx.try_send(item) {
-            Ok(()) => {}
+            Ok(()) => true,
             Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => {
                 self.dropped
                     .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                false
             }
         }
     }
@@ -81,19 +85,28 @@ pub struct LogReport {
 
 /// Creates the log at `path`, writes `metadata` (MCAP metadata named `flight`) and starts the
 /// logger thread. The thread ends, closing the log, when every sender is gone.
+/// Runtime trouble (a write error) is said at once through `note`. An existing file is
+/// never replaced.
 pub fn spawn(
     path: &Path,
     metadata: &BTreeMap<String, String>,
+    note: Arc<dyn Fn(String) + Send + Sync>,
 ) -> Result<(LogSender, JoinHandle<LogReport>), String> {
-    let mut log =
-        FlightLog::create(path).map_err(|e| format!("flight log {}: {e}", path.display()))?;
+    let mut log = FlightLog::create_new(path).map_err(|e| {
+        let exists = if path.exists() {
+            " (a log of that name exists: choose another suffix)"
+        } else {
+            ""
+        };
+        format!("flight log {}: {e}{exists}", path.display())
+    })?;
     log.write_metadata("flight", metadata)
         .map_err(|e| format!("flight log {}: {e}", path.display()))?;
     let (tx, rx) = std::sync::mpsc::sync_channel(LOG_QUEUE);
     let path = path.to_path_buf();
     let handle = std::thread::Builder::new()
         .name("logger".into())
-        .spawn(move || run(log, &rx, path))
+        .spawn(move || run(log, &rx, path, &*note))
         .map_err(|e| format!("logger thread: {e}"))?;
     Ok((
         LogSender {
@@ -104,7 +117,12 @@ pub fn spawn(
     ))
 }
 
-fn run(mut log: FlightLog<std::fs::File>, rx: &Receiver<LogItem>, path: PathBuf) -> LogReport {
+fn run(
+    mut log: FlightLog<std::fs::File>,
+    rx: &Receiver<LogItem>,
+    path: PathBuf,
+    note: &(dyn Fn(String) + Send + Sync),
+) -> LogReport {
     let mut report = LogReport {
         path,
         ..LogReport::default()
@@ -113,16 +131,23 @@ fn run(mut log: FlightLog<std::fs::File>, rx: &Receiver<LogItem>, path: PathBuf)
         let item = match rx.recv_timeout(Duration::from_millis(20)) {
             Ok(item) => item,
             Err(RecvTimeoutError::Timeout) => {
-                if let Err(e) = log.flush_if_due() {
-                    report.error.get_or_insert(e.to_string());
+                if let Err(e) = log.flush_if_due()
+                    && report.error.is_none()
+                {
+                    note(format!("flight log {}: {e}", report.path.display()));
+                    report.error = Some(e.to_string());
                 }
                 continue;
             }
             Err(RecvTimeoutError::Disconnected) => break,
         };
-        if let Err(e) = write(&mut log, &item) {
-            // Keep going: one bad write must not end the flight's record.
-            report.error.get_or_insert(e.to_string());
+        if let Err(e) = write(&mut log, &item)
+            && report.error.is_none()
+        {
+            // Said at once, and the logger keeps going: one bad write must not end the
+            // flight's record.
+            note(format!("flight log {}: {e}", report.path.display()));
+            report.error = Some(e.to_string());
         }
     }
     report.messages = log.messages();
@@ -134,10 +159,16 @@ fn run(mut log: FlightLog<std::fs::File>, rx: &Receiver<LogItem>, path: PathBuf)
 
 fn write(log: &mut FlightLog<std::fs::File>, item: &LogItem) -> Result<(), heli_log::LogError> {
     match item {
-        LogItem::Start(t_us) => log.write(inputs::CHANNEL, *t_us, &inputs::start_json()),
-        LogItem::Input(t_us, input) => {
-            log.write(inputs::CHANNEL, *t_us, &inputs::input_json(input))
+        LogItem::Start(t_us) => {
+            log.write_sequenced(inputs::CHANNEL, 0, *t_us, &inputs::start_json())
         }
+        LogItem::Input(t_us, seq, input) => log.write_sequenced(
+            inputs::CHANNEL,
+            // The start marker is 0; inputs count from 1 (32 bits: 11 years of inputs).
+            u32::try_from(seq.saturating_add(1)).unwrap_or(u32::MAX),
+            *t_us,
+            &inputs::input_json(input),
+        ),
         LogItem::Action(Action::Publish(record)) => log.write_record(record),
         LogItem::Action(Action::Event(e)) => log.write_event(e.t_us, &e.value),
         // The servo stream carries the command; the action adds nothing.

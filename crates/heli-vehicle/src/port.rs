@@ -61,8 +61,12 @@ pub fn open(path: &Path, baud: u32) -> Result<TTYPort, PortError> {
             "give the path of a tty such as /dev/ttyS0, /dev/ttyUSB0 or a HILSim pseudo-terminal",
         ));
     }
+    // Not TIOCEXCL: the flag outlives a killed process on a terminal someone else holds
+    // open (the HILSim's), and would refuse the next flight process. serialport takes a
+    // shared flock instead.
     let port = serialport::new(path.to_string_lossy(), baud)
         .timeout(READ_TIMEOUT)
+        .exclusive(false)
         .open_native()
         .map_err(|e| {
             let hint = match e.kind() {

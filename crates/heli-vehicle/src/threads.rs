@@ -69,7 +69,7 @@ impl Clock {
 
     /// The wall-clock time `flight_us` of this clock take.
     pub fn wall(&self, flight_us: u64) -> Duration {
-        Duration::from_secs_f64(flight_us as f64 * 1e-6 / self.speed)
+        Duration::try_from_secs_f64(flight_us as f64 * 1e-6 / self.speed).unwrap_or(Duration::MAX)
     }
 }
 
@@ -88,6 +88,8 @@ pub enum LoopMsg {
 pub struct Writers {
     scb: Mutex<Option<TTYPort>>,
     baro: Mutex<Option<TTYPort>>,
+    /// Ports whose driver has made its first attempt to open them.
+    attempted: std::sync::atomic::AtomicUsize,
 }
 
 impl Writers {
@@ -109,6 +111,15 @@ impl Writers {
             Some(p) => port::write_all(p, bytes).is_ok(),
             None => false,
         }
+    }
+
+    /// How many ports have had their first try at opening (successful or not).
+    pub fn first_attempts(&self) -> usize {
+        self.attempted.load(Ordering::Acquire)
+    }
+
+    fn attempted(&self) {
+        self.attempted.fetch_add(1, Ordering::AcqRel);
     }
 
     fn set(&self, port: Port, handle: Option<TTYPort>) {
@@ -133,8 +144,19 @@ pub fn spawn_port(
         .spawn(move || {
             let mut reported_failed = false;
             let mut generation = 0u32;
+            let mut first = true;
             while !stop.load(Ordering::Acquire) {
-                let opened = match port::open(&path, baud(port)) {
+                let attempt = port::open(&path, baud(port));
+                if attempt.is_ok() {
+                    writers.set(
+                        port,
+                        attempt.as_ref().ok().and_then(|p| port::clone(p).ok()),
+                    );
+                }
+                if std::mem::take(&mut first) {
+                    writers.attempted();
+                }
+                let opened = match attempt {
                     Ok(p) => p,
                     Err(e) => {
                         if !reported_failed {
@@ -156,7 +178,6 @@ pub fn spawn_port(
                     )));
                     reported_failed = false;
                 }
-                writers.set(port, port::clone(&opened).ok());
                 generation = generation.saturating_add(1);
                 let worker = {
                     let tx = tx.clone();
@@ -257,7 +278,9 @@ pub fn spawn_compass(
                         }
                     }
                 }
-                next = next.checked_add(COMPASS_PERIOD).unwrap_or(next);
+                // The period is in flight time (faster than the wall when the clock is sped up).
+                let period_us = u64::try_from(COMPASS_PERIOD.as_micros()).unwrap_or(50_000);
+                next = next.checked_add(clock.wall(period_us)).unwrap_or(next);
                 if let Some(wait) = next.checked_duration_since(Instant::now()) {
                     std::thread::sleep(wait);
                 } else {

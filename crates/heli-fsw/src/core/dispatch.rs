@@ -31,6 +31,9 @@ impl FlightCore {
             };
             out.push(Action::Event(Stamped::new(now_us, event)));
         }
+        if let Some(est) = estimate.as_ref() {
+            self.airborne_once |= self.height_above_home(est) > self.config.airborne_height_m;
+        }
         let previous_phase = self.phase;
         let next_phase = self.next_phase(estimate.as_ref(), now_us, dt_s, out);
         self.phase = next_phase;

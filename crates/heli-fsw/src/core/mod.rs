@@ -203,6 +203,8 @@ pub struct FlightCore {
     estimate_valid: bool,
     /// The servo board's uplink is silent (or its driver failed): transmitter loss.
     uplink_lost: bool,
+    /// The helicopter has been airborne (above `airborne_height_m`) in this flight.
+    airborne_once: bool,
     stats: CoreStats,
 }
 
@@ -233,6 +235,7 @@ impl FlightCore {
             imu_fires_in_row: 0,
             estimate_valid: true,
             uplink_lost: false,
+            airborne_once: false,
             stats: CoreStats::default(),
         }
     }
@@ -295,22 +298,23 @@ impl FlightCore {
 
     /// A device delivered a sample at `now_us`.
     fn heard(&mut self, device: Device, now_us: u64, out: &mut Vec<Action>) {
+        let before = self.health.state(device);
         if let Some(state) = self.health.monitor_mut(device).sample(now_us) {
-            self.health_changed(device, state, now_us, out);
+            // A device's first word after start-up is no news; any other change is.
+            self.health_changed(device, state, before != HealthState::Waiting, now_us, out);
         }
     }
 
-    /// Raises a device's change of state and acts on it.
+    /// Raises a device's change of state (when `raise`) and acts on it.
     fn health_changed(
         &mut self,
         device: Device,
         state: HealthState,
+        raise: bool,
         now_us: u64,
         out: &mut Vec<Action>,
     ) {
-        // The first sample of a device is no news.
-        let first = state == HealthState::Ok && self.health.monitor(device).counts().samples == 1;
-        if !first {
+        if raise {
             out.push(Action::Event(Stamped::new(
                 now_us,
                 CoreEvent::DeviceHealth { device, state },
@@ -342,7 +346,7 @@ impl FlightCore {
             }
             Input::DeviceFailed(device) => {
                 if let Some(state) = self.health.monitor_mut(device).fail() {
-                    self.health_changed(device, state, now_us, out);
+                    self.health_changed(device, state, true, now_us, out);
                 }
             }
             Input::Timer => {
@@ -355,11 +359,15 @@ impl FlightCore {
                     }
                 });
                 for (device, state) in changes.into_iter().flatten() {
-                    self.health_changed(device, state, now_us, out);
+                    self.health_changed(device, state, true, now_us, out);
                 }
                 if self.watchdog.expired(now_us) {
                     self.watchdog.kick(now_us);
-                    self.imu_fires_in_row = self.imu_fires_in_row.saturating_add(1);
+                    // An IMU that has not spoken yet (a port still opening, a slow boot) has
+                    // no estimate to invalidate: only fires after a first sample count.
+                    if self.last_imu.is_some() {
+                        self.imu_fires_in_row = self.imu_fires_in_row.saturating_add(1);
+                    }
                     out.push(Action::Event(Stamped::new(
                         now_us,
                         CoreEvent::WatchdogFired,

@@ -19,11 +19,14 @@ impl FlightCore {
                 return Phase::Calibrating;
             }
             // The estimate is gone: the pilot flies if there is one; otherwise the blind
-            // failsafe, the safest thing left without attitude.
+            // failsafe in the air, the safest thing left without attitude, and idle on a
+            // helicopter that never left the ground.
             return if pilot.is_some() && !signal_lost {
                 Phase::Manual
-            } else {
+            } else if self.airborne_once {
                 Phase::BlindDescent
+            } else {
+                Phase::GroundFailsafe
             };
         };
         let auto_switch = pilot.is_some_and(|p| p.auto_mode);

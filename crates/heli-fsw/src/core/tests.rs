@@ -479,3 +479,74 @@ fn every_device_that_never_speaks_is_reported_silent() {
     assert_eq!(core.health().state(Device::Imu), HealthState::Ok);
     assert_eq!(core.health().state(Device::Uplink), HealthState::Ok);
 }
+
+#[test]
+fn an_imu_that_has_not_spoken_yet_invalidates_nothing() {
+    let mut core = short_core();
+    let mut out = Vec::new();
+    core.start(0);
+    // A second without the IMU (a port still opening): watchdog fires, nothing to repeat.
+    fly_for(
+        &mut core,
+        &mut out,
+        0,
+        1_000_000,
+        false,
+        Some(uplink(false, false)),
+    );
+    assert!(core.stats().watchdog_fires > 50);
+    assert!(core.estimate_valid());
+    assert!(!raised(&out, CoreEvent::EstimateInvalid));
+}
+
+#[test]
+fn an_estimate_lost_on_the_ground_without_a_pilot_idles() {
+    let (mut core, mut out, t) = calibrated_manual_core(0.0);
+    let t = fly_for(
+        &mut core,
+        &mut out,
+        t,
+        200_000,
+        true,
+        Some(uplink(false, true)),
+    );
+    fly_for(
+        &mut core,
+        &mut out,
+        t,
+        500_000,
+        false,
+        Some(uplink(false, true)),
+    );
+    assert!(!core.estimate_valid());
+    assert_eq!(
+        core.phase(),
+        Phase::GroundFailsafe,
+        "no blind descent from the skids"
+    );
+    assert_eq!(last_servo(&out).throttle, 0.0);
+}
+
+#[test]
+fn a_device_that_comes_back_is_raised_as_back() {
+    let (mut core, mut out, t) = calibrated_manual_core(8.0);
+    let t = fly_for(&mut core, &mut out, t, 700_000, true, None);
+    assert!(raised(&out, CoreEvent::UplinkLost));
+    out.clear();
+    fly_for(
+        &mut core,
+        &mut out,
+        t,
+        100_000,
+        true,
+        Some(uplink(false, false)),
+    );
+    assert!(raised(
+        &out,
+        CoreEvent::DeviceHealth {
+            device: Device::Uplink,
+            state: HealthState::Ok
+        }
+    ));
+    assert_eq!(core.phase(), Phase::Manual, "the pilot has it again");
+}
