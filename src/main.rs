@@ -344,8 +344,11 @@ fn model(args: ModelArgs) -> Result<ExitCode> {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("reading {}", path.display()))?;
-            toml::from_str(&text)
-                .with_context(|| format!("invalid airframe file {}", path.display()))?
+            let airframe: Airframe = toml::from_str(&text)
+                .with_context(|| format!("invalid airframe file {}", path.display()))?;
+            heli_sim::validate::airframe(&airframe)
+                .map_err(|e| anyhow::anyhow!("airframe file {}: {e}", path.display()))?;
+            airframe
         }
         None => Airframe::default(),
     };

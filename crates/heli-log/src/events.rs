@@ -93,6 +93,14 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
         }
         CoreEvent::EstimateInvalid => format!("t={t:.2} s estimate invalid: IMU silent"),
         CoreEvent::UplinkLost => format!("t={t:.2} s uplink lost: transmitter loss"),
+        CoreEvent::GpsImplausible(why) => match why {
+            heli_fsw::core::Implausible::OffTheGlobe => {
+                format!("t={t:.2} s GPS fix refused: off the globe")
+            }
+            heli_fsw::core::Implausible::Jump { distance_m } => {
+                format!("t={t:.2} s GPS fix refused: jumped {distance_m:.0} m")
+            }
+        },
     }
 }
 
@@ -118,6 +126,7 @@ fn events_without_numbers() -> Vec<CoreEvent> {
         CoreEvent::GpsRegained,
         CoreEvent::EstimateInvalid,
         CoreEvent::UplinkLost,
+        CoreEvent::GpsImplausible(heli_fsw::core::Implausible::OffTheGlobe),
     ];
     for device in Device::ALL {
         for state in [

@@ -28,6 +28,7 @@ pub mod rotor;
 pub mod scenario;
 pub mod summary;
 pub mod turbulence;
+pub mod validate;
 
 pub use lockstep::{RunOptions, Simulation, run};
 pub use scenario::Scenario;

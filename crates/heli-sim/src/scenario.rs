@@ -508,9 +508,11 @@ pub fn from_toml(text: &str) -> Result<Scenario, ScenarioError> {
     let mut merged =
         toml::Table::try_from(&base).map_err(|e| ScenarioError::Invalid(e.to_string()))?;
     merge(&mut merged, table);
-    toml::Value::Table(merged)
+    let scenario: Scenario = toml::Value::Table(merged)
         .try_into()
-        .map_err(|e: toml::de::Error| ScenarioError::Invalid(e.to_string()))
+        .map_err(|e: toml::de::Error| ScenarioError::Invalid(e.to_string()))?;
+    crate::validate::scenario(&scenario).map_err(ScenarioError::Invalid)?;
+    Ok(scenario)
 }
 
 fn merge(into: &mut toml::Table, from: toml::Table) {
@@ -531,7 +533,10 @@ pub fn load(name_or_path: &str) -> Result<Scenario, ScenarioError> {
     }
     let text = std::fs::read_to_string(name_or_path)
         .map_err(|_| ScenarioError::NotFound(name_or_path.into()))?;
-    from_toml(&text)
+    from_toml(&text).map_err(|e| match e {
+        ScenarioError::Invalid(why) => ScenarioError::Invalid(format!("{name_or_path}: {why}")),
+        other => other,
+    })
 }
 
 #[cfg(test)]

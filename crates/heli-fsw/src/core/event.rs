@@ -71,6 +71,8 @@ pub enum CoreEvent {
     EstimateInvalid,
     /// The pilot uplink fell silent: treated as transmitter loss.
     UplinkLost,
+    /// A GPS fix was refused before the filter saw it.
+    GpsImplausible(super::gps::Implausible),
 }
 
 impl CoreEvent {
@@ -81,7 +83,9 @@ impl CoreEvent {
                 Severity::ActivityLo
             }
             CoreEvent::CalibrationDone { .. } | CoreEvent::PlanComplete => Severity::ActivityHi,
-            CoreEvent::WatchdogFired | CoreEvent::RollAbandoned => Severity::WarningLo,
+            CoreEvent::WatchdogFired | CoreEvent::RollAbandoned | CoreEvent::GpsImplausible(_) => {
+                Severity::WarningLo
+            }
             CoreEvent::PilotSignalLost | CoreEvent::GpsLost | CoreEvent::UplinkLost => {
                 Severity::WarningHi
             }

@@ -12,6 +12,7 @@
 
 mod dispatch;
 mod event;
+pub mod gps;
 mod main_loop;
 pub mod mission;
 mod phase;
@@ -20,6 +21,7 @@ mod sequencer;
 pub mod watchdog;
 
 pub use event::{CoreEvent, Severity};
+pub use gps::Implausible;
 pub use phase::Phase;
 
 pub use heli_control::FlightMode;
@@ -166,6 +168,8 @@ pub struct CoreStats {
     pub compass_readings: u32,
     /// Inputs refused: time going backwards, or values that are not finite.
     pub rejected_inputs: u32,
+    /// GPS fixes refused before the filter: off the globe, or a jump no helicopter makes.
+    pub gps_implausible: u32,
     /// Aileron rolls completed.
     pub rolls_completed: u32,
 }
@@ -205,6 +209,8 @@ pub struct FlightCore {
     uplink_lost: bool,
     /// The helicopter has been airborne (above `airborne_height_m`) in this flight.
     airborne_once: bool,
+    /// The last GPS fix that passed the plausibility check, with its time.
+    last_good_fix: Option<(u64, GpsNav)>,
     stats: CoreStats,
 }
 
@@ -236,6 +242,7 @@ impl FlightCore {
             estimate_valid: true,
             uplink_lost: false,
             airborne_once: false,
+            last_good_fix: None,
             stats: CoreStats::default(),
         }
     }
@@ -402,7 +409,18 @@ impl FlightCore {
             Input::Gps(fix) => {
                 self.stats.gps_fixes = self.stats.gps_fixes.saturating_add(1);
                 self.heard(Device::Gps, now_us, out);
-                self.nav.fuse_gps(now_us, &fix);
+                // Checked before the filter sees it: a fix off the globe, or one that
+                // jumps faster than any helicopter flies from the last good one, is refused.
+                if let Some(why) = gps::implausible(&fix, self.last_good_fix, now_us) {
+                    self.stats.gps_implausible = self.stats.gps_implausible.saturating_add(1);
+                    out.push(Action::Event(Stamped::new(
+                        now_us,
+                        CoreEvent::GpsImplausible(why),
+                    )));
+                } else {
+                    self.last_good_fix = Some((now_us, fix));
+                    self.nav.fuse_gps(now_us, &fix);
+                }
                 out.push(Action::Publish(Record::Gps(Stamped::new(now_us, fix))));
             }
             Input::Baro { pressure_mbar } => {

@@ -1,0 +1,196 @@
+//! Scenario and airframe values checked where they enter: every number finite and in a
+//! physical range, every time window ordered. An error names the key (`plan[1].alt_m`,
+//! `faults.gps_outages[0]`) and the allowed range, so a mistyped file is fixed at once
+//! instead of panicking the simulator or being flown silently.
+
+use serde_json::Value;
+
+use crate::params::Airframe;
+use crate::scenario::Scenario;
+
+/// Longest scenario (s): a day.
+pub const MAX_DURATION_S: f64 = 86_400.0;
+
+/// What is wrong with a value.
+fn out_of_range(key: &str, value: f64, min: f64, max: f64) -> String {
+    format!("{key} = {value}: must be from {min} to {max}")
+}
+
+/// The allowed range of a scenario key (by its last name and, where names repeat, its
+/// place), if it has one beyond being finite.
+fn range_of(path: &str, name: &str) -> Option<(f64, f64)> {
+    let in_plan = path.starts_with("plan[");
+    Some(match name {
+        "duration_s" if path == "duration_s" => (1e-3, MAX_DURATION_S),
+        "duration_s" => (1e-3, MAX_DURATION_S),
+        "wind_ned_mps" => (-30.0, 30.0),
+        "turbulence_sigma_mps" => (0.0, 10.0),
+        "density_kgpm3" => (0.3, 1.6),
+        "gravity_mps2" => (9.0, 10.5),
+        "ground_pressure_mbar" => (300.0, 1100.0),
+        "temperature_c" => (-60.0, 60.0),
+        "imu_drop_rate" => (0.0, 1.0),
+        "aileron" | "elevator" | "rudder" | "collective" => (-1.0, 1.0),
+        "throttle" => (0.0, 1.0),
+        "amplitude" => (-1.0, 1.0),
+        "start_s" => (0.0, MAX_DURATION_S),
+        "f0_hz" | "f1_hz" => (0.0, 50.0),
+        "alt_m" if in_plan => (0.5, 500.0),
+        "north_m" | "east_m" => (-10_000.0, 10_000.0),
+        "speed_mps" if in_plan => (0.1, 30.0),
+        "seconds" => (0.0, MAX_DURATION_S),
+        "count" => (1.0, 10.0),
+        // Limits: non-negative, finite.
+        _ if path.starts_with("limits.") => (0.0, 1e9),
+        _ => return None,
+    })
+}
+
+/// Checks a scenario; the error names the key and the allowed range.
+pub fn scenario(s: &Scenario) -> Result<(), String> {
+    let value = serde_json::to_value(s).map_err(|e| e.to_string())?;
+    let mut errors = Vec::new();
+    if let Value::Object(map) = &value {
+        for (key, v) in map {
+            if key == "airframe" {
+                continue;
+            }
+            walk(key, key, v, &mut errors);
+        }
+    }
+    for (name, windows) in [
+        ("faults.gps_outages", &s.faults.gps_outages),
+        ("faults.transmitter_lost", &s.faults.transmitter_lost),
+        ("faults.uplink_silent", &s.faults.uplink_silent),
+        ("faults.imu_silent", &s.faults.imu_silent),
+        ("faults.baro_silent", &s.faults.baro_silent),
+        ("faults.compass_silent", &s.faults.compass_silent),
+        ("pilot.auto_flipped", &s.pilot.auto_flipped),
+        ("pilot.bypass", &s.pilot.bypass),
+    ] {
+        for (i, [start, end]) in windows.iter().enumerate() {
+            if !(start.is_finite() && end.is_finite() && *start >= 0.0 && start < end) {
+                errors.push(format!(
+                    "{name}[{i}] = [{start}, {end}]: a window is [start, end) in seconds with 0 <= start < end"
+                ));
+            }
+        }
+    }
+    if let Err(e) = airframe(&s.airframe) {
+        errors.push(e);
+    }
+    match errors.first() {
+        None => Ok(()),
+        Some(_) => Err(errors.join("; ")),
+    }
+}
+
+/// Walks a value: every number must be finite and within its key's range.
+fn walk(path: &str, name: &str, v: &Value, errors: &mut Vec<String>) {
+    match v {
+        Value::Number(n) => {
+            let x = n.as_f64().unwrap_or(f64::NAN);
+            match range_of(path, name) {
+                Some((min, max)) if !(x >= min && x <= max) => {
+                    errors.push(out_of_range(path, x, min, max));
+                }
+                _ => {}
+            }
+        }
+        // serde_json writes a non-finite f64 as null: a NaN or an infinity in the file.
+        Value::Null if !path.starts_with("limits.") && !path.ends_with("target") => {
+            errors.push(format!("{path}: must be a finite number"));
+        }
+        Value::Array(items) => {
+            for (i, item) in items.iter().enumerate() {
+                walk(&format!("{path}[{i}]"), name, item, errors);
+            }
+        }
+        Value::Object(map) => {
+            for (k, item) in map {
+                walk(&format!("{path}.{k}"), k, item, errors);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// Checks an airframe: every parameter finite, with the sign of the X-Cell 60's, and within
+/// a tenth to ten times its value (a parameter the X-Cell has at 0 may be up to 1 either way).
+pub fn airframe(a: &Airframe) -> Result<(), String> {
+    let given = serde_json::to_value(a).map_err(|e| e.to_string())?;
+    let reference = serde_json::to_value(Airframe::default()).map_err(|e| e.to_string())?;
+    let (Value::Object(given), Value::Object(reference)) = (given, reference) else {
+        return Ok(());
+    };
+    let mut errors = Vec::new();
+    for (key, v) in &given {
+        let path = format!("airframe.{key}");
+        let Some(x) = v.as_f64() else {
+            if v.is_null() {
+                errors.push(format!("{path}: must be a finite number"));
+            }
+            continue;
+        };
+        let Some(d) = reference.get(key).and_then(Value::as_f64) else {
+            continue;
+        };
+        let (min, max) = if d == 0.0 {
+            (-1.0, 1.0)
+        } else if d > 0.0 {
+            (d / 10.0, d * 10.0)
+        } else {
+            (d * 10.0, d / 10.0)
+        };
+        if !(x >= min && x <= max) {
+            errors.push(format!(
+                "{} (the X-Cell 60 has {d}: a tenth to ten times that, same sign)",
+                out_of_range(&path, x, min, max)
+            ));
+        }
+    }
+    match errors.first() {
+        None => Ok(()),
+        Some(_) => Err(errors.join("; ")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::{builtins, from_toml};
+
+    #[test]
+    fn every_builtin_scenario_is_valid() {
+        for s in builtins() {
+            assert_eq!(scenario(&s), Ok(()), "{}", s.name);
+        }
+    }
+
+    #[test]
+    fn bad_values_name_their_key_and_range() {
+        let cases = [
+            ("duration_s = -5.0", "duration_s = -5"),
+            ("wind_ned_mps = [1e9, 0.0, 0.0]", "wind_ned_mps[0]"),
+            ("wind_ned_mps = [nan, 0.0, 0.0]", "wind_ned_mps[0]"),
+            ("[faults]\nimu_drop_rate = 2.0", "faults.imu_drop_rate = 2"),
+            (
+                "[faults]\ngps_outages = [[130.0, 120.0]]",
+                "faults.gps_outages[0]",
+            ),
+            ("[pilot]\ncollective = 5.0", "pilot.collective = 5"),
+            (
+                "[atmosphere]\ndensity_kgpm3 = -1.0",
+                "atmosphere.density_kgpm3",
+            ),
+            ("[airframe]\nmass_kg = 0.0", "airframe.mass_kg = 0"),
+            ("[airframe]\nmass_kg = nan", "airframe.mass_kg"),
+            ("[[plan]]\nleg = \"takeoff\"\nalt_m = -3.0", "plan[0].alt_m"),
+            ("[limits]\nhold_min_s = -1.0", "limits.hold_min_s"),
+        ];
+        for (text, key) in cases {
+            let e = from_toml(text).map(|_| ()).unwrap_err().to_string();
+            assert!(e.contains(key), "{text}: {e}");
+        }
+    }
+}
