@@ -93,6 +93,9 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
         }
         CoreEvent::EstimateInvalid => format!("t={t:.2} s estimate invalid: IMU silent"),
         CoreEvent::UplinkLost => format!("t={t:.2} s uplink lost: transmitter loss"),
+        CoreEvent::TakeoffRefused(why) => {
+            format!("t={t:.2} s take-off refused: {}", why.text())
+        }
         CoreEvent::GpsImplausible(why) => match why {
             heli_fsw::core::Implausible::OffTheGlobe => {
                 format!("t={t:.2} s GPS fix refused: off the globe")
@@ -127,6 +130,8 @@ fn events_without_numbers() -> Vec<CoreEvent> {
         CoreEvent::EstimateInvalid,
         CoreEvent::UplinkLost,
         CoreEvent::GpsImplausible(heli_fsw::core::Implausible::OffTheGlobe),
+        CoreEvent::TakeoffRefused(heli_fsw::core::Refusal::NoGpsFix),
+        CoreEvent::TakeoffRefused(heli_fsw::core::Refusal::ImuNotHealthy),
     ];
     for device in Device::ALL {
         for state in [

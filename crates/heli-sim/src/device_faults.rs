@@ -63,3 +63,21 @@ pub fn compass_silent() -> Scenario {
     s.expect_events = vec!["compass silent".into(), "compass ok".into()];
     s
 }
+
+/// `no-gps-takeoff`: the GPS never delivers a fix: the pre-flight checks refuse the
+/// autonomous take-off and the helicopter stays on its skids.
+pub fn no_gps_takeoff() -> Scenario {
+    let mut s = hover();
+    s.name = "no-gps-takeoff".into();
+    s.description =
+        "no GPS fix at all: the autonomous take-off is refused, the helicopter stays on the ground"
+            .into();
+    s.duration_s = 120.0;
+    s.faults.gps_outages = vec![[0.0, 1000.0]];
+    s.limits = Limits {
+        ground_max_m: Some(0.3),
+        ..Limits::default()
+    };
+    s.expect_events = vec!["take-off refused: no GPS fix".into()];
+    s
+}

@@ -83,6 +83,8 @@ pub struct Limits {
     /// Augmented modes: largest error between the yaw rate the rudder stick commands and the
     /// true yaw rate, over the last second of each scripted rudder input (deg/s).
     pub yaw_rate_tracking_max_dps: Option<f64>,
+    /// Stayed on the ground: the greatest height above the start (m) must not exceed this.
+    pub ground_max_m: Option<f64>,
 }
 
 /// Faults injected into the run.
@@ -457,6 +459,7 @@ pub fn builtins() -> Vec<Scenario> {
         crate::device_faults::imu_failure(),
         crate::device_faults::baro_failure(),
         crate::device_faults::compass_silent(),
+        crate::device_faults::no_gps_takeoff(),
     ]
 }
 

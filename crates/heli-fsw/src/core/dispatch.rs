@@ -46,6 +46,8 @@ impl FlightCore {
                     | Phase::Manual
                     | Phase::GroundFailsafe
                     | Phase::BlindDescent
+                    | Phase::TakeoffRefused
+                    | Phase::PreflightCheck { .. }
                     | Phase::Landed
                     | Phase::Augmented(_)
             ) {
@@ -113,7 +115,7 @@ impl FlightCore {
                     )
                 }
             }
-            (Phase::Landed, _) => Controls {
+            (Phase::Landed | Phase::TakeoffRefused | Phase::PreflightCheck { .. }, _) => Controls {
                 collective: -0.1,
                 throttle: heli_control::GOVERNED_THROTTLE,
                 ..Controls::default()

@@ -73,6 +73,8 @@ pub enum CoreEvent {
     UplinkLost,
     /// A GPS fix was refused before the filter saw it.
     GpsImplausible(super::gps::Implausible),
+    /// The pre-flight checks refused an autonomous take-off.
+    TakeoffRefused(super::preflight::Refusal),
 }
 
 impl CoreEvent {
@@ -86,9 +88,10 @@ impl CoreEvent {
             CoreEvent::WatchdogFired | CoreEvent::RollAbandoned | CoreEvent::GpsImplausible(_) => {
                 Severity::WarningLo
             }
-            CoreEvent::PilotSignalLost | CoreEvent::GpsLost | CoreEvent::UplinkLost => {
-                Severity::WarningHi
-            }
+            CoreEvent::PilotSignalLost
+            | CoreEvent::GpsLost
+            | CoreEvent::UplinkLost
+            | CoreEvent::TakeoffRefused(_) => Severity::WarningHi,
             CoreEvent::DeviceHealth { device, state } => match (device, state) {
                 (_, HealthState::Ok | HealthState::Waiting) => Severity::ActivityLo,
                 (_, HealthState::Late) => Severity::WarningLo,

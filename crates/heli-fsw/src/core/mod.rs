@@ -16,6 +16,7 @@ pub mod gps;
 mod main_loop;
 pub mod mission;
 mod phase;
+pub mod preflight;
 mod roll;
 mod sequencer;
 pub mod watchdog;
@@ -23,6 +24,7 @@ pub mod watchdog;
 pub use event::{CoreEvent, Severity};
 pub use gps::Implausible;
 pub use phase::Phase;
+pub use preflight::Refusal;
 
 pub use heli_control::FlightMode;
 use heli_control::{

@@ -12,6 +12,16 @@ pub enum Phase {
     /// The transmitter was lost while the helicopter was on the ground: cyclic neutral,
     /// collective flat, throttle closed, until the pilot's signal returns.
     GroundFailsafe,
+    /// The pilot asked for an autonomous take-off; on the skids, rotor governed, waiting up
+    /// to [`super::preflight::CHECK_WAIT_S`] for the pre-flight checks to pass.
+    PreflightCheck {
+        /// Since when it has waited (µs).
+        since_us: u64,
+    },
+    /// The pilot asked for an autonomous take-off that the pre-flight checks refused (no
+    /// recent GPS fix, too few satellites, an IMU that is not healthy): on the skids with the
+    /// rotor governed and the collective flat, until the auto switch goes off.
+    TakeoffRefused,
     /// The IMU went silent and the estimate was declared invalid while no pilot was there to
     /// fly: the blind failsafe — cyclic and tail neutral, collective a little under hover for
     /// a slow descent, rotor governed — until the pilot's signal returns.
@@ -70,6 +80,8 @@ impl Phase {
             | Phase::Manual
             | Phase::GroundFailsafe
             | Phase::BlindDescent
+            | Phase::TakeoffRefused
+            | Phase::PreflightCheck { .. }
             | Phase::Landed
             | Phase::Augmented(_) => None,
         }
@@ -82,6 +94,8 @@ impl Phase {
             Phase::Manual => "manual",
             Phase::GroundFailsafe => "ground-failsafe",
             Phase::BlindDescent => "blind-descent",
+            Phase::TakeoffRefused => "takeoff-refused",
+            Phase::PreflightCheck { .. } => "preflight-check",
             Phase::TakingOff { .. } => "takeoff",
             Phase::Holding { .. } => "hold",
             Phase::Flying { .. } => "fly",

@@ -78,6 +78,22 @@ impl FlightCore {
             };
         }
         match self.phase {
+            // Refused stays refused until the pilot takes the auto switch off (above).
+            Phase::TakeoffRefused => Phase::TakeoffRefused,
+            Phase::PreflightCheck { since_us } => match self.preflight(now_us) {
+                None => {
+                    self.leg = 0;
+                    self.start_leg(est, now_us, out)
+                }
+                Some(refusal) if seconds_between(since_us, now_us) >= preflight::CHECK_WAIT_S => {
+                    out.push(Action::Event(Stamped::new(
+                        now_us,
+                        CoreEvent::TakeoffRefused(refusal),
+                    )));
+                    Phase::TakeoffRefused
+                }
+                Some(_) => Phase::PreflightCheck { since_us },
+            },
             Phase::Calibrating
             | Phase::Manual
             | Phase::GroundFailsafe
@@ -85,6 +101,10 @@ impl FlightCore {
             | Phase::Augmented(_) => {
                 if on_ground && !self.plan_done && !self.plan_abandoned {
                     self.leg = 0;
+                    // Pre-flight checks before the helicopter leaves the ground on its own.
+                    if self.preflight(now_us).is_some() {
+                        return Phase::PreflightCheck { since_us: now_us };
+                    }
                     self.start_leg(est, now_us, out)
                 } else if on_ground {
                     // Nothing left to fly: stay on the skids.

@@ -88,8 +88,12 @@ fn calibration_then_auto_switch_starts_a_takeoff() {
         servo_batt_v: 4.8,
     };
     core.handle(Input::Uplink(pilot), 0, &mut out);
-    for k in 0..200u64 {
+    // Calibrated at 1.1 s; it waits on the skids for its first fused GPS fix, then goes.
+    for k in 0..300u64 {
         core.handle(Input::Imu(still()), k * 10_000, &mut out);
+        if k % 50 == 0 {
+            core.handle(Input::Gps(gps_fix(8)), k * 10_000, &mut out);
+        }
     }
     match core.phase() {
         Phase::TakingOff { target } => assert!((target.pos_ned_m.z + 10.0).abs() < 1e-6),
@@ -549,4 +553,137 @@ fn a_device_that_comes_back_is_raised_as_back() {
         }
     ));
     assert_eq!(core.phase(), Phase::Manual, "the pilot has it again");
+}
+
+fn gps_fix(satellites: u8) -> heli_proto::gps::GpsNav {
+    heli_proto::gps::GpsNav {
+        tow_ms: 0,
+        lat_deg: 42.3581,
+        lon_deg: -71.0966,
+        alt_m: 5.0,
+        vel_ned_mps: [0.0; 3],
+        satellites,
+        fix: heli_proto::gps::FixType::Fix3D,
+    }
+}
+
+/// A short-calibration autonomous core with the auto switch on, fed IMU and (if
+/// `satellites` is given) GPS fixes at 2 Hz for `seconds`.
+fn auto_core_with_gps(satellites: Option<u8>, seconds: u64) -> (FlightCore, Vec<Action>) {
+    let mut core = core_with(FlightMode::Autonomous);
+    let mut out = Vec::new();
+    core.start(0);
+    let mut now = 0;
+    while now < seconds * 1_000_000 {
+        now = fly_for(
+            &mut core,
+            &mut out,
+            now,
+            500_000,
+            true,
+            Some(uplink(true, false)),
+        );
+        if let Some(n) = satellites {
+            core.handle(Input::Gps(gps_fix(n)), now, &mut out);
+        }
+    }
+    (core, out)
+}
+
+#[test]
+fn no_autonomous_take_off_without_a_gps_fix_or_with_too_few_satellites() {
+    // Waiting for the checks at first, on the skids.
+    let (core, out) = auto_core_with_gps(None, 3);
+    assert!(
+        matches!(core.phase(), Phase::PreflightCheck { .. }),
+        "{:?}",
+        core.phase()
+    );
+    assert!(!raised(&out, CoreEvent::TakeoffRefused(Refusal::NoGpsFix)));
+    // Refused once the wait is over.
+    let (core, out) = auto_core_with_gps(None, 13);
+    assert_eq!(core.phase(), Phase::TakeoffRefused);
+    assert!(raised(&out, CoreEvent::TakeoffRefused(Refusal::NoGpsFix)));
+    assert_eq!(
+        last_servo(&out).collective,
+        -0.1,
+        "on the skids, rotor governed"
+    );
+
+    let (core, out) = auto_core_with_gps(Some(4), 13);
+    assert_eq!(core.phase(), Phase::TakeoffRefused);
+    assert!(raised(
+        &out,
+        CoreEvent::TakeoffRefused(Refusal::TooFewSatellites(4))
+    ));
+
+    let (core, _) = auto_core_with_gps(Some(8), 3);
+    assert!(
+        matches!(core.phase(), Phase::TakingOff { .. }),
+        "{:?}",
+        core.phase()
+    );
+}
+
+#[test]
+fn a_refused_take_off_waits_for_the_switch_to_be_cycled() {
+    let (mut core, mut out) = auto_core_with_gps(None, 13);
+    assert_eq!(core.phase(), Phase::TakeoffRefused);
+    // The GPS comes: still refused while the switch stays on (no surprise take-off).
+    let mut now = 13_000_000;
+    for _ in 0..4 {
+        now = fly_for(
+            &mut core,
+            &mut out,
+            now,
+            500_000,
+            true,
+            Some(uplink(true, false)),
+        );
+        core.handle(Input::Gps(gps_fix(8)), now, &mut out);
+    }
+    assert_eq!(core.phase(), Phase::TakeoffRefused);
+    // Off, then on again: the checks pass and it goes.
+    now = fly_for(
+        &mut core,
+        &mut out,
+        now,
+        200_000,
+        true,
+        Some(uplink(false, false)),
+    );
+    core.handle(Input::Gps(gps_fix(8)), now, &mut out);
+    fly_for(
+        &mut core,
+        &mut out,
+        now,
+        200_000,
+        true,
+        Some(uplink(true, false)),
+    );
+    assert!(
+        matches!(core.phase(), Phase::TakingOff { .. }),
+        "{:?}",
+        core.phase()
+    );
+}
+
+#[test]
+fn a_gps_fix_that_jumps_is_refused_before_the_filter() {
+    let (mut core, mut out) = auto_core_with_gps(Some(8), 4);
+    let fused = core.navigator().stats().gps_fused;
+    assert!(fused > 0);
+    let mut glitch = gps_fix(8);
+    glitch.lat_deg += 1_000.0 / 111_000.0; // a kilometre north, half a second later
+    core.handle(Input::Gps(glitch), 4_500_000, &mut out);
+    assert_eq!(
+        core.navigator().stats().gps_fused,
+        fused,
+        "never reached the filter"
+    );
+    assert_eq!(core.stats().gps_implausible, 1);
+    assert!(out.iter().any(|a| matches!(
+        a,
+        Action::Event(e) if matches!(e.value, CoreEvent::GpsImplausible(Implausible::Jump { .. }))
+    )));
 }

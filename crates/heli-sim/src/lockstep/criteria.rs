@@ -104,6 +104,9 @@ impl Simulation {
                 min,
             ));
         }
+        if let Some(max) = limits.ground_max_m {
+            criteria.push(Criterion::at_most("ground_max_m", m.max_alt_m, max));
+        }
         if let Some(min) = limits.climb_min_m {
             criteria.push(Criterion::at_least("climb_m", m.max_alt_m, min));
         }

@@ -1,0 +1,70 @@
+//! Pre-flight checks: what must hold before the helicopter leaves the ground on its own.
+//! When the pilot asks for an autonomous take-off the core waits on the skids, rotor
+//! governed, up to [`CHECK_WAIT_S`] for the checks to pass (the first GPS fix is fused only
+//! once the filter starts, just after the calibration), then takes off; if they still fail,
+//! the take-off is refused — raised, and the helicopter stays on its skids until the pilot
+//! takes the auto switch off. It needs:
+//!
+//! - a GPS fix fused in the last [`GPS_FRESH_S`] seconds (the position hold needs one);
+//! - at least [`MIN_SATELLITES`] satellites in the last good fix (the thesis: fewer than
+//!   five is dangerous);
+//! - an IMU whose watchdog says it is on time.
+
+use super::*;
+
+/// Longest wait for the checks to pass before a take-off is refused (s).
+pub const CHECK_WAIT_S: f64 = 10.0;
+
+/// The last GPS fix fused must be this recent (s).
+pub const GPS_FRESH_S: f64 = 3.0;
+/// Fewest satellites for an autonomous take-off (the thesis's ground display turns its GPS indicator red below five: "any kind of automatic or augmented control flight is dangerous").
+pub const MIN_SATELLITES: u8 = 5;
+
+/// Why a take-off was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Refusal {
+    /// No GPS fix has ever been fused.
+    NoGpsFix,
+    /// The last fused fix is older than [`GPS_FRESH_S`].
+    GpsStale,
+    /// The last good fix had this many satellites, fewer than [`MIN_SATELLITES`].
+    TooFewSatellites(u8),
+    /// The IMU is late or silent.
+    ImuNotHealthy,
+}
+
+impl Refusal {
+    /// What it says on the ground display.
+    pub fn text(self) -> String {
+        match self {
+            Refusal::NoGpsFix => "no GPS fix".into(),
+            Refusal::GpsStale => format!("no GPS fix in the last {GPS_FRESH_S} s"),
+            Refusal::TooFewSatellites(n) => {
+                format!("{n} satellites, fewer than {MIN_SATELLITES}")
+            }
+            Refusal::ImuNotHealthy => "the IMU is not on time".into(),
+        }
+    }
+}
+
+impl FlightCore {
+    /// Why an autonomous take-off may not start now, if it may not.
+    pub(super) fn preflight(&self, now_us: u64) -> Option<Refusal> {
+        if self.health.state(Device::Imu) != HealthState::Ok {
+            return Some(Refusal::ImuNotHealthy);
+        }
+        let nav = self.nav.stats();
+        if nav.gps_fused == 0 {
+            return Some(Refusal::NoGpsFix);
+        }
+        if seconds_between(nav.last_gps_fused_us, now_us) > GPS_FRESH_S {
+            return Some(Refusal::GpsStale);
+        }
+        match self.last_good_fix {
+            Some((_, fix)) if fix.satellites < MIN_SATELLITES => {
+                Some(Refusal::TooFewSatellites(fix.satellites))
+            }
+            _ => None,
+        }
+    }
+}
