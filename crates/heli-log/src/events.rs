@@ -93,6 +93,9 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
         }
         CoreEvent::EstimateInvalid => format!("t={t:.2} s estimate invalid: IMU silent"),
         CoreEvent::UplinkLost => format!("t={t:.2} s uplink lost: transmitter loss"),
+        CoreEvent::GpsReset => {
+            format!("t={t:.2} s GPS reset: position and velocity set to the GPS after a long coast")
+        }
         CoreEvent::TakeoffRefused(why) => {
             format!("t={t:.2} s take-off refused: {}", why.text())
         }
@@ -131,6 +134,7 @@ fn events_without_numbers() -> Vec<CoreEvent> {
         CoreEvent::UplinkLost,
         CoreEvent::GpsImplausible(heli_fsw::core::Implausible::OffTheGlobe),
         CoreEvent::TakeoffRefused(heli_fsw::core::Refusal::NoGpsFix),
+        CoreEvent::GpsReset,
         CoreEvent::TakeoffRefused(heli_fsw::core::Refusal::ImuNotHealthy),
     ];
     for device in Device::ALL {

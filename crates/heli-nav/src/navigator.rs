@@ -97,6 +97,12 @@ pub struct NavConfig {
     pub declination_rad: f64,
     /// How much past state to keep for delayed fusion (s).
     pub history_s: f64,
+    /// After this long without a fused fix (s), fixes that keep failing the gate reset the
+    /// position and velocity to GPS (`navigator::reset`): the inertial solution has drifted,
+    /// not the GPS. PX4 and ArduPilot reset on a timeout likewise.
+    pub gps_reset_after_s: f64,
+    /// Fixes in a row that must fail the gate before such a reset.
+    pub gps_reset_rejections: u32,
     /// No GPS fused for this long is an outage (s).
     pub gps_outage_after_s: f64,
 }
@@ -124,6 +130,8 @@ impl Default for NavConfig {
             declination_rad: 0.0,
             history_s: 2.5,
             gps_outage_after_s: 3.0,
+            gps_reset_after_s: 5.0,
+            gps_reset_rejections: 3,
         }
     }
 }
@@ -171,6 +179,11 @@ pub struct NavSensorStats {
     pub compass_fused: u32,
     /// Compass readings rejected.
     pub compass_rejected: u32,
+    /// Position and velocity resets to GPS after a long rejection (see
+    /// [`NavConfig::gps_reset_after_s`]).
+    pub gps_resets: u32,
+    /// GPS fixes rejected by the gate in a row, since the last one fused.
+    pub gps_rejected_in_row: u32,
     /// Time the last GPS fix was fused (µs), 0 if never.
     pub last_gps_fused_us: u64,
 }
@@ -217,6 +230,8 @@ pub struct Navigator {
     initialised_us: u64,
     stats: NavSensorStats,
 }
+
+mod reset;
 
 fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
@@ -598,8 +613,11 @@ impl Navigator {
             self.state = live_state;
             self.cov = live_cov;
             self.stats.gps_rejected = self.stats.gps_rejected.saturating_add(1);
+            self.stats.gps_rejected_in_row = self.stats.gps_rejected_in_row.saturating_add(1);
+            self.reset_to_gps_if_due(t_arrival_us, t_valid, &gps_pos, &gps_vel);
             return;
         }
+        self.stats.gps_rejected_in_row = 0;
         // Replay what happened since, from the corrected past to the present.
         // The scratch buffer is taken out while the replay calls back into `self`, and put
         // back with its capacity: no allocation in the control step.
@@ -869,6 +887,42 @@ mod tests {
             as_current > 10.0 * delayed,
             "fused as current: worst error {as_current} m"
         );
+    }
+
+    #[test]
+    fn after_a_long_coast_the_gate_gives_way_and_the_estimate_resets_to_gps() {
+        let mut nav = started();
+        let t = sit_still(&mut nav, 0, 5, Vector3::zeros(), Vector3::zeros());
+        // 30 s without GPS on an accelerometer that lies by 1 m/s² northward: hundreds of
+        // metres of drift, far outside what the covariance allows.
+        let drifting = imu_reading([1.0, 0.0, -9.81]);
+        let mut t = t;
+        for k in 1..=1500u64 {
+            t += 20_000;
+            nav.propagate(t, &drifting, &drifting);
+            if k % 10 == 0 {
+                nav.fuse_baro(1013.25);
+            }
+        }
+        let drift = nav.state().map_or(0.0, |s| s.pos_ned_m.xy().norm());
+        assert!(drift > 100.0, "drift {drift}");
+        // The GPS comes back telling the truth: refused by the gate a few times, then the
+        // estimate is reset to it and fixes fuse again.
+        for k in 1..=8u64 {
+            for _ in 0..50 {
+                t += 20_000;
+                nav.propagate(t, &drifting, &drifting);
+            }
+            nav.fuse_gps(t, &fix_at([0.0; 3], [0.0; 3]));
+            if k == 2 {
+                assert_eq!(nav.stats().gps_resets, 0, "not after one or two refusals");
+            }
+        }
+        assert_eq!(nav.stats().gps_resets, 1);
+        let after = nav
+            .state()
+            .map_or(f64::INFINITY, |s| s.pos_ned_m.xy().norm());
+        assert!(after < 20.0, "after the reset: {after} m from the GPS");
     }
 
     #[test]

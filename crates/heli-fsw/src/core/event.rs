@@ -73,6 +73,9 @@ pub enum CoreEvent {
     UplinkLost,
     /// A GPS fix was refused before the filter saw it.
     GpsImplausible(super::gps::Implausible),
+    /// GPS fixes kept failing the filter's gate after a long coast: position and velocity
+    /// were reset to the GPS.
+    GpsReset,
     /// The pre-flight checks refused an autonomous take-off.
     TakeoffRefused(super::preflight::Refusal),
 }
@@ -91,6 +94,7 @@ impl CoreEvent {
             CoreEvent::PilotSignalLost
             | CoreEvent::GpsLost
             | CoreEvent::UplinkLost
+            | CoreEvent::GpsReset
             | CoreEvent::TakeoffRefused(_) => Severity::WarningHi,
             CoreEvent::DeviceHealth { device, state } => match (device, state) {
                 (_, HealthState::Ok | HealthState::Waiting) => Severity::ActivityLo,

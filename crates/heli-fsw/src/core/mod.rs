@@ -421,7 +421,11 @@ impl FlightCore {
                     )));
                 } else {
                     self.last_good_fix = Some((now_us, fix));
+                    let resets = self.nav.stats().gps_resets;
                     self.nav.fuse_gps(now_us, &fix);
+                    if self.nav.stats().gps_resets != resets {
+                        out.push(Action::Event(Stamped::new(now_us, CoreEvent::GpsReset)));
+                    }
                 }
                 out.push(Action::Publish(Record::Gps(Stamped::new(now_us, fix))));
             }
