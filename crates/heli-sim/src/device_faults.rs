@@ -1,7 +1,9 @@
-//! Built-in scenarios of device faults: each device's watchdog must raise the fault, and the
-//! flight software must act on it as documented (docs/architecture.md, device health).
+//! Built-in fault scenarios: each device's watchdog must raise its fault and the flight
+//! software act on it as documented (docs/architecture.md, device health); the pre-flight
+//! checks must refuse a take-off they cannot back; a roll interrupted by transmitter loss
+//! must end upright before the hover.
 
-use crate::scenario::{Limits, Scenario, hover, manual_sweep, rc_loss};
+use crate::scenario::{Limits, Scenario, hover, manual_sweep, rc_loss, rolls};
 
 /// `uplink-silent`: the servo board's line goes quiet while flying a path, which is
 /// transmitter loss: hover within 2 s where it is.
@@ -79,5 +81,24 @@ pub fn no_gps_takeoff() -> Scenario {
         ..Limits::default()
     };
     s.expect_events = vec!["take-off refused: no GPS fix".into()];
+    s
+}
+
+/// `roll-rc-loss`: the transmitter is lost in the middle of the first roll: the roll is
+/// finished upright, then the helicopter hovers where it stops.
+pub fn roll_rc_loss() -> Scenario {
+    let mut s = rolls();
+    s.name = "roll-rc-loss".into();
+    s.description =
+        "transmitter lost in the middle of a roll: the roll ends upright, then a hover".into();
+    s.faults.transmitter_lost = vec![[121.0, 1000.0]];
+    s.limits = Limits {
+        recovery_attitude_max_deg: Some(20.0),
+        altitude_loss_max_m: Some(5.0),
+        rc_loss_hover_within_s: Some(12.0),
+        rc_loss_drift_max_m: Some(5.0),
+        ..Limits::default()
+    };
+    s.expect_events = vec!["roll 1 completed".into(), "pilot signal lost".into()];
     s
 }

@@ -460,6 +460,7 @@ pub fn builtins() -> Vec<Scenario> {
         crate::device_faults::baro_failure(),
         crate::device_faults::compass_silent(),
         crate::device_faults::no_gps_takeoff(),
+        crate::device_faults::roll_rc_loss(),
     ]
 }
 

@@ -235,3 +235,18 @@ fn rolls_to_the_left_count_too() {
     assert_eq!(s.maneuvers.rolls_completed, 3, "{:?}", s.events);
     assert_eq!(s.outcome, Outcome::Pass, "{:?}", s.criteria);
 }
+
+#[test]
+fn every_fault_scenario_passes_on_ten_seeds() {
+    use heli_sim::device_faults;
+    for scenario in [
+        device_faults::uplink_silent(),
+        device_faults::imu_failure(),
+        device_faults::baro_failure(),
+        device_faults::compass_silent(),
+        device_faults::no_gps_takeoff(),
+        device_faults::roll_rc_loss(),
+    ] {
+        passes_on_ten_seeds(&scenario);
+    }
+}

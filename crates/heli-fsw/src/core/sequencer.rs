@@ -41,6 +41,30 @@ impl FlightCore {
         let bypass = !self.uplink_lost && pilot.is_some_and(|p| p.bypass);
         let wants_auto =
             !bypass && (signal_lost || (self.params.mode != FlightMode::Manual && auto_switch));
+        // A roll under way is finished, upright, before the pilot's switch or a lost
+        // transmitter takes over: handing over an inverted helicopter costs metres of height
+        // and seconds of recovery. (The emergency bypass acts at once: the board gives the
+        // servos to the pilot in hardware.)
+        if !bypass
+            && (signal_lost || !wants_auto)
+            && let Phase::Maneuver {
+                target,
+                stage: stage @ RollStage::Rolling { .. },
+                rolls_done,
+            } = self.phase
+        {
+            let next = self.maneuver(est, now_us, dt_s, target, stage, rolls_done, out);
+            if matches!(
+                next,
+                Phase::Maneuver {
+                    stage: RollStage::Rolling { .. },
+                    ..
+                }
+            ) {
+                return next;
+            }
+            // Upright again: the rules below take over from the maneuver.
+        }
         if !wants_auto {
             // The emergency bypass: the board drives the servos from the pilot; the computer
             // still supplies the tail with yaw damping.
