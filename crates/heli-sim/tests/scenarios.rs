@@ -250,3 +250,19 @@ fn every_fault_scenario_passes_on_ten_seeds() {
         passes_on_ten_seeds(&scenario);
     }
 }
+
+#[test]
+fn a_scenario_with_no_criteria_does_not_pass() {
+    let mut s = scenario::hover();
+    s.limits = heli_sim::scenario::Limits::default();
+    s.expect_events.clear();
+    s.duration_s = 5.0;
+    let summary = heli_sim::run(s).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(summary.outcome, Outcome::Fail);
+    assert!(
+        summary
+            .criteria
+            .iter()
+            .any(|c| c.name == "criteria_defined" && !c.pass)
+    );
+}

@@ -140,6 +140,10 @@ impl Simulation {
         if let Some(hil) = self.hil_criteria() {
             criteria = hil;
         }
+        // A run judged on nothing has not passed: say so as a criterion of its own.
+        if criteria.is_empty() {
+            criteria.push(Criterion::at_least("criteria_defined", 0.0, 1.0));
+        }
         let outcome = if self.crash.is_some() {
             Outcome::Crash
         } else if criteria.iter().all(|c| c.pass) {
