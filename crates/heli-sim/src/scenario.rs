@@ -108,6 +108,54 @@ pub struct Faults {
     pub baro_silent: Vec<[f64; 2]>,
     /// Intervals during which the compass channels are not read.
     pub compass_silent: Vec<[f64; 2]>,
+    /// Intervals during which the IMU is stuck: it repeats its last packet, byte for byte.
+    pub imu_stuck: Vec<[f64; 2]>,
+    /// GPS glitches: the reported position jumps by an offset for a while.
+    pub gps_glitches: Vec<GpsGlitch>,
+    /// The GPS reports a forced satellite count for a while.
+    pub gps_satellites: Vec<ForcedSatellites>,
+    /// Serial bytes lost on their way to the flight computer.
+    pub byte_loss: Vec<ByteLoss>,
+}
+
+/// A GPS glitch: the reported position is offset from `start_s` to `end_s`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GpsGlitch {
+    /// Start (s).
+    pub start_s: f64,
+    /// End (s).
+    pub end_s: f64,
+    /// Offset north (m).
+    pub north_m: f64,
+    /// Offset east (m).
+    pub east_m: f64,
+}
+
+/// A forced GPS satellite count from `start_s` to `end_s`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForcedSatellites {
+    /// Start (s).
+    pub start_s: f64,
+    /// End (s).
+    pub end_s: f64,
+    /// Satellites reported.
+    pub satellites: u8,
+}
+
+/// Bytes of one port lost at random, each with probability `rate`, from `start_s` to `end_s`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ByteLoss {
+    /// The port: `imu`, `scb`, `gps` or `baro`.
+    pub port: String,
+    /// Start (s).
+    pub start_s: f64,
+    /// End (s).
+    pub end_s: f64,
+    /// Probability that a byte is lost (0..1).
+    pub rate: f64,
 }
 
 impl Faults {

@@ -40,6 +40,9 @@ fn range_of(path: &str, name: &str) -> Option<(f64, f64)> {
         "speed_mps" if in_plan => (0.1, 30.0),
         "seconds" => (0.0, MAX_DURATION_S),
         "count" => (1.0, 10.0),
+        "satellites" => (0.0, 32.0),
+        "rate" => (0.0, 1.0),
+        "end_s" => (0.0, MAX_DURATION_S),
         // Limits: non-negative, finite.
         _ if path.starts_with("limits.") => (0.0, 1e9),
         _ => return None,
@@ -65,6 +68,7 @@ pub fn scenario(s: &Scenario) -> Result<(), String> {
         ("faults.imu_silent", &s.faults.imu_silent),
         ("faults.baro_silent", &s.faults.baro_silent),
         ("faults.compass_silent", &s.faults.compass_silent),
+        ("faults.imu_stuck", &s.faults.imu_stuck),
         ("pilot.auto_flipped", &s.pilot.auto_flipped),
         ("pilot.bypass", &s.pilot.bypass),
     ] {
@@ -74,6 +78,36 @@ pub fn scenario(s: &Scenario) -> Result<(), String> {
                     "{name}[{i}] = [{start}, {end}]: a window is [start, end) in seconds with 0 <= start < end"
                 ));
             }
+        }
+    }
+    let f = &s.faults;
+    let spans = f
+        .gps_glitches
+        .iter()
+        .map(|g| ("faults.gps_glitches", g.start_s, g.end_s))
+        .chain(
+            f.gps_satellites
+                .iter()
+                .map(|g| ("faults.gps_satellites", g.start_s, g.end_s)),
+        )
+        .chain(
+            f.byte_loss
+                .iter()
+                .map(|g| ("faults.byte_loss", g.start_s, g.end_s)),
+        );
+    for (name, start, end) in spans {
+        if !(start.is_finite() && end.is_finite() && start >= 0.0 && start < end) {
+            errors.push(format!(
+                "{name}: start_s = {start}, end_s = {end}: need 0 <= start_s < end_s"
+            ));
+        }
+    }
+    for (i, b) in f.byte_loss.iter().enumerate() {
+        if heli_fsw::Port::from_name(&b.port).is_none() {
+            errors.push(format!(
+                "faults.byte_loss[{i}].port = '{}': must be imu, scb, gps or baro",
+                b.port
+            ));
         }
     }
     if let Err(e) = airframe(&s.airframe) {

@@ -63,6 +63,10 @@ pub struct GpsDevice {
     last_epoch_s: Option<f64>,
     /// Satellites lost until this time (s), and how many are left.
     dropout: Option<(f64, u8)>,
+    /// A glitch: added to the reported position (m, NED) while set (fault injection).
+    pub glitch_ned_m: Vector3<f64>,
+    /// Forced satellite count (fault injection).
+    pub forced_satellites: Option<u8>,
 }
 
 impl GpsDevice {
@@ -81,6 +85,8 @@ impl GpsDevice {
             wander_m,
             last_epoch_s: None,
             dropout: None,
+            glitch_ned_m: Vector3::zeros(),
+            forced_satellites: None,
         }
     }
 
@@ -128,6 +134,7 @@ impl GpsDevice {
         for (i, sigma) in sigmas.iter().enumerate() {
             self.wander_m[i] = a * self.wander_m[i] + k * self.noise.gaussian(*sigma);
         }
+        let pos_ned_m = &(pos_ned_m + self.glitch_ned_m);
         let noisy = [
             pos_ned_m.x + self.wander_m.x + self.noise.gaussian(e.white_noise_m),
             pos_ned_m.y + self.wander_m.y + self.noise.gaussian(e.white_noise_m),
@@ -140,6 +147,7 @@ impl GpsDevice {
             vel_ned_mps.z + self.noise.gaussian(2.0 * e.velocity_noise_mps),
         ];
         let satellites = self.satellites(t_s);
+        let satellites = self.forced_satellites.unwrap_or(satellites);
         let nav = GpsNav {
             // GPS time of week: the simulation starts Monday 10:00 GPS time.
             tow_ms: ((36_000_000 + t_us / 1000) % 604_800_000) as u32,

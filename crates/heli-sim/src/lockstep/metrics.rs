@@ -5,6 +5,8 @@ use super::*;
 
 #[derive(Clone, Default)]
 pub(super) struct Metrics {
+    /// Serial bytes the scenario's byte loss took.
+    pub(super) bytes_lost: u64,
     pub(super) att: Rms,
     pub(super) pos: Rms,
     pub(super) vel: Rms,

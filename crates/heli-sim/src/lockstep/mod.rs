@@ -176,6 +176,10 @@ pub struct Simulation {
     compass: CompassDevice,
     battery: BatteryDevice,
     drop_noise: Noise,
+    /// Random byte loss (a stream of its own, so other noise is unchanged by it).
+    loss_noise: Noise,
+    /// The last IMU packet sent, repeated while the IMU is stuck.
+    last_imu_bytes: Option<Bytes>,
     computer: FlightComputer,
     streams: Streams,
     queue: BinaryHeap<Reverse<Event>>,
@@ -253,6 +257,8 @@ impl Simulation {
                 ..BatteryDevice::default()
             },
             drop_noise: Noise::new(seed, 5),
+            loss_noise: Noise::new(seed, 8),
+            last_imu_bytes: None,
             computer: FlightComputer::new(core_config, params, heli_proto::baro::DEFAULT_RATE_HZ),
             core_setup: (core_config, params),
             recorded: None,
@@ -331,7 +337,32 @@ impl Simulation {
 
     fn send_to_computer(&mut self, port: Port, bytes: Bytes, sent_us: u64) {
         let at = sent_us + transmit_time_us(bytes.as_slice().len(), Self::baud(port));
+        let bytes = self.lose_bytes(port, bytes);
         self.schedule(at, Kind::ToComputer(port, bytes));
+    }
+
+    /// Serial bytes lost on the way (the scenario's `byte_loss`), each at random.
+    fn lose_bytes(&mut self, port: Port, bytes: Bytes) -> Bytes {
+        let t_s = self.now_us as f64 * 1e-6;
+        let rate = self
+            .scenario
+            .faults
+            .byte_loss
+            .iter()
+            .filter(|b| b.port == port.name() && t_s >= b.start_s && t_s < b.end_s)
+            .map(|b| b.rate)
+            .fold(0.0, f64::max);
+        if rate <= 0.0 {
+            return bytes;
+        }
+        let kept: Vec<u8> = bytes
+            .as_slice()
+            .iter()
+            .copied()
+            .filter(|_| self.loss_noise.uniform() >= rate)
+            .collect();
+        self.metrics.bytes_lost += (bytes.as_slice().len() - kept.len()) as u64;
+        Bytes::from_slice(&kept)
     }
 
     /// True while the scenario's fault `windows` are active.
@@ -437,6 +468,11 @@ impl Simulation {
     /// Ends the run here and judges it; `wall_s` is how long it took.
     pub fn finish(self, wall_s: f64) -> Summary {
         self.summarise(wall_s)
+    }
+
+    /// Serial bytes the scenario's `byte_loss` took so far.
+    pub fn bytes_lost(&self) -> u64 {
+        self.metrics.bytes_lost
     }
 
     /// Keeps every device input from now on, for the flight log (`heli log replay` feeds
@@ -568,6 +604,12 @@ impl Simulation {
                     rotor,
                     self.env.atmosphere.temperature_c,
                 );
+                // A stuck IMU repeats its last packet, byte for byte.
+                let bytes = match (self.fault(|f| &f.imu_stuck), self.last_imu_bytes) {
+                    (true, Some(last)) => last,
+                    _ => bytes,
+                };
+                self.last_imu_bytes = Some(bytes);
                 // A silent IMU sends nothing (and draws no random drop).
                 if self.fault(|f| &f.imu_silent)
                     || self.drop_noise.uniform() < self.scenario.faults.imu_drop_rate
@@ -596,6 +638,20 @@ impl Simulation {
                     .iter()
                     .any(|[start, end]| t_s >= *start && t_s < *end);
                 let s = self.heli.state;
+                let faults = &self.scenario.faults;
+                let glitch = faults
+                    .gps_glitches
+                    .iter()
+                    .filter(|g| t_s >= g.start_s && t_s < g.end_s)
+                    .fold(Vector3::zeros(), |acc, g| {
+                        acc + Vector3::new(g.north_m, g.east_m, 0.0)
+                    });
+                self.gps.glitch_ned_m = glitch;
+                self.gps.forced_satellites = faults
+                    .gps_satellites
+                    .iter()
+                    .find(|g| t_s >= g.start_s && t_s < g.end_s)
+                    .map(|g| g.satellites);
                 let bytes = self.gps.packet(now, &s.pos_ned_m, &s.vel_ned_mps());
                 // The packet's last byte arrives `latency` after the epoch.
                 let tx = transmit_time_us(bytes.as_slice().len(), heli_proto::gps::BAUD);
