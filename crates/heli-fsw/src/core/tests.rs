@@ -323,15 +323,7 @@ fn raised(out: &[Action], event: CoreEvent) -> bool {
 
 #[test]
 fn a_silent_uplink_in_the_air_is_transmitter_loss() {
-    let (mut core, mut out, t) = calibrated_manual_core(8.0);
-    let t = fly_for(
-        &mut core,
-        &mut out,
-        t,
-        200_000,
-        true,
-        Some(uplink(false, false)),
-    );
+    let (mut core, mut out, t) = settled(8.0, uplink(false, false));
     assert_eq!(core.phase(), Phase::Manual);
     out.clear();
     // The board's line goes quiet: late after 60 ms, silent after 500 ms.
@@ -361,15 +353,7 @@ fn a_silent_uplink_in_the_air_is_transmitter_loss() {
 
 #[test]
 fn a_silent_uplink_on_the_ground_idles() {
-    let (mut core, mut out, t) = calibrated_manual_core(0.0);
-    let t = fly_for(
-        &mut core,
-        &mut out,
-        t,
-        200_000,
-        true,
-        Some(uplink(false, false)),
-    );
+    let (mut core, mut out, t) = settled(0.0, uplink(false, false));
     fly_for(&mut core, &mut out, t, 700_000, true, None);
     assert_eq!(core.phase(), Phase::GroundFailsafe);
     assert_eq!(last_servo(&out).throttle, 0.0);
@@ -377,15 +361,7 @@ fn a_silent_uplink_on_the_ground_idles() {
 
 #[test]
 fn imu_silence_invalidates_the_estimate_and_hands_the_pilot_the_helicopter() {
-    let (mut core, mut out, t) = calibrated_manual_core(8.0);
-    let t = fly_for(
-        &mut core,
-        &mut out,
-        t,
-        200_000,
-        true,
-        Some(uplink(false, false)),
-    );
+    let (mut core, mut out, t) = settled(8.0, uplink(false, false));
     out.clear();
     // 0.2 s without the IMU: repeated samples, but the estimate still stands.
     let t = fly_for(
@@ -428,15 +404,7 @@ fn imu_silence_invalidates_the_estimate_and_hands_the_pilot_the_helicopter() {
 
 #[test]
 fn imu_silence_without_a_pilot_is_the_blind_descent() {
-    let (mut core, mut out, t) = calibrated_manual_core(8.0);
-    let t = fly_for(
-        &mut core,
-        &mut out,
-        t,
-        200_000,
-        true,
-        Some(uplink(false, true)),
-    );
+    let (mut core, mut out, t) = settled(8.0, uplink(false, true));
     assert!(matches!(core.phase(), Phase::Holding { .. }));
     fly_for(
         &mut core,
@@ -505,15 +473,7 @@ fn an_imu_that_has_not_spoken_yet_invalidates_nothing() {
 
 #[test]
 fn an_estimate_lost_on_the_ground_without_a_pilot_idles() {
-    let (mut core, mut out, t) = calibrated_manual_core(0.0);
-    let t = fly_for(
-        &mut core,
-        &mut out,
-        t,
-        200_000,
-        true,
-        Some(uplink(false, true)),
-    );
+    let (mut core, mut out, t) = settled(0.0, uplink(false, true));
     fly_for(
         &mut core,
         &mut out,
@@ -686,4 +646,12 @@ fn a_gps_fix_that_jumps_is_refused_before_the_filter() {
         a,
         Action::Event(e) if matches!(e.value, CoreEvent::GpsImplausible(Implausible::Jump { .. }))
     )));
+}
+
+/// A calibrated manual core (see [`calibrated_manual_core`]) flown 0.2 s more with the IMU
+/// and `pilot`'s packets, so that every watchdog is fed.
+fn settled(height_m: f64, pilot: PilotUplink) -> (FlightCore, Vec<Action>, u64) {
+    let (mut core, mut out, t) = calibrated_manual_core(height_m);
+    let t = fly_for(&mut core, &mut out, t, 200_000, true, Some(pilot));
+    (core, out, t)
 }
