@@ -47,8 +47,9 @@ fn setup_of(contents: &LogContents) -> Result<ReplaySetup> {
             .with_context(|| format!("flight metadata '{key}' is not [x, y, z]"))?;
         <[f64; 3]>::try_from(v).map_err(|_| anyhow!("flight metadata '{key}' is not [x, y, z]"))
     };
-    let mode = FlightMode::from_name(get("mode")?)
-        .with_context(|| format!("unknown mode '{}' in the flight metadata", entries["mode"]))?;
+    let mode_name = get("mode")?;
+    let mode = FlightMode::from_name(mode_name)
+        .with_context(|| format!("unknown mode '{mode_name}' in the flight metadata"))?;
     let plan_name = get("plan")?;
     // The legs themselves are in the log; older logs name a plan to look up.
     let legs: Vec<heli_sim::scenario::LegSpec> = match entries.get("plan_legs_json") {

@@ -269,6 +269,21 @@ mod tests {
     }
 
     #[test]
+    fn start_sends_the_board_its_check_and_the_altimeter_its_reset() {
+        let mut fc = FlightComputer::new(CoreConfig::default(), FlightParams::default(), 5);
+        let mut sent = Vec::new();
+        fc.start(0, &mut |port, b: &[u8]| sent.push((port, b.to_vec())));
+        assert_eq!(
+            sent.first(),
+            Some(&(
+                Port::Scb,
+                vec![heli_proto::scb::CHECK_BYTE; heli_proto::scb::CHECK_LEN]
+            ))
+        );
+        assert!(sent.iter().any(|(p, _)| *p == Port::Baro));
+    }
+
+    #[test]
     fn servo_commands_leave_on_the_board_port() {
         let mut fc = FlightComputer::new(CoreConfig::default(), FlightParams::default(), 5);
         let imu = heli_proto::imu::ImuRepr {

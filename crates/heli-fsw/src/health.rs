@@ -275,13 +275,14 @@ impl Health {
             .min()
     }
 
-    /// Re-evaluates every monitor at `now_us`, calling `changed` for each change of state.
-    pub fn check(&mut self, now_us: u64, mut changed: impl FnMut(Device, HealthState)) {
-        for device in Device::ALL {
-            if let Some(state) = self.monitor_mut(device).check(now_us) {
-                changed(device, state);
-            }
-        }
+    /// Re-evaluates every monitor at `now_us`; returns each device's change of state, if
+    /// it changed.
+    pub fn check(&mut self, now_us: u64) -> [Option<(Device, HealthState)>; 5] {
+        Device::ALL.map(|device| {
+            self.monitor_mut(device)
+                .check(now_us)
+                .map(|state| (device, state))
+        })
     }
 }
 

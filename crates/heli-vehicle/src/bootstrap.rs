@@ -470,31 +470,29 @@ fn serve(listener: &UnixListener, tx: &Sender<Msg>, written: &Sender<()>) {
 
 /// One control connection: one request line, one reply line.
 fn serve_one(mut stream: UnixStream, tx: &Sender<Msg>, written: &Sender<()>) {
-    {
-        let _ = stream.set_read_timeout(Some(Duration::from_secs(2)));
-        let mut line = String::new();
-        let read = stream
-            .try_clone()
-            .map(BufReader::new)
-            .and_then(|mut r| r.read_line(&mut line));
-        if read.is_err() {
-            return;
-        }
-        let reply = match Request::parse(&line) {
-            Ok(request) => {
-                let (reply_tx, reply_rx) = channel();
-                if tx.send(Msg::Request(request, reply_tx)).is_err() {
-                    return;
-                }
-                // The reply may wait for the flight process (connect, stop).
-                reply_rx
-                    .recv()
-                    .unwrap_or_else(|_| "error the bootstrap is ending".into())
-            }
-            Err(e) => format!("error {e}"),
-        };
-        let _ = writeln!(stream, "{reply}");
-        let _ = stream.flush();
-        let _ = written.send(());
+    let _ = stream.set_read_timeout(Some(Duration::from_secs(2)));
+    let mut line = String::new();
+    let read = stream
+        .try_clone()
+        .map(BufReader::new)
+        .and_then(|mut r| r.read_line(&mut line));
+    if read.is_err() {
+        return;
     }
+    let reply = match Request::parse(&line) {
+        Ok(request) => {
+            let (reply_tx, reply_rx) = channel();
+            if tx.send(Msg::Request(request, reply_tx)).is_err() {
+                return;
+            }
+            // The reply may wait for the flight process (connect, stop).
+            reply_rx
+                .recv()
+                .unwrap_or_else(|_| "error the bootstrap is ending".into())
+        }
+        Err(e) => format!("error {e}"),
+    };
+    let _ = writeln!(stream, "{reply}");
+    let _ = stream.flush();
+    let _ = written.send(());
 }

@@ -185,3 +185,23 @@ fn write(log: &mut FlightLog<std::fs::File>, item: &LogItem) -> Result<(), heli_
 pub fn worth_reporting(event: &CoreEvent) -> bool {
     !matches!(event, CoreEvent::WatchdogFired)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_full_queue_drops_and_counts_and_never_waits() {
+        // A logger that has stopped reading: its queue holds one item.
+        let (tx, _rx) = std::sync::mpsc::sync_channel(1);
+        let sender = LogSender {
+            tx,
+            dropped: Default::default(),
+        };
+        assert!(sender.send(LogItem::Battery(0, 12.0)));
+        // Would block with `send`; `try_send` drops it and counts.
+        assert!(!sender.send(LogItem::Battery(1, 12.0)));
+        assert!(!sender.send(LogItem::Battery(2, 12.0)));
+        assert_eq!(sender.dropped(), 2);
+    }
+}

@@ -108,11 +108,6 @@ pub fn clone(port: &TTYPort) -> io::Result<TTYPort> {
     port.try_clone_native().map_err(io::Error::other)
 }
 
-/// Bytes waiting to be read (for the stand-alone drivers' statistics).
-pub fn waiting(port: &TTYPort) -> u32 {
-    port.bytes_to_read().unwrap_or(0)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -359,15 +359,7 @@ impl FlightCore {
                 }
             }
             Input::Timer => {
-                let mut changes = [None; 5];
-                let mut n = 0;
-                self.health.check(now_us, |device, state| {
-                    if let Some(slot) = changes.get_mut(n) {
-                        *slot = Some((device, state));
-                        n = n.saturating_add(1);
-                    }
-                });
-                for (device, state) in changes.into_iter().flatten() {
+                for (device, state) in self.health.check(now_us).into_iter().flatten() {
                     self.health_changed(device, state, true, now_us, out);
                 }
                 if self.watchdog.expired(now_us) {

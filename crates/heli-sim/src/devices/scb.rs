@@ -127,6 +127,35 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_start_up_check_is_answered_once_and_commands_never_look_like_it() {
+        let mut board = ScbDevice::default();
+        // Servo commands at every extreme: no two zero bytes in a row, so no answer.
+        for v in [-1.0, 0.0, 1.0] {
+            let c = Controls {
+                aileron: v,
+                elevator: v,
+                rudder: v,
+                collective: v,
+                throttle: (v + 1.0) / 2.0,
+            };
+            let mut buf = [0u8; heli_proto::scb::SERVO_LEN];
+            let n = heli_proto::scb::ServoPacket {
+                pulses: Pulses::from_controls(&c),
+            }
+            .emit(&mut buf)
+            .unwrap_or(0);
+            board.receive(&buf[..n]);
+        }
+        assert!(!board.take_check());
+        board.receive(&[heli_proto::scb::CHECK_BYTE; heli_proto::scb::CHECK_LEN - 1]);
+        assert!(!board.take_check(), "eight zeros are not the check");
+        board.receive(&[heli_proto::scb::CHECK_BYTE]);
+        assert!(board.take_check());
+        assert!(!board.take_check(), "answered once");
+        assert_eq!(board.checks_answered, 1);
+    }
+
+    #[test]
     fn bypass_gives_the_pilot_the_servos_but_keeps_the_computer_tail() {
         let mut board = ScbDevice::default();
         let computer = Controls {

@@ -39,7 +39,6 @@ pub(super) struct Hil {
     reached_at_us: Option<u64>,
     hold_drift_max_m: f64,
     hold_last_us: u64,
-    bytes_in: [u64; 4],
 }
 
 impl Simulation {
@@ -49,11 +48,6 @@ impl Simulation {
         let mut sim = Self::build(scenario, CoreConfig::default())?;
         sim.hil = Some(Hil::default());
         Ok(sim)
-    }
-
-    /// True when the flight software is outside.
-    pub fn is_hil(&self) -> bool {
-        self.hil.is_some()
     }
 
     /// What the devices sent since the last call, with the time each is due (µs), in time
@@ -68,19 +62,9 @@ impl Simulation {
     /// Bytes the flight computer wrote to `port`, arriving at the device now.
     pub fn inject(&mut self, port: Port, bytes: &[u8]) {
         let now = self.now_us;
-        if let Some(hil) = self.hil.as_mut()
-            && let Some(count) = hil.bytes_in.get_mut(port_index(port))
-        {
-            *count += bytes.len() as u64;
-        }
         for chunk in bytes.chunks(16) {
             self.schedule(now, Kind::ToDevice(port, Bytes::from_slice(chunk)));
         }
-    }
-
-    /// Bytes received from the flight computer per port (imu, scb, gps, baro).
-    pub fn injected_bytes(&self) -> [u64; 4] {
-        self.hil.as_ref().map_or([0; 4], |h| h.bytes_in)
     }
 
     /// The take-off height of the scenario's plan (m), if it has a take-off.
@@ -142,14 +126,5 @@ impl Simulation {
             criteria.push(Criterion::at_most("hil_hold_drift_m", drift, limit));
         }
         Some(criteria)
-    }
-}
-
-fn port_index(port: Port) -> usize {
-    match port {
-        Port::Imu => 0,
-        Port::Scb => 1,
-        Port::Gps => 2,
-        Port::Baro => 3,
     }
 }
