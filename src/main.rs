@@ -647,6 +647,11 @@ fn write_stdout(text: &str) -> Result<()> {
     }
 }
 
+/// A measured value with `decimals` decimals, or `-` when it was not measured.
+pub(crate) fn shown(value: Option<f64>, decimals: usize) -> String {
+    value.map_or_else(|| "-".to_string(), |v| format!("{v:.decimals$}"))
+}
+
 pub(crate) fn print_table(s: &Summary) {
     println!("scenario   {} (seed {})", s.scenario, s.seed);
     println!(
@@ -660,9 +665,9 @@ pub(crate) fn print_table(s: &Summary) {
     );
     for c in &s.criteria {
         println!(
-            "{:<28} {:>10.3} {:>10.3}  {}",
+            "{:<28} {:>10} {:>10.3}  {}",
             c.name,
-            c.value,
+            shown(c.value, 3),
             c.limit,
             if c.pass { "pass" } else { "FAIL" }
         );
@@ -679,12 +684,15 @@ pub(crate) fn print_table(s: &Summary) {
         if h.dropped_writes > 0 {
             println!("devices    {} writes found no reader", h.dropped_writes);
         }
-        println!("battery    min {:.2} V", s.devices.battery_min_v);
+        println!("battery    min {} V", shown(s.devices.battery_min_v, 2));
     } else {
         let e = &s.estimator;
         println!(
-            "estimator  attitude error rms {:.2} deg (max {:.2}), position rms {:.2} m, velocity rms {:.2} m/s",
-            e.att_err_rms_deg, e.att_err_max_deg, e.pos_err_rms_m, e.vel_err_rms_mps
+            "estimator  attitude error rms {} deg (max {}), position rms {} m, velocity rms {} m/s",
+            shown(e.att_err_rms_deg, 2),
+            shown(e.att_err_max_deg, 2),
+            shown(e.pos_err_rms_m, 2),
+            shown(e.vel_err_rms_mps, 2)
         );
         let l = &s.loop_;
         println!(
@@ -692,7 +700,7 @@ pub(crate) fn print_table(s: &Summary) {
             l.imu_samples, l.imu_dropped, l.watchdog_fires, l.control_steps, l.step_time_max_us
         );
         println!(
-            "links      imu {} frames / {} bad, uplink {} / {}, gps {} / {}, altimeter {} readings ({}), battery min {:.2} V",
+            "links      imu {} frames / {} bad, uplink {} / {}, gps {} / {}, altimeter {} readings ({}), battery min {} V",
             s.devices.imu.frames,
             s.devices.imu.checksum_errors,
             s.devices.uplink.frames,
@@ -701,7 +709,7 @@ pub(crate) fn print_table(s: &Summary) {
             s.devices.gps.checksum_errors,
             s.devices.baro_readings,
             s.devices.baro_link,
-            s.devices.battery_min_v
+            shown(s.devices.battery_min_v, 2)
         );
     }
     let watchdog_events = s

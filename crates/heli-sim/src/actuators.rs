@@ -140,12 +140,20 @@ impl Actuators {
 
     /// Moves the servos for `dt_s` toward `command` (limited and quantised).
     pub fn step(&mut self, dt_s: f64, command: &Controls) {
+        self.step_at_speed(dt_s, command, ServoSpeeds::default());
+    }
+
+    /// Moves the servos like [`Actuators::step`], each at its own speed: 1 for a healthy
+    /// servo, 0 for one that is stuck, in between for one that is slowed (its whole
+    /// response runs that many times slower).
+    pub fn step_at_speed(&mut self, dt_s: f64, command: &Controls, speeds: ServoSpeeds) {
         let c = command.clamped();
         let q = |u| quantise(u, self.params.quantisation_steps);
-        self.lat.step(dt_s, q(c.aileron));
-        self.lon.step(dt_s, q(c.elevator));
-        self.col.step(dt_s, q(c.collective));
-        self.tail.step(dt_s, q(c.rudder));
+        let dt = |speed: f64| dt_s * speed.clamp(0.0, 1.0);
+        self.lat.step(dt(speeds.aileron), q(c.aileron));
+        self.lon.step(dt(speeds.elevator), q(c.elevator));
+        self.col.step(dt(speeds.collective), q(c.collective));
+        self.tail.step(dt(speeds.rudder), q(c.rudder));
         self.throttle = c.throttle;
     }
 
@@ -157,6 +165,30 @@ impl Actuators {
             rudder: self.tail.position(),
             collective: self.col.position(),
             throttle: self.throttle,
+        }
+    }
+}
+
+/// How fast each servo responds (1 healthy, 0 stuck).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ServoSpeeds {
+    /// Lateral cyclic servo.
+    pub aileron: f64,
+    /// Longitudinal cyclic servo.
+    pub elevator: f64,
+    /// Tail servo.
+    pub rudder: f64,
+    /// Collective servo.
+    pub collective: f64,
+}
+
+impl Default for ServoSpeeds {
+    fn default() -> Self {
+        Self {
+            aileron: 1.0,
+            elevator: 1.0,
+            rudder: 1.0,
+            collective: 1.0,
         }
     }
 }
@@ -249,6 +281,34 @@ mod tests {
             (g30 - 0.868).abs() < 0.02 && (ph30 + 96.0).abs() < 2.0,
             "{g30} {ph30}"
         );
+    }
+
+    #[test]
+    fn a_slowed_servo_lags_and_a_stuck_one_stays() {
+        let start = Controls {
+            throttle: 0.8,
+            ..Controls::default()
+        };
+        let step = Controls {
+            aileron: 0.5,
+            ..start
+        };
+        let after = |speed: f64, seconds: f64| {
+            let mut a = Actuators::settled(ServoParams::default(), &start);
+            let speeds = ServoSpeeds {
+                aileron: speed,
+                ..ServoSpeeds::default()
+            };
+            for _ in 0..(seconds / 0.002) as usize {
+                a.step_at_speed(0.002, &step, speeds);
+            }
+            a.positions().aileron
+        };
+        // Half as fast: in 40 ms it gets where the healthy one was at 20 ms.
+        assert!((after(0.5, 0.04) - after(1.0, 0.02)).abs() < 1e-3);
+        assert!(after(0.5, 0.02) < 0.8 * after(1.0, 0.02));
+        assert!(after(1.0, 0.2) > 0.49);
+        assert_eq!(after(0.0, 1.0), 0.0, "stuck");
     }
 
     #[test]

@@ -17,6 +17,7 @@ pub mod bench;
 pub mod device_faults;
 pub mod devices;
 pub mod empennage;
+pub mod faults;
 pub mod ground;
 pub mod hil;
 pub mod lockstep;

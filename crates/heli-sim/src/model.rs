@@ -154,6 +154,9 @@ pub struct Helicopter {
     pub state: State,
     /// Outputs at the start of the last step.
     pub outputs: Outputs,
+    /// The fraction of its power the engine can give (1; less after an engine fault, 0 when
+    /// it has quit): the governor's throttle scales what is left.
+    pub engine_power_available: f64,
     mr_inflow_guess: f64,
     tr_inflow_guess: f64,
     anchors: ground::Anchors,
@@ -187,6 +190,7 @@ impl Helicopter {
             airframe,
             state,
             outputs: Outputs::default(),
+            engine_power_available: 1.0,
             mr_inflow_guess: 0.03,
             tr_inflow_guess: 0.05,
             anchors: [None; 4],
@@ -324,8 +328,8 @@ impl Helicopter {
         let saturated =
             (throttle_raw > 1.0 && speed_error > 0.0) || (throttle_raw < 0.0 && speed_error < 0.0);
         let integral_dot = if saturated { 0.0 } else { speed_error };
-        let power =
-            a.engine_idle_power_w + (a.engine_max_power_w - a.engine_idle_power_w) * throttle;
+        let power = self.engine_power_available.clamp(0.0, 1.0)
+            * (a.engine_idle_power_w + (a.engine_max_power_w - a.engine_idle_power_w) * throttle);
         let engine_torque = power / omega;
 
         // Ground contact.

@@ -248,6 +248,25 @@ pub struct Atmosphere {
     pub ground_pressure_mbar: f64,
     /// Air temperature (°C).
     pub temperature_c: f64,
+    /// The density falls with height above the take-off point as in the standard
+    /// atmosphere (`density_kgpm3` is the density at the take-off point).
+    pub density_falls_with_height: bool,
+}
+
+impl Atmosphere {
+    /// Air density (kg/m³) `height_m` above the take-off point: the standard atmosphere's
+    /// troposphere, 6.5 K/km lapse, from the take-off point's temperature.
+    pub fn density_at(&self, height_m: f64) -> f64 {
+        if !self.density_falls_with_height {
+            return self.density_kgpm3;
+        }
+        const LAPSE_K_PER_M: f64 = 0.0065;
+        // g / (R L) - 1, with R = 287.05 J/(kg K).
+        const EXPONENT: f64 = 9.80665 / (287.05 * LAPSE_K_PER_M) - 1.0;
+        let t0_k = self.temperature_c + 273.15;
+        let ratio = (1.0 - LAPSE_K_PER_M * height_m / t0_k).max(0.1);
+        self.density_kgpm3 * ratio.powf(EXPONENT)
+    }
 }
 
 impl Default for Atmosphere {
@@ -257,6 +276,25 @@ impl Default for Atmosphere {
             gravity_mps2: 9.81,
             ground_pressure_mbar: 1013.25,
             temperature_c: 15.0,
+            density_falls_with_height: true,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn density_falls_with_height_as_in_the_standard_atmosphere() {
+        let isa = Atmosphere::default();
+        // The standard atmosphere: 1.1117 kg/m³ at 1000 m.
+        assert!((isa.density_at(1000.0) - 1.1117).abs() < 0.001);
+        assert!((isa.density_at(30.0) / isa.density_kgpm3 - 0.99717).abs() < 1e-4);
+        let constant = Atmosphere {
+            density_falls_with_height: false,
+            ..isa
+        };
+        assert_eq!(constant.density_at(1000.0), 1.225);
     }
 }

@@ -85,87 +85,25 @@ pub struct Limits {
     pub yaw_rate_tracking_max_dps: Option<f64>,
     /// Stayed on the ground: the greatest height above the start (m) must not exceed this.
     pub ground_max_m: Option<f64>,
+    /// Least true height above the start (m) once the helicopter has first climbed above
+    /// 2 m, until it begins to land (or the run ends).
+    pub height_min_m: Option<f64>,
+    /// Largest true tilt (deg) from level while airborne.
+    pub tilt_max_deg: Option<f64>,
+    /// After a flight, the touchdown: largest horizontal distance (m) between where the skids
+    /// touched and where the flight software meant to land (its last target, as a true
+    /// place).
+    pub touchdown_distance_max_m: Option<f64>,
+    /// Largest sink speed at touchdown (m/s).
+    pub touchdown_sink_max_mps: Option<f64>,
+    /// Largest horizontal ground speed at touchdown (m/s).
+    pub touchdown_speed_max_mps: Option<f64>,
+    /// Time to hover (s): from the start of the first position hold until the true ground
+    /// speed has stayed under 0.5 m/s for a second.
+    pub hover_within_s: Option<f64>,
 }
 
-/// Faults injected into the run.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct Faults {
-    /// Probability that an IMU packet is lost (0..1).
-    pub imu_drop_rate: f64,
-    /// Intervals [start, end) in seconds during which the GPS sends nothing.
-    pub gps_outages: Vec<[f64; 2]>,
-    /// Intervals [start, end) in seconds during which the pilot's transmitter is lost (the
-    /// receiver then commands every channel to zero).
-    pub transmitter_lost: Vec<[f64; 2]>,
-    /// Intervals during which the servo board's uplink line is silent (the board sends
-    /// nothing at all, unlike a lost transmitter).
-    pub uplink_silent: Vec<[f64; 2]>,
-    /// Intervals during which the IMU sends nothing.
-    pub imu_silent: Vec<[f64; 2]>,
-    /// Intervals during which the altimeter neither answers nor sends (from 0: its handshake
-    /// fails).
-    pub baro_silent: Vec<[f64; 2]>,
-    /// Intervals during which the compass channels are not read.
-    pub compass_silent: Vec<[f64; 2]>,
-    /// Intervals during which the IMU is stuck: it repeats its last packet, byte for byte.
-    pub imu_stuck: Vec<[f64; 2]>,
-    /// GPS glitches: the reported position jumps by an offset for a while.
-    pub gps_glitches: Vec<GpsGlitch>,
-    /// The GPS reports a forced satellite count for a while.
-    pub gps_satellites: Vec<ForcedSatellites>,
-    /// Serial bytes lost on their way to the flight computer.
-    pub byte_loss: Vec<ByteLoss>,
-}
-
-/// A GPS glitch: the reported position is offset from `start_s` to `end_s`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct GpsGlitch {
-    /// Start (s).
-    pub start_s: f64,
-    /// End (s).
-    pub end_s: f64,
-    /// Offset north (m).
-    pub north_m: f64,
-    /// Offset east (m).
-    pub east_m: f64,
-}
-
-/// A forced GPS satellite count from `start_s` to `end_s`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ForcedSatellites {
-    /// Start (s).
-    pub start_s: f64,
-    /// End (s).
-    pub end_s: f64,
-    /// Satellites reported.
-    pub satellites: u8,
-}
-
-/// Bytes of one port lost at random, each with probability `rate`, from `start_s` to `end_s`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ByteLoss {
-    /// The port: `imu`, `scb`, `gps` or `baro`.
-    pub port: String,
-    /// Start (s).
-    pub start_s: f64,
-    /// End (s).
-    pub end_s: f64,
-    /// Probability that a byte is lost (0..1).
-    pub rate: f64,
-}
-
-impl Faults {
-    /// True when `t_s` falls in one of `windows`.
-    pub fn active(windows: &[[f64; 2]], t_s: f64) -> bool {
-        windows
-            .iter()
-            .any(|[start, end]| t_s >= *start && t_s < *end)
-    }
-}
+pub use crate::faults::{ByteLoss, Faults, ForcedSatellites, GpsGlitch};
 
 /// One leg of the autonomous flight plan, as written in a scenario file.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -243,6 +181,11 @@ pub struct Scenario {
     pub wind_ned_mps: [f64; 3],
     /// Turbulence: vertical gust intensity σ_w (m/s); Dryden, low altitude. 0 for none.
     pub turbulence_sigma_mps: f64,
+    /// Wind shear: how much the wind changes per metre of height above the take-off point,
+    /// NED ((m/s)/m).
+    pub wind_shear_mps_per_m: [f64; 3],
+    /// Wind changes over time (gusts, steps, ramps), added to the steady wind.
+    pub wind_changes: Vec<crate::faults::WindChange>,
     /// Air and gravity.
     pub atmosphere: Atmosphere,
     /// The helicopter's parameters (default: the MIT X-Cell 60 SE).
@@ -263,6 +206,18 @@ pub struct Scenario {
     pub expect_events: Vec<String>,
 }
 
+impl Scenario {
+    /// The wind at `t_s` and `height_m` above the take-off point, before turbulence: the
+    /// steady wind, its shear with height and its changes over time.
+    pub fn wind_at(&self, t_s: f64, height_m: f64) -> nalgebra::Vector3<f64> {
+        let steady = nalgebra::Vector3::from(self.wind_ned_mps);
+        let shear = nalgebra::Vector3::from(self.wind_shear_mps_per_m) * height_m.max(0.0);
+        self.wind_changes.iter().fold(steady + shear, |w, c| {
+            w + nalgebra::Vector3::from(c.wind_ned_mps) * c.fraction(t_s)
+        })
+    }
+}
+
 impl Default for Scenario {
     fn default() -> Self {
         hover()
@@ -277,6 +232,8 @@ fn base(name: &str, description: &str, plan: Vec<LegSpec>, duration_s: f64) -> S
         duration_s,
         wind_ned_mps: [0.0; 3],
         turbulence_sigma_mps: 0.0,
+        wind_shear_mps_per_m: [0.0; 3],
+        wind_changes: Vec::new(),
         atmosphere: Atmosphere::default(),
         airframe: Airframe::default(),
         mode: FlightMode::Autonomous,
@@ -560,11 +517,36 @@ pub fn from_toml(text: &str) -> Result<Scenario, ScenarioError> {
     let mut merged =
         toml::Table::try_from(&base).map_err(|e| ScenarioError::Invalid(e.to_string()))?;
     merge(&mut merged, table);
+    unset_limits(&mut merged)?;
     let scenario: Scenario = toml::Value::Table(merged)
         .try_into()
         .map_err(|e: toml::de::Error| ScenarioError::Invalid(e.to_string()))?;
     crate::validate::scenario(&scenario).map_err(ScenarioError::Invalid)?;
     Ok(scenario)
+}
+
+/// A limit set to `"unset"` in a file is removed: the criterion the base scenario judged is
+/// not judged (TOML has no null).
+fn unset_limits(scenario: &mut toml::Table) -> Result<(), ScenarioError> {
+    let Some(toml::Value::Table(limits)) = scenario.get_mut("limits") else {
+        return Ok(());
+    };
+    let mut unset = Vec::new();
+    for (key, value) in limits.iter() {
+        match value {
+            toml::Value::String(s) if s == "unset" => unset.push(key.clone()),
+            toml::Value::String(s) => {
+                return Err(ScenarioError::Invalid(format!(
+                    "limits.{key}: '{s}' is not a limit (a number, or \"unset\" to drop the base's)"
+                )));
+            }
+            _ => {}
+        }
+    }
+    for key in unset {
+        limits.remove(&key);
+    }
+    Ok(())
 }
 
 fn merge(into: &mut toml::Table, from: toml::Table) {
@@ -605,6 +587,20 @@ mod tests {
         assert_eq!(s.faults.imu_drop_rate, 0.01);
         assert_eq!(s.plan, hover().plan, "inherited from hover");
         assert_eq!(s.limits, hover().limits);
+    }
+
+    #[test]
+    fn an_inherited_limit_can_be_unset() {
+        let s = from_toml("[limits]\nhold_true_max_m = \"unset\"\nhold_min_s = 30.0\n")
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(s.limits.hold_true_max_m, None);
+        assert_eq!(s.limits.hold_min_s, Some(30.0));
+        assert_eq!(s.limits.plan_complete, Some(true), "the rest inherited");
+        let e = from_toml("[limits]\nhold_min_s = \"off\"\n")
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("limits.hold_min_s"), "{e}");
     }
 
     #[test]

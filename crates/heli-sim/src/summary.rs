@@ -19,8 +19,9 @@ pub enum Outcome {
 pub struct Criterion {
     /// What is measured.
     pub name: String,
-    /// Measured value.
-    pub value: f64,
+    /// Measured value; `None` (JSON `null`) when the run never measured it (a hold that
+    /// never began, a recovery that never ended), which fails the criterion.
+    pub value: Option<f64>,
     /// Limit it is held to.
     pub limit: f64,
     /// Whether it passed.
@@ -28,23 +29,25 @@ pub struct Criterion {
 }
 
 impl Criterion {
-    /// A criterion that passes when `value <= limit`.
-    pub fn at_most(name: &str, value: f64, limit: f64) -> Self {
+    /// A criterion that passes when `value <= limit`; unmeasured (`None`) fails.
+    pub fn at_most(name: &str, value: impl Into<Option<f64>>, limit: f64) -> Self {
+        let value = value.into().filter(|v| !v.is_nan());
         Self {
             name: name.into(),
             value,
             limit,
-            pass: value <= limit,
+            pass: value.is_some_and(|v| v <= limit),
         }
     }
 
-    /// A criterion that passes when `value >= limit`.
-    pub fn at_least(name: &str, value: f64, limit: f64) -> Self {
+    /// A criterion that passes when `value >= limit`; unmeasured (`None`) fails.
+    pub fn at_least(name: &str, value: impl Into<Option<f64>>, limit: f64) -> Self {
+        let value = value.into().filter(|v| !v.is_nan());
         Self {
             name: name.into(),
             value,
             limit,
-            pass: value >= limit,
+            pass: value.is_some_and(|v| v >= limit),
         }
     }
 }
@@ -52,15 +55,15 @@ impl Criterion {
 /// Estimator errors against simulator truth, over the flight after calibration.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct EstimatorSummary {
-    /// Attitude error RMS (deg).
-    pub att_err_rms_deg: f64,
+    /// Attitude error RMS (deg); `null` when the estimator never ran.
+    pub att_err_rms_deg: Option<f64>,
     /// Largest attitude error (deg).
-    pub att_err_max_deg: f64,
+    pub att_err_max_deg: Option<f64>,
     /// Position error RMS (m), relative navigation: displacement from where the estimate
     /// started, estimated against true.
-    pub pos_err_rms_m: f64,
+    pub pos_err_rms_m: Option<f64>,
     /// Velocity error RMS (m/s).
-    pub vel_err_rms_mps: f64,
+    pub vel_err_rms_mps: Option<f64>,
     /// State estimates compared.
     pub samples: u64,
     /// GPS fixes fused / rejected.
@@ -94,8 +97,8 @@ pub struct ManeuverSummary {
     /// Autonomous rolls completed.
     pub rolls_completed: u32,
     /// Altitude lost during the maneuver sequence (m): true altitude at its start minus the
-    /// lowest true altitude before the recovery ended.
-    pub altitude_loss_m: f64,
+    /// lowest true altitude before the recovery ended; `null` without a maneuver.
+    pub altitude_loss_m: Option<f64>,
     /// Largest of |roll| and |pitch| when the recovery from the last roll ended (deg).
     pub recovery_attitude_deg: Option<f64>,
     /// Speed error against the trim speed when the recovery ended (m/s).
@@ -109,16 +112,16 @@ pub struct HoldSummary {
     pub start_s: Option<f64>,
     /// How long it was measured (s).
     pub duration_s: f64,
-    /// Horizontal error RMS, estimate against target (m).
-    pub horizontal_rms_m: f64,
+    /// Horizontal error RMS, estimate against target (m); `null` without a hold.
+    pub horizontal_rms_m: Option<f64>,
     /// Altitude error RMS, estimate against target (m).
-    pub altitude_rms_m: f64,
+    pub altitude_rms_m: Option<f64>,
     /// Largest true distance from the target (m).
-    pub true_max_m: f64,
+    pub true_max_m: Option<f64>,
     /// Mean true roll during the hold (deg): the trim against tail rotor and wind.
-    pub mean_roll_deg: f64,
+    pub mean_roll_deg: Option<f64>,
     /// Mean true pitch during the hold (deg).
-    pub mean_pitch_deg: f64,
+    pub mean_pitch_deg: Option<f64>,
 }
 
 /// Byte-level health of one serial link.
@@ -149,8 +152,8 @@ pub struct DeviceSummary {
     pub baro_readings: u32,
     /// Altimeter handshake state at the end.
     pub baro_link: String,
-    /// Lowest flight-battery voltage read (V).
-    pub battery_min_v: f64,
+    /// Lowest flight-battery voltage read (V); `null` when never read.
+    pub battery_min_v: Option<f64>,
 }
 
 /// The whole summary.
@@ -269,6 +272,16 @@ impl Rms {
     /// Largest magnitude.
     pub fn max(&self) -> f64 {
         self.max
+    }
+
+    /// Root mean square, or `None` when nothing was measured.
+    pub fn measured_rms(&self) -> Option<f64> {
+        (self.n > 0).then(|| self.rms())
+    }
+
+    /// Largest magnitude, or `None` when nothing was measured.
+    pub fn measured_max(&self) -> Option<f64> {
+        (self.n > 0).then_some(self.max)
     }
 
     /// Number of values.

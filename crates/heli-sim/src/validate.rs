@@ -25,6 +25,7 @@ fn range_of(path: &str, name: &str) -> Option<(f64, f64)> {
         "duration_s" => (1e-3, MAX_DURATION_S),
         "wind_ned_mps" => (-30.0, 30.0),
         "turbulence_sigma_mps" => (0.0, 10.0),
+        "wind_shear_mps_per_m" => (-1.0, 1.0),
         "density_kgpm3" => (0.3, 1.6),
         "gravity_mps2" => (9.0, 10.5),
         "ground_pressure_mbar" => (300.0, 1100.0),
@@ -42,6 +43,10 @@ fn range_of(path: &str, name: &str) -> Option<(f64, f64)> {
         "count" => (1.0, 10.0),
         "satellites" => (0.0, 32.0),
         "rate" => (0.0, 1.0),
+        "duty" => (0.0, 1.0),
+        "period_s" => (0.0, MAX_DURATION_S),
+        "power" => (0.0, 1.0),
+        "factor" => (0.0, 1.0),
         "end_s" => (0.0, MAX_DURATION_S),
         // Limits: non-negative, finite.
         _ if path.starts_with("limits.") => (0.0, 1e9),
@@ -69,6 +74,7 @@ pub fn scenario(s: &Scenario) -> Result<(), String> {
         ("faults.baro_silent", &s.faults.baro_silent),
         ("faults.compass_silent", &s.faults.compass_silent),
         ("faults.imu_stuck", &s.faults.imu_stuck),
+        ("faults.brownouts", &s.faults.brownouts),
         ("pilot.auto_flipped", &s.pilot.auto_flipped),
         ("pilot.bypass", &s.pilot.bypass),
     ] {
@@ -94,6 +100,31 @@ pub fn scenario(s: &Scenario) -> Result<(), String> {
             f.byte_loss
                 .iter()
                 .map(|g| ("faults.byte_loss", g.start_s, g.end_s)),
+        )
+        .chain(
+            f.devices
+                .iter()
+                .map(|g| ("faults.devices", g.start_s, g.end_s)),
+        )
+        .chain(
+            f.servos
+                .iter()
+                .map(|g| ("faults.servos", g.start_s, g.end_s)),
+        )
+        .chain(
+            f.engine
+                .iter()
+                .map(|g| ("faults.engine", g.start_s, g.end_s)),
+        )
+        .chain(
+            f.rc_frozen
+                .iter()
+                .map(|g| ("faults.rc_frozen", g.start_s, g.end_s)),
+        )
+        .chain(
+            f.switch_flicker
+                .iter()
+                .map(|g| ("faults.switch_flicker", g.start_s, g.end_s)),
         );
     for (name, start, end) in spans {
         if !(start.is_finite() && end.is_finite() && start >= 0.0 && start < end) {
@@ -110,12 +141,82 @@ pub fn scenario(s: &Scenario) -> Result<(), String> {
             ));
         }
     }
+    device_faults(&f.devices, &mut errors);
+    for (i, w) in s.wind_changes.iter().enumerate() {
+        let timed = w.shape != crate::faults::WindShape::Step;
+        if timed && w.start_s >= w.end_s {
+            errors.push(format!(
+                "wind_changes[{i}]: start_s = {}, end_s = {}: a gust or ramp needs start_s < end_s",
+                w.start_s, w.end_s
+            ));
+        }
+    }
+    for (i, servo) in f.servos.iter().enumerate() {
+        if servo.kind == crate::faults::ServoFaultKind::Slow
+            && !(servo.factor > 0.0 && servo.factor < 1.0)
+        {
+            errors.push(format!(
+                "faults.servos[{i}].factor = {}: a slowed servo needs 0 < factor < 1",
+                servo.factor
+            ));
+        }
+    }
+    for (i, flicker) in f.switch_flicker.iter().enumerate() {
+        if flicker.period_s.is_nan() || flicker.period_s <= 0.0 {
+            errors.push(format!(
+                "faults.switch_flicker[{i}].period_s = {}: must be above 0",
+                flicker.period_s
+            ));
+        }
+    }
     if let Err(e) = airframe(&s.airframe) {
         errors.push(e);
     }
     match errors.first() {
         None => Ok(()),
         Some(_) => Err(errors.join("; ")),
+    }
+}
+
+/// Each device fault's amount, by kind: an error names the fault, the key and the range.
+fn device_faults(faults: &[crate::faults::DeviceFault], errors: &mut Vec<String>) {
+    use crate::faults::{Device, DeviceFaultKind as K};
+    for (i, f) in faults.iter().enumerate() {
+        let key = |name: &str| {
+            format!(
+                "faults.devices[{i}].{name} ({} {:?})",
+                f.device.name(),
+                f.kind
+            )
+        };
+        let adc = matches!(f.device, Device::Compass | Device::Battery);
+        let (name, value, min, max) = match f.kind {
+            K::Off | K::Stuck => continue,
+            K::Garbage => ("rate", f.rate, 1e-9, 1.0),
+            K::Bias => ("value", f.value, -1e4, 1e4),
+            K::Scale => ("value", f.value, 0.0, 10.0),
+            K::Spikes => {
+                if !(f.rate > 0.0 && f.rate <= 1.0) {
+                    errors.push(out_of_range(&key("rate"), f.rate, 1e-9, 1.0));
+                }
+                ("value", f.value, 1e-9, 1e4)
+            }
+            K::Slow => ("value", f.value, 2.0, 1000.0),
+            K::Delayed if adc => {
+                errors.push(format!(
+                    "{}: an ADC channel is read when the computer asks; it cannot arrive late",
+                    key("kind")
+                ));
+                continue;
+            }
+            K::Delayed => ("value", f.value, 1e-3, 10.0),
+        };
+        if !(value >= min && value <= max) {
+            errors.push(out_of_range(&key(name), value, min, max));
+        }
+        if f.period_s > 0.0 && !(f.duty > 0.0 && f.duty <= 1.0) {
+            errors.push(out_of_range(&key("duty"), f.duty, 1e-9, 1.0));
+        }
     }
 }
 
@@ -221,6 +322,51 @@ mod tests {
             ("[airframe]\nmass_kg = nan", "airframe.mass_kg"),
             ("[[plan]]\nleg = \"takeoff\"\nalt_m = -3.0", "plan[0].alt_m"),
             ("[limits]\nhold_min_s = -1.0", "limits.hold_min_s"),
+            (
+                "[[faults.devices]]\ndevice = \"imu\"\nkind = \"slow\"\nstart_s = 1.0\nend_s = 2.0\nvalue = 1.0",
+                "faults.devices[0].value (imu Slow) = 1: must be from 2 to 1000",
+            ),
+            (
+                "[[faults.devices]]\ndevice = \"compass\"\nkind = \"delayed\"\nstart_s = 1.0\nend_s = 2.0\nvalue = 0.1",
+                "cannot arrive late",
+            ),
+            (
+                "[[faults.devices]]\ndevice = \"gps\"\nkind = \"spikes\"\nstart_s = 1.0\nend_s = 2.0\nvalue = 5.0",
+                "faults.devices[0].rate (gps Spikes)",
+            ),
+            (
+                "[[faults.devices]]\ndevice = \"gps\"\nkind = \"off\"\nstart_s = 1.0\nend_s = 2.0\nduty = 1.5",
+                "faults.devices[0].duty",
+            ),
+            (
+                "[[faults.devices]]\ndevice = \"sonar\"\nkind = \"off\"\nstart_s = 1.0\nend_s = 2.0",
+                "sonar",
+            ),
+            (
+                "[[faults.servos]]\nchannel = \"aileron\"\nkind = \"slow\"\nstart_s = 1.0\nend_s = 2.0\nfactor = 0.0",
+                "faults.servos[0].factor",
+            ),
+            (
+                "[[faults.engine]]\nstart_s = 1.0\nend_s = 2.0\npower = 1.5",
+                "faults.engine[0].power",
+            ),
+            ("[faults]\nbrownouts = [[5.0, 2.0]]", "faults.brownouts[0]"),
+            (
+                "[[wind_changes]]\nshape = \"ramp\"\nstart_s = 5.0\nend_s = 5.0\nwind_ned_mps = [1.0, 0.0, 0.0]",
+                "wind_changes[0]",
+            ),
+            (
+                "[[wind_changes]]\nshape = \"gust\"\nstart_s = 5.0\nend_s = 6.0\nwind_ned_mps = [100.0, 0.0, 0.0]",
+                "wind_changes[0].wind_ned_mps[0]",
+            ),
+            (
+                "wind_shear_mps_per_m = [3.0, 0.0, 0.0]",
+                "wind_shear_mps_per_m[0]",
+            ),
+            (
+                "[[faults.switch_flicker]]\nswitch = \"auto\"\nstart_s = 1.0\nend_s = 2.0\nperiod_s = 0.0",
+                "faults.switch_flicker[0].period_s",
+            ),
         ];
         for (text, key) in cases {
             let e = from_toml(text).map(|_| ()).unwrap_err().to_string();

@@ -11,67 +11,68 @@ impl Simulation {
         let hold_duration = m.hold_time_s;
         let limits = self.scenario.limits;
         let mut criteria = Vec::new();
-        let mut at_most = |name: &str, value: f64, limit: Option<f64>| {
+        let mut at_most = |name: &str, value: Option<f64>, limit: Option<f64>| {
             if let Some(limit) = limit {
                 criteria.push(Criterion::at_most(name, value, limit));
             }
         };
+        let held = |v: Option<f64>| v.filter(|_| m.hold_start_us.is_some());
         at_most(
             "hold_horizontal_rms_m",
-            m.hold_horizontal.rms(),
-            limits
-                .hold_horizontal_rms_m
-                .filter(|_| m.hold_start_us.is_some()),
+            held(m.hold_horizontal.measured_rms()),
+            limits.hold_horizontal_rms_m,
         );
         at_most(
             "hold_altitude_rms_m",
-            m.hold_altitude.rms(),
-            limits
-                .hold_altitude_rms_m
-                .filter(|_| m.hold_start_us.is_some()),
+            held(m.hold_altitude.measured_rms()),
+            limits.hold_altitude_rms_m,
         );
         at_most(
             "hold_true_max_m",
-            m.hold_true.max(),
-            limits.hold_true_max_m.filter(|_| m.hold_start_us.is_some()),
+            held(m.hold_true.measured_max()),
+            limits.hold_true_max_m,
         );
-        let altitude_loss = m.maneuver_start_alt_m.map_or(f64::INFINITY, |start| {
-            (start - m.maneuver_min_alt_m).max(0.0)
-        });
+        let altitude_loss = m
+            .maneuver_start_alt_m
+            .map(|start| (start - m.maneuver_min_alt_m).max(0.0));
         at_most("altitude_loss_m", altitude_loss, limits.altitude_loss_max_m);
         at_most(
             "recovery_attitude_deg",
-            m.recovery_attitude_deg.unwrap_or(f64::INFINITY),
+            m.recovery_attitude_deg,
             limits.recovery_attitude_max_deg,
         );
         at_most(
             "recovery_speed_error_mps",
-            m.recovery_speed_error_mps.unwrap_or(f64::INFINITY),
+            m.recovery_speed_error_mps,
             limits.recovery_speed_max_mps,
         );
-        at_most("att_err_rms_deg", m.att.rms(), limits.att_err_rms_max_deg);
-        at_most("att_err_max_deg", m.att.max(), limits.att_err_max_deg);
-        at_most("pos_err_rms_m", m.pos.rms(), limits.pos_err_rms_max_m);
+        at_most(
+            "att_err_rms_deg",
+            m.att.measured_rms(),
+            limits.att_err_rms_max_deg,
+        );
+        at_most(
+            "att_err_max_deg",
+            m.att.measured_max(),
+            limits.att_err_max_deg,
+        );
+        at_most(
+            "pos_err_rms_m",
+            m.pos.measured_rms(),
+            limits.pos_err_rms_max_m,
+        );
         let hover_after = match (m.rc_lost_at_us, m.rc_hover_at_us) {
-            (Some(lost), Some(hover)) => hover.saturating_sub(lost) as f64 * 1e-6,
-            _ => f64::INFINITY,
+            (Some(lost), Some(hover)) => Some(hover.saturating_sub(lost) as f64 * 1e-6),
+            _ => None,
         };
         at_most(
             "rc_loss_hover_after_s",
             hover_after,
             limits.rc_loss_hover_within_s,
         );
-        let drift = if m.rc_hover_at_us.is_some() {
-            m.rc_drift_max_m
-        } else {
-            f64::INFINITY
-        };
+        let drift = m.rc_hover_at_us.map(|_| m.rc_drift_max_m);
         at_most("rc_loss_drift_m", drift, limits.rc_loss_drift_max_m);
-        let outage_err = if m.gps_outage_pos_err.is_empty() {
-            f64::INFINITY
-        } else {
-            m.gps_outage_pos_err.iter().copied().fold(0.0, f64::max)
-        };
+        let outage_err = m.gps_outage_pos_err.iter().copied().reduce(f64::max);
         at_most(
             "gps_outage_pos_err_m",
             outage_err,
@@ -79,60 +80,75 @@ impl Simulation {
         );
         at_most(
             "manual_yaw_rate_max_dps",
-            m.manual_yaw_rate_max_dps.unwrap_or(f64::INFINITY),
+            m.manual_yaw_rate_max_dps,
             limits.manual_yaw_rate_max_dps,
         );
         at_most(
             "manual_distance_max_m",
-            m.manual_distance_max_m.unwrap_or(f64::INFINITY),
+            m.manual_distance_max_m,
             limits.manual_distance_max_m,
         );
         at_most(
             "velocity_tracking_max_mps",
-            m.velocity_tracking_max_mps.unwrap_or(f64::INFINITY),
+            m.velocity_tracking_max_mps,
             limits.velocity_tracking_max_mps,
         );
         at_most(
             "yaw_rate_tracking_max_dps",
-            m.yaw_rate_tracking_max_dps.unwrap_or(f64::INFINITY),
+            m.yaw_rate_tracking_max_dps,
             limits.yaw_rate_tracking_max_dps,
         );
-        if let Some(min) = limits.sweep_roll_rate_rms_min_dps {
-            criteria.push(Criterion::at_least(
-                "sweep_roll_rate_rms_dps",
-                m.sweep_roll_rate.rms(),
-                min,
-            ));
-        }
-        if let Some(max) = limits.ground_max_m {
-            criteria.push(Criterion::at_most("ground_max_m", m.max_alt_m, max));
-        }
-        if let Some(min) = limits.climb_min_m {
-            criteria.push(Criterion::at_least("climb_m", m.max_alt_m, min));
-        }
-        if let Some(min) = limits.hold_min_s {
-            criteria.push(Criterion::at_least("hold_duration_s", hold_duration, min));
-        }
-        if let Some(min) = limits.rolls_min {
-            criteria.push(Criterion::at_least(
-                "rolls_completed",
-                f64::from(stats.rolls_completed),
-                min,
-            ));
-        }
+        let t = &m.truth;
+        at_most("tilt_max_deg", t.tilt_max_deg, limits.tilt_max_deg);
+        let touchdown = t.touchdown;
+        at_most(
+            "touchdown_distance_m",
+            touchdown.and_then(|td| td.distance_m),
+            limits.touchdown_distance_max_m,
+        );
+        at_most(
+            "touchdown_sink_mps",
+            touchdown.map(|td| td.sink_mps),
+            limits.touchdown_sink_max_mps,
+        );
+        at_most(
+            "touchdown_speed_mps",
+            touchdown.map(|td| td.speed_mps),
+            limits.touchdown_speed_max_mps,
+        );
+        at_most("hover_after_s", t.hover_after_s, limits.hover_within_s);
+        at_most("ground_max_m", Some(m.max_alt_m), limits.ground_max_m);
+        let mut at_least = |name: &str, value: Option<f64>, limit: Option<f64>| {
+            if let Some(limit) = limit {
+                criteria.push(Criterion::at_least(name, value, limit));
+            }
+        };
+        at_least("height_min_m", t.height_min_m, limits.height_min_m);
+        at_least(
+            "sweep_roll_rate_rms_dps",
+            m.sweep_roll_rate.measured_rms(),
+            limits.sweep_roll_rate_rms_min_dps,
+        );
+        at_least("climb_m", Some(m.max_alt_m), limits.climb_min_m);
+        at_least("hold_duration_s", Some(hold_duration), limits.hold_min_s);
+        at_least(
+            "rolls_completed",
+            Some(f64::from(stats.rolls_completed)),
+            limits.rolls_min,
+        );
         if limits.plan_complete == Some(true) {
             let done = if self.computer.core().plan_complete() {
                 1.0
             } else {
                 0.0
             };
-            criteria.push(Criterion::at_least("plan_complete", done, 1.0));
+            criteria.push(Criterion::at_least("plan_complete", Some(done), 1.0));
         }
         for text in &self.scenario.expect_events {
             let raised = m.events.iter().any(|e| e.contains(text.as_str()));
             criteria.push(Criterion::at_least(
                 &format!("event '{text}'"),
-                if raised { 1.0 } else { 0.0 },
+                Some(if raised { 1.0 } else { 0.0 }),
                 1.0,
             ));
         }
@@ -142,7 +158,7 @@ impl Simulation {
         }
         // A run judged on nothing has not passed: say so as a criterion of its own.
         if criteria.is_empty() {
-            criteria.push(Criterion::at_least("criteria_defined", 0.0, 1.0));
+            criteria.push(Criterion::at_least("criteria_defined", Some(0.0), 1.0));
         }
         let outcome = if self.crash.is_some() {
             Outcome::Crash
@@ -171,10 +187,10 @@ impl Simulation {
             crash: self.crash.clone(),
             criteria,
             estimator: EstimatorSummary {
-                att_err_rms_deg: m.att.rms(),
-                att_err_max_deg: m.att.max(),
-                pos_err_rms_m: m.pos.rms(),
-                vel_err_rms_mps: m.vel.rms(),
+                att_err_rms_deg: m.att.measured_rms(),
+                att_err_max_deg: m.att.measured_max(),
+                pos_err_rms_m: m.pos.measured_rms(),
+                vel_err_rms_mps: m.vel.measured_rms(),
                 samples: m.att.count(),
                 gps_fused: nav.gps_fused,
                 gps_rejected: nav.gps_rejected,
@@ -190,22 +206,20 @@ impl Simulation {
             },
             maneuvers: ManeuverSummary {
                 rolls_completed: stats.rolls_completed,
-                altitude_loss_m: if altitude_loss.is_finite() {
-                    altitude_loss
-                } else {
-                    0.0
-                },
+                altitude_loss_m: altitude_loss,
                 recovery_attitude_deg: m.recovery_attitude_deg,
                 recovery_speed_error_mps: m.recovery_speed_error_mps,
             },
             hold: HoldSummary {
                 start_s: m.hold_start_us.map(|t| t as f64 * 1e-6),
                 duration_s: hold_duration,
-                horizontal_rms_m: m.hold_horizontal.rms(),
-                altitude_rms_m: m.hold_altitude.rms(),
-                true_max_m: m.hold_true.max(),
-                mean_roll_deg: m.hold_roll_sum_deg / m.hold_true.count().max(1) as f64,
-                mean_pitch_deg: m.hold_pitch_sum_deg / m.hold_true.count().max(1) as f64,
+                horizontal_rms_m: m.hold_horizontal.measured_rms(),
+                altitude_rms_m: m.hold_altitude.measured_rms(),
+                true_max_m: m.hold_true.measured_max(),
+                mean_roll_deg: (m.hold_true.count() > 0)
+                    .then(|| m.hold_roll_sum_deg / m.hold_true.count() as f64),
+                mean_pitch_deg: (m.hold_true.count() > 0)
+                    .then(|| m.hold_pitch_sum_deg / m.hold_true.count() as f64),
             },
             devices: DeviceSummary {
                 imu: link(self.computer.drivers().imu.stats().framer),
@@ -214,11 +228,7 @@ impl Simulation {
                 gps: link(self.computer.drivers().gps.stats().framer),
                 baro_readings: stats.baro_readings,
                 baro_link: format!("{:?}", self.computer.drivers().baro.state()),
-                battery_min_v: if m.battery_min_v.is_finite() {
-                    m.battery_min_v
-                } else {
-                    0.0
-                },
+                battery_min_v: m.battery_min_v.is_finite().then_some(m.battery_min_v),
             },
             events: m.events.clone(),
             log: None,

@@ -110,7 +110,7 @@ impl Simulation {
         if let Some(target) = self.takeoff_alt_m() {
             criteria.push(Criterion::at_least(
                 "climb_m",
-                self.metrics.max_alt_m,
+                Some(self.metrics.max_alt_m),
                 target - 1.0,
             ));
         }
@@ -118,11 +118,7 @@ impl Simulation {
             let held_s = hil.hold_origin.map_or(0.0, |(t0, _)| {
                 hil.hold_last_us.saturating_sub(t0) as f64 * 1e-6
             });
-            let drift = if held_s >= HIL_HOLD_MIN_S {
-                hil.hold_drift_max_m
-            } else {
-                f64::INFINITY
-            };
+            let drift = (held_s >= HIL_HOLD_MIN_S).then_some(hil.hold_drift_max_m);
             criteria.push(Criterion::at_most("hil_hold_drift_m", drift, limit));
         }
         Some(criteria)

@@ -7,6 +7,8 @@ use super::*;
 pub(super) struct Metrics {
     /// Serial bytes the scenario's byte loss took.
     pub(super) bytes_lost: u64,
+    /// Transmissions and readings a device fault kept from the computer (off, slow).
+    pub(super) fault_dropped: u64,
     pub(super) att: Rms,
     pub(super) pos: Rms,
     pub(super) vel: Rms,
@@ -46,6 +48,36 @@ pub(super) struct Metrics {
     pub(super) step_time_max: Duration,
     pub(super) battery_min_v: f64,
     pub(super) events: Vec<String>,
+    /// The truth at the physics rate: tilt, height, touchdowns.
+    pub(super) truth: TruthMetrics,
+}
+
+/// What the physics steps measure of the truth, whatever the flight software thinks.
+#[derive(Clone, Default)]
+pub(super) struct TruthMetrics {
+    /// Height above the start once it first exceeded 2 m, until the landing began.
+    pub(super) height_min_m: Option<f64>,
+    /// Largest tilt while airborne (deg).
+    pub(super) tilt_max_deg: Option<f64>,
+    /// Airborne now (no skid on the ground).
+    pub(super) airborne: bool,
+    /// Airborne for a whole second at least once since the last touchdown.
+    pub(super) flew_since_us: Option<u64>,
+    /// The last touchdown after a flight: (distance to the intended point, sink, speed).
+    pub(super) touchdown: Option<Touchdown>,
+    /// Time to hover after the first hold began (s).
+    pub(super) hover_after_s: Option<f64>,
+    pub(super) slow_since_us: Option<u64>,
+    /// Whether the flight software has begun to land.
+    pub(super) landing: bool,
+}
+
+/// A touchdown after a flight.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Touchdown {
+    pub(super) distance_m: Option<f64>,
+    pub(super) sink_mps: f64,
+    pub(super) speed_mps: f64,
 }
 
 impl Simulation {
@@ -113,6 +145,68 @@ impl Simulation {
             self.metrics.hold_pitch_sum_deg += pitch.to_degrees();
         }
         self.metrics.last_phase = Some(s.phase);
+    }
+
+    /// Tilt, height and touchdowns from the truth, every physics step.
+    pub(super) fn measure_truth(&mut self) {
+        let now = self.now_us;
+        let s = self.heli.state;
+        let out = self.heli.outputs;
+        let start_alt = *self.metrics.start_alt_m.get_or_insert(-s.pos_ned_m.z);
+        let height = -s.pos_ned_m.z - start_alt;
+        let landing = matches!(
+            self.metrics.last_phase,
+            Some(Phase::Landing { .. } | Phase::Landed)
+        );
+        let t = &mut self.metrics.truth;
+        t.landing |= landing;
+        let on_ground = out.contact_points > 0;
+        if !on_ground {
+            let up = s.att * Vector3::new(0.0, 0.0, -1.0);
+            let tilt = (-up.z).clamp(-1.0, 1.0).acos().to_degrees();
+            t.tilt_max_deg = Some(t.tilt_max_deg.map_or(tilt, |m| m.max(tilt)));
+            if !t.airborne {
+                t.flew_since_us = Some(now);
+            }
+        }
+        if (height > 2.0 || t.height_min_m.is_some()) && !t.landing {
+            t.height_min_m = Some(t.height_min_m.map_or(height, |m| m.min(height)));
+        }
+        let flew = t
+            .flew_since_us
+            .is_some_and(|since| now >= since + 1_000_000);
+        if on_ground && t.airborne && flew {
+            t.flew_since_us = None;
+            let touchdown = Touchdown {
+                distance_m: None,
+                sink_mps: out.contact_sink_mps,
+                speed_mps: s.vel_ned_mps().xy().norm(),
+            };
+            t.touchdown = Some(touchdown);
+            let distance_m = self.metrics.target_key.map(|(n, e, d)| {
+                let true_target = Vector3::new(n, e, d) - self.metrics.target_offset;
+                (self.truth_in_nav_frame() - true_target).xy().norm()
+            });
+            if let Some(td) = self.metrics.truth.touchdown.as_mut() {
+                td.distance_m = distance_m;
+            }
+        }
+        let t = &mut self.metrics.truth;
+        if on_ground && t.airborne && !flew {
+            t.flew_since_us = None;
+        }
+        t.airborne = !on_ground;
+        // Time to hover from the start of the first hold.
+        if let (Some(start), None) = (self.metrics.hold_start_us, t.hover_after_s) {
+            if s.vel_ned_mps().xy().norm() < 0.5 {
+                let since = *t.slow_since_us.get_or_insert(now.max(start));
+                if now >= since + 1_000_000 {
+                    t.hover_after_s = Some(since.saturating_sub(start) as f64 * 1e-6);
+                }
+            } else {
+                t.slow_since_us = None;
+            }
+        }
     }
 
     /// The position error when each GPS outage ends.

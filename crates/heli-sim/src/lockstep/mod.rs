@@ -11,10 +11,12 @@
 
 mod criteria;
 mod hil;
+mod inject;
 mod metrics;
 
 use hil::Hil;
 pub use hil::{HIL_BATTERY_CHANNEL, HilOut};
+use inject::Injector;
 use metrics::Metrics;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -26,7 +28,8 @@ use heli_fsw::streams::{Record, StateRecord, Streams};
 use heli_nav::GeoOrigin;
 use heli_nav::compass_cal::fit_hard_iron;
 use heli_proto::baro::pressure_at_altitude_mbar;
-use heli_proto::compass::CompassCalibration;
+use heli_proto::battery::BatteryAdc;
+use heli_proto::compass::{CompassAdc, CompassCalibration, MagField};
 use heli_proto::scb::Controls;
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -180,6 +183,8 @@ pub struct Simulation {
     loss_noise: Noise,
     /// The last IMU packet sent, repeated while the IMU is stuck.
     last_imu_bytes: Option<Bytes>,
+    /// The fault catalog's state.
+    injector: Injector,
     computer: FlightComputer,
     streams: Streams,
     queue: BinaryHeap<Reverse<Event>>,
@@ -259,6 +264,7 @@ impl Simulation {
             drop_noise: Noise::new(seed, 5),
             loss_noise: Noise::new(seed, 8),
             last_imu_bytes: None,
+            injector: Injector::new(seed),
             computer: FlightComputer::new(core_config, params, heli_proto::baro::DEFAULT_RATE_HZ),
             core_setup: (core_config, params),
             recorded: None,
@@ -336,7 +342,11 @@ impl Simulation {
     }
 
     fn send_to_computer(&mut self, port: Port, bytes: Bytes, sent_us: u64) {
-        let at = sent_us + transmit_time_us(bytes.as_slice().len(), Self::baud(port));
+        let Some((bytes, delay_us)) = self.faulted_transmission(inject::device_of(port), bytes)
+        else {
+            return;
+        };
+        let at = sent_us + delay_us + transmit_time_us(bytes.as_slice().len(), Self::baud(port));
         let bytes = self.lose_bytes(port, bytes);
         self.schedule(at, Kind::ToComputer(port, bytes));
     }
@@ -556,6 +566,11 @@ impl Simulation {
         &mut self.heli
     }
 
+    /// Where the servos are now (normalised), after any servo fault.
+    pub fn servo_positions(&self) -> Controls {
+        self.actuators.positions()
+    }
+
     /// Why the run crashed, if it did.
     pub fn crash(&self) -> Option<&str> {
         self.crash.as_deref()
@@ -593,13 +608,14 @@ impl Simulation {
             Kind::ImuSample => {
                 let s = self.heli.state;
                 let f = self.heli.outputs.specific_force_body_mps2;
+                let rate_rps = self.wrong_vector(crate::faults::Device::Imu, s.rate_body_rps);
                 let rotor = RotorPhase {
                     azimuth_rad: self.rotor_azimuth_rad,
                     speed_ratio: s.rotor_rps / self.heli.airframe.omega_nom_rps,
                 };
                 let bytes = self.imu.packet(
                     now as f64 * 1e-6,
-                    &s.rate_body_rps,
+                    &rate_rps,
                     &f,
                     rotor,
                     self.env.atmosphere.temperature_c,
@@ -622,8 +638,7 @@ impl Simulation {
             }
             Kind::UplinkSample => {
                 self.move_hands();
-                let rpm = self.heli.state.rotor_rps * 30.0 / std::f64::consts::PI;
-                let bytes = self.scb.uplink(&self.pilot(), rpm);
+                let bytes = self.uplink_packet();
                 if !self.fault(|f| &f.uplink_silent) {
                     self.send_to_computer(Port::Scb, bytes, now);
                 }
@@ -652,7 +667,13 @@ impl Simulation {
                     .iter()
                     .find(|g| t_s >= g.start_s && t_s < g.end_s)
                     .map(|g| g.satellites);
-                let bytes = self.gps.packet(now, &s.pos_ned_m, &s.vel_ned_mps());
+                let gps = crate::faults::Device::Gps;
+                let pos_ned_m = Vector3::new(
+                    self.wrong_reading(gps, s.pos_ned_m.x),
+                    self.wrong_reading(gps, s.pos_ned_m.y),
+                    s.pos_ned_m.z,
+                );
+                let bytes = self.gps.packet(now, &pos_ned_m, &s.vel_ned_mps());
                 // The packet's last byte arrives `latency` after the epoch.
                 let tx = transmit_time_us(bytes.as_slice().len(), heli_proto::gps::BAUD);
                 let latency_us = (self.gps.errors.latency_s * 1e6) as u64;
@@ -669,6 +690,7 @@ impl Simulation {
                 let p = pressure_at_altitude_mbar(alt_m, p0);
                 let mbar_per_m = p - pressure_at_altitude_mbar(alt_m + 1.0, p0);
                 let seen_alt_m = alt_m - self.baro_ground_effect_mbar() / mbar_per_m;
+                let seen_alt_m = self.wrong_reading(crate::faults::Device::Baro, seen_alt_m);
                 if let Some(bytes) = self.baro.transmit(now, seen_alt_m, p0)
                     && !self.fault(|f| &f.baro_silent)
                 {
@@ -679,50 +701,27 @@ impl Simulation {
             Kind::CompassRead => {
                 let adc = self.compass.read(&self.heli.state.att);
                 let silent = self.fault(|f| &f.compass_silent);
-                match self.hil.as_mut() {
+                let adc = self.faulted_compass(adc);
+                match (self.hil.as_mut(), adc) {
                     _ if silent => {}
-                    Some(hil) => {
+                    (_, None) => {}
+                    (Some(hil), Some(adc)) => {
                         for (channel, counts) in (0u8..).zip(adc.counts) {
                             hil.outbox.push((now, HilOut::Adc { channel, counts }));
                         }
                     }
-                    None => self.deliver(DeviceInput::Compass(adc)),
+                    (None, Some(adc)) => self.deliver(DeviceInput::Compass(adc)),
                 }
                 self.schedule(now + COMPASS_PERIOD_US, Kind::CompassRead);
             }
             Kind::BatteryRead => {
-                let battery = self.battery.read(now as f64 * 1e-6);
-                let v = battery.volts();
-                self.metrics.battery_min_v = self.metrics.battery_min_v.min(v);
-                if let Some(hil) = self.hil.as_mut() {
-                    hil.outbox.push((
-                        now,
-                        HilOut::Adc {
-                            channel: HIL_BATTERY_CHANNEL,
-                            counts: battery.counts,
-                        },
-                    ));
+                let volts = self.battery.volts(now as f64 * 1e-6);
+                if let Some(battery) = self.faulted_battery(volts) {
+                    self.read_battery(battery);
                 }
                 self.schedule(now + BATTERY_PERIOD_US, Kind::BatteryRead);
             }
-            Kind::ToDevice(port, bytes) => match port {
-                Port::Scb => {
-                    self.scb.receive(bytes.as_slice());
-                    if self.scb.take_check() {
-                        // The board answers the computer's start-up check with an uplink now.
-                        let rpm = self.heli.state.rotor_rps * 30.0 / std::f64::consts::PI;
-                        let bytes = self.scb.uplink(&self.pilot(), rpm);
-                        self.send_to_computer(Port::Scb, bytes, now);
-                    }
-                }
-                // A dead altimeter hears nothing either.
-                Port::Baro if self.fault(|f| &f.baro_silent) => {}
-                Port::Baro => {
-                    self.baro.receive(bytes.as_slice(), now);
-                    self.reschedule_baro_device();
-                }
-                Port::Imu | Port::Gps => {}
-            },
+            Kind::ToDevice(port, bytes) => self.reach_device(port, bytes),
             Kind::ToComputer(port, bytes) => match self.hil.as_mut() {
                 Some(hil) => hil.outbox.push((now, HilOut::Bytes(port, bytes))),
                 None => self.deliver(DeviceInput::Bytes {
@@ -737,6 +736,52 @@ impl Simulation {
                     self.deliver(DeviceInput::Tick);
                 }
             }
+        }
+    }
+
+    /// The servo board's uplink packet now: the pilot's command as the receiver reports it,
+    /// and the rotor speed.
+    fn uplink_packet(&mut self) -> Bytes {
+        let rpm = self.heli.state.rotor_rps * 30.0 / std::f64::consts::PI;
+        let rpm = self.wrong_reading(crate::faults::Device::Uplink, rpm);
+        let pilot = self.receiver();
+        self.scb.uplink(&pilot, rpm)
+    }
+
+    /// A battery reading: the lowest is kept; hardware in the loop gets it on its ADC.
+    fn read_battery(&mut self, battery: BatteryAdc) {
+        let now = self.now_us;
+        self.metrics.battery_min_v = self.metrics.battery_min_v.min(battery.volts());
+        if let Some(hil) = self.hil.as_mut() {
+            hil.outbox.push((
+                now,
+                HilOut::Adc {
+                    channel: HIL_BATTERY_CHANNEL,
+                    counts: battery.counts,
+                },
+            ));
+        }
+    }
+
+    /// Bytes from the flight computer reach a device.
+    fn reach_device(&mut self, port: Port, bytes: Bytes) {
+        let now = self.now_us;
+        match port {
+            Port::Scb => {
+                self.scb.receive(bytes.as_slice());
+                if self.scb.take_check() {
+                    // The board answers the computer's start-up check with an uplink now.
+                    let bytes = self.uplink_packet();
+                    self.send_to_computer(Port::Scb, bytes, now);
+                }
+            }
+            // A dead altimeter hears nothing either.
+            Port::Baro if self.fault(|f| &f.baro_silent) => {}
+            Port::Baro => {
+                self.baro.receive(bytes.as_slice(), now);
+                self.reschedule_baro_device();
+            }
+            Port::Imu | Port::Gps => {}
         }
     }
 
@@ -839,21 +884,27 @@ impl Simulation {
 
     fn physics_step(&mut self) {
         let dt_s = PHYSICS_STEP_US as f64 * 1e-6;
-        // Turbulence rides on the steady wind.
+        // Turbulence rides on the wind of the moment and height (steady, shear, changes).
         let s = self.heli.state;
-        let airspeed = (s.vel_ned_mps() - Vector3::from(self.scenario.wind_ned_mps)).norm();
-        let wind_speed = Vector3::from(self.scenario.wind_ned_mps).norm();
+        let height_m = -s.pos_ned_m.z - self.metrics.start_alt_m.unwrap_or(-s.pos_ned_m.z);
+        let wind = self.scenario.wind_at(self.t_s(), height_m);
+        let airspeed = (s.vel_ned_mps() - wind).norm();
         self.gust_ned_mps = self
             .turbulence
-            .step(dt_s, -s.pos_ned_m.z, airspeed.max(wind_speed));
-        self.env.wind_ned_mps = Vector3::from(self.scenario.wind_ned_mps) + self.gust_ned_mps;
+            .step(dt_s, -s.pos_ned_m.z, airspeed.max(wind.norm()));
+        self.env.wind_ned_mps = wind + self.gust_ned_mps;
+        self.env.atmosphere.density_kgpm3 = self.scenario.atmosphere.density_at(height_m);
         self.rotor_azimuth_rad =
             (self.rotor_azimuth_rad + s.rotor_rps * dt_s) % std::f64::consts::TAU;
-        let servo = self.scb.servo_commands(&self.pilot());
+        let pilot = self.receiver();
+        let servo = self.scb.servo_commands(&pilot);
         // The physics sees where the servos are at the start of the step, held over it.
         let u = control_inputs(&self.heli.airframe, &self.actuators.positions());
+        self.heli.engine_power_available = self.scenario.faults.engine_power(self.t_s());
         self.heli.step(dt_s, &u, &self.env);
-        self.actuators.step(dt_s, &servo);
+        self.actuators
+            .step_at_speed(dt_s, &servo, self.servo_speeds());
+        self.measure_truth();
         let out = self.heli.outputs;
         if out.contact_points > 0 && self.crash.is_none() {
             let up = self.heli.state.att * Vector3::new(0.0, 0.0, -1.0);

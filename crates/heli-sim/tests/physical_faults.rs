@@ -1,0 +1,156 @@
+//! Faults outside the devices act on the helicopter and the pilot's link: the engine, the
+//! servos, the receiver's channels and switches, the wind.
+
+use heli_fsw::{Port, RecordedInput};
+use heli_proto::scb::{PilotUplink, UplinkFramer};
+use heli_sim::Simulation;
+use heli_sim::faults::{
+    EngineFault, FrozenChannel, RcChannel, ServoChannel, ServoFault, ServoFaultKind, Switch,
+    SwitchFlicker, WindChange, WindShape,
+};
+use heli_sim::scenario::{self, Scenario};
+
+fn fly(s: Scenario, until_s: f64) -> Simulation {
+    let mut sim = Simulation::new(s).unwrap_or_else(|e| panic!("{e}"));
+    sim.record_flight_software();
+    while sim.advance((until_s * 1e6) as u64) {}
+    sim
+}
+
+/// The uplink packets the computer received from `from_s` to `to_s`.
+fn uplinks(sim: &Simulation, from_s: f64, to_s: f64) -> Vec<PilotUplink> {
+    let mut framer = UplinkFramer::new();
+    let window = (from_s * 1e6) as u64..(to_s * 1e6) as u64;
+    let mut out = Vec::new();
+    for (t, input) in &sim.recording().unwrap_or_else(|| panic!("recorded")).inputs {
+        if let RecordedInput::Bytes(Port::Scb, bytes) = input {
+            for &b in bytes {
+                if let Some(frame) = framer.push(b)
+                    && window.contains(t)
+                    && let Ok(p) = PilotUplink::parse(frame)
+                {
+                    out.push(p);
+                }
+            }
+        }
+    }
+    out
+}
+
+fn rotor_rpm(sim: &Simulation) -> f64 {
+    sim.helicopter().state.rotor_rps * 30.0 / std::f64::consts::PI
+}
+
+#[test]
+fn an_engine_failure_stops_the_governor_holding_the_rotor() {
+    let healthy = fly(scenario::hover(), 113.0);
+    let mut s = scenario::hover();
+    s.faults.engine = vec![EngineFault {
+        start_s: 110.0,
+        end_s: 1000.0,
+        power: 0.0,
+    }];
+    let failed = fly(s, 113.0);
+    assert!((rotor_rpm(&healthy) - 1600.0).abs() < 40.0, "{}", rotor_rpm(&healthy));
+    assert!(
+        rotor_rpm(&failed) < 0.8 * 1600.0,
+        "{} rpm three seconds after the engine quit",
+        rotor_rpm(&failed)
+    );
+    assert_eq!(failed.helicopter().outputs.engine_torque_nm, 0.0);
+}
+
+#[test]
+fn a_stuck_servo_stays_where_it_was() {
+    let mut s = scenario::hover();
+    s.faults.servos = vec![ServoFault {
+        channel: ServoChannel::Aileron,
+        kind: ServoFaultKind::Stuck,
+        start_s: 110.0,
+        end_s: 112.0,
+        factor: 0.0,
+    }];
+    let mut sim = Simulation::new(s).unwrap_or_else(|e| panic!("{e}"));
+    while sim.advance(110_000_000) {}
+    let stuck_at = sim.servo_positions().aileron;
+    let mut moved = 0.0_f64;
+    let mut healthy = 0.0_f64;
+    while sim.advance(114_000_000) {
+        let d = (sim.servo_positions().aileron - stuck_at).abs();
+        if sim.now_us() < 112_000_000 {
+            moved = moved.max(d);
+        } else {
+            healthy = healthy.max(d);
+        }
+    }
+    assert_eq!(moved, 0.0, "stuck for two seconds");
+    assert!(healthy > 0.0, "moves again after");
+}
+
+#[test]
+fn a_frozen_receiver_channel_holds_its_value() {
+    // The augmented flight steps the collective stick up at 86 s; frozen from 85 to 90 s
+    // the receiver keeps reporting where it was.
+    let mut s = scenario::augmented();
+    s.faults.rc_frozen = vec![FrozenChannel {
+        channel: RcChannel::Collective,
+        start_s: 85.0,
+        end_s: 90.0,
+    }];
+    let frozen = fly(s, 92.0);
+    let collective = |from, to| {
+        uplinks(&frozen, from, to)
+            .iter()
+            .filter_map(|p| p.sticks())
+            .map(|c| c.collective)
+            .collect::<Vec<f64>>()
+    };
+    let during = collective(85.1, 90.0);
+    let after = collective(90.1, 92.0);
+    assert!(during.len() > 200);
+    assert!(during.windows(2).all(|w| w[0] == w[1]), "frozen");
+    assert!(after.iter().all(|c| *c > during[0] + 0.3), "the step shows after");
+}
+
+#[test]
+fn a_flickering_auto_switch_flickers_on_the_uplink() {
+    let mut s = scenario::hover();
+    s.faults.switch_flicker = vec![SwitchFlicker {
+        switch: Switch::Auto,
+        start_s: 110.0,
+        end_s: 114.0,
+        period_s: 1.0,
+    }];
+    let sim = fly(s, 115.0);
+    let auto: Vec<bool> = uplinks(&sim, 109.0, 115.0)
+        .iter()
+        .map(|p| p.auto_mode)
+        .collect();
+    let changes = auto.windows(2).filter(|w| w[0] != w[1]).count();
+    assert_eq!(changes, 8, "two changes a second for four seconds");
+}
+
+#[test]
+fn a_gust_pushes_the_hovering_helicopter() {
+    let drift = |gust: bool| {
+        let mut s = scenario::hover();
+        if gust {
+            s.wind_changes = vec![WindChange {
+                shape: WindShape::Gust,
+                start_s: 110.0,
+                end_s: 113.0,
+                wind_ned_mps: [0.0, 8.0, 0.0],
+            }];
+        }
+        let mut sim = Simulation::new(s).unwrap_or_else(|e| panic!("{e}"));
+        while sim.advance(110_000_000) {}
+        let start = sim.helicopter().state.pos_ned_m;
+        let mut east = 0.0_f64;
+        while sim.advance(113_000_000) {
+            east = east.max(sim.helicopter().state.pos_ned_m.y - start.y);
+        }
+        east
+    };
+    let (calm, gusty) = (drift(false), drift(true));
+    assert!(gusty > calm + 0.3, "pushed east {gusty} m against {calm} m");
+}
