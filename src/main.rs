@@ -4,6 +4,7 @@
 //! `heli-sim`, `heli-fsw` and the others.
 
 mod bench_hil;
+mod campaign_cmd;
 mod driver_cmd;
 mod hilsim_cmd;
 mod replay_cmd;
@@ -69,6 +70,16 @@ enum Command {
     Flight(vehicle_cmd::FlightArgs),
     /// One device's stand-alone driver: readable lines per packet, logging with --log.
     Driver(driver_cmd::DriverArgs),
+    /// Monte Carlo campaigns: many flights of a scenario with values drawn or stepped, in
+    /// parallel, summed up in one report (docs/campaigns.md). Exit status 0 only when every
+    /// flight passed.
+    #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+    Campaign {
+        #[command(flatten)]
+        run: campaign_cmd::RunArgs,
+        #[command(subcommand)]
+        merge: Option<campaign_cmd::MergeCommand>,
+    },
     /// Read flight logs.
     Log {
         #[command(subcommand)]
@@ -232,6 +243,10 @@ fn main() -> ExitCode {
         },
         Command::Flight(args) => vehicle_cmd::flight_process(&args),
         Command::Driver(args) => driver_cmd::driver(&args),
+        Command::Campaign { run, merge } => match merge {
+            Some(campaign_cmd::MergeCommand::Merge(args)) => campaign_cmd::merge(&args),
+            None => campaign_cmd::campaign(&run),
+        },
     };
     match result {
         Ok(code) => code,
@@ -259,6 +274,12 @@ fn sim(args: SimArgs) -> Result<ExitCode> {
     if let Some(seed) = args.seed {
         scenario.seed = seed;
     }
+    fly(scenario, &args)
+}
+
+/// Flies `scenario` as `heli sim` does (`args` for duration, pace, log and output), prints
+/// the table or the JSON, and exits 0 only on a pass.
+fn fly(scenario: scenario::Scenario, args: &SimArgs) -> Result<ExitCode> {
     if let Some(d) = args.duration
         && !(d.is_finite() && d > 0.0)
     {
