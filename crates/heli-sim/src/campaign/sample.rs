@@ -151,7 +151,24 @@ impl Flight {
     /// base; listing every field leaves nothing of it but the fields no file can unset).
     pub fn scenario_file_text(&self, base: &str, header: &str) -> Result<String, String> {
         let s = self.scenario()?;
-        let body = toml::to_string(&s).map_err(|e| e.to_string())?;
+        let mut table = Table::try_from(&s).map_err(|e| e.to_string())?;
+        // A limit the base judges and this scenario does not is written "unset" (an absent
+        // one would be the base's again).
+        if let Some(base_scenario) = scenario::builtin(base) {
+            let limits = table
+                .entry("limits")
+                .or_insert_with(|| Value::Table(Table::new()));
+            if let (Value::Table(limits), Ok(Value::Table(base_limits))) =
+                (limits, Value::try_from(base_scenario.limits))
+            {
+                for key in base_limits.keys() {
+                    if !limits.contains_key(key) {
+                        limits.insert(key.clone(), Value::String("unset".into()));
+                    }
+                }
+            }
+        }
+        let body = toml::to_string(&table).map_err(|e| e.to_string())?;
         let base = Value::String(base.to_string());
         Ok(format!("{header}base = {base}\n{body}"))
     }
