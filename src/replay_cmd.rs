@@ -34,6 +34,7 @@ fn setup_of(contents: &LogContents) -> Result<ReplaySetup> {
             config,
             params,
             baro_rate_hz: heli_proto::baro::DEFAULT_RATE_HZ,
+            restart_from: None,
         });
     }
     let number = |key: &str| -> Result<f64> {
@@ -74,10 +75,20 @@ fn setup_of(contents: &LogContents) -> Result<ReplaySetup> {
     let baro_rate_hz = get("baro_rate_hz")?
         .parse::<u8>()
         .context("flight metadata 'baro_rate_hz' is not a rate")?;
+    // A process started again in the air resumed from a record: so does its replay.
+    let restart_from = match entries.get("warm_start").map(String::as_str) {
+        None | Some("") => None,
+        Some(text) => Some(
+            heli_vehicle::warm::WarmFile::parse(text)
+                .map_err(|e| anyhow!("flight metadata 'warm_start': {e}"))?
+                .warm,
+        ),
+    };
     Ok(ReplaySetup {
         config,
         params: FlightParams { mode, plan },
         baro_rate_hz,
+        restart_from,
     })
 }
 

@@ -178,6 +178,7 @@ pub fn vehicle(args: &FlightArgs, socket: &Path) -> Result<ExitCode> {
     let config = BootstrapConfig {
         socket: socket.to_path_buf(),
         child,
+        warm_file: Some(heli_vehicle::warm::path_in(&args.log_dir)),
     };
     let report = Box::new(|line: &str| {
         let mut out = std::io::stdout().lock();
@@ -274,15 +275,16 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
     let devices = args.devices()?;
     let compass = args.compass()?;
     say("ready");
-    let (suffix, mode, plan_name) = loop {
+    let (restart, suffix, mode, plan_name) = loop {
         let Some(line) = read_line() else {
             say("stopped {}");
             return Ok(ExitCode::SUCCESS);
         };
         let words: Vec<&str> = line.split_whitespace().collect();
         match words.as_slice() {
-            ["start", suffix, mode, rest @ ..] if rest.len() <= 1 => {
+            [word @ ("start" | "restart"), suffix, mode, rest @ ..] if rest.len() <= 1 => {
                 break (
+                    *word == "restart",
                     suffix.to_string(),
                     mode.to_string(),
                     rest.first().map(|p| p.to_string()),
@@ -295,6 +297,10 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
             _ => say(&format!("error not understood: '{line}'")),
         }
     };
+    let start_words = match &plan_name {
+        Some(plan) => format!("{suffix} {mode} {plan}"),
+        None => format!("{suffix} {mode}"),
+    };
     let started = heli_link::StartParameters::new(&suffix, &mode);
     let (mode, plan_name, plan_legs, plan) = match started
         .map_err(anyhow::Error::from)
@@ -306,9 +312,27 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
             bail!("{e:#}");
         }
     };
-    let log_path = args
-        .log_dir
-        .join(heli_log::file_name("flight", &suffix, "mcap"));
+    let warm_path = heli_vehicle::warm::path_in(&args.log_dir);
+    // Started again by the bootstrap after a crash or a brown-out: resume from the record
+    // the process before left, if it can be read (otherwise start cold, and say so).
+    let restart_from = if restart {
+        match heli_vehicle::warm::WarmFile::read(&warm_path) {
+            Ok(Some(file)) => Some(file),
+            Ok(None) => {
+                say("note restarted without a warm-start record: calibrating from scratch");
+                None
+            }
+            Err(e) => {
+                say(&format!(
+                    "note warm-start record unreadable ({e}): calibrating from scratch"
+                ));
+                None
+            }
+        }
+    } else {
+        None
+    };
+    let log_path = next_free_log(&args.log_dir, &suffix, restart);
     let config = CoreConfig {
         calibration_s: args.calibration_s,
         imu_warm_up_s: args.warm_up_s,
@@ -331,6 +355,13 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
         ),
         ("compass_scale".to_string(), format!("{:?}", compass.scale)),
         ("devices".to_string(), format!("{devices:?}")),
+        (
+            "warm_start".to_string(),
+            restart_from
+                .as_ref()
+                .map(|w| w.to_text())
+                .unwrap_or_default(),
+        ),
     ];
     let metadata = heli_log::metadata::flight(software, std::time::SystemTime::now(), parameters);
     let setup = FlightSetup {
@@ -341,6 +372,8 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
         log_path: Some(log_path.clone()),
         metadata,
         clock_speed: args.clock_speed,
+        restart_from: restart_from.map(|w| w.warm),
+        warm_file: Some((warm_path, start_words)),
     };
     let stop = Arc::new(AtomicBool::new(false));
     {
@@ -389,4 +422,24 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
     });
     say(&format!("stopped {json}"));
     Ok(ExitCode::SUCCESS)
+}
+
+/// The flight log's path: `flight_<suffix>.mcap`, or for a process started again after a
+/// crash `flight_<suffix>_r<N>.mcap` with the first N not taken (the crashed process's log
+/// is never overwritten).
+fn next_free_log(dir: &std::path::Path, suffix: &str, restart: bool) -> std::path::PathBuf {
+    let first = dir.join(heli_log::file_name("flight", suffix, "mcap"));
+    if !restart {
+        return first;
+    }
+    (1..1000)
+        .map(|n| {
+            dir.join(heli_log::file_name(
+                "flight",
+                &format!("{suffix}_r{n}"),
+                "mcap",
+            ))
+        })
+        .find(|p| !p.exists())
+        .unwrap_or(first)
 }

@@ -135,6 +135,46 @@ fn a_flight_process_killed_mid_flight_is_reported_and_its_log_survives() {
 }
 
 #[test]
+fn a_flight_process_that_crashes_in_the_air_is_restarted_and_holds_the_hover() {
+    let _one = exclusive();
+    let dir = tempfile::tempdir().unwrap();
+    let hil = Hilsim::start(dir.path(), "hover", 1.0, 50.0);
+    let vehicle = Vehicle::start(dir.path(), &hil.dev);
+    assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
+    let reply = vehicle.ctl(&["start-logging", "crash", "autonomous", "hover"]);
+    assert!(reply.starts_with("ok flying"), "{reply}");
+    // Hovering at 10 m by 20 s (1 s warm-up, 5 s calibration, the climb).
+    vehicle.wait_for_line("phase hold", Duration::from_secs(30));
+    std::thread::sleep(Duration::from_secs(4));
+    let old = vehicle.child_pid();
+    procs::kill9(old);
+    vehicle.wait_for_line("CRASHED", Duration::from_secs(5));
+    vehicle.wait_for_line("restarting the flight process", Duration::from_secs(5));
+    let aligned = vehicle.wait_for_line("aligned in the air", Duration::from_secs(10));
+    assert!(aligned.contains("estimate running"), "{aligned}");
+    let new = vehicle.child_pid();
+    assert_ne!(new, old);
+    // The HILSim's truth: the climb, and the hold's drift through the crash and restart.
+    let summary = hil.wait_json(Duration::from_secs(60));
+    let reply = vehicle.ctl(&["stop"]);
+    assert!(reply.starts_with("ok stopped (exit code 0)"), "{reply}");
+    vehicle.quit();
+    assert_eq!(summary["outcome"], "pass", "{summary:#}");
+    // The crashed process's log is kept; the new one logs beside it and replays exactly
+    // from the record it resumed from; a clean stop leaves no record to resume.
+    assert!(dir.path().join("flight_crash.mcap").exists());
+    let resumed = dir.path().join("flight_crash_r1.mcap");
+    let out = procs::heli(&["log", "replay", &resumed.display().to_string()]);
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!dir.path().join("warm-start").exists());
+}
+
+#[test]
 fn every_stand_alone_driver_runs_against_the_hilsim_and_logs() {
     let _one = exclusive();
     let dir = tempfile::tempdir().unwrap();

@@ -136,6 +136,21 @@ impl FlightComputer {
         }
     }
 
+    /// A flight computer started again after a brown-out or a crash of its flight process,
+    /// from the record the one before left ([`FlightCore::restarted`]); start it with
+    /// [`FlightComputer::start`] as a new one.
+    pub fn restarted(
+        config: CoreConfig,
+        params: FlightParams,
+        baro_rate_hz: u8,
+        warm: crate::core::WarmStart,
+    ) -> Self {
+        Self {
+            core: FlightCore::restarted(config, params, warm),
+            ..Self::new(config, params, baro_rate_hz)
+        }
+    }
+
     /// Starts at `now_us`: arms every watchdog, sends the servo board its start-up check
     /// (nine non-header bytes, which the board answers with an uplink packet; a board that
     /// does not is caught by the uplink watchdog) and begins the altimeter handshake. What

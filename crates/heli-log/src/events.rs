@@ -99,6 +99,15 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
         CoreEvent::TakeoffRefused(why) => {
             format!("t={t:.2} s take-off refused: {}", why.text())
         }
+        CoreEvent::RestartedInAir => {
+            format!("t={t:.2} s flight process restarted in the air: aligning, blind failsafe")
+        }
+        CoreEvent::AlignedInAir { gps: true } => {
+            format!("t={t:.2} s aligned in the air: estimate running")
+        }
+        CoreEvent::AlignedInAir { gps: false } => {
+            format!("t={t:.2} s aligned in the air without a GPS fix: estimate running")
+        }
         CoreEvent::GpsImplausible(why) => match why {
             heli_fsw::core::Implausible::OffTheGlobe => {
                 format!("t={t:.2} s GPS fix refused: off the globe")
@@ -136,6 +145,9 @@ fn events_without_numbers() -> Vec<CoreEvent> {
         CoreEvent::TakeoffRefused(heli_fsw::core::Refusal::NoGpsFix),
         CoreEvent::GpsReset,
         CoreEvent::TakeoffRefused(heli_fsw::core::Refusal::ImuNotHealthy),
+        CoreEvent::RestartedInAir,
+        CoreEvent::AlignedInAir { gps: true },
+        CoreEvent::AlignedInAir { gps: false },
     ];
     for device in Device::ALL {
         for state in [

@@ -320,6 +320,12 @@ impl Navigator {
         self.origin
     }
 
+    /// Sets the origin of the local frame before any fix has: a filter started again in the
+    /// air keeps the frame of the flight before (an origin already set is kept).
+    pub fn set_origin(&mut self, origin: GeoOrigin) {
+        self.origin.get_or_insert(origin);
+    }
+
     /// The reference pressure of the barometric altitude (mbar).
     pub fn baro_reference_mbar(&self) -> Option<f64> {
         self.baro_reference_mbar

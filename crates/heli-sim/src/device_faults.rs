@@ -1,7 +1,8 @@
 //! Built-in fault scenarios: each device's watchdog must raise its fault and the flight
 //! software act on it as documented (docs/architecture.md, device health); the pre-flight
 //! checks must refuse a take-off they cannot back; a roll interrupted by transmitter loss
-//! must end upright before the hover.
+//! must end upright before the hover; a flight computer that browns out in the air must
+//! come back and hold.
 
 use crate::scenario::{Limits, Scenario, hover, manual_sweep, rc_loss, rolls};
 
@@ -100,5 +101,30 @@ pub fn roll_rc_loss() -> Scenario {
         ..Limits::default()
     };
     s.expect_events = vec!["roll 1 completed".into(), "pilot signal lost".into()];
+    s
+}
+
+/// `brownout`: the flight computer loses its power for half a second in the hover; the
+/// servo board holds the last command, the computer boots, and the new flight process
+/// aligns in the air from the record the old one left, then holds where it is.
+pub fn brownout() -> Scenario {
+    let mut s = hover();
+    s.name = "brownout".into();
+    s.description =
+        "the flight computer browns out for 0.5 s in the hover: restarted, aligned in the air, holding"
+            .into();
+    s.duration_s = 150.0;
+    s.faults.brownouts = vec![[110.0, 110.5]];
+    s.limits = Limits {
+        height_min_m: Some(8.0),
+        // A clean hover tilts up to 10 deg; the brown-out may add 7.
+        tilt_max_deg: Some(20.0),
+        hold_true_max_m: Some(3.0),
+        ..Limits::default()
+    };
+    s.expect_events = vec![
+        "flight process restarted in the air".into(),
+        "aligned in the air: estimate running".into(),
+    ];
     s
 }

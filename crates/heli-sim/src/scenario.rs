@@ -85,8 +85,8 @@ pub struct Limits {
     pub yaw_rate_tracking_max_dps: Option<f64>,
     /// Stayed on the ground: the greatest height above the start (m) must not exceed this.
     pub ground_max_m: Option<f64>,
-    /// Least true height above the start (m) once the helicopter has first climbed above
-    /// 2 m, until it begins to land (or the run ends).
+    /// Least true height above the start (m) from the end of the take-off climb (flown by
+    /// hand: from when it first climbed above 2 m) until it begins to land (or the run ends).
     pub height_min_m: Option<f64>,
     /// Largest true tilt (deg) from level while airborne.
     pub tilt_max_deg: Option<f64>,
@@ -466,6 +466,7 @@ pub fn builtins() -> Vec<Scenario> {
         crate::device_faults::compass_silent(),
         crate::device_faults::no_gps_takeoff(),
         crate::device_faults::roll_rc_loss(),
+        crate::device_faults::brownout(),
     ]
 }
 

@@ -233,7 +233,14 @@ fn wrong_readings_are_biased_scaled_and_spiked() {
     // IMU: rates biased by 0.05 rad/s on every axis; judged over the first 50 ms, before
     // the yaw loop answers the rate it believes in.
     let imu_bias = fault(Device::Imu, DeviceFaultKind::Bias, 0.05, 0.0);
-    let first_packets = |faults| received(&fly(faults, START_S + 0.1), Device::Imu, START_S, START_S + 0.05);
+    let first_packets = |faults| {
+        received(
+            &fly(faults, START_S + 0.1),
+            Device::Imu,
+            START_S,
+            START_S + 0.05,
+        )
+    };
     let (clean, biased) = (first_packets(Vec::new()), first_packets(vec![imu_bias]));
     let shift = mean(&biased, 2) - mean(&clean, 2);
     assert!((shift - 0.05).abs() < 0.01, "IMU bias {shift}");
@@ -300,7 +307,10 @@ fn battery_faults_act_on_its_voltage_readings() {
     };
     let healthy = min_v(Vec::new()).unwrap_or(f64::NAN);
     let biased = min_v(vec![window(DeviceFaultKind::Bias, -3.0)]).unwrap_or(f64::NAN);
-    assert!((healthy - biased - 3.0).abs() < 0.05, "{healthy} V, biased {biased} V");
+    assert!(
+        (healthy - biased - 3.0).abs() < 0.05,
+        "{healthy} V, biased {biased} V"
+    );
     let scaled = min_v(vec![window(DeviceFaultKind::Scale, 0.5)]).unwrap_or(f64::NAN);
     assert!((scaled / healthy - 0.5).abs() < 0.02, "{scaled} V");
     let never = DeviceFault {

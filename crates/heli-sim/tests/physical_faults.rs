@@ -51,7 +51,11 @@ fn an_engine_failure_stops_the_governor_holding_the_rotor() {
         power: 0.0,
     }];
     let failed = fly(s, 113.0);
-    assert!((rotor_rpm(&healthy) - 1600.0).abs() < 40.0, "{}", rotor_rpm(&healthy));
+    assert!(
+        (rotor_rpm(&healthy) - 1600.0).abs() < 40.0,
+        "{}",
+        rotor_rpm(&healthy)
+    );
     assert!(
         rotor_rpm(&failed) < 0.8 * 1600.0,
         "{} rpm three seconds after the engine quit",
@@ -109,7 +113,10 @@ fn a_frozen_receiver_channel_holds_its_value() {
     let after = collective(90.1, 92.0);
     assert!(during.len() > 200);
     assert!(during.windows(2).all(|w| w[0] == w[1]), "frozen");
-    assert!(after.iter().all(|c| *c > during[0] + 0.3), "the step shows after");
+    assert!(
+        after.iter().all(|c| *c > during[0] + 0.3),
+        "the step shows after"
+    );
 }
 
 #[test]

@@ -32,6 +32,15 @@ pub const READY_TIMEOUT: Duration = Duration::from_secs(10);
 /// How long Stop waits for the flight process to clean up before killing it.
 pub const STOP_TIMEOUT: Duration = Duration::from_secs(10);
 
+/// Most flight processes the bootstrap starts again after crashes in flight within
+/// [`RESTART_WINDOW`]; beyond that it gives up (a crash loop is no flight).
+pub const MAX_RESTARTS: usize = 3;
+/// The window of [`MAX_RESTARTS`].
+pub const RESTART_WINDOW: Duration = Duration::from_secs(60);
+/// A warm-start file written longer ago than this is from another flight: at power-on the
+/// bootstrap resumes only a fresher one.
+pub const RESUME_AFTER_POWER_ON_MAX: Duration = Duration::from_secs(60);
+
 /// What the bootstrap runs.
 #[derive(Clone, Debug)]
 pub struct BootstrapConfig {
@@ -39,6 +48,9 @@ pub struct BootstrapConfig {
     pub socket: PathBuf,
     /// The flight process's program and arguments.
     pub child: Vec<OsString>,
+    /// The flight processes' warm-start file (`crate::warm`): a fresh one that says the
+    /// helicopter was airborne makes the bootstrap resume the flight at power-on.
+    pub warm_file: Option<PathBuf>,
 }
 
 /// Where the bootstrap is.
@@ -118,6 +130,13 @@ pub struct Bootstrap {
     rx: Receiver<Msg>,
     /// Told each time the control thread has written a reply.
     written: Option<Receiver<()>>,
+    /// The start line of the flight under way (`<suffix> <mode> [plan]`), to start a
+    /// crashed flight process again with.
+    flying: Option<String>,
+    /// A flight process started again is waiting for its `ready`.
+    restarting: bool,
+    /// When flight processes were started again, for [`MAX_RESTARTS`].
+    restarts: Vec<Instant>,
 }
 
 impl Bootstrap {
@@ -137,6 +156,9 @@ impl Bootstrap {
             tx,
             rx,
             written: None,
+            flying: None,
+            restarting: false,
+            restarts: Vec::new(),
         }
     }
 
@@ -163,6 +185,7 @@ impl Bootstrap {
             .spawn(move || serve(&listener, &tx, &written_tx))
             .map_err(|e| e.to_string())?;
         self.say(&format!("listening on {}", self.config.socket.display()));
+        self.resume_after_power_on();
         let result = self.main_loop();
         let _ = std::fs::remove_file(&self.config.socket);
         result
@@ -263,6 +286,9 @@ impl Bootstrap {
         }
         match cmd {
             GroundCommand::Connect => {
+                // A new flight: nothing of the last one is resumed.
+                self.flying = None;
+                self.restarting = false;
                 if self.child.is_some() {
                     self.say("connect: killing the running flight process first");
                     self.kill_child();
@@ -282,12 +308,13 @@ impl Bootstrap {
                     ));
                     return;
                 }
-                let mut line = format!("start {} {}", p.file_suffix, p.controller.name());
+                let mut words = format!("{} {}", p.file_suffix, p.controller.name());
                 if let Some(plan) = &p.plan {
-                    line.push(' ');
-                    line.push_str(plan);
+                    words.push(' ');
+                    words.push_str(plan);
                 }
-                if self.tell_child(&line) {
+                if self.tell_child(&format!("start {words}")) {
+                    self.flying = Some(words);
                     self.wait_for(reply, READY_TIMEOUT, State::Starting);
                 } else {
                     let _ = reply.send("error the flight process is not listening".into());
@@ -418,6 +445,15 @@ impl Bootstrap {
             return;
         }
         match word {
+            "ready" if self.state == State::Connecting && self.restarting => {
+                self.restarting = false;
+                let words = self.flying.clone().unwrap_or_default();
+                if self.tell_child(&format!("restart {words}")) {
+                    self.set_state(State::Starting);
+                } else {
+                    self.say("the restarted flight process is not listening");
+                }
+            }
             "ready" if self.state == State::Connecting => {
                 let pid = self.child.as_ref().map_or(0, |c| c.pid);
                 self.set_state(State::Connected);
@@ -443,8 +479,11 @@ impl Bootstrap {
             return;
         }
         let stopping = self.state == State::Stopping;
+        let in_flight =
+            matches!(self.state, State::Flying | State::Starting) && self.flying.is_some();
         self.child = None;
         if stopping && status.success() {
+            self.flying = None;
             self.say(&format!("flight process stopped cleanly ({how})"));
             self.answer(format!("ok stopped ({how})"));
         } else {
@@ -452,6 +491,64 @@ impl Bootstrap {
             self.answer(format!("error the flight process ended: {how}"));
         }
         self.set_state(State::Idle);
+        if in_flight && !stopping {
+            self.restart_in_flight();
+        }
+    }
+
+    /// A flight process that crashed in flight is started again at once with the same
+    /// parameters; it resumes from its predecessor's warm-start record (aligning in the air
+    /// if the helicopter was flying). At most [`MAX_RESTARTS`] in [`RESTART_WINDOW`].
+    fn restart_in_flight(&mut self) {
+        let now = Instant::now();
+        self.restarts
+            .retain(|t| now.saturating_duration_since(*t) < RESTART_WINDOW);
+        if self.restarts.len() >= MAX_RESTARTS {
+            self.flying = None;
+            self.say(&format!(
+                "not restarting: {MAX_RESTARTS} restarts within {} s already",
+                RESTART_WINDOW.as_secs()
+            ));
+            return;
+        }
+        self.restarts.push(now);
+        match self.spawn_child() {
+            Ok(()) => {
+                self.restarting = true;
+                self.say("restarting the flight process to resume the flight");
+                self.set_state(State::Connecting);
+            }
+            Err(e) => {
+                self.flying = None;
+                self.say(&format!("could not restart the flight process: {e}"));
+            }
+        }
+    }
+
+    /// At power-on (a brown-out of the whole computer): a fresh warm-start file that says
+    /// the helicopter was airborne resumes the flight it was flying.
+    fn resume_after_power_on(&mut self) {
+        let Some(path) = self.config.warm_file.clone() else {
+            return;
+        };
+        let fresh = std::fs::metadata(&path)
+            .and_then(|m| m.modified())
+            .ok()
+            .and_then(|t| t.elapsed().ok())
+            .is_some_and(|age| age <= RESUME_AFTER_POWER_ON_MAX);
+        match crate::warm::WarmFile::read(&path) {
+            Ok(Some(file)) if fresh && file.warm.airborne => {
+                self.say(&format!(
+                    "power-on with a fresh warm-start record ({}): resuming the flight in the air",
+                    path.display()
+                ));
+                self.flying = Some(file.start);
+                self.restart_in_flight();
+            }
+            Ok(Some(_)) => self.say("an old or grounded warm-start record: not resuming"),
+            Ok(None) => {}
+            Err(e) => self.say(&format!("warm-start record unreadable, not resuming: {e}")),
+        }
     }
 }
 

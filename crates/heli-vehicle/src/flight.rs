@@ -43,6 +43,12 @@ pub struct FlightSetup {
     /// How many times as fast as the wall clock the flight clock runs: 1 on a vehicle;
     /// more only against a HILSim run at `--speed` above 1.
     pub clock_speed: f64,
+    /// Started again after a crash or a brown-out: the record the process before left
+    /// (`heli_fsw::core::restart`).
+    pub restart_from: Option<heli_fsw::core::WarmStart>,
+    /// Where to keep this process's own record for a successor, with the start line it
+    /// flies (`crate::warm`).
+    pub warm_file: Option<(PathBuf, String)>,
 }
 
 /// What the flight process reports while it runs.
@@ -210,7 +216,16 @@ fn control_loop(
     stop: &AtomicBool,
     report: &(dyn Fn(Report) + Send + Sync),
 ) -> (CoreStats, u64) {
-    let mut computer = FlightComputer::new(setup.config, setup.params, setup.baro_rate_hz);
+    let mut computer = match setup.restart_from {
+        Some(warm) => {
+            FlightComputer::restarted(setup.config, setup.params, setup.baro_rate_hz, warm)
+        }
+        None => FlightComputer::new(setup.config, setup.params, setup.baro_rate_hz),
+    };
+    let mut keeper = setup
+        .warm_file
+        .clone()
+        .map(|(path, start)| WarmKeeper::spawn(path, start));
     let mut actions: Vec<Action> = Vec::with_capacity(64);
     let write_failures = std::cell::Cell::new(0u64);
     let mut tx = |port: Port, bytes: &[u8]| {
@@ -265,6 +280,9 @@ fn control_loop(
             }
         }
         streams.health.publish(*computer.core().health());
+        if let Some(k) = keeper.as_mut() {
+            k.offer(t_us, computer.core().warm_start());
+        }
     };
     while !stop.load(Ordering::Acquire) {
         let now = clock.now_us();
@@ -295,6 +313,10 @@ fn control_loop(
             feed(&mut computer, last_t_us, RecordedInput::Tick);
         }
     }
+    if let Some(k) = keeper.take() {
+        // A clean end: nothing for a successor to resume.
+        k.finish(report);
+    }
     if write_failures.get() > 0 {
         report(Report::Note(format!(
             "{} device writes failed during the flight",
@@ -302,4 +324,73 @@ fn control_loop(
         )));
     }
     (computer.core().stats(), inputs)
+}
+
+/// Keeps the warm-start file up to date from the control loop without doing file I/O in
+/// it: records go to a thread of their own, newest wins.
+struct WarmKeeper {
+    tx: Option<std::sync::mpsc::SyncSender<Option<heli_fsw::core::WarmStart>>>,
+    thread: Option<std::thread::JoinHandle<Option<String>>>,
+    last: Option<(u64, heli_fsw::core::WarmStart)>,
+}
+
+impl WarmKeeper {
+    fn spawn(path: PathBuf, start: String) -> Self {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Option<heli_fsw::core::WarmStart>>(4);
+        let thread = std::thread::Builder::new()
+            .name("warm-start".into())
+            .spawn(move || {
+                let mut error = None;
+                for record in rx {
+                    let result = match record {
+                        Some(warm) => crate::warm::WarmFile {
+                            warm,
+                            start: start.clone(),
+                        }
+                        .write(&path),
+                        None => crate::warm::remove(&path),
+                    };
+                    if let Err(e) = result {
+                        error.get_or_insert(format!("warm-start file {}: {e}", path.display()));
+                    }
+                }
+                error
+            })
+            .ok();
+        Self {
+            tx: Some(tx),
+            thread,
+            last: None,
+        }
+    }
+
+    /// The record now: written when it says something new (airborne, an origin) or once a
+    /// [`crate::warm::REWRITE_S`] has passed.
+    fn offer(&mut self, t_us: u64, warm: Option<heli_fsw::core::WarmStart>) {
+        let Some(warm) = warm else { return };
+        let due = match self.last {
+            None => true,
+            Some((at, last)) => {
+                last.airborne != warm.airborne
+                    || last.origin != warm.origin
+                    || heli_nav::seconds_between(at, t_us) >= crate::warm::REWRITE_S
+            }
+        };
+        if due && let Some(tx) = &self.tx {
+            // A full queue skips one rewrite; the next one carries newer values anyway.
+            if tx.try_send(Some(warm)).is_ok() {
+                self.last = Some((t_us, warm));
+            }
+        }
+    }
+
+    /// The flight ended cleanly: the file is removed; a write that failed is reported.
+    fn finish(mut self, report: &(dyn Fn(Report) + Send + Sync)) {
+        if let Some(tx) = self.tx.take() {
+            let _ = tx.send(None);
+        }
+        if let Some(Ok(Some(error))) = self.thread.take().map(std::thread::JoinHandle::join) {
+            report(Report::Note(error));
+        }
+    }
 }

@@ -42,3 +42,4 @@ pub mod standalone;
 pub mod streams;
 pub mod telemetry;
 pub mod threads;
+pub mod warm;

@@ -24,6 +24,8 @@ pub struct ReplaySetup {
     pub params: FlightParams,
     /// Altimeter rate asked for (Hz).
     pub baro_rate_hz: u8,
+    /// A flight process started again in the air: the record it resumed from.
+    pub restart_from: Option<heli_fsw::core::WarmStart>,
 }
 
 /// The first place where the replay and the log disagree.
@@ -62,7 +64,12 @@ impl ReplayOutcome {
 /// Replays `contents` with `setup`. `Err` when the log holds no device inputs (it cannot
 /// be replayed) or one of them is malformed.
 pub fn replay(setup: &ReplaySetup, contents: &LogContents) -> Result<ReplayOutcome, String> {
-    let mut computer = FlightComputer::new(setup.config, setup.params, setup.baro_rate_hz);
+    let mut computer = match setup.restart_from {
+        Some(warm) => {
+            FlightComputer::restarted(setup.config, setup.params, setup.baro_rate_hz, warm)
+        }
+        None => FlightComputer::new(setup.config, setup.params, setup.baro_rate_hz),
+    };
     let mut replayed: BTreeMap<&str, Vec<(u64, Value)>> = BTreeMap::new();
     let mut outcome = ReplayOutcome::default();
     let mut actions = Vec::new();

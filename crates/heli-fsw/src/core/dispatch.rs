@@ -121,6 +121,9 @@ impl FlightCore {
                 ..Controls::default()
             },
             (Phase::GroundFailsafe, _) => Controls::default(),
+            (Phase::BlindDescent, _) if self.alignment.is_some() => self
+                .aligning_controls(current.rate_rps[2])
+                .unwrap_or_default(),
             (Phase::BlindDescent, _) => Controls {
                 collective: self.config.hover.hover_collective - BLIND_DESCENT_COLLECTIVE_MARGIN,
                 rudder: self.config.yaw_damper.trim,
@@ -129,6 +132,14 @@ impl FlightCore {
             },
             _ => manual_with_yaw_damping(&pilot_sticks, yaw_rate, &self.config.yaw_damper),
         };
+        if self.airborne_once
+            && matches!(
+                self.phase,
+                Phase::Holding { .. } | Phase::Flying { .. } | Phase::TakingOff { .. }
+            )
+        {
+            self.average_trim(&controls, dt_s);
+        }
         let rotor_rpm = self.pilot.map_or(0, |p| p.rotor_rpm);
         out.push(Action::Servo(Stamped::new(now_us, controls)));
         out.push(Action::Publish(Record::Servo(Stamped::new(

@@ -44,6 +44,14 @@ pub enum CoreEvent {
     },
     /// The phase changed.
     PhaseChanged(Phase),
+    /// The flight process started again in the air (a brown-out, a crash): it aligns
+    /// instead of calibrating, flying the blind failsafe meanwhile.
+    RestartedInAir,
+    /// The in-air alignment is done and the estimate runs again (`gps`: with a fix).
+    AlignedInAir {
+        /// A GPS fix placed the estimate.
+        gps: bool,
+    },
     /// The watchdog fired: an IMU packet was late or lost and the last one was repeated.
     WatchdogFired,
     /// The pilot's receiver signal was lost (all channels zero): hovering.
@@ -87,7 +95,9 @@ impl CoreEvent {
             CoreEvent::PhaseChanged(_) | CoreEvent::RollCompleted(_) | CoreEvent::GpsRegained => {
                 Severity::ActivityLo
             }
-            CoreEvent::CalibrationDone { .. } | CoreEvent::PlanComplete => Severity::ActivityHi,
+            CoreEvent::CalibrationDone { .. }
+            | CoreEvent::PlanComplete
+            | CoreEvent::AlignedInAir { .. } => Severity::ActivityHi,
             CoreEvent::WatchdogFired | CoreEvent::RollAbandoned | CoreEvent::GpsImplausible(_) => {
                 Severity::WarningLo
             }
@@ -95,6 +105,7 @@ impl CoreEvent {
             | CoreEvent::GpsLost
             | CoreEvent::UplinkLost
             | CoreEvent::GpsReset
+            | CoreEvent::RestartedInAir
             | CoreEvent::TakeoffRefused(_) => Severity::WarningHi,
             CoreEvent::DeviceHealth { device, state } => match (device, state) {
                 (_, HealthState::Ok | HealthState::Waiting) => Severity::ActivityLo,

@@ -19,7 +19,9 @@ impl FlightCore {
                 repeated,
             },
         ))));
-        if !repeated && let Some(biases) = self.calibration.push(now_us, &sample) {
+        if !repeated && self.alignment.is_some() {
+            self.align(now_us, &sample, out);
+        } else if !repeated && let Some(biases) = self.calibration.push(now_us, &sample) {
             self.nav.initialise(now_us, &biases);
             self.home_ned_m = self.nav.state().map(|s| s.pos_ned_m);
             let b = biases.gyro_rps;

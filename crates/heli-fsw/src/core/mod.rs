@@ -17,6 +17,7 @@ mod main_loop;
 pub mod mission;
 mod phase;
 pub mod preflight;
+pub mod restart;
 mod roll;
 mod sequencer;
 pub mod watchdog;
@@ -25,6 +26,7 @@ pub use event::{CoreEvent, Severity};
 pub use gps::Implausible;
 pub use phase::Phase;
 pub use preflight::Refusal;
+pub use restart::WarmStart;
 
 pub use heli_control::FlightMode;
 use heli_control::{
@@ -213,6 +215,10 @@ pub struct FlightCore {
     airborne_once: bool,
     /// The last GPS fix that passed the plausibility check, with its time.
     last_good_fix: Option<(u64, GpsNav)>,
+    /// An in-air alignment after a restart, instead of the ground calibration.
+    alignment: Option<restart::Alignment>,
+    /// The average servo command of autonomous flight in the air (for a restart).
+    trim: Option<Controls>,
     stats: CoreStats,
 }
 
@@ -245,6 +251,8 @@ impl FlightCore {
             uplink_lost: false,
             airborne_once: false,
             last_good_fix: None,
+            alignment: None,
+            trim: None,
             stats: CoreStats::default(),
         }
     }

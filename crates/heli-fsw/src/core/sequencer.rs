@@ -15,6 +15,16 @@ impl FlightCore {
         // The board's line going silent is transmitter loss too.
         let signal_lost = self.uplink_lost || pilot.is_some_and(|p| p.signal_lost());
         let Some(est) = estimate else {
+            if self.alignment.is_some() {
+                // Restarted in the air and aligning: the pilot flies if the switch is off,
+                // otherwise the blind failsafe holds on until the estimate starts.
+                let pilot_flies = !signal_lost && pilot.is_some_and(|p| !p.auto_mode || p.bypass);
+                return if pilot_flies {
+                    Phase::Manual
+                } else {
+                    Phase::BlindDescent
+                };
+            }
             if self.estimate_valid {
                 return Phase::Calibrating;
             }

@@ -655,3 +655,60 @@ fn settled(height_m: f64, pilot: PilotUplink) -> (FlightCore, Vec<Action>, u64) 
     let t = fly_for(&mut core, &mut out, t, 200_000, true, Some(pilot));
     (core, out, t)
 }
+
+#[test]
+fn a_process_restarted_in_the_air_aligns_on_the_trim_instead_of_calibrating() {
+    let trim = Controls {
+        aileron: 0.02,
+        elevator: 0.01,
+        rudder: 0.41,
+        collective: 0.55,
+        throttle: heli_control::GOVERNED_THROTTLE,
+    };
+    let warm = WarmStart {
+        gyro_bias_rps: [0.001, 0.0, -0.002],
+        origin: None,
+        home_ned_m: Some([0.0, 0.0, 0.0]),
+        airborne: true,
+        trim: Some(trim),
+    };
+    let mut core = FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm);
+    assert!(core.aligning());
+    let mut out = Vec::new();
+    // One second of samples (no GPS: it waits up to three for a fix), flying the trim with
+    // the tail damping the bias-free gyro: the still samples' -0.002 rad/s is all bias.
+    for k in 0..100u64 {
+        core.handle(Input::Imu(still()), k * 10_000, &mut out);
+    }
+    assert!(raised(&out, CoreEvent::RestartedInAir));
+    assert_eq!(core.phase(), Phase::BlindDescent);
+    let servo = last_servo(&out);
+    assert!(
+        (servo.collective - trim.collective).abs() < 1e-9,
+        "{servo:?}"
+    );
+    assert!((servo.rudder - trim.rudder).abs() < 1e-9, "{servo:?}");
+    assert!(core.navigator().state().is_none(), "waits for a GPS fix");
+    for k in 100..301u64 {
+        core.handle(Input::Imu(still()), k * 10_000, &mut out);
+    }
+    assert!(raised(&out, CoreEvent::AlignedInAir { gps: false }));
+    assert!(!core.aligning() && core.navigator().state().is_some());
+    assert_eq!(core.stats().imu_samples, 301, "no 80 s calibration");
+    // A record of a helicopter that never flew gives an ordinary start.
+    let grounded = FlightCore::restarted(
+        CoreConfig::default(),
+        FlightParams::default(),
+        WarmStart {
+            airborne: false,
+            ..warm
+        },
+    );
+    assert!(!grounded.aligning());
+    assert_eq!(grounded.phase(), Phase::Calibrating);
+    assert_eq!(
+        short_core().warm_start(),
+        None,
+        "nothing to leave before calibrating"
+    );
+}

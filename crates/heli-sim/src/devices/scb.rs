@@ -2,6 +2,11 @@
 //! rpm, the switches and its batteries) at 50 Hz; reads the computer's servo command packets
 //! and drives the servos with them. With the emergency bypass switch engaged it drives the
 //! servos with the pilot's commands directly.
+//!
+//! The board has a watchdog of its own on the computer's commands (as PX4's I/O processor
+//! does on its flight management unit): it holds the last command for
+//! [`COMPUTER_SILENT_US`], then gives every servo to the pilot until the computer speaks
+//! again — a computer that browns out or hangs does not leave the servos frozen.
 
 use heli_proto::framer::FramerStats;
 use heli_proto::scb::{Controls, PilotUplink, Pulses, ServoFramer, ServoPacket};
@@ -21,11 +26,17 @@ pub struct PilotCommand {
     pub signal_lost: bool,
 }
 
+/// How long the board holds the computer's last command after the computer fell silent
+/// before it passes the pilot through (µs).
+pub const COMPUTER_SILENT_US: u64 = 1_000_000;
+
 /// The simulated board.
 #[derive(Clone, Debug)]
 pub struct ScbDevice {
     framer: ServoFramer,
     computer: Option<Controls>,
+    /// When the last command from the computer came (µs).
+    computer_at_us: u64,
     /// Check bytes seen in a row.
     check_run: usize,
     /// The computer's start-up check was received and wants an answer.
@@ -43,6 +54,7 @@ impl Default for ScbDevice {
         Self {
             framer: ServoFramer::new(),
             computer: None,
+            computer_at_us: 0,
             check_run: 0,
             check_due: false,
             checks_answered: 0,
@@ -71,8 +83,8 @@ impl ScbDevice {
         Bytes::encode(|buf| repr.emit(buf))
     }
 
-    /// Bytes from the flight computer's port.
-    pub fn receive(&mut self, bytes: &[u8]) {
+    /// Bytes from the flight computer's port, arriving at `now_us`.
+    pub fn receive(&mut self, bytes: &[u8], now_us: u64) {
         for &b in bytes {
             if b == heli_proto::scb::CHECK_BYTE {
                 self.check_run += 1;
@@ -87,6 +99,7 @@ impl ScbDevice {
                 && let Ok(packet) = ServoPacket::parse(frame)
             {
                 self.computer = Some(packet.pulses.to_controls());
+                self.computer_at_us = now_us;
             }
         }
     }
@@ -101,10 +114,14 @@ impl ScbDevice {
         due
     }
 
-    /// What the servos are driven with: the computer's last command; in bypass the pilot's,
-    /// but for the tail; the pilot's before the computer has said anything.
-    pub fn servo_commands(&self, pilot: &PilotCommand) -> Controls {
-        match (pilot.bypass, self.computer) {
+    /// What the servos are driven with at `now_us`: the computer's last command; in bypass
+    /// the pilot's, but for the tail; the pilot's before the computer has said anything and
+    /// once it has been silent for [`COMPUTER_SILENT_US`].
+    pub fn servo_commands(&self, pilot: &PilotCommand, now_us: u64) -> Controls {
+        let computer = self
+            .computer
+            .filter(|_| now_us.saturating_sub(self.computer_at_us) <= COMPUTER_SILENT_US);
+        match (pilot.bypass, computer) {
             (false, Some(c)) => c,
             // Bypass: the pilot drives the servos directly, except the tail, which keeps the
             // computer's yaw-rate feedback (thesis §2.2.3).
@@ -144,12 +161,15 @@ mod tests {
             }
             .emit(&mut buf)
             .unwrap_or(0);
-            board.receive(&buf[..n]);
+            board.receive(&buf[..n], 0);
         }
         assert!(!board.take_check());
-        board.receive(&[heli_proto::scb::CHECK_BYTE; heli_proto::scb::CHECK_LEN - 1]);
+        board.receive(
+            &[heli_proto::scb::CHECK_BYTE; heli_proto::scb::CHECK_LEN - 1],
+            0,
+        );
         assert!(!board.take_check(), "eight zeros are not the check");
-        board.receive(&[heli_proto::scb::CHECK_BYTE]);
+        board.receive(&[heli_proto::scb::CHECK_BYTE], 0);
         assert!(board.take_check());
         assert!(!board.take_check(), "answered once");
         assert_eq!(board.checks_answered, 1);
@@ -168,7 +188,7 @@ mod tests {
         let packet = heli_proto::scb::ServoPacket {
             pulses: Pulses::from_controls(&computer),
         };
-        board.receive(Bytes::encode(|buf| packet.emit(buf)).as_slice());
+        board.receive(Bytes::encode(|buf| packet.emit(buf)).as_slice(), 0);
         let sticks = Controls {
             aileron: -0.3,
             elevator: 0.2,
@@ -182,16 +202,21 @@ mod tests {
             bypass: true,
             signal_lost: false,
         };
-        let out = board.servo_commands(&pilot);
+        let out = board.servo_commands(&pilot, 0);
         assert!((out.aileron + 0.3).abs() < 0.01 && (out.collective - 0.6).abs() < 0.01);
         assert!(
             (out.rudder - 0.45).abs() < 0.01,
             "the tail stays with the computer: {out:?}"
         );
-        let normal = board.servo_commands(&PilotCommand {
+        let normal = PilotCommand {
             bypass: false,
             ..pilot
-        });
-        assert!((normal.aileron - 0.1).abs() < 0.01);
+        };
+        assert!((board.servo_commands(&normal, 0).aileron - 0.1).abs() < 0.01);
+        // The computer silent: held for a second, then the pilot has every servo.
+        let held = board.servo_commands(&normal, COMPUTER_SILENT_US);
+        assert!((held.aileron - 0.1).abs() < 0.01);
+        let given_up = board.servo_commands(&normal, COMPUTER_SILENT_US + 1);
+        assert!((given_up.aileron + 0.3).abs() < 0.01 && (given_up.rudder + 0.2).abs() < 0.01);
     }
 }

@@ -9,6 +9,8 @@ pub(super) struct Metrics {
     pub(super) bytes_lost: u64,
     /// Transmissions and readings a device fault kept from the computer (off, slow).
     pub(super) fault_dropped: u64,
+    /// Brown-outs of the flight computer so far.
+    pub(super) brownouts: u32,
     pub(super) att: Rms,
     pub(super) pos: Rms,
     pub(super) vel: Rms,
@@ -55,7 +57,8 @@ pub(super) struct Metrics {
 /// What the physics steps measure of the truth, whatever the flight software thinks.
 #[derive(Clone, Default)]
 pub(super) struct TruthMetrics {
-    /// Height above the start once it first exceeded 2 m, until the landing began.
+    /// Height above the start once the take-off climb is over (or, flown by hand, once it
+    /// first exceeded 2 m), until the landing began.
     pub(super) height_min_m: Option<f64>,
     /// Largest tilt while airborne (deg).
     pub(super) tilt_max_deg: Option<f64>,
@@ -169,7 +172,13 @@ impl Simulation {
                 t.flew_since_us = Some(now);
             }
         }
-        if (height > 2.0 || t.height_min_m.is_some()) && !t.landing {
+        let climbing = matches!(
+            self.metrics.last_phase,
+            None | Some(
+                Phase::Calibrating | Phase::PreflightCheck { .. } | Phase::TakingOff { .. }
+            )
+        );
+        if ((height > 2.0 && !climbing) || t.height_min_m.is_some()) && !t.landing {
             t.height_min_m = Some(t.height_min_m.map_or(height, |m| m.min(height)));
         }
         let flew = t

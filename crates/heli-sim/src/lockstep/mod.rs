@@ -186,6 +186,11 @@ pub struct Simulation {
     /// The fault catalog's state.
     injector: Injector,
     computer: FlightComputer,
+    /// While the flight computer has no power (a brown-out): the record its flight process
+    /// left for the next one.
+    browned_out: Option<Option<heli_fsw::core::WarmStart>>,
+    /// Restarted flight processes get no warm start ([`Simulation::forget_warm_start`]).
+    cold_restarts: bool,
     streams: Streams,
     queue: BinaryHeap<Reverse<Event>>,
     seq: u64,
@@ -266,6 +271,8 @@ impl Simulation {
             last_imu_bytes: None,
             injector: Injector::new(seed),
             computer: FlightComputer::new(core_config, params, heli_proto::baro::DEFAULT_RATE_HZ),
+            browned_out: None,
+            cold_restarts: false,
             core_setup: (core_config, params),
             recorded: None,
             step_times: None,
@@ -305,16 +312,57 @@ impl Simulation {
         config: CoreConfig,
     ) -> Result<Self, ScenarioError> {
         let mut sim = Self::build(scenario, config)?;
-        // The flight software arms its watchdogs and starts its altimeter handshake.
+        sim.start_flight_computer();
+        Ok(sim)
+    }
+
+    /// The flight software arms its watchdogs, checks the servo board and starts its
+    /// altimeter handshake.
+    fn start_flight_computer(&mut self) {
+        let now = self.now_us;
         let mut sent = Vec::new();
-        sim.computer.start(0, &mut |port, b: &[u8]| {
+        self.computer.start(now, &mut |port, b: &[u8]| {
             sent.push((port, Bytes::from_slice(b)))
         });
         for (port, b) in sent {
-            sim.send_to_device(port, b, 0);
+            self.send_to_device(port, b, now);
         }
-        sim.reschedule_tick();
-        Ok(sim)
+        self.reschedule_tick();
+    }
+
+    /// Flight processes started after a brown-out calibrate from scratch, as if nothing was
+    /// persisted (to show what the warm start is worth).
+    pub fn forget_warm_start(&mut self) {
+        self.cold_restarts = true;
+    }
+
+    /// A brown-out begins or ends: the flight computer loses its power (and its flight
+    /// process, all but the record it persisted), or boots and starts a new flight process
+    /// from that record.
+    fn power_flight_computer(&mut self) {
+        if self.hil.is_some() {
+            return; // the flight computer is outside: its power is its own
+        }
+        let off = self.scenario.faults.browned_out(self.t_s());
+        match (off, self.browned_out) {
+            (true, None) => {
+                let warm = self.computer.core().warm_start();
+                self.browned_out = Some(warm.filter(|_| !self.cold_restarts));
+                self.metrics.brownouts += 1;
+            }
+            (false, Some(warm)) => {
+                self.browned_out = None;
+                let (config, params) = self.core_setup;
+                let rate = heli_proto::baro::DEFAULT_RATE_HZ;
+                self.computer = match warm {
+                    Some(warm) => FlightComputer::restarted(config, params, rate, warm),
+                    None => FlightComputer::new(config, params, rate),
+                };
+                self.tick_at = None;
+                self.start_flight_computer();
+            }
+            _ => {}
+        }
     }
 
     fn schedule(&mut self, t_us: u64, kind: Kind) {
@@ -768,7 +816,7 @@ impl Simulation {
         let now = self.now_us;
         match port {
             Port::Scb => {
-                self.scb.receive(bytes.as_slice());
+                self.scb.receive(bytes.as_slice(), now);
                 if self.scb.take_check() {
                     // The board answers the computer's start-up check with an uplink now.
                     let bytes = self.uplink_packet();
@@ -811,6 +859,10 @@ impl Simulation {
     /// Hands one input to the flight computer and carries out what it does.
     fn deliver(&mut self, input: DeviceInput<'_>) {
         let now = self.now_us;
+        if self.browned_out.is_some() {
+            // Nobody there to read it.
+            return;
+        }
         if let Some(recorded) = self.recorded.as_mut() {
             recorded.inputs.push((now, RecordedInput::from(input)));
         }
@@ -884,6 +936,7 @@ impl Simulation {
 
     fn physics_step(&mut self) {
         let dt_s = PHYSICS_STEP_US as f64 * 1e-6;
+        self.power_flight_computer();
         // Turbulence rides on the wind of the moment and height (steady, shear, changes).
         let s = self.heli.state;
         let height_m = -s.pos_ned_m.z - self.metrics.start_alt_m.unwrap_or(-s.pos_ned_m.z);
@@ -897,7 +950,7 @@ impl Simulation {
         self.rotor_azimuth_rad =
             (self.rotor_azimuth_rad + s.rotor_rps * dt_s) % std::f64::consts::TAU;
         let pilot = self.receiver();
-        let servo = self.scb.servo_commands(&pilot);
+        let servo = self.scb.servo_commands(&pilot, self.now_us);
         // The physics sees where the servos are at the start of the step, held over it.
         let u = control_inputs(&self.heli.airframe, &self.actuators.positions());
         self.heli.engine_power_available = self.scenario.faults.engine_power(self.t_s());

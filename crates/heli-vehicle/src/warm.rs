@@ -1,0 +1,245 @@
+//! The warm-start file: what a flight process leaves for the one the bootstrap may start
+//! after it (`heli_fsw::core::WarmStart`), with the start line it was flying, so that a
+//! process restarted in the air — after a crash, or after a brown-out of the whole
+//! computer — aligns in the air instead of calibrating for 80 s.
+//!
+//! The file is plain text, one `key = values` line each, written to a temporary file and
+//! renamed over the old one (a power cut leaves the old file or the new one, never half of
+//! one). A clean Stop removes it. A file that cannot be read is an error naming the line;
+//! the process then starts cold and says so.
+
+use std::path::{Path, PathBuf};
+
+use heli_fsw::core::WarmStart;
+use heli_nav::GeoOrigin;
+use heli_proto::scb::Controls;
+
+/// The file's name in the log directory.
+pub const FILE_NAME: &str = "warm-start";
+
+/// How often the flight process rewrites the file while flying (s of flight clock): the
+/// biases and the trim drift slowly; being airborne is written at once.
+pub const REWRITE_S: f64 = 1.0;
+
+/// The warm-start file of a log directory.
+pub fn path_in(log_dir: &Path) -> PathBuf {
+    log_dir.join(FILE_NAME)
+}
+
+/// What the file holds: the record and the start line (`<suffix> <mode> [plan]`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WarmFile {
+    /// The flight software's record.
+    pub warm: WarmStart,
+    /// The words of the start command the flight was started with.
+    pub start: String,
+}
+
+/// `N` numbers whose count was checked.
+fn array<const N: usize>(v: Vec<f64>) -> [f64; N] {
+    v.try_into().unwrap_or([0.0; N])
+}
+
+fn numbers(values: &[f64]) -> String {
+    values
+        .iter()
+        .map(|v| format!("{v:e}"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+impl WarmFile {
+    /// The file's text.
+    pub fn to_text(&self) -> String {
+        let w = &self.warm;
+        let mut text = format!(
+            "start = {}\nairborne = {}\ngyro_bias_rps = {}\n",
+            self.start,
+            w.airborne,
+            numbers(&w.gyro_bias_rps)
+        );
+        if let Some(o) = w.origin {
+            text.push_str(&format!(
+                "origin = {}\n",
+                numbers(&[o.lat_deg, o.lon_deg, o.alt_m])
+            ));
+        }
+        if let Some(h) = w.home_ned_m {
+            text.push_str(&format!("home_ned_m = {}\n", numbers(&h)));
+        }
+        if let Some(t) = w.trim {
+            text.push_str(&format!(
+                "trim = {}\n",
+                numbers(&[t.aileron, t.elevator, t.rudder, t.collective, t.throttle])
+            ));
+        }
+        text
+    }
+
+    /// Reads the file's text; an error names the line and what is wrong with it.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let mut start = None;
+        let mut airborne = None;
+        let mut gyro = None;
+        let mut origin = None;
+        let mut home = None;
+        let mut trim = None;
+        for (n, line) in (1usize..).zip(text.lines().map(str::trim)) {
+            if line.is_empty() {
+                continue;
+            }
+            let (key, value) = line
+                .split_once('=')
+                .map(|(k, v)| (k.trim(), v.trim()))
+                .ok_or(format!("line {n}: '{line}' is not 'key = value'"))?;
+            let floats = |count: usize| -> Result<Vec<f64>, String> {
+                let v: Vec<f64> = value
+                    .split_whitespace()
+                    .map(str::parse::<f64>)
+                    .collect::<Result<_, _>>()
+                    .map_err(|e| format!("line {n}: {key}: {e}"))?;
+                if v.len() != count || !v.iter().all(|x| x.is_finite()) {
+                    return Err(format!("line {n}: {key} needs {count} finite numbers"));
+                }
+                Ok(v)
+            };
+            match key {
+                "start" => start = Some(value.to_string()),
+                "airborne" => {
+                    airborne = Some(
+                        value
+                            .parse::<bool>()
+                            .map_err(|_| format!("line {n}: airborne is true or false"))?,
+                    );
+                }
+                "gyro_bias_rps" => gyro = Some(array::<3>(floats(3)?)),
+                "origin" => origin = Some(array::<3>(floats(3)?)),
+                "home_ned_m" => home = Some(array::<3>(floats(3)?)),
+                "trim" => trim = Some(array::<5>(floats(5)?)),
+                _ => return Err(format!("line {n}: unknown key '{key}'")),
+            }
+        }
+        Ok(Self {
+            start: start.ok_or("no 'start' line")?,
+            warm: WarmStart {
+                gyro_bias_rps: gyro.ok_or("no 'gyro_bias_rps' line")?,
+                origin: origin.map(|[lat_deg, lon_deg, alt_m]| GeoOrigin {
+                    lat_deg,
+                    lon_deg,
+                    alt_m,
+                }),
+                home_ned_m: home,
+                airborne: airborne.ok_or("no 'airborne' line")?,
+                trim: trim.map(
+                    |[aileron, elevator, rudder, collective, throttle]| Controls {
+                        aileron,
+                        elevator,
+                        rudder,
+                        collective,
+                        throttle,
+                    },
+                ),
+            },
+        })
+    }
+
+    /// Writes the file atomically: a temporary file beside it, then a rename.
+    pub fn write(&self, path: &Path) -> std::io::Result<()> {
+        let tmp = path.with_extension("tmp");
+        std::fs::write(&tmp, self.to_text())?;
+        std::fs::rename(&tmp, path)
+    }
+
+    /// Reads the file; `Ok(None)` when there is none.
+    pub fn read(path: &Path) -> Result<Option<Self>, String> {
+        match std::fs::read_to_string(path) {
+            Ok(text) => Self::parse(&text)
+                .map(Some)
+                .map_err(|e| format!("{}: {e}", path.display())),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(format!("{}: {e}", path.display())),
+        }
+    }
+}
+
+/// Removes the file (a clean end of the flight); a missing file is no error.
+pub fn remove(path: &Path) -> std::io::Result<()> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+        _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> WarmFile {
+        WarmFile {
+            start: "hover1 autonomous hover".into(),
+            warm: WarmStart {
+                gyro_bias_rps: [0.001, -0.0135, 2.5e-7],
+                origin: Some(GeoOrigin {
+                    lat_deg: 42.3581,
+                    lon_deg: -71.0966,
+                    alt_m: 5.0,
+                }),
+                home_ned_m: Some([0.1, -0.2, 0.3]),
+                airborne: true,
+                trim: Some(Controls {
+                    aileron: 0.02,
+                    elevator: 0.0,
+                    rudder: 0.41,
+                    collective: 0.55,
+                    throttle: 0.8,
+                }),
+            },
+        }
+    }
+
+    #[test]
+    fn round_trips_exactly_through_its_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = path_in(dir.path());
+        assert_eq!(WarmFile::read(&path), Ok(None));
+        sample().write(&path).unwrap();
+        assert_eq!(WarmFile::read(&path), Ok(Some(sample())));
+        let bare = WarmFile {
+            warm: WarmStart {
+                origin: None,
+                home_ned_m: None,
+                trim: None,
+                ..sample().warm
+            },
+            ..sample()
+        };
+        assert_eq!(WarmFile::parse(&bare.to_text()), Ok(bare));
+        remove(&path).unwrap();
+        remove(&path).unwrap();
+        assert_eq!(WarmFile::read(&path), Ok(None));
+    }
+
+    #[test]
+    fn a_damaged_file_is_an_error_naming_the_line() {
+        for (text, expect) in [
+            ("start = a b\nairborne = maybe\n", "line 2: airborne"),
+            (
+                "start = a b\ngyro_bias_rps = 1 2\n",
+                "line 2: gyro_bias_rps needs 3",
+            ),
+            (
+                "start = a b\ngyro_bias_rps = 1 nan 2\n",
+                "line 2: gyro_bias_rps needs 3",
+            ),
+            ("start = a b\nwhat\n", "line 2: 'what'"),
+            ("start = a b\ncolour = 3\n", "unknown key 'colour'"),
+            (
+                "airborne = true\ngyro_bias_rps = 0 0 0\n",
+                "no 'start' line",
+            ),
+        ] {
+            let e = WarmFile::parse(text).unwrap_err();
+            assert!(e.contains(expect), "{text:?}: {e}");
+        }
+    }
+}
