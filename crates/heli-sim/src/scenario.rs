@@ -47,10 +47,12 @@ pub struct Limits {
     /// Largest altitude loss over the roll sequence (m): true altitude at its start minus the
     /// lowest true altitude before the recovery ends.
     pub altitude_loss_max_m: Option<f64>,
-    /// Largest attitude error (deg) at the end of the recovery from the last roll, against
-    /// level flight, and largest speed error against the trim speed (m/s), together.
+    /// Largest attitude error (deg, roll or pitch) at the end of the recovery from the last
+    /// roll, against the trim attitude the sequence began from (in wind the trim is not
+    /// level).
     pub recovery_attitude_max_deg: Option<f64>,
-    /// Largest speed error from the trim speed at the end of the recovery (m/s).
+    /// Largest airspeed error at the end of the recovery (m/s), against the airspeed the
+    /// sequence began from: judged relative to the air, not the ground.
     pub recovery_speed_max_mps: Option<f64>,
     /// Estimator attitude error RMS over the flight (deg).
     pub att_err_rms_max_deg: Option<f64>,

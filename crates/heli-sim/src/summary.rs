@@ -99,9 +99,11 @@ pub struct ManeuverSummary {
     /// Altitude lost during the maneuver sequence (m): true altitude at its start minus the
     /// lowest true altitude before the recovery ended; `null` without a maneuver.
     pub altitude_loss_m: Option<f64>,
-    /// Largest of |roll| and |pitch| when the recovery from the last roll ended (deg).
+    /// Largest roll or pitch error when the recovery from the last roll ended, against the
+    /// trim attitude the sequence began from (deg).
     pub recovery_attitude_deg: Option<f64>,
-    /// Speed error against the trim speed when the recovery ended (m/s).
+    /// Airspeed error when the recovery ended, against the airspeed the sequence began
+    /// from (m/s).
     pub recovery_speed_error_mps: Option<f64>,
 }
 

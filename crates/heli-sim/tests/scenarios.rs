@@ -283,3 +283,37 @@ fn a_scenario_with_no_criteria_does_not_pass() {
             .any(|c| c.name == "criteria_defined" && !c.pass)
     );
 }
+
+#[test]
+fn the_hold_after_the_rolls_stops_ahead_and_does_not_fly_back() {
+    // The hold begins at 8-10 m/s: it must decelerate along the way and stay where it
+    // stopped, not aim at a point already passed and crawl back to it.
+    let mut sim = heli_sim::Simulation::new(scenario::rolls()).unwrap_or_else(|e| panic!("{e}"));
+    let end_us = 260_000_000;
+    let mut hold_start: Option<(u64, nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)> = None;
+    let mut furthest = f64::MIN;
+    let mut worst_back = 0.0_f64;
+    while sim.advance(end_us) {
+        let rolled = sim.core().stats().rolls_completed == 3;
+        let holding = matches!(sim.core().phase(), heli_fsw::core::Phase::Holding { .. });
+        if !(rolled && holding) {
+            continue;
+        }
+        let s = sim.helicopter().state;
+        let (p, v) = (s.pos_ned_m, s.vel_ned_mps());
+        let (t0, p0, dir) =
+            *hold_start.get_or_insert((sim.now_us(), p, v.xy().normalize().push(0.0)));
+        if sim.now_us() > t0 + 10_000_000 {
+            break;
+        }
+        let along = (p - p0).dot(&dir);
+        furthest = furthest.max(along);
+        worst_back = worst_back.max(furthest - along);
+    }
+    assert!(hold_start.is_some(), "the hold after the rolls began");
+    // Before the stopping controller: 4.9 m back.
+    assert!(
+        worst_back < 1.5,
+        "flew back {worst_back:.1} m after stopping"
+    );
+}

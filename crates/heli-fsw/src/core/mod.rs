@@ -10,6 +10,7 @@
 //! also deliver [`Input::Timer`] at [`FlightCore::poll_at`] so the watchdog can fire. The
 //! core's whole state is a plain value: clone it to snapshot, compare to check replay.
 
+mod brake;
 mod dispatch;
 mod event;
 pub mod gps;
@@ -203,7 +204,7 @@ pub struct FlightCore {
     /// The helicopter has been more than a metre up in this flight.
     has_flown: bool,
     /// A hold begun in motion is still braking to a stop.
-    braking: bool,
+    braking: Option<brake::Brake>,
     health: Health,
     /// Watchdog fires since the last real IMU packet.
     imu_fires_in_row: u32,
@@ -244,7 +245,7 @@ impl FlightCore {
             plan_abandoned: false,
             gps_lost: false,
             has_flown: false,
-            braking: false,
+            braking: None,
             health: Health::default(),
             imu_fires_in_row: 0,
             estimate_valid: true,

@@ -41,11 +41,10 @@ impl FlightCore {
         };
         let auto_switch = pilot.is_some_and(|p| p.auto_mode);
         let (_, _, yaw) = est.euler_rad();
-        // Where the helicopter can stop: ahead by v²/2a at the controller's braking
-        // acceleration, so that a hold begun in motion does not fly back to where it began.
+        // Where the helicopter can stop: ahead by v²/2a at the braking deceleration, so that
+        // a hold begun in motion does not fly back to where it began.
         let horizontal_vel = Vector3::new(est.vel_ned_mps.x, est.vel_ned_mps.y, 0.0);
-        let braking = self.config.hover.max_accel_mps2.max(0.5);
-        let stop = horizontal_vel * (horizontal_vel.norm() / (2.0 * braking));
+        let stop = horizontal_vel * (horizontal_vel.norm() / (2.0 * brake::BRAKE_DECEL_MPS2));
         let here = Target::hold(est.pos_ned_m + stop, yaw);
         let on_ground = self.height_above_home(est) < self.config.airborne_height_m;
         let bypass = !self.uplink_lost && pilot.is_some_and(|p| p.bypass);
@@ -95,7 +94,7 @@ impl FlightCore {
                 Phase::Holding { target, since_us } => {
                     self.plan_abandoned = true;
                     Phase::Holding {
-                        target: self.braking_target(target, here, est),
+                        target: self.braking_target(target, now_us, est),
                         since_us,
                     }
                 }
@@ -103,7 +102,7 @@ impl FlightCore {
                 // plan is abandoned; the pilot takes over again when the signal returns.
                 _ => {
                     self.plan_abandoned = true;
-                    self.braking = true;
+                    self.braking = brake::Brake::begin(now_us, est);
                     Phase::Holding {
                         target: here,
                         since_us: now_us,
@@ -145,7 +144,7 @@ impl FlightCore {
                     Phase::Landed
                 } else {
                     // Auto switch on in the air: hover here, once stopped.
-                    self.braking = true;
+                    self.braking = brake::Brake::begin(now_us, est);
                     Phase::Holding {
                         target: here,
                         since_us: now_us,
@@ -169,7 +168,7 @@ impl FlightCore {
                     self.next_leg(est, now_us, out)
                 }
                 _ => Phase::Holding {
-                    target: self.braking_target(target, here, est),
+                    target: self.braking_target(target, now_us, est),
                     since_us,
                 },
             },
@@ -239,25 +238,6 @@ impl FlightCore {
 
     /// A hold begun in motion keeps its target on the predicted stopping point until the
     /// helicopter has actually stopped (under 0.3 m/s), then holds that spot.
-    pub(super) fn braking_target(
-        &mut self,
-        target: Target,
-        stopping_point: Target,
-        est: &NavState,
-    ) -> Target {
-        if !self.braking {
-            return target;
-        }
-        if est.vel_ned_mps.xy().norm() < 0.3 {
-            self.braking = false;
-            return target;
-        }
-        Target {
-            yaw_rad: target.yaw_rad,
-            ..stopping_point
-        }
-    }
-
     pub(super) fn plan_leg(&self) -> Option<Leg> {
         self.params.plan.get(self.leg)
     }
@@ -282,10 +262,14 @@ impl FlightCore {
             Some(Leg::Takeoff { alt_m }) => Phase::TakingOff {
                 target: Target::hold(home + Vector3::new(0.0, 0.0, -alt_m), yaw),
             },
-            Some(Leg::Hold { .. }) => Phase::Holding {
-                target: Target::hold(from, yaw),
-                since_us: now_us,
-            },
+            Some(Leg::Hold { .. }) => {
+                // Begun in motion (after a path or a roll sequence): stop first.
+                self.braking = brake::Brake::begin(now_us, est);
+                Phase::Holding {
+                    target: self.braking_target(Target::hold(from, yaw), now_us, est),
+                    since_us: now_us,
+                }
+            }
             Some(Leg::Fly {
                 north_m,
                 east_m,

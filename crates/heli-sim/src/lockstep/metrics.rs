@@ -25,6 +25,9 @@ pub(super) struct Metrics {
     pub(super) gps_lost: u32,
     pub(super) target_key: Option<(f64, f64, f64)>,
     pub(super) maneuver_start_alt_m: Option<f64>,
+    /// At the start of the roll sequence: roll and pitch (rad) and the velocity through the
+    /// air (m/s, NED) — the trim the recovery must return to, relative to the air.
+    pub(super) maneuver_entry: Option<(f64, f64, Vector3<f64>)>,
     pub(super) maneuver_min_alt_m: f64,
     pub(super) maneuver_done: bool,
     pub(super) recovery_attitude_deg: Option<f64>,
@@ -251,26 +254,41 @@ impl Simulation {
         {
             self.metrics.maneuver_start_alt_m = Some(alt);
             self.metrics.maneuver_min_alt_m = alt;
+            let (roll, pitch, _) = self.heli.state.att.euler_angles();
+            self.metrics.maneuver_entry = Some((roll, pitch, self.air_velocity_ned_mps()));
         }
         if self.metrics.maneuver_start_alt_m.is_some() {
             self.metrics.maneuver_min_alt_m = self.metrics.maneuver_min_alt_m.min(alt);
             if !in_maneuver {
                 self.metrics.maneuver_done = true;
+                // Judged against the trim it rolled from, relative to the air: in wind the
+                // trimmed helicopter is neither level nor at its ground speed.
                 let (roll, pitch, _) = self.heli.state.att.euler_angles();
-                self.metrics.recovery_attitude_deg = Some(roll.abs().max(pitch.abs()).to_degrees());
-                let trim = self
-                    .scenario
-                    .plan
-                    .iter()
-                    .find_map(|l| match l {
-                        crate::scenario::LegSpec::Rolls { speed_mps, .. } => Some(*speed_mps),
-                        _ => None,
-                    })
-                    .unwrap_or(0.0);
-                let speed = self.heli.state.vel_ned_mps().xy().norm();
-                self.metrics.recovery_speed_error_mps = Some((speed - trim).abs());
+                let (roll0, pitch0, air0) =
+                    self.metrics
+                        .maneuver_entry
+                        .unwrap_or((0.0, 0.0, Vector3::zeros()));
+                let wrap = |a: f64| {
+                    (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                        - std::f64::consts::PI
+                };
+                self.metrics.recovery_attitude_deg = Some(
+                    wrap(roll - roll0)
+                        .abs()
+                        .max(wrap(pitch - pitch0).abs())
+                        .to_degrees(),
+                );
+                let air = self.air_velocity_ned_mps();
+                self.metrics.recovery_speed_error_mps =
+                    Some((air.xy().norm() - air0.xy().norm()).abs());
             }
         }
+    }
+
+    /// The helicopter's velocity through the air (m/s, NED): ground velocity less the wind
+    /// of the moment (turbulence included).
+    pub(super) fn air_velocity_ned_mps(&self) -> Vector3<f64> {
+        self.heli.state.vel_ned_mps() - self.env.wind_ned_mps
     }
 
     /// Manual flight, sweeps and augmented tracking, judged on the truth.
