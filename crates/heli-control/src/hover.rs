@@ -8,6 +8,10 @@ use nalgebra::Vector3;
 
 use crate::{GOVERNED_THROTTLE, limit};
 
+/// How much of the tail's travel the yaw integrator may hold (normalised): in a strong
+/// crosswind the fin and the tail rotor need most of it to keep the heading.
+pub const YAW_TRIM_AUTHORITY: f64 = 1.0;
+
 /// Gains and limits of the hover controller.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HoverGains {
@@ -19,8 +23,13 @@ pub struct HoverGains {
     pub vel_to_accel: f64,
     /// Integral gain on velocity error (1/s²), active only in the air.
     pub vel_integral: f64,
-    /// Largest horizontal acceleration command (m/s²).
+    /// Largest horizontal acceleration the velocity error may command (m/s²): how hard a
+    /// correction is flown. The wind's trim comes on top ([`HoverGains::max_trim_accel_mps2`]).
     pub max_accel_mps2: f64,
+    /// Largest trim the velocity integrator may hold (m/s²): against the wind and the drag
+    /// of forward flight; kept apart from the correction so that a strong wind does not use
+    /// up the room to correct.
+    pub max_trim_accel_mps2: f64,
     /// Largest commanded roll or pitch (rad).
     pub max_tilt_rad: f64,
     /// Rate command per rad of attitude error (1/s).
@@ -67,7 +76,9 @@ impl Default for HoverGains {
             vel_to_accel: 1.4,
             vel_integral: 0.15,
             max_accel_mps2: 3.0,
-            max_tilt_rad: 0.35,
+            max_trim_accel_mps2: 4.5,
+            // 30 deg, ArduPilot's ANGLE_MAX default (PX4 allows 45 deg in the air).
+            max_tilt_rad: 0.52,
             att_to_rate: 4.0,
             max_rate_rps: 1.5,
             rate_feedforward: 0.3,
@@ -139,6 +150,12 @@ impl HoverController {
         }
     }
 
+    /// The horizontal acceleration the velocity integrator holds (m/s², NED): the trim
+    /// against the wind (and the drag of flight). It points into the wind.
+    pub fn trim_accel_ned_mps2(&self) -> Vector3<f64> {
+        self.vel_integral * self.gains.vel_integral
+    }
+
     /// Clears the integrators (on the ground, or when another mode had control).
     pub fn reset(&mut self) {
         self.vel_integral = Vector3::zeros();
@@ -207,14 +224,20 @@ impl HoverController {
         let vel_err = Vector3::new(vel_cmd.x - vel.x, vel_cmd.y - vel.y, 0.0);
         if airborne {
             self.vel_integral += vel_err * dt;
-            let max_i = g.max_accel_mps2 / g.vel_integral.max(1e-6);
-            self.vel_integral = self.vel_integral.map(|x| limit(x, max_i));
+            // The trim is limited in magnitude, whatever its direction.
+            let trim = self.vel_integral.norm() * g.vel_integral;
+            if trim > g.max_trim_accel_mps2 {
+                self.vel_integral *= g.max_trim_accel_mps2 / trim;
+            }
         }
-        let mut accel_cmd = vel_err * g.vel_to_accel + self.vel_integral * g.vel_integral;
-        let a = accel_cmd.norm();
+        // The correction and the trim are limited apart: a strong wind's trim does not use
+        // up the room to correct (the tilt limit below bounds the sum).
+        let mut correction = vel_err * g.vel_to_accel;
+        let a = correction.norm();
         if a > g.max_accel_mps2 {
-            accel_cmd *= g.max_accel_mps2 / a;
+            correction *= g.max_accel_mps2 / a;
         }
+        let accel_cmd = correction + self.vel_integral * g.vel_integral;
         let (s, c) = yaw.sin_cos();
         let accel_fwd = c * accel_cmd.x + s * accel_cmd.y;
         let accel_right = -s * accel_cmd.x + c * accel_cmd.y;
@@ -276,7 +299,7 @@ impl HoverController {
         if airborne {
             self.yaw_integral = limit(
                 self.yaw_integral + r_err * dt,
-                0.5 / g.yaw_integral.max(1e-6),
+                YAW_TRIM_AUTHORITY / g.yaw_integral.max(1e-6),
             );
         }
         let torque_feedforward =

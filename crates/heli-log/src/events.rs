@@ -80,6 +80,12 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
             "t={t:.2} s calibration done, gyro bias [{:.4}, {:.4}, {:.4}] rad/s",
             gyro_bias_rps[0], gyro_bias_rps[1], gyro_bias_rps[2]
         ),
+        CoreEvent::CalibrationRestarted(m) => format!(
+            "t={t:.2} s calibration restarted: the helicopter moved ({:.2} deg/s, {:.2} deg tilted, {:.1} deg turned)",
+            m.rate_rps.to_degrees(),
+            m.tilt_rad.to_degrees(),
+            m.turn_rad.to_degrees()
+        ),
         CoreEvent::PhaseChanged(p) => format!("t={t:.2} s phase {}", p.name()),
         CoreEvent::WatchdogFired => format!("t={t:.2} s watchdog fired"),
         CoreEvent::PilotSignalLost => format!("t={t:.2} s pilot signal lost"),
@@ -195,6 +201,14 @@ pub fn parse_event_text(text: &str) -> Option<(u64, EventLevel)> {
         (
             "phase ",
             CoreEvent::PhaseChanged(heli_fsw::core::Phase::Manual),
+        ),
+        (
+            "calibration restarted",
+            CoreEvent::CalibrationRestarted(heli_fsw::core::Motion {
+                rate_rps: 0.0,
+                tilt_rad: 0.0,
+                turn_rad: 0.0,
+            }),
         ),
         ("roll ", CoreEvent::RollCompleted(1)),
     ];

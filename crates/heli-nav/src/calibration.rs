@@ -1,6 +1,14 @@
 //! The thesis's IMU bias calibration: after the IMU has warmed up, every sample of an
 //! eighty-second window is accumulated; when the window closes the mean gyro rates are the
 //! gyro biases, and the mean specific force tells which way is down.
+//!
+//! The window must be still: a fuselage that turns on its skids or rocks in the wind while
+//! the rotor spins up would be averaged in as bias, and the whole flight flown with it. Each
+//! second of samples is compared with the mean so far; a second whose mean rate or
+//! direction of gravity differs by more than [`MOTION_RATE_RPS`] or [`MOTION_TILT_RAD`] is
+//! motion, and the window starts again ([`BiasCalibration::take_motion`] says so). A caller
+//! that sees motion by other means (the compass turning) restarts it with
+//! [`BiasCalibration::restart`].
 
 use heli_proto::imu::ImuRepr;
 use nalgebra::Vector3;
@@ -36,6 +44,30 @@ pub enum CalibrationPhase {
     Done(ImuBiases),
 }
 
+/// A second's mean rate that differs this much from the window's mean is motion (rad/s):
+/// 3 deg/s — handling, a push, a turn on the skids; far above what the IMU's noise and the
+/// rotor's vibration leave in a second's mean, and above a gust's rocking, which averages
+/// out.
+pub const MOTION_RATE_RPS: f64 = 0.05;
+
+/// A second's mean direction of gravity that differs this much from the window's is motion
+/// (rad): 2 deg of tilt.
+pub const MOTION_TILT_RAD: f64 = 0.035;
+
+/// Samples in one block of the motion check (a second at 100 Hz).
+const BLOCK: u32 = 100;
+
+/// Motion seen during the calibration window: it was started again.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Motion {
+    /// How far a second's mean rate was from the window's (rad/s).
+    pub rate_rps: f64,
+    /// How far a second's direction of gravity was from the window's (rad).
+    pub tilt_rad: f64,
+    /// How far the heading turned, as the compass saw it (rad; 0 when the IMU saw it).
+    pub turn_rad: f64,
+}
+
 /// Accumulates IMU samples into bias estimates.
 #[derive(Clone, Debug)]
 pub struct BiasCalibration {
@@ -45,6 +77,11 @@ pub struct BiasCalibration {
     gyro_sum: Vector3<f64>,
     accel_sum: Vector3<f64>,
     count: u32,
+    block_gyro: Vector3<f64>,
+    block_accel: Vector3<f64>,
+    block_count: u32,
+    motion: Option<Motion>,
+    restarts: u32,
 }
 
 impl BiasCalibration {
@@ -57,6 +94,39 @@ impl BiasCalibration {
             gyro_sum: Vector3::zeros(),
             accel_sum: Vector3::zeros(),
             count: 0,
+            block_gyro: Vector3::zeros(),
+            block_accel: Vector3::zeros(),
+            block_count: 0,
+            motion: None,
+            restarts: 0,
+        }
+    }
+
+    /// Motion that restarted the window since the last call (once).
+    pub fn take_motion(&mut self) -> Option<Motion> {
+        self.motion.take()
+    }
+
+    /// Times the window was started again.
+    pub fn restarts(&self) -> u32 {
+        self.restarts
+    }
+
+    /// Starts the window again at `t_us`, throwing away what it had (motion seen by other
+    /// means). Nothing happens before the window has opened or after it has closed.
+    pub fn restart(&mut self, t_us: u64, motion: Motion) {
+        if let CalibrationPhase::Accumulating { .. } = self.phase {
+            self.phase = CalibrationPhase::Accumulating {
+                until_us: t_us.saturating_add(self.window_us),
+            };
+            self.gyro_sum = Vector3::zeros();
+            self.accel_sum = Vector3::zeros();
+            self.count = 0;
+            self.block_gyro = Vector3::zeros();
+            self.block_accel = Vector3::zeros();
+            self.block_count = 0;
+            self.motion = Some(motion);
+            self.restarts = self.restarts.saturating_add(1);
         }
     }
 
@@ -94,6 +164,10 @@ impl BiasCalibration {
             }
             CalibrationPhase::Accumulating { until_us } => {
                 if t_us < until_us {
+                    if let Some(motion) = self.block(imu) {
+                        self.restart(t_us, motion);
+                        return None;
+                    }
                     self.accumulate(imu);
                     return None;
                 }
@@ -108,6 +182,35 @@ impl BiasCalibration {
             }
             CalibrationPhase::Done(_) => None,
         }
+    }
+
+    /// Adds a sample to the current second's block; at the block's end, compares its mean
+    /// with the window's so far. Returns the motion if the block moved.
+    fn block(&mut self, imu: &ImuRepr) -> Option<Motion> {
+        self.block_gyro += Vector3::from(imu.rate_rps);
+        self.block_accel += Vector3::from(imu.accel_mps2);
+        self.block_count = self.block_count.saturating_add(1);
+        if self.block_count < BLOCK {
+            return None;
+        }
+        let n = f64::from(self.block_count);
+        let (gyro, accel) = (self.block_gyro / n, self.block_accel / n);
+        self.block_gyro = Vector3::zeros();
+        self.block_accel = Vector3::zeros();
+        self.block_count = 0;
+        // The first second is the reference of the ones after it.
+        if self.count < BLOCK {
+            return None;
+        }
+        let m = f64::from(self.count);
+        let (mean_gyro, mean_accel) = (self.gyro_sum / m, self.accel_sum / m);
+        let rate_rps = (gyro - mean_gyro).norm();
+        let tilt_rad = accel.angle(&mean_accel);
+        (rate_rps > MOTION_RATE_RPS || tilt_rad > MOTION_TILT_RAD).then_some(Motion {
+            rate_rps,
+            tilt_rad,
+            turn_rad: 0.0,
+        })
     }
 
     fn accumulate(&mut self, imu: &ImuRepr) {
@@ -162,5 +265,62 @@ mod tests {
             cal.push(t, &sample(0.01)).is_none(),
             "biases are delivered once"
         );
+    }
+
+    #[test]
+    fn a_fuselage_turning_on_its_skids_restarts_the_window() {
+        let mut cal = BiasCalibration::new(1.0, 20.0);
+        let mut t = 0u64;
+        let mut push = |cal: &mut BiasCalibration, rate_z: f64, tilt: f64| {
+            let s = ImuRepr {
+                rate_rps: [0.01, -0.01, 0.02 + rate_z],
+                accel_mps2: [9.81 * tilt.sin(), 0.0, -9.81 * tilt.cos()],
+                temp_c: 25.0,
+            };
+            t += 10_000;
+            cal.push(t, &s)
+        };
+        // Still for ten seconds, a gust's rocking that averages out, then turning at
+        // 5 deg/s for two.
+        for k in 0..1100 {
+            let rock = if k > 500 && k < 700 {
+                0.2 * (f64::from(k) * 0.6).sin()
+            } else {
+                0.0
+            };
+            assert!(push(&mut cal, rock, 0.0).is_none());
+        }
+        assert_eq!(cal.take_motion(), None);
+        for _ in 0..200 {
+            assert!(push(&mut cal, 0.09, 0.0).is_none());
+        }
+        let motion = cal.take_motion().unwrap_or_else(|| panic!("motion seen"));
+        assert!(motion.rate_rps > 0.06, "{motion:?}");
+        assert_eq!(cal.take_motion(), None, "said once");
+        // Still again: a whole new window of 20 s before the biases, and they are the
+        // still ones.
+        let mut done = None;
+        let mut seconds = 0.0;
+        while done.is_none() {
+            done = push(&mut cal, 0.0, 0.0);
+            seconds += 0.01;
+            assert!(seconds < 30.0, "never finished");
+        }
+        let b = done.unwrap_or_else(|| unreachable!());
+        // What was left of the turn in the new window's first second is a twentieth of
+        // its rate (the rest is the compass's to catch, as net turn).
+        assert!((b.gyro_rps.z - 0.02).abs() < 0.005, "{b:?}");
+        assert!(seconds >= 19.0, "the window started again ({seconds} s)");
+        // Tilted 4 deg: also motion.
+        let mut cal = BiasCalibration::new(1.0, 20.0);
+        for _ in 0..500 {
+            push(&mut cal, 0.0, 0.0);
+        }
+        for _ in 0..200 {
+            push(&mut cal, 0.0, 0.07);
+        }
+        let m = cal.take_motion();
+        assert!(m.is_some_and(|m| m.tilt_rad > 0.05), "{m:?}");
+        assert_eq!(cal.restarts(), 1);
     }
 }

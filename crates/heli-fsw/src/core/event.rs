@@ -42,6 +42,9 @@ pub enum CoreEvent {
         /// Gyro biases found (rad/s).
         gyro_bias_rps: [f64; 3],
     },
+    /// The calibration window saw the helicopter move and started again (a turn of the
+    /// fuselage or a rocking that would have been averaged in as bias).
+    CalibrationRestarted(heli_nav::calibration::Motion),
     /// The phase changed.
     PhaseChanged(Phase),
     /// The flight process started again in the air (a brown-out, a crash): it aligns
@@ -98,9 +101,10 @@ impl CoreEvent {
             CoreEvent::CalibrationDone { .. }
             | CoreEvent::PlanComplete
             | CoreEvent::AlignedInAir { .. } => Severity::ActivityHi,
-            CoreEvent::WatchdogFired | CoreEvent::RollAbandoned | CoreEvent::GpsImplausible(_) => {
-                Severity::WarningLo
-            }
+            CoreEvent::WatchdogFired
+            | CoreEvent::RollAbandoned
+            | CoreEvent::GpsImplausible(_)
+            | CoreEvent::CalibrationRestarted(_) => Severity::WarningLo,
             CoreEvent::PilotSignalLost
             | CoreEvent::GpsLost
             | CoreEvent::UplinkLost

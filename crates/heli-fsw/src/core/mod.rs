@@ -22,9 +22,11 @@ pub mod restart;
 mod roll;
 mod sequencer;
 pub mod watchdog;
+mod weathervane;
 
 pub use event::{CoreEvent, Severity};
 pub use gps::Implausible;
+pub use heli_nav::calibration::Motion;
 pub use phase::Phase;
 pub use preflight::Refusal;
 pub use restart::WarmStart;
@@ -220,6 +222,9 @@ pub struct FlightCore {
     alignment: Option<restart::Alignment>,
     /// The average servo command of autonomous flight in the air (for a restart).
     trim: Option<Controls>,
+    /// During the calibration window: the compass heading when it opened, and the
+    /// readings' running average (rad).
+    calibration_heading: Option<(f64, f64)>,
     stats: CoreStats,
 }
 
@@ -254,6 +259,7 @@ impl FlightCore {
             last_good_fix: None,
             alignment: None,
             trim: None,
+            calibration_heading: None,
             stats: CoreStats::default(),
         }
     }
@@ -456,6 +462,9 @@ impl FlightCore {
                     (r, p)
                 });
                 let heading = heading_rad(&field, roll, pitch);
+                if let Some(h) = heading {
+                    self.watch_calibration_heading(now_us, h, out);
+                }
                 out.push(Action::Publish(Record::Compass(Stamped::new(
                     now_us,
                     CompassRecord {

@@ -167,10 +167,13 @@ impl FlightCore {
                 {
                     self.next_leg(est, now_us, out)
                 }
-                _ => Phase::Holding {
-                    target: self.braking_target(target, now_us, est),
-                    since_us,
-                },
+                _ => {
+                    let target = self.braking_target(target, now_us, est);
+                    Phase::Holding {
+                        target: self.weathervane(target, dt_s),
+                        since_us,
+                    }
+                }
             },
             Phase::Flying { target, to_ned_m } => {
                 let speed = target.vel_ned_mps.norm();

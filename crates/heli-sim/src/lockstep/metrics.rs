@@ -25,6 +25,8 @@ pub(super) struct Metrics {
     pub(super) gps_lost: u32,
     pub(super) target_key: Option<(f64, f64, f64)>,
     pub(super) maneuver_start_alt_m: Option<f64>,
+    /// When the last roll of the sequence ended (its stage left), for the recovery time.
+    pub(super) last_roll_end_us: Option<u64>,
     /// At the start of the roll sequence: roll and pitch (rad) and the velocity through the
     /// air (m/s, NED) — the trim the recovery must return to, relative to the air.
     pub(super) maneuver_entry: Option<(f64, f64, Vector3<f64>)>,
@@ -257,9 +259,30 @@ impl Simulation {
             let (roll, pitch, _) = self.heli.state.att.euler_angles();
             self.metrics.maneuver_entry = Some((roll, pitch, self.air_velocity_ned_mps()));
         }
+        let rolling = matches!(
+            s.phase,
+            Phase::Maneuver {
+                stage: RollStage::Rolling { .. },
+                ..
+            }
+        );
+        if rolling {
+            self.metrics.last_roll_end_us = None;
+        } else if self.metrics.maneuver_start_alt_m.is_some() {
+            self.metrics.last_roll_end_us.get_or_insert(self.now_us);
+        }
+        // The recovery ends when the sequence's own recovery does: the roll gains' recovery
+        // time after the last roll, whether the sequence ran on to it or was cut short (by
+        // transmitter loss, the auto switch) into a hold.
+        let recover_us = (self.core_setup.0.roll.recover_s * 1e6) as u64;
+        let recovered = !in_maneuver
+            && self
+                .metrics
+                .last_roll_end_us
+                .is_some_and(|end| self.now_us + 20_000 >= end + recover_us);
         if self.metrics.maneuver_start_alt_m.is_some() {
             self.metrics.maneuver_min_alt_m = self.metrics.maneuver_min_alt_m.min(alt);
-            if !in_maneuver {
+            if recovered {
                 self.metrics.maneuver_done = true;
                 // Judged against the trim it rolled from, relative to the air: in wind the
                 // trimmed helicopter is neither level nor at its ground speed.
@@ -285,10 +308,13 @@ impl Simulation {
         }
     }
 
-    /// The helicopter's velocity through the air (m/s, NED): ground velocity less the wind
-    /// of the moment (turbulence included).
+    /// The helicopter's velocity through the air mass (m/s, NED): ground velocity less the
+    /// wind of the moment and height without its turbulence (a helicopter rides the air
+    /// mass; it cannot follow every gust).
     pub(super) fn air_velocity_ned_mps(&self) -> Vector3<f64> {
-        self.heli.state.vel_ned_mps() - self.env.wind_ned_mps
+        let s = &self.heli.state;
+        let height_m = -s.pos_ned_m.z - self.metrics.start_alt_m.unwrap_or(-s.pos_ned_m.z);
+        s.vel_ned_mps() - self.scenario.wind_at(self.t_s(), height_m)
     }
 
     /// Manual flight, sweeps and augmented tracking, judged on the truth.
