@@ -57,6 +57,10 @@ pub(crate) enum MergeCommand {
     /// campaign; refused when they are of different campaign files, overlap or miss a
     /// flight.
     Merge(MergeArgs),
+    /// Fly every campaign file of a directory (a suite, such as campaigns/robustness) and
+    /// judge them together: exit 0 only when no flight crashed or could not be flown and the
+    /// pass rate over all flights reaches --min-pass-rate.
+    Suite(crate::suite_cmd::SuiteArgs),
 }
 
 /// The arguments of `heli campaign merge`.
@@ -86,6 +90,17 @@ pub(crate) fn campaign(args: &RunArgs) -> Result<ExitCode> {
         Some(s) => s.parse::<Shard>()?,
         None => Shard::ALL,
     };
+    let report = fly_campaign(&campaign, shard, args.jobs)?;
+    finish(&report, args.out.as_deref(), args.json)
+}
+
+/// Flies a campaign's flights of `shard` on `jobs` threads, with a progress bar on a
+/// terminal.
+pub(crate) fn fly_campaign(
+    campaign: &Campaign,
+    shard: Shard,
+    jobs: Option<usize>,
+) -> Result<Report> {
     let in_shard = (0..campaign.flights_total())
         .filter(|i| shard.contains(*i))
         .count() as u64;
@@ -101,30 +116,23 @@ pub(crate) fn campaign(args: &RunArgs) -> Result<ExitCode> {
         bar
     });
     let not_passed = AtomicU64::new(0);
-    let report = campaign::run(
-        &campaign,
-        RunConfig {
-            jobs: args.jobs,
-            shard,
-        },
-        |flight| {
-            if flight.outcome != FlightOutcome::Pass {
-                not_passed.fetch_add(1, Ordering::Relaxed);
-            }
-            if let Some(bar) = &bar {
-                bar.inc(1);
-                bar.set_message(format!(
-                    "campaign {}: {} not passed",
-                    campaign.name,
-                    not_passed.load(Ordering::Relaxed)
-                ));
-            }
-        },
-    )?;
+    let report = campaign::run(campaign, RunConfig { jobs, shard }, |flight| {
+        if flight.outcome != FlightOutcome::Pass {
+            not_passed.fetch_add(1, Ordering::Relaxed);
+        }
+        if let Some(bar) = &bar {
+            bar.inc(1);
+            bar.set_message(format!(
+                "campaign {}: {} not passed",
+                campaign.name,
+                not_passed.load(Ordering::Relaxed)
+            ));
+        }
+    })?;
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
-    finish(&report, args.out.as_deref(), args.json)
+    Ok(report)
 }
 
 /// `heli campaign merge REPORT...`.
@@ -144,6 +152,24 @@ pub(crate) fn merge(args: &MergeArgs) -> Result<ExitCode> {
 /// Writes the report's files, prints it, and says by the exit status whether every flight
 /// passed.
 fn finish(report: &Report, out: Option<&Path>, json: bool) -> Result<ExitCode> {
+    let written = write_report(report, out)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(report)?);
+    } else {
+        print_report(report);
+        for path in &written {
+            println!("wrote      {}", path.display());
+        }
+    }
+    Ok(if report.all_passed() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// Writes report.json and the outcome plots into `out`, if given; returns what it wrote.
+pub(crate) fn write_report(report: &Report, out: Option<&Path>) -> Result<Vec<PathBuf>> {
     let mut written = Vec::new();
     if let Some(dir) = out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -160,19 +186,7 @@ fn finish(report: &Report, out: Option<&Path>, json: bool) -> Result<ExitCode> {
             written.push(path);
         }
     }
-    if json {
-        println!("{}", serde_json::to_string_pretty(report)?);
-    } else {
-        print_report(report);
-        for path in &written {
-            println!("wrote      {}", path.display());
-        }
-    }
-    Ok(if report.all_passed() {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
+    Ok(written)
 }
 
 /// `--flight I`: flies one flight as `heli sim` does.

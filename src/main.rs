@@ -8,6 +8,7 @@ mod campaign_cmd;
 mod driver_cmd;
 mod hilsim_cmd;
 mod replay_cmd;
+mod suite_cmd;
 mod vehicle_cmd;
 
 use std::io::IsTerminal;
@@ -245,6 +246,7 @@ fn main() -> ExitCode {
         Command::Driver(args) => driver_cmd::driver(&args),
         Command::Campaign { run, merge } => match merge {
             Some(campaign_cmd::MergeCommand::Merge(args)) => campaign_cmd::merge(&args),
+            Some(campaign_cmd::MergeCommand::Suite(args)) => suite_cmd::suite(&args),
             None => campaign_cmd::campaign(&run),
         },
     };

@@ -12,8 +12,9 @@
 
 use super::*;
 
-/// Longest wait for the checks to pass before a take-off is refused (s).
-pub const CHECK_WAIT_S: f64 = 10.0;
+/// Longest wait for the checks to pass before a take-off is refused (s): longer than a
+/// receiver's satellite drop-outs (up to 15 s) and a short GPS outage, which pass.
+pub const CHECK_WAIT_S: f64 = 30.0;
 
 /// The last GPS fix fused must be this recent (s).
 pub const GPS_FRESH_S: f64 = 3.0;

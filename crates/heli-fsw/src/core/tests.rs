@@ -561,7 +561,7 @@ fn no_autonomous_take_off_without_a_gps_fix_or_with_too_few_satellites() {
     );
     assert!(!raised(&out, CoreEvent::TakeoffRefused(Refusal::NoGpsFix)));
     // Refused once the wait is over.
-    let (core, out) = auto_core_with_gps(None, 13);
+    let (core, out) = auto_core_with_gps(None, 33);
     assert_eq!(core.phase(), Phase::TakeoffRefused);
     assert!(raised(&out, CoreEvent::TakeoffRefused(Refusal::NoGpsFix)));
     assert_eq!(
@@ -570,7 +570,7 @@ fn no_autonomous_take_off_without_a_gps_fix_or_with_too_few_satellites() {
         "on the skids, rotor governed"
     );
 
-    let (core, out) = auto_core_with_gps(Some(4), 13);
+    let (core, out) = auto_core_with_gps(Some(4), 33);
     assert_eq!(core.phase(), Phase::TakeoffRefused);
     assert!(raised(
         &out,
@@ -587,10 +587,10 @@ fn no_autonomous_take_off_without_a_gps_fix_or_with_too_few_satellites() {
 
 #[test]
 fn a_refused_take_off_waits_for_the_switch_to_be_cycled() {
-    let (mut core, mut out) = auto_core_with_gps(None, 13);
+    let (mut core, mut out) = auto_core_with_gps(None, 33);
     assert_eq!(core.phase(), Phase::TakeoffRefused);
     // The GPS comes: still refused while the switch stays on (no surprise take-off).
-    let mut now = 13_000_000;
+    let mut now = 33_000_000;
     for _ in 0..4 {
         now = fly_for(
             &mut core,
