@@ -87,6 +87,9 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
             m.turn_rad.to_degrees()
         ),
         CoreEvent::PhaseChanged(p) => format!("t={t:.2} s phase {}", p.name()),
+        CoreEvent::EstimateDegraded { since_gps_s } => format!(
+            "t={t:.2} s estimate degraded: no GPS fused for {since_gps_s:.0} s, landing where it is"
+        ),
         CoreEvent::WatchdogFired => format!("t={t:.2} s watchdog fired"),
         CoreEvent::PilotSignalLost => format!("t={t:.2} s pilot signal lost"),
         CoreEvent::RollCompleted(n) => format!("t={t:.2} s roll {n} completed"),
@@ -201,6 +204,10 @@ pub fn parse_event_text(text: &str) -> Option<(u64, EventLevel)> {
         (
             "phase ",
             CoreEvent::PhaseChanged(heli_fsw::core::Phase::Manual),
+        ),
+        (
+            "estimate degraded",
+            CoreEvent::EstimateDegraded { since_gps_s: 0.0 },
         ),
         (
             "calibration restarted",

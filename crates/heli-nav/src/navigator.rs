@@ -186,6 +186,10 @@ pub struct NavSensorStats {
     pub gps_rejected_in_row: u32,
     /// Time the last GPS fix was fused (µs), 0 if never.
     pub last_gps_fused_us: u64,
+    /// Time of the estimate when an altimeter reading was last fused (µs), 0 if never.
+    pub last_baro_fused_us: u64,
+    /// Time of the estimate when a compass reading was last fused (µs), 0 if never.
+    pub last_compass_fused_us: u64,
 }
 
 /// One thing the filter did, kept for replay after a delayed fix.
@@ -229,9 +233,16 @@ pub struct Navigator {
     history_len: usize,
     initialised_us: u64,
     stats: NavSensorStats,
+    /// The test ratio of the last update, whatever its aid.
+    last_test_ratio: f64,
+    /// The last test ratio of each aid.
+    ratios: health::TestRatios,
 }
 
+mod health;
 mod reset;
+
+pub use health::FilterHealth;
 
 fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
@@ -290,6 +301,8 @@ impl Navigator {
             history_len,
             initialised_us: 0,
             stats: NavSensorStats::default(),
+            last_test_ratio: 0.0,
+            ratios: health::TestRatios::default(),
         }
     }
 
@@ -512,14 +525,22 @@ impl Navigator {
         let p = self.cov;
         let s = h * p * h.transpose() + SMatrix::<f64, M, M>::from_diagonal(r);
         let gate = self.config.gate_sigmas * self.config.gate_sigmas;
+        let mut worst = 0.0_f64;
         for i in 0..M {
             let (yi, si) = (
                 y.get(i).copied().unwrap_or(f64::NAN),
                 s.get((i, i)).copied().unwrap_or(f64::NAN),
             );
-            if !(yi.is_finite() && si > 0.0 && yi * yi <= gate * si) {
-                return false;
-            }
+            let ratio = yi * yi / (gate * si);
+            worst = if ratio.is_nan() {
+                f64::INFINITY
+            } else {
+                worst.max(ratio)
+            };
+        }
+        self.last_test_ratio = worst;
+        if worst.is_nan() || worst > 1.0 {
+            return false;
         }
         let Some(s_inv) = s.try_inverse() else {
             return false;
@@ -615,7 +636,9 @@ impl Navigator {
             self.config.gps_vel_sigma_mps.powi(2),
         );
         let r = SVector::<f64, 5>::new(sp, sp, sv, sv, 4.0 * sv);
-        if !self.update(&y, &h, &r) {
+        let fused = self.update(&y, &h, &r);
+        self.ratios.gps = self.last_test_ratio;
+        if !fused {
             self.state = live_state;
             self.cov = live_cov;
             self.stats.gps_rejected = self.stats.gps_rejected.saturating_add(1);
@@ -658,8 +681,11 @@ impl Navigator {
             self.baro_count = self.baro_count.saturating_add(1);
             return;
         }
-        if self.apply_baro(pressure_mbar) {
+        let fused = self.apply_baro(pressure_mbar);
+        self.ratios.baro = self.last_test_ratio;
+        if fused {
             self.stats.baro_fused = self.stats.baro_fused.saturating_add(1);
+            self.stats.last_baro_fused_us = self.state.map_or(0, |s| s.t_us);
         } else {
             self.stats.baro_rejected = self.stats.baro_rejected.saturating_add(1);
         }
@@ -702,8 +728,11 @@ impl Navigator {
             self.stats.compass_fused = self.stats.compass_fused.saturating_add(1);
             return;
         }
-        if self.apply_mag(field) {
+        let fused = self.apply_mag(field);
+        self.ratios.compass = self.last_test_ratio;
+        if fused {
             self.stats.compass_fused = self.stats.compass_fused.saturating_add(1);
+            self.stats.last_compass_fused_us = self.state.map_or(0, |s| s.t_us);
         } else {
             self.stats.compass_rejected = self.stats.compass_rejected.saturating_add(1);
         }

@@ -128,3 +128,24 @@ pub fn brownout() -> Scenario {
     ];
     s
 }
+
+/// `gps-lost`: the GPS is lost for good in the hover: after 20 s of coasting the estimate is
+/// declared degraded and the helicopter lands where it is, gently.
+pub fn gps_lost() -> Scenario {
+    let mut s = hover();
+    s.name = "gps-lost".into();
+    s.description =
+        "the GPS is lost for good in the hover: estimate degraded after 20 s, landing in place"
+            .into();
+    s.duration_s = 200.0;
+    s.faults.gps_outages = vec![[110.0, 1000.0]];
+    s.limits = Limits {
+        touchdown_sink_max_mps: Some(1.0),
+        // Without GPS the inertial estimate drifts: up to 1.2 m/s over the ground on ten seeds.
+        touchdown_speed_max_mps: Some(1.5),
+        tilt_max_deg: Some(20.0),
+        ..Limits::default()
+    };
+    s.expect_events = vec!["estimate degraded".into()];
+    s
+}

@@ -469,6 +469,7 @@ pub fn builtins() -> Vec<Scenario> {
         crate::device_faults::no_gps_takeoff(),
         crate::device_faults::roll_rc_loss(),
         crate::device_faults::brownout(),
+        crate::device_faults::gps_lost(),
     ]
 }
 

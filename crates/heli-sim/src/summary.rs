@@ -74,6 +74,10 @@ pub struct EstimatorSummary {
     pub baro_fused: u32,
     /// Compass readings fused.
     pub compass_fused: u32,
+    /// The filter's health: the worst GPS innovation test ratio seen (1 is the gate).
+    pub gps_test_ratio_max: Option<f64>,
+    /// The longest time without a fused GPS fix once the estimate ran (s).
+    pub longest_without_gps_s: Option<f64>,
 }
 
 /// The main loop's counters.

@@ -249,6 +249,7 @@ fn every_fault_scenario_passes_on_ten_seeds() {
         device_faults::no_gps_takeoff(),
         device_faults::roll_rc_loss(),
         device_faults::brownout(),
+        device_faults::gps_lost(),
     ] {
         passes_on_ten_seeds(&scenario);
     }

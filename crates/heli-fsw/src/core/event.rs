@@ -47,6 +47,12 @@ pub enum CoreEvent {
     CalibrationRestarted(heli_nav::calibration::Motion),
     /// The phase changed.
     PhaseChanged(Phase),
+    /// No GPS fix fused for too long in autonomous flight: the estimate is degraded and
+    /// the helicopter lands where it is.
+    EstimateDegraded {
+        /// Since a fix was last fused (s).
+        since_gps_s: f64,
+    },
     /// The flight process started again in the air (a brown-out, a crash): it aligns
     /// instead of calibrating, flying the blind failsafe meanwhile.
     RestartedInAir,
@@ -110,6 +116,7 @@ impl CoreEvent {
             | CoreEvent::UplinkLost
             | CoreEvent::GpsReset
             | CoreEvent::RestartedInAir
+            | CoreEvent::EstimateDegraded { .. }
             | CoreEvent::TakeoffRefused(_) => Severity::WarningHi,
             CoreEvent::DeviceHealth { device, state } => match (device, state) {
                 (_, HealthState::Ok | HealthState::Waiting) => Severity::ActivityLo,

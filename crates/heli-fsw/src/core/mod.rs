@@ -11,6 +11,7 @@
 //! core's whole state is a plain value: clone it to snapshot, compare to check replay.
 
 mod brake;
+mod degraded;
 mod dispatch;
 mod event;
 pub mod gps;

@@ -110,6 +110,9 @@ impl FlightCore {
                 }
             };
         }
+        if let Some(landing) = self.land_if_degraded(est, now_us, out) {
+            return landing;
+        }
         match self.phase {
             // Refused stays refused until the pilot takes the auto switch off (above).
             Phase::TakeoffRefused => Phase::TakeoffRefused,

@@ -196,6 +196,8 @@ impl Simulation {
                 gps_rejected: nav.gps_rejected,
                 baro_fused: nav.baro_fused,
                 compass_fused: nav.compass_fused,
+                gps_test_ratio_max: m.gps_test_ratio_max,
+                longest_without_gps_s: m.longest_without_gps_s,
             },
             loop_: LoopSummary {
                 imu_samples: stats.imu_samples,

@@ -11,6 +11,10 @@ pub(super) struct Metrics {
     pub(super) fault_dropped: u64,
     /// Brown-outs of the flight computer so far.
     pub(super) brownouts: u32,
+    /// The filter's health over the flight: the worst GPS test ratio, the longest time
+    /// without a fused fix (s).
+    pub(super) gps_test_ratio_max: Option<f64>,
+    pub(super) longest_without_gps_s: Option<f64>,
     pub(super) att: Rms,
     pub(super) pos: Rms,
     pub(super) vel: Rms,
@@ -118,6 +122,17 @@ impl Simulation {
             .get_or_insert(est.pos_ned_m - truth_pos);
         let pos_err = (est.pos_ned_m - truth_pos - home_offset).norm();
         self.metrics.pos.add(pos_err);
+        let health = self.computer.core().navigator().health(self.now_us);
+        let worst = |m: Option<f64>, v: Option<f64>| match (m, v) {
+            (Some(m), Some(v)) => Some(m.max(v)),
+            (m, v) => m.or(v),
+        };
+        self.metrics.gps_test_ratio_max = worst(
+            self.metrics.gps_test_ratio_max,
+            Some(health.gps_test_ratio).filter(|r| r.is_finite()),
+        );
+        self.metrics.longest_without_gps_s =
+            worst(self.metrics.longest_without_gps_s, health.since_gps_s);
         self.measure_gps_outages(pos_err);
         self.measure_maneuver(s);
         self.measure_rc_loss();
