@@ -241,20 +241,6 @@ pub fn in_schedule(t_s: f64, start_s: f64, end_s: f64, period_s: f64, duty: f64)
     phase < duty * period_s
 }
 
-/// A servo channel.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ServoChannel {
-    /// Lateral cyclic.
-    Aileron,
-    /// Longitudinal cyclic.
-    Elevator,
-    /// Tail rotor pitch.
-    Rudder,
-    /// Collective.
-    Collective,
-}
-
 /// What goes wrong with a servo.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -269,8 +255,8 @@ pub enum ServoFaultKind {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ServoFault {
-    /// Which servo.
-    pub channel: ServoChannel,
+    /// Which servo (the stick channel it moves).
+    pub channel: crate::pilot::Channel,
     /// What goes wrong.
     pub kind: ServoFaultKind,
     /// Start (s).

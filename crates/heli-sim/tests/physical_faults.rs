@@ -5,10 +5,10 @@ use heli_fsw::{Port, RecordedInput};
 use heli_proto::scb::{PilotUplink, UplinkFramer};
 use heli_sim::Simulation;
 use heli_sim::faults::{
-    EngineFault, FrozenChannel, RcChannel, ServoChannel, ServoFault, ServoFaultKind, Switch,
-    SwitchFlicker, WindChange, WindShape,
+    EngineFault, FrozenChannel, RcChannel, ServoFault, ServoFaultKind, Switch, SwitchFlicker,
+    WindChange, WindShape,
 };
-use heli_sim::scenario::{self, Scenario};
+use heli_sim::scenario::{self, Channel as ServoChannel, Scenario};
 
 fn fly(s: Scenario, until_s: f64) -> Simulation {
     let mut sim = Simulation::new(s).unwrap_or_else(|e| panic!("{e}"));

@@ -4,9 +4,8 @@
 
 use super::*;
 use crate::actuators::ServoSpeeds;
-use crate::faults::{
-    Device, DeviceFault, DeviceFaultKind, RcChannel, ServoChannel, ServoFaultKind,
-};
+use crate::faults::{Device, DeviceFault, DeviceFaultKind, RcChannel, ServoFaultKind};
+use crate::pilot::Channel as ServoChannel;
 
 /// What the injector remembers between transmissions.
 #[derive(Clone)]
