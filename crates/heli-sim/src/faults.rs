@@ -102,6 +102,30 @@ impl Faults {
     }
 }
 
+/// The flight battery (the pack feeding the computer and sensors): how big, how full, how
+/// loaded. Its voltage reaches the battery ADC channel.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Battery {
+    /// Capacity (A h).
+    pub capacity_ah: f64,
+    /// Charge at power-on, fraction of the capacity (0..1).
+    pub charge: f64,
+    /// Current the avionics draw (A).
+    pub load_a: f64,
+}
+
+impl Default for Battery {
+    fn default() -> Self {
+        let d = crate::devices::battery::BatteryDevice::default();
+        Self {
+            capacity_ah: d.capacity_ah,
+            charge: d.initial_charge,
+            load_a: d.load_a,
+        }
+    }
+}
+
 /// A device a fault can act on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -192,6 +192,8 @@ pub struct Scenario {
     pub atmosphere: Atmosphere,
     /// The helicopter's parameters (default: the MIT X-Cell 60 SE).
     pub airframe: Airframe,
+    /// The flight battery: capacity, charge at power-on, load.
+    pub battery: crate::faults::Battery,
     /// Control system.
     #[serde(with = "flight_mode_name")]
     pub mode: FlightMode,
@@ -238,6 +240,7 @@ fn base(name: &str, description: &str, plan: Vec<LegSpec>, duration_s: f64) -> S
         wind_changes: Vec::new(),
         atmosphere: Atmosphere::default(),
         airframe: Airframe::default(),
+        battery: crate::faults::Battery::default(),
         mode: FlightMode::Autonomous,
         plan,
         pilot: Pilot::default(),

@@ -46,6 +46,9 @@ fn range_of(path: &str, name: &str) -> Option<(f64, f64)> {
         "duty" => (0.0, 1.0),
         "period_s" => (0.0, MAX_DURATION_S),
         "power" => (0.0, 1.0),
+        "capacity_ah" => (0.01, 100.0),
+        "charge" => (0.0, 1.0),
+        "load_a" => (0.0, 100.0),
         "factor" => (0.0, 1.0),
         "end_s" => (0.0, MAX_DURATION_S),
         // Limits: non-negative, finite.

@@ -320,3 +320,32 @@ fn battery_faults_act_on_its_voltage_readings() {
     };
     assert_eq!(min_v(vec![never]), None, "never read: not measured");
 }
+
+#[test]
+fn a_nearly_empty_or_small_battery_reads_low() {
+    let min_v = |battery: heli_sim::faults::Battery| {
+        let mut s = scenario::hover();
+        s.duration_s = 60.0;
+        s.battery = battery;
+        heli_sim::run(s)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .devices
+            .battery_min_v
+            .unwrap_or(f64::NAN)
+    };
+    let full = min_v(heli_sim::faults::Battery::default());
+    let low = min_v(heli_sim::faults::Battery {
+        charge: 0.1,
+        ..Default::default()
+    });
+    // A tenth of a small pack under load empties within the minute.
+    let tiny = min_v(heli_sim::faults::Battery {
+        capacity_ah: 0.03,
+        ..Default::default()
+    });
+    assert!(
+        full > 12.0 && low < full - 0.4,
+        "full {full} V, at 10 % {low} V"
+    );
+    assert!(tiny < low - 1.0, "a 30 mAh pack: {tiny} V");
+}

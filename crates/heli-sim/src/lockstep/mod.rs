@@ -264,6 +264,9 @@ impl Simulation {
             ),
             battery: BatteryDevice {
                 temperature_c: scenario.atmosphere.temperature_c,
+                capacity_ah: scenario.battery.capacity_ah,
+                initial_charge: scenario.battery.charge,
+                load_a: scenario.battery.load_a,
                 ..BatteryDevice::default()
             },
             drop_noise: Noise::new(seed, 5),
