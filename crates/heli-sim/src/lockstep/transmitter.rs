@@ -1,0 +1,66 @@
+//! The pilot's transmitter as the simulation flies it: the scripted sticks and switches, the
+//! transmitter-loss windows, and the hovering pilot's hands when the auto switch is off.
+
+use super::*;
+
+impl Simulation {
+    pub(super) fn pilot(&self) -> PilotCommand {
+        let t_s = self.now_us as f64 * 1e-6;
+        let lost = self
+            .scenario
+            .faults
+            .transmitter_lost
+            .iter()
+            .any(|[start, end]| t_s >= *start && t_s < *end);
+        let p = &self.scenario.pilot;
+        let scripted = p.scripted(t_s);
+        let sticks = match self.hand_sticks {
+            // The pilot hovers by hand; the scripted inputs ride on top.
+            Some(hands) => Controls {
+                aileron: hands.aileron + scripted.aileron - p.aileron,
+                elevator: hands.elevator + scripted.elevator - p.elevator,
+                rudder: hands.rudder + scripted.rudder - p.rudder,
+                collective: hands.collective + scripted.collective - p.collective,
+                throttle: scripted.throttle,
+            }
+            .clamped(),
+            None => scripted,
+        };
+        PilotCommand {
+            sticks,
+            auto_mode: p.auto_at(t_s),
+            bypass: p.bypass_at(t_s),
+            signal_lost: lost,
+        }
+    }
+
+    pub(super) fn pilot_of(scenario: &Scenario) -> PilotCommand {
+        let p = &scenario.pilot;
+        PilotCommand {
+            sticks: p.scripted(0.0),
+            auto_mode: p.auto_at(0.0),
+            bypass: false,
+            signal_lost: false,
+        }
+    }
+
+    /// The hovering pilot's hands, at the uplink rate, while the auto switch is off.
+    pub(super) fn move_hands(&mut self) {
+        let t_s = self.now_us as f64 * 1e-6;
+        let p = &self.scenario.pilot;
+        if !p.hovers_in_manual || p.auto_at(t_s) {
+            self.hand_sticks = None;
+            self.hands.release();
+            return;
+        }
+        let s = self.heli.state;
+        let truth = seen_by_pilot(
+            self.now_us,
+            s.att,
+            s.vel_ned_mps(),
+            s.pos_ned_m,
+            s.rate_body_rps,
+        );
+        self.hand_sticks = Some(self.hands.sticks(&truth, UPLINK_PERIOD_US as f64 * 1e-6));
+    }
+}
