@@ -47,9 +47,14 @@ pub(crate) fn suite(args: &SuiteArgs) -> Result<ExitCode> {
         .map(|f| Campaign::load(f).map_err(anyhow::Error::from))
         .collect::<Result<Vec<_>>>()?;
     let mut reports: Vec<Report> = Vec::new();
-    for campaign in &campaigns {
+    for (campaign, file) in campaigns.iter().zip(&files) {
         let report = crate::campaign_cmd::fly_campaign(campaign, Shard::ALL, args.jobs)?;
-        let out = args.out.as_ref().map(|d| d.join(&campaign.name));
+        // By file, not by campaign name: two files may share a name.
+        let stem = file.file_stem().map(|s| s.to_string_lossy().into_owned());
+        let out = args
+            .out
+            .as_ref()
+            .map(|d| d.join(stem.unwrap_or_else(|| campaign.name.clone())));
         crate::campaign_cmd::write_report(&report, out.as_deref())?;
         eprintln!(
             "{}: {} of {} passed",
@@ -102,7 +107,7 @@ pub(crate) fn suite(args: &SuiteArgs) -> Result<ExitCode> {
     if let Some(dir) = &args.out {
         let rows: Vec<serde_json::Value> = reports
             .iter()
-            .map(|r| serde_json::json!({ "campaign": r.campaign, "totals": r.totals }))
+            .map(|r| serde_json::json!({ "campaign": r.campaign, "file": r.file, "totals": r.totals }))
             .collect();
         let json = serde_json::json!({
             "campaigns": rows,

@@ -205,6 +205,20 @@ pub enum DeviceFaultKind {
 }
 
 impl DeviceFaultKind {
+    /// The name used in scenario files.
+    pub fn name(self) -> &'static str {
+        match self {
+            DeviceFaultKind::Off => "off",
+            DeviceFaultKind::Stuck => "stuck",
+            DeviceFaultKind::Garbage => "garbage",
+            DeviceFaultKind::Bias => "bias",
+            DeviceFaultKind::Scale => "scale",
+            DeviceFaultKind::Spikes => "spikes",
+            DeviceFaultKind::Slow => "slow",
+            DeviceFaultKind::Delayed => "delayed",
+        }
+    }
+
     /// The kinds that change the reading itself.
     pub fn is_wrong_reading(self) -> bool {
         matches!(

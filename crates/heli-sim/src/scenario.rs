@@ -525,11 +525,37 @@ pub fn from_toml(text: &str) -> Result<Scenario, ScenarioError> {
         toml::Table::try_from(&base).map_err(|e| ScenarioError::Invalid(e.to_string()))?;
     merge(&mut merged, table);
     unset_limits(&mut merged)?;
+    non_finite("", &toml::Value::Table(merged.clone())).map_or(Ok(()), |key| {
+        Err(ScenarioError::Invalid(format!(
+            "{key}: must be a finite number (nan and inf are refused)"
+        )))
+    })?;
     let scenario: Scenario = toml::Value::Table(merged)
         .try_into()
         .map_err(|e: toml::de::Error| ScenarioError::Invalid(e.to_string()))?;
     crate::validate::scenario(&scenario).map_err(ScenarioError::Invalid)?;
     Ok(scenario)
+}
+
+/// The key of the first number in `value` that is not finite (NaN, ±inf), if any. (Checked
+/// on the TOML itself: a NaN in an optional field reaches serde as nothing at all.)
+fn non_finite(path: &str, value: &toml::Value) -> Option<String> {
+    match value {
+        toml::Value::Float(x) if !x.is_finite() => Some(path.to_string()),
+        toml::Value::Table(t) => t.iter().find_map(|(k, v)| {
+            let key = if path.is_empty() {
+                k.clone()
+            } else {
+                format!("{path}.{k}")
+            };
+            non_finite(&key, v)
+        }),
+        toml::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| non_finite(&format!("{path}[{i}]"), v)),
+        _ => None,
+    }
 }
 
 /// A limit set to `"unset"` in a file is removed: the criterion the base scenario judged is

@@ -187,9 +187,9 @@ fn device_faults(faults: &[crate::faults::DeviceFault], errors: &mut Vec<String>
     for (i, f) in faults.iter().enumerate() {
         let key = |name: &str| {
             format!(
-                "faults.devices[{i}].{name} ({} {:?})",
+                "faults.devices[{i}].{name} ({} {})",
                 f.device.name(),
-                f.kind
+                f.kind.name()
             )
         };
         let adc = matches!(f.device, Device::Compass | Device::Battery);
@@ -327,7 +327,7 @@ mod tests {
             ("[limits]\nhold_min_s = -1.0", "limits.hold_min_s"),
             (
                 "[[faults.devices]]\ndevice = \"imu\"\nkind = \"slow\"\nstart_s = 1.0\nend_s = 2.0\nvalue = 1.0",
-                "faults.devices[0].value (imu Slow) = 1: must be from 2 to 1000",
+                "faults.devices[0].value (imu slow) = 1: must be from 2 to 1000",
             ),
             (
                 "[[faults.devices]]\ndevice = \"compass\"\nkind = \"delayed\"\nstart_s = 1.0\nend_s = 2.0\nvalue = 0.1",
@@ -335,7 +335,7 @@ mod tests {
             ),
             (
                 "[[faults.devices]]\ndevice = \"gps\"\nkind = \"spikes\"\nstart_s = 1.0\nend_s = 2.0\nvalue = 5.0",
-                "faults.devices[0].rate (gps Spikes)",
+                "faults.devices[0].rate (gps spikes)",
             ),
             (
                 "[[faults.devices]]\ndevice = \"gps\"\nkind = \"off\"\nstart_s = 1.0\nend_s = 2.0\nduty = 1.5",

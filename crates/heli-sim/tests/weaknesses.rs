@@ -72,3 +72,19 @@ fn a_calibration_that_saw_the_fuselage_turn_starts_again() {
     );
     assert_eq!(summary.outcome, Outcome::Pass, "{:?}", summary.criteria);
 }
+
+#[test]
+fn a_process_restarted_in_the_air_never_calibrates_again() {
+    // Before: 85 s after the restart the ground calibration, never run by the restarted
+    // process, closed its window in flight and started the estimate over — in the air.
+    let mut s = heli_sim::device_faults::brownout();
+    s.duration_s = 300.0;
+    let summary = run(s).unwrap_or_else(|e| panic!("{e}"));
+    let calibrations = summary
+        .events
+        .iter()
+        .filter(|e| e.contains("calibration"))
+        .count();
+    assert_eq!(calibrations, 1, "{:#?}", summary.events);
+    assert_eq!(summary.outcome, Outcome::Pass, "{:?}", summary.criteria);
+}

@@ -21,7 +21,10 @@ impl FlightCore {
         ))));
         if !repeated && self.alignment.is_some() {
             self.align(now_us, &sample, out);
-        } else if !repeated && let Some(biases) = self.calibrate(now_us, &sample, out) {
+        } else if !repeated
+            && self.nav.state().is_none()
+            && let Some(biases) = self.calibrate(now_us, &sample, out)
+        {
             self.nav.initialise(now_us, &biases);
             self.home_ned_m = self.nav.state().map(|s| s.pos_ned_m);
             let b = biases.gyro_rps;

@@ -165,7 +165,11 @@ impl FlightCore {
         };
         let gps = a.gps_seen;
         self.alignment = None;
-        self.nav.initialise(now_us, &biases);
+        let gps_vel = self
+            .last_good_fix
+            .filter(|_| gps)
+            .map(|(_, fix)| Vector3::from(fix.vel_ned_mps));
+        self.nav.initialise_in_air(now_us, &biases, gps_vel);
         out.push(Action::Event(Stamped::new(
             now_us,
             CoreEvent::AlignedInAir { gps },

@@ -59,3 +59,35 @@ impl Navigator {
         self.stats.last_gps_fused_us = t_arrival_us;
     }
 }
+
+impl Navigator {
+    /// Starts the estimate in the air (a flight process started again in flight): as
+    /// [`Navigator::initialise`], but moving at the GPS's velocity `vel_ned_mps` if a fix
+    /// gave one, with no accelerometer bias taken from the mean specific force (in the air it
+    /// holds the helicopter's acceleration, not only gravity), and with roll and pitch as
+    /// uncertain as [`IN_AIR_TILT_SIGMA_RAD`] so that the GPS corrects a levelling taken
+    /// while manoeuvring.
+    pub fn initialise_in_air(
+        &mut self,
+        t_us: u64,
+        biases: &ImuBiases,
+        vel_ned_mps: Option<Vector3<f64>>,
+    ) {
+        self.initialise(t_us, biases);
+        if let Some(state) = self.state.as_mut() {
+            if let Some(v) = vel_ned_mps {
+                state.vel_ned_mps = v;
+            }
+            state.accel_bias_mps2 = Vector3::zeros();
+        }
+        let tilt = IN_AIR_TILT_SIGMA_RAD * IN_AIR_TILT_SIGMA_RAD;
+        for i in ix::ATT..ix::ATT.saturating_add(2) {
+            if let Some(x) = self.cov.get_mut((i, i)) {
+                *x = x.max(tilt);
+            }
+        }
+    }
+}
+
+/// How uncertain roll and pitch are after a levelling in the air (rad): 10 deg.
+pub const IN_AIR_TILT_SIGMA_RAD: f64 = 0.17;
