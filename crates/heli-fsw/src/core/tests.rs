@@ -712,3 +712,48 @@ fn a_process_restarted_in_the_air_aligns_on_the_trim_instead_of_calibrating() {
         "nothing to leave before calibrating"
     );
 }
+
+#[test]
+fn a_compass_heading_creeping_in_the_calibration_window_restarts_it() {
+    // The IMU sees nothing (a turn too slow for its second-by-second check), the compass
+    // turns 1 deg/s: past 5 deg the window starts again, and says so.
+    let mut core = FlightCore::new(
+        CoreConfig {
+            imu_warm_up_s: 0.1,
+            calibration_s: 30.0,
+            ..CoreConfig::default()
+        },
+        FlightParams::default(),
+    );
+    let mut out = Vec::new();
+    core.start(0);
+    let compass = |heading_rad: f64| {
+        heli_proto::compass::CompassAdc::from_field(&heli_proto::compass::MagField {
+            field_gauss: [0.19 * heading_rad.cos(), -0.19 * heading_rad.sin(), 0.48],
+        })
+    };
+    let mut now = 0;
+    for k in 1..=1000u64 {
+        now = k * 10_000;
+        core.handle(Input::Imu(still()), now, &mut out);
+        if k % 5 == 0 {
+            let turned_rad = (now as f64 * 1e-6 - 1.0).max(0.0).to_radians();
+            core.handle(Input::Compass(compass(turned_rad)), now, &mut out);
+        }
+    }
+    let restarts: Vec<f64> = out
+        .iter()
+        .filter_map(|a| match a {
+            Action::Event(e) => match e.value {
+                CoreEvent::CalibrationRestarted(m) => Some(m.turn_rad.to_degrees()),
+                _ => None,
+            },
+            _ => None,
+        })
+        .collect();
+    assert!(!restarts.is_empty(), "no restart in {now} us");
+    assert!(
+        restarts.iter().all(|d| *d > 5.0 && *d < 7.0),
+        "{restarts:?}"
+    );
+}

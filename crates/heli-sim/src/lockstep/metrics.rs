@@ -204,26 +204,23 @@ impl Simulation {
         let flew = t
             .flew_since_us
             .is_some_and(|since| now >= since + 1_000_000);
-        if on_ground && t.airborne && flew {
+        let touching_down = on_ground && t.airborne;
+        if touching_down {
             t.flew_since_us = None;
-            let touchdown = Touchdown {
-                distance_m: None,
-                sink_mps: out.contact_sink_mps,
-                speed_mps: s.vel_ned_mps().xy().norm(),
-            };
-            t.touchdown = Some(touchdown);
+        }
+        // A touchdown after a flight (a second airborne at least): where, how fast.
+        if touching_down && flew {
             let distance_m = self.metrics.target_key.map(|(n, e, d)| {
                 let true_target = Vector3::new(n, e, d) - self.metrics.target_offset;
                 (self.truth_in_nav_frame() - true_target).xy().norm()
             });
-            if let Some(td) = self.metrics.truth.touchdown.as_mut() {
-                td.distance_m = distance_m;
-            }
+            self.metrics.truth.touchdown = Some(Touchdown {
+                distance_m,
+                sink_mps: out.contact_sink_mps,
+                speed_mps: s.vel_ned_mps().xy().norm(),
+            });
         }
         let t = &mut self.metrics.truth;
-        if on_ground && t.airborne && !flew {
-            t.flew_since_us = None;
-        }
         t.airborne = !on_ground;
         // Time to hover from the start of the first hold.
         if let (Some(start), None) = (self.metrics.hold_start_us, t.hover_after_s) {
