@@ -101,7 +101,10 @@ pub fn augmented_controls(
             (a, e, inner.climb_to_collective(est, v_body.z, dt))
         }
     };
-    let rudder = inner.yaw_rate_to_tail(est, r_cmd, collective, dt, airborne);
+    let (_, _, yaw) = est.euler_rad();
+    let gain = inner.gains.heading_lock_to_rate;
+    let r_flown = inner.heading_lock.rate(yaw, r_cmd, gain, dt, airborne);
+    let rudder = inner.yaw_rate_to_tail(est, r_flown, collective, dt, airborne);
     let throttle = match mode {
         AugmentedMode::Velocity => GOVERNED_THROTTLE,
         AugmentedMode::Rate | AugmentedMode::Attitude => sticks.throttle,

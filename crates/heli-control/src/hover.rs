@@ -6,6 +6,7 @@ use heli_nav::NavState;
 use heli_proto::scb::Controls;
 use nalgebra::Vector3;
 
+use crate::heading_lock::HeadingLock;
 use crate::{GOVERNED_THROTTLE, limit};
 
 /// How much of the tail's travel the yaw integrator may hold (normalised): in a strong
@@ -54,6 +55,9 @@ pub struct HoverGains {
     pub hover_collective: f64,
     /// Yaw-rate command per rad of heading error (1/s).
     pub heading_to_rate: f64,
+    /// Yaw rate (1/s) per rad of heading error in the augmented modes' heading lock
+    /// ([`crate::heading_lock`]).
+    pub heading_lock_to_rate: f64,
     /// Largest yaw-rate command (rad/s).
     pub max_yaw_rate_rps: f64,
     /// Tail command per rad/s of yaw-rate error.
@@ -90,6 +94,7 @@ impl Default for HoverGains {
             climb_integral: 0.04,
             hover_collective: 0.54,
             heading_to_rate: 2.0,
+            heading_lock_to_rate: 8.0,
             max_yaw_rate_rps: 1.0,
             yaw_rate_feedback: 0.3,
             yaw_integral: 0.1,
@@ -139,6 +144,8 @@ pub struct HoverController {
     climb_integral: f64,
     yaw_integral: f64,
     tail_feedforward: Option<f64>,
+    /// The augmented modes' heading lock.
+    pub(crate) heading_lock: HeadingLock,
 }
 
 impl HoverController {
@@ -162,6 +169,7 @@ impl HoverController {
         self.climb_integral = 0.0;
         self.yaw_integral = 0.0;
         self.tail_feedforward = None;
+        self.heading_lock = HeadingLock::default();
     }
 
     /// One control step of `dt_s` toward `target`. `airborne` enables the horizontal and yaw

@@ -1,6 +1,6 @@
 //! The weaknesses a Monte Carlo campaign found, each posed as a flight that failed before
 //! its fix: a strong wind that blew the hover away, a calibration that averaged in a
-//! fuselage turning on its skids.
+//! fuselage turning on its skids, an augmented turn that a crosswind held back.
 
 use heli_sim::faults::{WindChange, WindShape};
 use heli_sim::scenario;
@@ -33,6 +33,33 @@ fn a_hover_in_15_mps_of_wind_stays_on_its_point() {
     assert!(summary.crash.is_none());
     let off = criterion(&summary, "hold_true_max_m");
     assert!(off < 6.0, "{off} m off the point");
+}
+
+#[test]
+fn an_augmented_turn_through_a_crosswind_follows_the_rudder_stick() {
+    // The pilot's 29 deg/s turn on the rudder stick, in 8 m/s of crosswind from either side
+    // and from behind. Before: the fin's weathervane moment changed as the helicopter turned
+    // through the wind and the tail loop's slow integrator followed it: 16 deg/s of error
+    // (half the command) in the crosswind. Now the stick moves a heading reference that the
+    // tail holds (a heading lock).
+    // (before: 16, 11 and 26 deg/s). From the right, the wind blows against the tail
+    // rotor's wake (its weakest side, where full-size helicopters meet a loss of tail rotor
+    // effectiveness): 7 deg/s there, against the scenario's 5.
+    for (wind, limit_dps) in [
+        ([0.0, 8.0, 0.0], 5.0),
+        ([8.0, 0.0, 0.0], 5.0),
+        ([0.0, -8.0, 0.0], 8.0),
+    ] {
+        let mut s = scenario::augmented();
+        s.wind_ned_mps = wind;
+        s.turbulence_sigma_mps = 0.5;
+        let summary = run(s).unwrap_or_else(|e| panic!("{e}"));
+        let err = criterion(&summary, "yaw_rate_tracking_max_dps");
+        assert!(
+            err < limit_dps,
+            "wind {wind:?}: {err} deg/s off the stick's rate"
+        );
+    }
 }
 
 #[test]
