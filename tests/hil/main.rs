@@ -31,8 +31,12 @@ fn the_vehicle_flies_the_hover_scenario_against_the_hilsim_in_real_time() {
     let summary = hil.wait_json(Duration::from_secs(90));
     let reply = vehicle.ctl(&["stop"]);
     assert!(reply.starts_with("ok stopped (exit code 0)"), "{reply}");
+    let said = vehicle.output();
     vehicle.quit();
-    assert_eq!(summary["outcome"], "pass", "{summary:#}");
+    assert_eq!(
+        summary["outcome"], "pass",
+        "{summary:#}\nthe vehicle said:\n{said}"
+    );
 
     let log = dir.path().join("flight_hover1.mcap");
     let info = log_info(&log);
@@ -158,8 +162,12 @@ fn a_flight_process_that_crashes_in_the_air_is_restarted_and_holds_the_hover() {
     let summary = hil.wait_json(Duration::from_secs(60));
     let reply = vehicle.ctl(&["stop"]);
     assert!(reply.starts_with("ok stopped (exit code 0)"), "{reply}");
+    let said = vehicle.output();
     vehicle.quit();
-    assert_eq!(summary["outcome"], "pass", "{summary:#}");
+    assert_eq!(
+        summary["outcome"], "pass",
+        "{summary:#}\nthe vehicle said:\n{said}"
+    );
     // The crashed process's log is kept; the new one logs beside it and replays exactly
     // from the record it resumed from; a clean stop leaves no record to resume.
     assert!(dir.path().join("flight_crash.mcap").exists());

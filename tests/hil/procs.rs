@@ -206,6 +206,12 @@ impl Vehicle {
         self.proc.wait_for(needle, timeout)
     }
 
+    /// Everything the bootstrap printed so far: its own lines and the flight process's
+    /// notes and events, for a failing test to show why.
+    pub fn output(&self) -> String {
+        self.proc.all()
+    }
+
     /// Ends the bootstrap.
     pub fn quit(self) {
         let reply = self.ctl(&["quit"]);
