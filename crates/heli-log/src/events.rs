@@ -108,6 +108,11 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
         CoreEvent::TakeoffRefused(why) => {
             format!("t={t:.2} s take-off refused: {}", why.text())
         }
+        CoreEvent::AidRefused { aid, test_ratio } => format!(
+            "t={t:.2} s {} refused by the filter (test ratio {test_ratio:.1}): flying without it",
+            aid.name()
+        ),
+        CoreEvent::AidAccepted(aid) => format!("t={t:.2} s {} fused again", aid.name()),
         CoreEvent::RestartedInAir => {
             format!("t={t:.2} s flight process restarted in the air: aligning, blind failsafe")
         }
@@ -157,6 +162,8 @@ fn events_without_numbers() -> Vec<CoreEvent> {
         CoreEvent::RestartedInAir,
         CoreEvent::AlignedInAir { gps: true },
         CoreEvent::AlignedInAir { gps: false },
+        CoreEvent::AidAccepted(heli_fsw::core::Aid::Altimeter),
+        CoreEvent::AidAccepted(heli_fsw::core::Aid::Compass),
     ];
     for device in Device::ALL {
         for state in [
@@ -218,6 +225,20 @@ pub fn parse_event_text(text: &str) -> Option<(u64, EventLevel)> {
             }),
         ),
         ("roll ", CoreEvent::RollCompleted(1)),
+        (
+            "altimeter refused",
+            CoreEvent::AidRefused {
+                aid: heli_fsw::core::Aid::Altimeter,
+                test_ratio: 0.0,
+            },
+        ),
+        (
+            "compass refused",
+            CoreEvent::AidRefused {
+                aid: heli_fsw::core::Aid::Compass,
+                test_ratio: 0.0,
+            },
+        ),
     ];
     let level = events_without_numbers()
         .iter()

@@ -100,3 +100,51 @@ fn a_fault_on_an_unknown_port_is_refused_when_loaded() {
     .to_string();
     assert!(e.contains("faults.byte_loss[0].port"), "{e}");
 }
+
+#[test]
+fn a_wrong_reading_the_gate_refuses_is_raised_and_its_return_too() {
+    // An altimeter reading 30 m high and a compass field turned around for 10 s each: the
+    // readings arrive (the watchdogs see healthy devices) but the filter's gate refuses them.
+    // That is an event after 3 s, and another when the aid is fused again.
+    use heli_sim::faults::{Device, DeviceFault, DeviceFaultKind};
+    let wrong = |device, kind, value, start_s: f64| DeviceFault {
+        device,
+        kind,
+        start_s,
+        end_s: start_s + 10.0,
+        value,
+        rate: 0.0,
+        period_s: 0.0,
+        duty: 1.0,
+    };
+    let mut s = scenario::hover();
+    s.faults.devices = vec![
+        wrong(Device::Baro, DeviceFaultKind::Bias, 30.0, 110.0),
+        wrong(Device::Compass, DeviceFaultKind::Scale, -1.0, 130.0),
+    ];
+    let sim = fly(s, 150.0);
+    let text = events(&sim);
+    for (aid, from_s, to_s) in [("altimeter", 112.5, 115.0), ("compass", 132.5, 135.0)] {
+        let refused = sim
+            .events()
+            .iter()
+            .find(|e| e.contains(&format!("{aid} refused by the filter")))
+            .unwrap_or_else(|| panic!("no {aid} refusal in\n{text}"))
+            .clone();
+        let t: f64 = refused[2..refused.find(" s").unwrap_or(2)]
+            .parse()
+            .unwrap_or_else(|e| panic!("{refused}: {e}"));
+        assert!((from_s..to_s).contains(&t), "{refused}");
+        assert!(
+            text.contains(&format!("{aid} fused again")),
+            "{aid} never fused again:\n{text}"
+        );
+    }
+}
+
+#[test]
+fn a_clean_flight_never_reports_a_refused_aid() {
+    let sim = fly(scenario::demo(), 260.0);
+    let text = events(&sim);
+    assert!(!text.contains("refused by the filter"), "{text}");
+}

@@ -31,6 +31,9 @@ impl FlightCore {
             };
             out.push(Action::Event(Stamped::new(now_us, event)));
         }
+        if estimate.is_some() {
+            self.watch_aids(now_us, out);
+        }
         if let Some(est) = estimate.as_ref() {
             self.airborne_once |= self.height_above_home(est) > self.config.airborne_height_m;
         }

@@ -95,15 +95,26 @@ pub enum CoreEvent {
     GpsReset,
     /// The pre-flight checks refused an autonomous take-off.
     TakeoffRefused(super::preflight::Refusal),
+    /// An aid's readings arrive but the filter's gate has refused them all for
+    /// [`super::aids::AID_REFUSED_AFTER_S`]: the estimate goes on without it.
+    AidRefused {
+        /// Which aid.
+        aid: super::aids::Aid,
+        /// Its last innovation test ratio (above 1: refused).
+        test_ratio: f64,
+    },
+    /// A reading of an aid reported refused was fused again.
+    AidAccepted(super::aids::Aid),
 }
 
 impl CoreEvent {
     /// How much this event matters.
     pub fn severity(&self) -> Severity {
         match self {
-            CoreEvent::PhaseChanged(_) | CoreEvent::RollCompleted(_) | CoreEvent::GpsRegained => {
-                Severity::ActivityLo
-            }
+            CoreEvent::PhaseChanged(_)
+            | CoreEvent::RollCompleted(_)
+            | CoreEvent::GpsRegained
+            | CoreEvent::AidAccepted(_) => Severity::ActivityLo,
             CoreEvent::CalibrationDone { .. }
             | CoreEvent::PlanComplete
             | CoreEvent::AlignedInAir { .. } => Severity::ActivityHi,
@@ -117,6 +128,7 @@ impl CoreEvent {
             | CoreEvent::GpsReset
             | CoreEvent::RestartedInAir
             | CoreEvent::EstimateDegraded { .. }
+            | CoreEvent::AidRefused { .. }
             | CoreEvent::TakeoffRefused(_) => Severity::WarningHi,
             CoreEvent::DeviceHealth { device, state } => match (device, state) {
                 (_, HealthState::Ok | HealthState::Waiting) => Severity::ActivityLo,

@@ -10,6 +10,7 @@
 //! also deliver [`Input::Timer`] at [`FlightCore::poll_at`] so the watchdog can fire. The
 //! core's whole state is a plain value: clone it to snapshot, compare to check replay.
 
+pub mod aids;
 mod brake;
 mod degraded;
 mod dispatch;
@@ -25,6 +26,7 @@ mod sequencer;
 pub mod watchdog;
 mod weathervane;
 
+pub use aids::Aid;
 pub use event::{CoreEvent, Severity};
 pub use gps::Implausible;
 pub use heli_nav::calibration::Motion;
@@ -204,6 +206,8 @@ pub struct FlightCore {
     /// The plan was given up (transmitter lost in the air); it is not resumed.
     plan_abandoned: bool,
     gps_lost: bool,
+    /// The altimeter and compass as reported refused by the filter's gate.
+    refused_aids: aids::RefusedAids,
     /// The helicopter has been more than a metre up in this flight.
     has_flown: bool,
     /// A hold begun in motion is still braking to a stop.
@@ -250,6 +254,7 @@ impl FlightCore {
             plan_done: false,
             plan_abandoned: false,
             gps_lost: false,
+            refused_aids: aids::RefusedAids::default(),
             has_flown: false,
             braking: None,
             health: Health::default(),

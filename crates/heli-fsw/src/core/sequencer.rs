@@ -3,6 +3,9 @@
 
 use super::*;
 
+/// A GPS fix fused this recently (s) lets the landing judge the horizontal speed too.
+const GPS_FRESH_FOR_LANDING_S: f64 = 3.0;
+
 impl FlightCore {
     pub(super) fn next_phase(
         &mut self,
@@ -222,7 +225,20 @@ impl FlightCore {
                     pos_ned_m: Vector3::new(target.pos_ned_m.x, target.pos_ned_m.y, z),
                     ..target
                 };
-                let stopped = z - est.pos_ned_m.z > 0.5 && est.vel_ned_mps.norm() < 0.3;
+                // Stopped: the skids hold the helicopter up and it no longer moves. Without
+                // GPS (a degraded estimate's landing) the horizontal velocity coasts on the
+                // IMU and drifts; only the vertical one, which the altimeter keeps, is judged.
+                let gps_fused = self
+                    .nav
+                    .health(now_us)
+                    .since_gps_s
+                    .is_some_and(|s| s < GPS_FRESH_FOR_LANDING_S);
+                let speed = if gps_fused {
+                    est.vel_ned_mps.norm()
+                } else {
+                    est.vel_ned_mps.z.abs()
+                };
+                let stopped = z - est.pos_ned_m.z > 0.5 && speed < 0.3;
                 let settled_since_us = if stopped {
                     Some(settled_since_us.unwrap_or(now_us))
                 } else {
@@ -230,7 +246,11 @@ impl FlightCore {
                 };
                 if settled_since_us.is_some_and(|t| seconds_between(t, now_us) >= 1.0) {
                     self.plan_done = true;
-                    out.push(Action::Event(Stamped::new(now_us, CoreEvent::PlanComplete)));
+                    // A landing the plan did not ask for (a degraded estimate's) lands; it
+                    // does not complete the plan.
+                    if !self.plan_abandoned {
+                        out.push(Action::Event(Stamped::new(now_us, CoreEvent::PlanComplete)));
+                    }
                     Phase::Landed
                 } else {
                     Phase::Landing {
