@@ -20,7 +20,9 @@
     )
 )]
 
+pub mod frame;
 pub mod messages;
+pub mod signing;
 
 pub use messages::{
     AugmentedMode, FinalParameters, FlightMode, GroundCommand, LinkError, StartParameters,
