@@ -156,7 +156,7 @@ pub fn encode(
     let id = message.message_id();
     let [id0, id1, id2, _] = id.to_le_bytes();
     let flags = if signer.is_some() { IFLAG_SIGNED } else { 0 };
-    let mut bytes = Vec::with_capacity(HEADER_LEN + len + CRC_LEN + SIGNATURE_LEN);
+    let mut bytes = Vec::with_capacity(HEADER_LEN + MAX_PAYLOAD + CRC_LEN + SIGNATURE_LEN);
     bytes.extend_from_slice(&[
         STX_V2,
         len as u8,
