@@ -20,9 +20,11 @@
     )
 )]
 
+pub mod command;
 pub mod frame;
 pub mod messages;
 pub mod signing;
+pub mod telemetry;
 
 pub use messages::{
     AugmentedMode, FinalParameters, FlightMode, GroundCommand, LinkError, StartParameters,

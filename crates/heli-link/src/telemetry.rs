@@ -1,0 +1,455 @@
+//! Telemetry: the freshest value of each of the thesis's seven streams, the battery and the
+//! devices' health ([`Telemetry`], sent by the flight process to the bootstrap as JSON), and
+//! its translation into the standard MAVLink messages a ground station shows
+//! ([`messages`]). Each message has its own interval, 3 Hz by default as the thesis's
+//! telemetry request was, settable with `MAV_CMD_SET_MESSAGE_INTERVAL`.
+
+use mavlink::dialects::common::*;
+use serde::{Deserialize, Serialize};
+
+/// The thesis's telemetry period (3 Hz).
+pub const DEFAULT_INTERVAL_US: u64 = 333_333;
+
+/// The IMU row.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ImuRow {
+    /// Angular rate (rad/s, body).
+    pub rate_rps: [f64; 3],
+    /// Specific force (m/s², body).
+    pub accel_mps2: [f64; 3],
+}
+
+/// The state-estimate row.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StateRow {
+    /// The flight phase's name.
+    pub phase: String,
+    /// Roll, pitch, yaw (rad).
+    pub euler_rad: [f64; 3],
+    /// Body rates (rad/s).
+    pub rate_rps: [f64; 3],
+    /// Position north, east, down from the origin (m).
+    pub pos_ned_m: [f64; 3],
+    /// Velocity north, east, down (m/s).
+    pub vel_ned_mps: [f64; 3],
+}
+
+/// The pilot uplink row (the servo controller board's report).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct UplinkRow {
+    /// Receiver pulses: aileron, elevator, rudder, collective, throttle (µs).
+    pub pulses_us: [u16; 5],
+    /// The auto switch.
+    pub auto_mode: bool,
+    /// The emergency bypass switch.
+    pub bypass: bool,
+    /// Rotor speed (rpm).
+    pub rotor_rpm: u16,
+}
+
+/// The servo command row (normalised commands, −1..1).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ServoRow {
+    /// Aileron, elevator, rudder, collective, throttle.
+    pub commands: [f64; 5],
+}
+
+/// The GPS row.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GpsRow {
+    /// Latitude (deg).
+    pub lat_deg: f64,
+    /// Longitude (deg).
+    pub lon_deg: f64,
+    /// Height above the ellipsoid (m).
+    pub alt_m: f64,
+    /// Velocity north, east, down (m/s).
+    pub vel_ned_mps: [f64; 3],
+    /// Satellites used.
+    pub satellites: u8,
+    /// A 3-D fix.
+    pub fix_3d: bool,
+}
+
+/// The altimeter row.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct BaroRow {
+    /// Pressure (mbar = hPa).
+    pub pressure_mbar: f64,
+    /// Altitude (m), once the altimeter has a reference.
+    pub alt_m: Option<f64>,
+}
+
+/// The compass row.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CompassRow {
+    /// Field (gauss, body).
+    pub field_gauss: [f64; 3],
+    /// Heading (rad), once calibrated.
+    pub heading_rad: Option<f64>,
+}
+
+/// One device's health for the ground: name and verdict (`waiting`, `ok`, `late`, `silent`,
+/// `failed`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DeviceHealth {
+    /// Device name (`imu`, `uplink`, `gps`, `baro`, `compass`, `battery`).
+    pub device: String,
+    /// Verdict.
+    pub state: String,
+}
+
+/// The freshest value of each stream (`None`: nothing yet), at `t_us` of the flight clock.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Telemetry {
+    /// When the snapshot was taken (µs of the flight clock).
+    pub t_us: u64,
+    /// IMU.
+    pub imu: Option<ImuRow>,
+    /// State estimate.
+    pub state: Option<StateRow>,
+    /// Pilot uplink.
+    pub uplink: Option<UplinkRow>,
+    /// Servo commands.
+    pub servo: Option<ServoRow>,
+    /// GPS.
+    pub gps: Option<GpsRow>,
+    /// Altimeter.
+    pub baro: Option<BaroRow>,
+    /// Compass.
+    pub compass: Option<CompassRow>,
+    /// Flight battery (V).
+    pub battery_v: Option<f64>,
+    /// Battery charge left (0..1), when known.
+    pub battery_remaining: Option<f64>,
+    /// Device health.
+    pub health: Vec<DeviceHealth>,
+}
+
+/// The messages of the telemetry, in the order they are offered, by message id.
+pub const TELEMETRY_MESSAGES: [u32; 11] = [
+    ATTITUDE_DATA::ID,
+    LOCAL_POSITION_NED_DATA::ID,
+    GLOBAL_POSITION_INT_DATA::ID,
+    SCALED_IMU_DATA::ID,
+    RC_CHANNELS_DATA::ID,
+    SERVO_OUTPUT_RAW_DATA::ID,
+    GPS_RAW_INT_DATA::ID,
+    SCALED_PRESSURE_DATA::ID,
+    SYS_STATUS_DATA::ID,
+    BATTERY_STATUS_DATA::ID,
+    HEARTBEAT_DATA::ID,
+];
+
+use mavlink::MessageData;
+
+fn f(x: f64) -> f32 {
+    x as f32
+}
+
+fn scaled_i16(x: f64, per_unit: f64) -> i16 {
+    (x * per_unit).round().clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16
+}
+
+fn scaled_i32(x: f64, per_unit: f64) -> i32 {
+    (x * per_unit).round().clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32
+}
+
+/// A servo command (−1..1) as a PWM width (µs): 1500 ± 500.
+fn pwm(command: f64) -> u16 {
+    (1500.0 + 500.0 * command.clamp(-1.0, 1.0)).round() as u16
+}
+
+/// Which of SYS_STATUS's sensor bits each device is.
+fn sensor_bit(device: &str) -> MavSysStatusSensor {
+    match device {
+        "imu" => MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
+            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL,
+        "gps" => MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS,
+        "baro" => MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE,
+        "compass" => MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG,
+        "uplink" => MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_RC_RECEIVER,
+        "battery" => MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_BATTERY,
+        _ => MavSysStatusSensor::empty(),
+    }
+}
+
+/// The telemetry message with id `id` for `t`, `time_boot_ms` after the link started;
+/// `None` while its stream has nothing yet (or for an id that is not telemetry).
+pub fn message(id: u32, t: &Telemetry, time_boot_ms: u32) -> Option<MavMessage> {
+    let msg = match id {
+        ATTITUDE_DATA::ID => {
+            let s = t.state.as_ref()?;
+            MavMessage::ATTITUDE(ATTITUDE_DATA {
+                time_boot_ms,
+                roll: f(s.euler_rad[0]),
+                pitch: f(s.euler_rad[1]),
+                yaw: f(s.euler_rad[2]),
+                rollspeed: f(s.rate_rps[0]),
+                pitchspeed: f(s.rate_rps[1]),
+                yawspeed: f(s.rate_rps[2]),
+            })
+        }
+        LOCAL_POSITION_NED_DATA::ID => {
+            let s = t.state.as_ref()?;
+            MavMessage::LOCAL_POSITION_NED(LOCAL_POSITION_NED_DATA {
+                time_boot_ms,
+                x: f(s.pos_ned_m[0]),
+                y: f(s.pos_ned_m[1]),
+                z: f(s.pos_ned_m[2]),
+                vx: f(s.vel_ned_mps[0]),
+                vy: f(s.vel_ned_mps[1]),
+                vz: f(s.vel_ned_mps[2]),
+            })
+        }
+        GLOBAL_POSITION_INT_DATA::ID => {
+            // Latitude and longitude are the GPS's; height and velocity the estimate's.
+            let g = t.gps.as_ref()?;
+            let s = t.state.as_ref()?;
+            let yaw_cdeg = s.euler_rad[2].to_degrees().rem_euclid(360.0) * 100.0;
+            MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+                time_boot_ms,
+                lat: scaled_i32(g.lat_deg, 1e7),
+                lon: scaled_i32(g.lon_deg, 1e7),
+                alt: scaled_i32(g.alt_m, 1e3),
+                relative_alt: scaled_i32(-s.pos_ned_m[2], 1e3),
+                vx: scaled_i16(s.vel_ned_mps[0], 100.0),
+                vy: scaled_i16(s.vel_ned_mps[1], 100.0),
+                vz: scaled_i16(s.vel_ned_mps[2], 100.0),
+                hdg: yaw_cdeg.round().clamp(0.0, 35_999.0) as u16,
+            })
+        }
+        SCALED_IMU_DATA::ID => {
+            let i = t.imu.as_ref()?;
+            let mag = t.compass.map(|c| c.field_gauss).unwrap_or([0.0; 3]);
+            // Accelerations in milli-g, rates in mrad/s, field in milligauss.
+            let mg = 1000.0 / 9.80665;
+            MavMessage::SCALED_IMU(SCALED_IMU_DATA {
+                time_boot_ms,
+                xacc: scaled_i16(i.accel_mps2[0], mg),
+                yacc: scaled_i16(i.accel_mps2[1], mg),
+                zacc: scaled_i16(i.accel_mps2[2], mg),
+                xgyro: scaled_i16(i.rate_rps[0], 1000.0),
+                ygyro: scaled_i16(i.rate_rps[1], 1000.0),
+                zgyro: scaled_i16(i.rate_rps[2], 1000.0),
+                xmag: scaled_i16(mag[0], 1000.0),
+                ymag: scaled_i16(mag[1], 1000.0),
+                zmag: scaled_i16(mag[2], 1000.0),
+            })
+        }
+        RC_CHANNELS_DATA::ID => {
+            let u = t.uplink.as_ref()?;
+            let switch = |on: bool| if on { 2000 } else { 1000 };
+            MavMessage::RC_CHANNELS(RC_CHANNELS_DATA {
+                time_boot_ms,
+                chan1_raw: u.pulses_us[0],
+                chan2_raw: u.pulses_us[1],
+                chan3_raw: u.pulses_us[2],
+                chan4_raw: u.pulses_us[3],
+                chan5_raw: u.pulses_us[4],
+                chan6_raw: switch(u.auto_mode),
+                chan7_raw: switch(u.bypass),
+                chancount: 7,
+                rssi: u8::MAX,
+                ..Default::default()
+            })
+        }
+        SERVO_OUTPUT_RAW_DATA::ID => {
+            let s = t.servo.as_ref()?;
+            let [a, e, r, c, th] = s.commands;
+            MavMessage::SERVO_OUTPUT_RAW(SERVO_OUTPUT_RAW_DATA {
+                time_usec: (u64::from(time_boot_ms) * 1000) as u32,
+                servo1_raw: pwm(a),
+                servo2_raw: pwm(e),
+                servo3_raw: pwm(r),
+                servo4_raw: pwm(c),
+                servo5_raw: pwm(th),
+                ..Default::default()
+            })
+        }
+        GPS_RAW_INT_DATA::ID => {
+            let g = t.gps.as_ref()?;
+            let [vn, ve, _] = g.vel_ned_mps;
+            let speed = vn.hypot(ve);
+            MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA {
+                time_usec: u64::from(time_boot_ms) * 1000,
+                lat: scaled_i32(g.lat_deg, 1e7),
+                lon: scaled_i32(g.lon_deg, 1e7),
+                alt: scaled_i32(g.alt_m, 1e3),
+                eph: u16::MAX,
+                epv: u16::MAX,
+                vel: (speed * 100.0).round().clamp(0.0, 65_534.0) as u16,
+                cog: (ve.atan2(vn).to_degrees().rem_euclid(360.0) * 100.0)
+                    .round()
+                    .clamp(0.0, 35_999.0) as u16,
+                fix_type: if g.fix_3d {
+                    GpsFixType::GPS_FIX_TYPE_3D_FIX
+                } else {
+                    GpsFixType::GPS_FIX_TYPE_NO_FIX
+                },
+                satellites_visible: g.satellites,
+            })
+        }
+        SCALED_PRESSURE_DATA::ID => {
+            let b = t.baro.as_ref()?;
+            MavMessage::SCALED_PRESSURE(SCALED_PRESSURE_DATA {
+                time_boot_ms,
+                press_abs: f(b.pressure_mbar),
+                press_diff: 0.0,
+                temperature: 0,
+            })
+        }
+        SYS_STATUS_DATA::ID => {
+            let mut present = MavSysStatusSensor::empty();
+            let mut healthy = MavSysStatusSensor::empty();
+            for h in &t.health {
+                present |= sensor_bit(&h.device);
+                if h.state == "ok" {
+                    healthy |= sensor_bit(&h.device);
+                }
+            }
+            MavMessage::SYS_STATUS(SYS_STATUS_DATA {
+                onboard_control_sensors_present: present,
+                onboard_control_sensors_enabled: present,
+                onboard_control_sensors_health: healthy,
+                voltage_battery: t
+                    .battery_v
+                    .map_or(u16::MAX, |v| (v * 1000.0).round().clamp(0.0, 65_534.0) as u16),
+                current_battery: -1,
+                battery_remaining: remaining_percent(t.battery_remaining),
+                ..Default::default()
+            })
+        }
+        BATTERY_STATUS_DATA::ID => {
+            let v = t.battery_v?;
+            let mut voltages = [u16::MAX; 10];
+            voltages[0] = (v * 1000.0).round().clamp(0.0, 65_534.0) as u16;
+            MavMessage::BATTERY_STATUS(BATTERY_STATUS_DATA {
+                voltages,
+                current_battery: -1,
+                current_consumed: -1,
+                energy_consumed: -1,
+                temperature: i16::MAX,
+                id: 0,
+                battery_function: MavBatteryFunction::MAV_BATTERY_FUNCTION_AVIONICS,
+                mavtype: MavBatteryType::MAV_BATTERY_TYPE_LIPO,
+                battery_remaining: remaining_percent(t.battery_remaining),
+            })
+        }
+        _ => return None,
+    };
+    Some(msg)
+}
+
+fn remaining_percent(fraction: Option<f64>) -> i8 {
+    fraction.map_or(-1, |r| (r * 100.0).round().clamp(0.0, 100.0) as i8)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn full() -> Telemetry {
+        Telemetry {
+            t_us: 1,
+            imu: Some(ImuRow {
+                rate_rps: [0.1, 0.0, 0.0],
+                accel_mps2: [0.0, 0.0, -9.80665],
+            }),
+            state: Some(StateRow {
+                phase: "hold".into(),
+                euler_rad: [0.1, -0.1, 1.0],
+                rate_rps: [0.0; 3],
+                pos_ned_m: [1.0, 2.0, -10.0],
+                vel_ned_mps: [0.5, 0.0, 0.0],
+            }),
+            uplink: Some(UplinkRow {
+                pulses_us: [1500; 5],
+                auto_mode: true,
+                bypass: false,
+                rotor_rpm: 1600,
+            }),
+            servo: Some(ServoRow {
+                commands: [0.0, 1.0, -1.0, 0.5, 0.0],
+            }),
+            gps: Some(GpsRow {
+                lat_deg: 42.36,
+                lon_deg: -71.09,
+                alt_m: 20.0,
+                vel_ned_mps: [0.0, 1.0, 0.0],
+                satellites: 8,
+                fix_3d: true,
+            }),
+            baro: Some(BaroRow {
+                pressure_mbar: 1013.0,
+                alt_m: Some(10.0),
+            }),
+            compass: Some(CompassRow {
+                field_gauss: [0.2, 0.0, 0.4],
+                heading_rad: Some(1.0),
+            }),
+            battery_v: Some(12.3),
+            battery_remaining: None,
+            health: vec![
+                DeviceHealth {
+                    device: "imu".into(),
+                    state: "ok".into(),
+                },
+                DeviceHealth {
+                    device: "gps".into(),
+                    state: "silent".into(),
+                },
+            ],
+        }
+    }
+
+    #[test]
+    fn every_telemetry_message_is_made_from_a_full_snapshot() {
+        for id in TELEMETRY_MESSAGES.iter().filter(|&&id| id != HEARTBEAT_DATA::ID) {
+            assert!(message(*id, &full(), 10).is_some(), "message {id}");
+        }
+    }
+
+    #[test]
+    fn nothing_is_made_before_its_stream_has_data() {
+        let empty = Telemetry::default();
+        for id in TELEMETRY_MESSAGES {
+            if id != SYS_STATUS_DATA::ID {
+                assert!(message(id, &empty, 0).is_none(), "message {id}");
+            }
+        }
+    }
+
+    #[test]
+    fn units_are_mavlinks() {
+        let Some(MavMessage::SCALED_IMU(imu)) = message(SCALED_IMU_DATA::ID, &full(), 0) else {
+            panic!()
+        };
+        assert_eq!(imu.zacc, -1000);
+        assert_eq!(imu.xgyro, 100);
+        let Some(MavMessage::SERVO_OUTPUT_RAW(s)) = message(SERVO_OUTPUT_RAW_DATA::ID, &full(), 0)
+        else {
+            panic!()
+        };
+        assert_eq!((s.servo2_raw, s.servo3_raw), (2000, 1000));
+        let Some(MavMessage::SYS_STATUS(st)) = message(SYS_STATUS_DATA::ID, &full(), 0) else {
+            panic!()
+        };
+        assert!(st
+            .onboard_control_sensors_health
+            .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO));
+        assert!(!st
+            .onboard_control_sensors_health
+            .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS));
+        assert!(st
+            .onboard_control_sensors_present
+            .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS));
+        assert_eq!(st.voltage_battery, 12_300);
+    }
+
+    #[test]
+    fn telemetry_round_trips_as_json() {
+        let text = serde_json::to_string(&full()).unwrap();
+        assert_eq!(serde_json::from_str::<Telemetry>(&text).unwrap(), full());
+    }
+}
