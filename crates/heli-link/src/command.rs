@@ -53,7 +53,7 @@ pub fn pack_text(text: &str) -> [f32; 5] {
 pub fn unpack_text(values: [f32; 5]) -> Option<String> {
     let mut bytes = Vec::new();
     for v in values {
-        if !(v.is_finite() && v >= 0.0 && v < 16_777_216.0 && v.fract() == 0.0) {
+        if !((0.0..16_777_216.0).contains(&v) && v.fract() == 0.0) {
             return None;
         }
         let n = v as u32;
@@ -196,7 +196,11 @@ mod tests {
         }
         assert_eq!(unpack_text([f32::NAN, 0.0, 0.0, 0.0, 0.0]), None);
         assert_eq!(unpack_text([1.5, 0.0, 0.0, 0.0, 0.0]), None);
-        assert_eq!(unpack_text([7.0, 0.0, 0.0, 0.0, 0.0]), None, "a control byte");
+        assert_eq!(
+            unpack_text([7.0, 0.0, 0.0, 0.0, 0.0]),
+            None,
+            "a control byte"
+        );
     }
 
     #[test]
@@ -226,11 +230,24 @@ mod tests {
         assert!(err.contains("controller 9"), "{err}");
         long.param1 = 0.0;
         long.param2 = 7.0;
-        assert!(ground_command(&long).unwrap_err().to_string().contains("plan 7"));
+        assert!(
+            ground_command(&long)
+                .unwrap_err()
+                .to_string()
+                .contains("plan 7")
+        );
         long.param2 = 0.0;
         long.param3 = pack_text("../")[0];
-        assert!(ground_command(&long).unwrap_err().to_string().contains("suffix"));
+        assert!(
+            ground_command(&long)
+                .unwrap_err()
+                .to_string()
+                .contains("suffix")
+        );
         long.command = MavCmd::MAV_CMD_NAV_TAKEOFF;
-        assert!(matches!(ground_command(&long), Err(CommandError::Unsupported(_))));
+        assert!(matches!(
+            ground_command(&long),
+            Err(CommandError::Unsupported(_))
+        ));
     }
 }

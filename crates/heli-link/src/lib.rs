@@ -3,10 +3,13 @@
 //! What it is: the thesis's ground-station messages — Connect, Start Logging with the flight
 //! parameters, Stop, the telemetry request, the final parameters of the cleanup routine —
 //! as typed values, with the validation a flight computer must apply to anything the ground
-//! sends ([`messages`]). Their mapping onto MAVLink 2 (`docs/link.md`) and the UDP transport
-//! arrive with the ground-station issue.
+//! sends ([`messages`]) — carried over MAVLink 2, common dialect (docs/link.md): framing
+//! ([`frame`]) and signing ([`signing`]) of our own, the commands ([`command`]), telemetry
+//! ([`telemetry`]), the log protocol ([`logs`]), and the two ends of the link, the vehicle's
+//! ([`vehicle`]) and the ground's ([`ground`]). All of it is sans-I/O: datagrams and the time
+//! go in, datagrams and events come out; the sockets are the runtime's.
 //!
-//! What it is not: flight code or ground-station UI; both sides use these types.
+//! What it is not: flight code, a socket layer or ground-station UI.
 
 #![cfg_attr(
     test,
@@ -22,9 +25,12 @@
 
 pub mod command;
 pub mod frame;
+pub mod ground;
+pub mod logs;
 pub mod messages;
 pub mod signing;
 pub mod telemetry;
+pub mod vehicle;
 
 pub use messages::{
     AugmentedMode, FinalParameters, FlightMode, GroundCommand, LinkError, StartParameters,

@@ -148,11 +148,15 @@ fn f(x: f64) -> f32 {
 }
 
 fn scaled_i16(x: f64, per_unit: f64) -> i16 {
-    (x * per_unit).round().clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16
+    (x * per_unit)
+        .round()
+        .clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16
 }
 
 fn scaled_i32(x: f64, per_unit: f64) -> i32 {
-    (x * per_unit).round().clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32
+    (x * per_unit)
+        .round()
+        .clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32
 }
 
 /// A servo command (−1..1) as a PWM width (µs): 1500 ± 500.
@@ -163,8 +167,10 @@ fn pwm(command: f64) -> u16 {
 /// Which of SYS_STATUS's sensor bits each device is.
 fn sensor_bit(device: &str) -> MavSysStatusSensor {
     match device {
-        "imu" => MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
-            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL,
+        "imu" => {
+            MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
+                | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL
+        }
         "gps" => MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS,
         "baro" => MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE,
         "compass" => MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG,
@@ -312,9 +318,9 @@ pub fn message(id: u32, t: &Telemetry, time_boot_ms: u32) -> Option<MavMessage> 
                 onboard_control_sensors_present: present,
                 onboard_control_sensors_enabled: present,
                 onboard_control_sensors_health: healthy,
-                voltage_battery: t
-                    .battery_v
-                    .map_or(u16::MAX, |v| (v * 1000.0).round().clamp(0.0, 65_534.0) as u16),
+                voltage_battery: t.battery_v.map_or(u16::MAX, |v| {
+                    (v * 1000.0).round().clamp(0.0, 65_534.0) as u16
+                }),
                 current_battery: -1,
                 battery_remaining: remaining_percent(t.battery_remaining),
                 ..Default::default()
@@ -405,7 +411,10 @@ mod tests {
 
     #[test]
     fn every_telemetry_message_is_made_from_a_full_snapshot() {
-        for id in TELEMETRY_MESSAGES.iter().filter(|&&id| id != HEARTBEAT_DATA::ID) {
+        for id in TELEMETRY_MESSAGES
+            .iter()
+            .filter(|&&id| id != HEARTBEAT_DATA::ID)
+        {
             assert!(message(*id, &full(), 10).is_some(), "message {id}");
         }
     }
@@ -435,15 +444,18 @@ mod tests {
         let Some(MavMessage::SYS_STATUS(st)) = message(SYS_STATUS_DATA::ID, &full(), 0) else {
             panic!()
         };
-        assert!(st
-            .onboard_control_sensors_health
-            .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO));
-        assert!(!st
-            .onboard_control_sensors_health
-            .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS));
-        assert!(st
-            .onboard_control_sensors_present
-            .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS));
+        assert!(
+            st.onboard_control_sensors_health
+                .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO)
+        );
+        assert!(
+            !st.onboard_control_sensors_health
+                .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS)
+        );
+        assert!(
+            st.onboard_control_sensors_present
+                .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS)
+        );
         assert_eq!(st.voltage_battery, 12_300);
     }
 

@@ -1,0 +1,290 @@
+//! The ground's end of the link, sans-I/O: the client library of `heli ground` (and of the
+//! web display to come). It sends the ground's heartbeat, commands (resent until
+//! acknowledged), message-interval requests and log requests; it keeps the vehicle's last
+//! heartbeat, the newest telemetry message of each kind with counts, the status texts, and
+//! downloads a log, asking again for whatever did not arrive.
+
+use std::collections::BTreeMap;
+
+use mavlink::dialects::common::*;
+
+use crate::frame::{self, Sender};
+use crate::logs::LOG_DATA_LEN;
+use crate::signing::{Key, Signer, Verifier, timestamp_from_unix_us};
+use crate::vehicle::VEHICLE;
+
+/// The ground's system and component ids (a ground control station's usual ones).
+pub const GROUND: Sender = Sender {
+    system: 255,
+    component: 190,
+};
+/// A command not acknowledged within this time (µs) is sent again.
+pub const COMMAND_RETRY_US: u64 = 500_000;
+/// A download with nothing new for this long (µs) asks again for what is missing.
+pub const DOWNLOAD_RETRY_US: u64 = 300_000;
+
+/// A log being downloaded.
+#[derive(Clone, Debug)]
+pub struct Download {
+    /// Log id.
+    pub id: u16,
+    /// Its size (bytes).
+    pub size: u32,
+    /// The bytes so far.
+    pub bytes: Vec<u8>,
+    /// Which 90-byte blocks have arrived.
+    have: Vec<bool>,
+    last_progress_us: u64,
+    /// Requests sent (the first and each ask for a missing part).
+    pub requests: u64,
+}
+
+impl Download {
+    fn new(id: u16, size: u32, now_us: u64) -> Self {
+        let blocks = usize::try_from(size).unwrap_or(0).div_ceil(LOG_DATA_LEN);
+        Self {
+            id,
+            size,
+            bytes: vec![0; usize::try_from(size).unwrap_or(0)],
+            have: vec![false; blocks],
+            last_progress_us: now_us,
+            requests: 0,
+        }
+    }
+
+    /// Bytes received.
+    pub fn received(&self) -> u64 {
+        let full = self.have.iter().filter(|h| **h).count();
+        (full.saturating_mul(LOG_DATA_LEN) as u64).min(u64::from(self.size))
+    }
+
+    /// Whether every byte has arrived.
+    pub fn complete(&self) -> bool {
+        self.have.iter().all(|h| *h)
+    }
+
+    /// The first missing run of blocks: (offset, count) in bytes.
+    fn first_gap(&self) -> Option<(u32, u32)> {
+        let start = self.have.iter().position(|h| !h)?;
+        let len = self
+            .have
+            .get(start..)
+            .unwrap_or(&[])
+            .iter()
+            .take_while(|h| !**h)
+            .count();
+        let ofs = start.saturating_mul(LOG_DATA_LEN);
+        let count = len.saturating_mul(LOG_DATA_LEN);
+        Some((
+            u32::try_from(ofs).unwrap_or(u32::MAX),
+            u32::try_from(count).unwrap_or(u32::MAX),
+        ))
+    }
+
+    fn accept(&mut self, d: &LOG_DATA_DATA, now_us: u64) {
+        let ofs = usize::try_from(d.ofs).unwrap_or(usize::MAX);
+        let n = usize::from(d.count).min(LOG_DATA_LEN);
+        if ofs % LOG_DATA_LEN != 0 || n == 0 {
+            return;
+        }
+        let block = ofs / LOG_DATA_LEN;
+        let end = ofs.saturating_add(n);
+        let expected = self.bytes.len().saturating_sub(ofs).min(LOG_DATA_LEN);
+        if n != expected {
+            return;
+        }
+        if let (Some(dst), Some(src)) = (self.bytes.get_mut(ofs..end), d.data.get(..n)) {
+            dst.copy_from_slice(src);
+            if let Some(h) = self.have.get_mut(block).filter(|h| !**h) {
+                *h = true;
+                self.last_progress_us = now_us;
+            }
+        }
+    }
+}
+
+/// The ground's link.
+pub struct GroundLink {
+    sequence: u8,
+    signer: Option<Signer>,
+    verifier: Verifier,
+    /// The vehicle's last heartbeat and when it came (µs).
+    pub heartbeat: Option<(u64, HEARTBEAT_DATA)>,
+    /// The newest message of each id.
+    pub latest: BTreeMap<u32, (u64, MavMessage)>,
+    /// Messages received, by id.
+    pub counts: BTreeMap<u32, u64>,
+    /// Status texts received (severity, text), oldest first.
+    pub texts: Vec<(MavSeverity, String)>,
+    /// Acknowledgements received (command, result), oldest first.
+    pub acks: Vec<(MavCmd, MavResult)>,
+    /// Log entries received, by id.
+    pub log_entries: BTreeMap<u16, LOG_ENTRY_DATA>,
+    /// The download under way.
+    pub download: Option<Download>,
+    /// Frames that were not valid, or refused by the signing check.
+    pub bad_frames: u64,
+}
+
+impl GroundLink {
+    /// A ground link signing with `key` (and refusing what the vehicle did not sign with it).
+    pub fn new(key: Option<Key>) -> Self {
+        Self {
+            sequence: 0,
+            signer: key.clone().map(|k| Signer::new(k, 1)),
+            verifier: Verifier::new(key),
+            heartbeat: None,
+            latest: BTreeMap::new(),
+            counts: BTreeMap::new(),
+            texts: Vec::new(),
+            acks: Vec::new(),
+            log_entries: BTreeMap::new(),
+            download: None,
+            bad_frames: 0,
+        }
+    }
+
+    /// The bytes of `message`, signed if a key is set.
+    pub fn encode(&mut self, message: &MavMessage, now_us: u64) -> Vec<u8> {
+        let ts = timestamp_from_unix_us(now_us);
+        let bytes = frame::encode(
+            GROUND,
+            self.sequence,
+            message,
+            self.signer.as_mut().map(|s| (s, ts)),
+        );
+        self.sequence = self.sequence.wrapping_add(1);
+        bytes
+    }
+
+    /// The ground's heartbeat.
+    pub fn heartbeat_frame(&mut self, now_us: u64) -> Vec<u8> {
+        let hb = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+            custom_mode: 0,
+            mavtype: MavType::MAV_TYPE_GCS,
+            autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+            base_mode: MavModeFlag::empty(),
+            system_status: MavState::MAV_STATE_ACTIVE,
+            mavlink_version: 3,
+        });
+        self.encode(&hb, now_us)
+    }
+
+    /// A command to the vehicle.
+    pub fn command_frame(&mut self, mut command: COMMAND_LONG_DATA, now_us: u64) -> Vec<u8> {
+        command.target_system = VEHICLE.system;
+        command.target_component = VEHICLE.component;
+        self.encode(&MavMessage::COMMAND_LONG(command), now_us)
+    }
+
+    /// The final acknowledgement of `command` received so far (not `IN_PROGRESS`).
+    pub fn final_ack(&self, command: MavCmd) -> Option<MavResult> {
+        self.acks
+            .iter()
+            .rev()
+            .find(|(c, r)| *c == command && *r != MavResult::MAV_RESULT_IN_PROGRESS)
+            .map(|(_, r)| *r)
+    }
+
+    /// Handles one datagram from the vehicle.
+    pub fn receive(&mut self, datagram: &[u8], now_us: u64) {
+        for result in frame::split(datagram) {
+            let Ok(raw) = result else {
+                self.bad_frames = self.bad_frames.saturating_add(1);
+                continue;
+            };
+            if self
+                .verifier
+                .check(&raw, timestamp_from_unix_us(now_us))
+                .is_err()
+            {
+                self.bad_frames = self.bad_frames.saturating_add(1);
+                continue;
+            }
+            let Ok(message) = raw.message() else {
+                self.bad_frames = self.bad_frames.saturating_add(1);
+                continue;
+            };
+            let id = mavlink::Message::message_id(&message);
+            let count = self.counts.entry(id).or_insert(0);
+            *count = count.saturating_add(1);
+            match &message {
+                MavMessage::HEARTBEAT(hb) => self.heartbeat = Some((now_us, hb.clone())),
+                MavMessage::STATUSTEXT(t) => self.texts.push((
+                    t.severity,
+                    t.text.to_str().unwrap_or("(not UTF-8)").to_string(),
+                )),
+                MavMessage::COMMAND_ACK(a) => self.acks.push((a.command, a.result)),
+                MavMessage::LOG_ENTRY(e) => {
+                    self.log_entries.insert(e.id, e.clone());
+                }
+                MavMessage::LOG_DATA(d) => {
+                    if let Some(dl) = self.download.as_mut().filter(|dl| dl.id == d.id) {
+                        dl.accept(d, now_us);
+                    }
+                }
+                _ => {}
+            }
+            self.latest.insert(id, (now_us, message));
+        }
+    }
+
+    /// Starts downloading log `id` of `size` bytes; returns the request to send.
+    pub fn start_download(&mut self, id: u16, size: u32, now_us: u64) -> Vec<u8> {
+        let mut dl = Download::new(id, size, now_us);
+        dl.requests = 1;
+        self.download = Some(dl);
+        let req = MavMessage::LOG_REQUEST_DATA(LOG_REQUEST_DATA_DATA {
+            ofs: 0,
+            count: size,
+            id,
+            target_system: VEHICLE.system,
+            target_component: VEHICLE.component,
+        });
+        self.encode(&req, now_us)
+    }
+
+    /// When the download has stalled, the request for its first missing part (and, once
+    /// complete, the request that ends the transfer on the vehicle).
+    pub fn download_tick(&mut self, now_us: u64) -> Option<Vec<u8>> {
+        let dl = self.download.as_mut()?;
+        if dl.complete() {
+            return None;
+        }
+        if now_us.saturating_sub(dl.last_progress_us) < DOWNLOAD_RETRY_US {
+            return None;
+        }
+        let (ofs, count) = dl.first_gap()?;
+        dl.last_progress_us = now_us;
+        dl.requests = dl.requests.saturating_add(1);
+        let id = dl.id;
+        let req = MavMessage::LOG_REQUEST_DATA(LOG_REQUEST_DATA_DATA {
+            ofs,
+            count,
+            id,
+            target_system: VEHICLE.system,
+            target_component: VEHICLE.component,
+        });
+        Some(self.encode(&req, now_us))
+    }
+
+    /// The request for the vehicle's log list.
+    pub fn log_list_frame(&mut self, now_us: u64) -> Vec<u8> {
+        let req = MavMessage::LOG_REQUEST_LIST(LOG_REQUEST_LIST_DATA {
+            start: 0,
+            end: 0xFFFF,
+            target_system: VEHICLE.system,
+            target_component: VEHICLE.component,
+        });
+        self.encode(&req, now_us)
+    }
+
+    /// The request that ends a log transfer on the vehicle.
+    pub fn log_end_frame(&mut self, now_us: u64) -> Vec<u8> {
+        let req = MavMessage::LOG_REQUEST_END(LOG_REQUEST_END_DATA {
+            target_system: VEHICLE.system,
+            target_component: VEHICLE.component,
+        });
+        self.encode(&req, now_us)
+    }
+}

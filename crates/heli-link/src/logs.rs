@@ -1,0 +1,254 @@
+//! The log protocol on the vehicle's side (`LOG_REQUEST_LIST` → `LOG_ENTRY`,
+//! `LOG_REQUEST_DATA` → `LOG_DATA`, `LOG_REQUEST_END`), as ArduPilot serves it: the flight
+//! logs are numbered from 1 in the order of their names; a data request streams 90-byte
+//! `LOG_DATA` packets from an offset, paced by [`LogServer::next_packets`]; the ground asks
+//! again for what it did not receive (a lost packet costs only itself). The files are read
+//! through [`LogStore`], so this side has no file I/O of its own.
+
+use mavlink::dialects::common::*;
+
+/// Bytes of log per `LOG_DATA` packet.
+pub const LOG_DATA_LEN: usize = 90;
+
+/// One log the vehicle holds.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LogInfo {
+    /// Id on the link (from 1).
+    pub id: u16,
+    /// File name.
+    pub name: String,
+    /// Size (bytes).
+    pub size: u32,
+    /// Last change, Unix time (s).
+    pub time_utc: u32,
+}
+
+/// Where the logs are.
+pub trait LogStore {
+    /// The logs, by id.
+    fn list(&self) -> Vec<LogInfo>;
+    /// Reads up to `buf.len()` bytes of log `id` from `ofs`; the count read (0 at the end or
+    /// for an unknown log).
+    fn read(&self, id: u16, ofs: u32, buf: &mut [u8]) -> usize;
+}
+
+/// A data request being served.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Transfer {
+    id: u16,
+    next: u32,
+    end: u32,
+}
+
+/// The vehicle's log server.
+#[derive(Clone, Debug, Default)]
+pub struct LogServer {
+    transfer: Option<Transfer>,
+    /// Packets sent.
+    pub packets_sent: u64,
+}
+
+impl LogServer {
+    /// The `LOG_ENTRY` answers to a list request for ids `start..=end` (0xFFFF: the last).
+    pub fn entries(store: &dyn LogStore, start: u16, end: u16) -> Vec<MavMessage> {
+        let logs = store.list();
+        let num_logs = u16::try_from(logs.len()).unwrap_or(u16::MAX);
+        let last = logs.iter().map(|l| l.id).max().unwrap_or(0);
+        if logs.is_empty() {
+            // "No logs" is an entry with num_logs 0, so the ground is not left waiting.
+            return vec![MavMessage::LOG_ENTRY(LOG_ENTRY_DATA::default())];
+        }
+        logs.iter()
+            .filter(|l| l.id >= start && l.id <= end.min(last))
+            .map(|l| {
+                MavMessage::LOG_ENTRY(LOG_ENTRY_DATA {
+                    time_utc: l.time_utc,
+                    size: l.size,
+                    id: l.id,
+                    num_logs,
+                    last_log_num: last,
+                })
+            })
+            .collect()
+    }
+
+    /// Starts serving `count` bytes of log `id` from `ofs` (a later request replaces it).
+    pub fn request(&mut self, store: &dyn LogStore, id: u16, ofs: u32, count: u32) {
+        let size = store
+            .list()
+            .iter()
+            .find(|l| l.id == id)
+            .map_or(0, |l| l.size);
+        let end = ofs.saturating_add(count).min(size);
+        self.transfer = Some(Transfer {
+            id,
+            next: ofs.min(end),
+            end,
+        });
+    }
+
+    /// Stops the transfer under way.
+    pub fn end(&mut self) {
+        self.transfer = None;
+    }
+
+    /// Whether a transfer is under way.
+    pub fn busy(&self) -> bool {
+        self.transfer.is_some()
+    }
+
+    /// Up to `max` packets of the transfer under way. The last packet of a request is short
+    /// (possibly empty, at the end of the file), which tells the ground the request is done.
+    pub fn next_packets(&mut self, store: &dyn LogStore, max: usize) -> Vec<MavMessage> {
+        let mut out = Vec::new();
+        while out.len() < max {
+            let Some(t) = self.transfer.as_mut() else {
+                break;
+            };
+            let mut data = [0u8; LOG_DATA_LEN];
+            let want = usize::try_from(t.end.saturating_sub(t.next))
+                .unwrap_or(LOG_DATA_LEN)
+                .min(LOG_DATA_LEN);
+            let got = store.read(t.id, t.next, data.get_mut(..want).unwrap_or(&mut []));
+            out.push(MavMessage::LOG_DATA(LOG_DATA_DATA {
+                ofs: t.next,
+                id: t.id,
+                count: u8::try_from(got).unwrap_or(0),
+                data,
+            }));
+            self.packets_sent = self.packets_sent.saturating_add(1);
+            t.next = t.next.saturating_add(u32::try_from(got).unwrap_or(0));
+            if got < LOG_DATA_LEN || t.next >= t.end {
+                if got == LOG_DATA_LEN {
+                    // Ended exactly on a packet boundary: say so with an empty packet.
+                    out.push(MavMessage::LOG_DATA(LOG_DATA_DATA {
+                        ofs: t.next,
+                        id: t.id,
+                        count: 0,
+                        data: [0; LOG_DATA_LEN],
+                    }));
+                }
+                self.transfer = None;
+            }
+        }
+        out
+    }
+}
+
+/// A store of logs in memory (tests, and the ground's own checks).
+#[derive(Clone, Debug, Default)]
+pub struct MemoryStore {
+    /// Name and bytes of each log, id = index + 1.
+    pub logs: Vec<(String, Vec<u8>)>,
+}
+
+impl LogStore for MemoryStore {
+    fn list(&self) -> Vec<LogInfo> {
+        self.logs
+            .iter()
+            .enumerate()
+            .map(|(i, (name, bytes))| LogInfo {
+                id: u16::try_from(i.saturating_add(1)).unwrap_or(u16::MAX),
+                name: name.clone(),
+                size: u32::try_from(bytes.len()).unwrap_or(u32::MAX),
+                time_utc: 0,
+            })
+            .collect()
+    }
+
+    fn read(&self, id: u16, ofs: u32, buf: &mut [u8]) -> usize {
+        let Some((_, bytes)) = self.logs.get(usize::from(id).saturating_sub(1)) else {
+            return 0;
+        };
+        if id == 0 {
+            return 0;
+        }
+        let from = usize::try_from(ofs).unwrap_or(usize::MAX).min(bytes.len());
+        let rest = bytes.get(from..).unwrap_or(&[]);
+        let n = rest.len().min(buf.len());
+        if let (Some(dst), Some(src)) = (buf.get_mut(..n), rest.get(..n)) {
+            dst.copy_from_slice(src);
+        }
+        n
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn store() -> MemoryStore {
+        MemoryStore {
+            logs: vec![
+                ("a.mcap".into(), (0..=255u8).cycle().take(1000).collect()),
+                ("b.mcap".into(), vec![7; 180]),
+            ],
+        }
+    }
+
+    #[test]
+    fn the_list_names_every_log_and_an_empty_store_says_so() {
+        let entries = LogServer::entries(&store(), 0, 0xFFFF);
+        assert_eq!(entries.len(), 2);
+        let MavMessage::LOG_ENTRY(e) = &entries[1] else {
+            panic!()
+        };
+        assert_eq!((e.id, e.size, e.num_logs, e.last_log_num), (2, 180, 2, 2));
+        let none = LogServer::entries(&MemoryStore::default(), 0, 0xFFFF);
+        let MavMessage::LOG_ENTRY(e) = &none[0] else {
+            panic!()
+        };
+        assert_eq!(e.num_logs, 0);
+    }
+
+    fn fetch(server: &mut LogServer, s: &MemoryStore) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        while server.busy() {
+            for p in server.next_packets(s, 7) {
+                let MavMessage::LOG_DATA(d) = p else { panic!() };
+                assert_eq!(d.ofs as usize, bytes.len());
+                bytes.extend_from_slice(&d.data[..usize::from(d.count)]);
+            }
+        }
+        bytes
+    }
+
+    #[test]
+    fn a_whole_log_is_served_in_order_and_ends_short() {
+        let s = store();
+        let mut server = LogServer::default();
+        server.request(&s, 1, 0, u32::MAX);
+        assert_eq!(fetch(&mut server, &s), s.logs[0].1);
+        // 180 bytes end on a packet boundary: an empty packet ends the request.
+        server.request(&s, 2, 0, u32::MAX);
+        assert_eq!(fetch(&mut server, &s), s.logs[1].1);
+    }
+
+    #[test]
+    fn a_gap_is_served_again_from_its_offset() {
+        let s = store();
+        let mut server = LogServer::default();
+        server.request(&s, 1, 450, 100);
+        let MavMessage::LOG_DATA(first) = &server.next_packets(&s, 1)[0] else {
+            panic!()
+        };
+        assert_eq!((first.ofs, first.count), (450, 90));
+        assert_eq!(first.data[0], s.logs[0].1[450]);
+        let rest = server.next_packets(&s, 10);
+        let MavMessage::LOG_DATA(last) = rest.last().unwrap() else {
+            panic!()
+        };
+        assert_eq!((last.ofs, last.count), (540, 10));
+        assert!(!server.busy());
+    }
+
+    #[test]
+    fn an_unknown_log_ends_at_once() {
+        let s = store();
+        let mut server = LogServer::default();
+        server.request(&s, 9, 0, 100);
+        let packets = server.next_packets(&s, 10);
+        assert_eq!(packets.len(), 1);
+        assert!(!server.busy());
+    }
+}

@@ -1,0 +1,461 @@
+//! The vehicle's end of the link, sans-I/O: datagrams and the time go in, datagrams and the
+//! thesis commands for the bootstrap come out. It sends the heartbeat (1 Hz) with the
+//! bootstrap's state and the control mode, the telemetry at each message's interval, status
+//! texts, command acknowledgements and the logs; it refuses and counts what the signing key
+//! does not allow, and tells the ground; it notices the ground falling silent.
+
+use std::collections::BTreeMap;
+
+use mavlink::MessageData;
+use mavlink::dialects::common::*;
+
+use crate::command::{CMD_CONNECT, CMD_START_LOGGING, CMD_STOP, ground_command};
+use crate::frame::{self, Sender};
+use crate::logs::{LogServer, LogStore};
+use crate::messages::GroundCommand;
+use crate::signing::{Key, Refusal, Signer, Verifier, timestamp_from_unix_us};
+use crate::telemetry::{self, DEFAULT_INTERVAL_US, TELEMETRY_MESSAGES, Telemetry};
+
+/// The vehicle's system and component ids.
+pub const VEHICLE: Sender = Sender {
+    system: 1,
+    component: 1,
+};
+/// Heartbeat period (µs).
+pub const HEARTBEAT_US: u64 = 1_000_000;
+/// A ground silent this long (µs) has lost the link.
+pub const LINK_LOST_AFTER_US: u64 = 5_000_000;
+/// Log packets sent per [`VehicleLink::tick`].
+pub const LOG_PACKETS_PER_TICK: usize = 40;
+/// Status texts about refused frames, at most one per this period (µs).
+const REFUSAL_NOTICE_US: u64 = 1_000_000;
+
+/// The bootstrap's state, as the heartbeat's custom mode (low byte) tells it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BootstrapState {
+    /// No flight process.
+    #[default]
+    Idle = 0,
+    /// Flight process starting.
+    Connecting = 1,
+    /// Flight process up, waiting for Start Logging.
+    Connected = 2,
+    /// Start Logging sent, waiting for the process.
+    Starting = 3,
+    /// Flying and logging.
+    Flying = 4,
+    /// Stopping.
+    Stopping = 5,
+}
+
+/// What the heartbeat says of the vehicle.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VehicleStatus {
+    /// The bootstrap's state.
+    pub state: BootstrapState,
+    /// The control mode of the flight under way (custom mode's second byte: 1 manual, 2
+    /// autonomous, 3 rate, 4 attitude, 5 velocity; 0 none).
+    pub mode: u8,
+}
+
+/// Something the runtime must act on.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LinkEvent {
+    /// A thesis command to carry out; answer it with [`VehicleLink::finish`].
+    Command {
+        /// Which command to acknowledge.
+        token: CommandToken,
+        /// The command.
+        command: GroundCommand,
+    },
+    /// A frame was refused by the signing check.
+    Refused {
+        /// Why.
+        reason: Refusal,
+        /// Who sent it.
+        from: Sender,
+        /// Its message id.
+        message_id: u32,
+    },
+    /// The ground fell silent.
+    LinkLost,
+    /// The ground is heard again.
+    LinkRegained,
+}
+
+/// A command awaiting its final acknowledgement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CommandToken {
+    command: MavCmd,
+}
+
+/// Counters of the link.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LinkStats {
+    /// Frames accepted.
+    pub frames_in: u64,
+    /// Bytes or frames that were not valid MAVLink 2 of the common dialect.
+    pub malformed: u64,
+    /// Frames sent.
+    pub frames_out: u64,
+    /// Commands received (accepted by the signing check).
+    pub commands: u64,
+}
+
+/// The vehicle's link.
+pub struct VehicleLink {
+    sequence: u8,
+    signer: Option<Signer>,
+    verifier: Verifier,
+    started_us: u64,
+    intervals: BTreeMap<u32, Option<u64>>,
+    next_due: BTreeMap<u32, u64>,
+    heard_us: Option<u64>,
+    lost: bool,
+    last_refusal_notice_us: Option<u64>,
+    refused_since_notice: u64,
+    logs: LogServer,
+    outbox: Vec<Vec<u8>>,
+    /// Counters.
+    pub stats: LinkStats,
+}
+
+impl VehicleLink {
+    /// A link signing with `key` (and refusing what is not signed with it), or open without.
+    pub fn new(key: Option<Key>, now_us: u64) -> Self {
+        let intervals = TELEMETRY_MESSAGES
+            .iter()
+            .filter(|&&id| id != HEARTBEAT_DATA::ID)
+            .map(|&id| (id, Some(DEFAULT_INTERVAL_US)))
+            .collect();
+        Self {
+            sequence: 0,
+            signer: key.clone().map(|k| Signer::new(k, 0)),
+            verifier: Verifier::new(key),
+            started_us: now_us,
+            intervals,
+            next_due: BTreeMap::new(),
+            heard_us: None,
+            lost: false,
+            last_refusal_notice_us: None,
+            refused_since_notice: 0,
+            logs: LogServer::default(),
+            outbox: Vec::new(),
+            stats: LinkStats::default(),
+        }
+    }
+
+    /// Whether commands must be signed.
+    pub fn signed(&self) -> bool {
+        self.verifier.has_key()
+    }
+
+    /// Frames refused by the signing check, by reason.
+    pub fn refused(&self) -> crate::signing::RefusalCounts {
+        self.verifier.refused
+    }
+
+    /// The datagrams to send, taken.
+    pub fn take_outgoing(&mut self) -> Vec<Vec<u8>> {
+        std::mem::take(&mut self.outbox)
+    }
+
+    /// Queues `message`.
+    pub fn send(&mut self, message: &MavMessage, now_us: u64) {
+        let ts = timestamp_from_unix_us(now_us);
+        let bytes = frame::encode(
+            VEHICLE,
+            self.sequence,
+            message,
+            self.signer.as_mut().map(|s| (s, ts)),
+        );
+        self.sequence = self.sequence.wrapping_add(1);
+        self.stats.frames_out = self.stats.frames_out.saturating_add(1);
+        self.outbox.push(bytes);
+    }
+
+    /// Queues a status text, cut into 50-character chunks.
+    pub fn status_text(&mut self, severity: MavSeverity, text: &str, now_us: u64) {
+        let chars: Vec<char> = text.chars().collect();
+        for chunk in chars.chunks(50) {
+            let s: String = chunk.iter().collect();
+            let msg = MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+                severity,
+                text: s.as_str().into(),
+            });
+            self.send(&msg, now_us);
+        }
+    }
+
+    /// Handles one datagram; returns what the runtime must act on.
+    pub fn receive(
+        &mut self,
+        datagram: &[u8],
+        now_us: u64,
+        store: &dyn LogStore,
+    ) -> Vec<LinkEvent> {
+        let mut events = Vec::new();
+        for result in frame::split(datagram) {
+            let raw = match result {
+                Ok(raw) => raw,
+                Err(_) => {
+                    self.stats.malformed = self.stats.malformed.saturating_add(1);
+                    continue;
+                }
+            };
+            if let Err(reason) = self.verifier.check(&raw, timestamp_from_unix_us(now_us)) {
+                self.note_refusal(reason, &raw, now_us);
+                events.push(LinkEvent::Refused {
+                    reason,
+                    from: raw.sender,
+                    message_id: raw.message_id,
+                });
+                continue;
+            }
+            let Ok(message) = raw.message() else {
+                self.stats.malformed = self.stats.malformed.saturating_add(1);
+                continue;
+            };
+            self.stats.frames_in = self.stats.frames_in.saturating_add(1);
+            self.heard_us = Some(now_us);
+            if self.lost {
+                self.lost = false;
+                events.push(LinkEvent::LinkRegained);
+            }
+            self.handle(message, now_us, store, &mut events);
+        }
+        events
+    }
+
+    fn note_refusal(&mut self, reason: Refusal, raw: &frame::RawFrame, now_us: u64) {
+        self.refused_since_notice = self.refused_since_notice.saturating_add(1);
+        let due = self
+            .last_refusal_notice_us
+            .is_none_or(|t| now_us.saturating_sub(t) >= REFUSAL_NOTICE_US);
+        if due {
+            let text = format!(
+                "refused {} msg {} from {}/{} (#{})",
+                reason.text(),
+                raw.message_id,
+                raw.sender.system,
+                raw.sender.component,
+                self.verifier.refused.total()
+            );
+            self.status_text(MavSeverity::MAV_SEVERITY_WARNING, &text, now_us);
+            self.last_refusal_notice_us = Some(now_us);
+            self.refused_since_notice = 0;
+        }
+    }
+
+    fn handle(
+        &mut self,
+        message: MavMessage,
+        now_us: u64,
+        store: &dyn LogStore,
+        events: &mut Vec<LinkEvent>,
+    ) {
+        match message {
+            MavMessage::COMMAND_LONG(cmd) => {
+                if cmd.target_system != VEHICLE.system && cmd.target_system != 0 {
+                    return;
+                }
+                self.stats.commands = self.stats.commands.saturating_add(1);
+                self.command(&cmd, now_us, events);
+            }
+            MavMessage::LOG_REQUEST_LIST(r) => {
+                for entry in LogServer::entries(store, r.start, r.end) {
+                    self.send(&entry, now_us);
+                }
+            }
+            MavMessage::LOG_REQUEST_DATA(r) => self.logs.request(store, r.id, r.ofs, r.count),
+            MavMessage::LOG_REQUEST_END(_) => self.logs.end(),
+            // Heartbeats keep the link alive (above); everything else is not for us.
+            _ => {}
+        }
+    }
+
+    fn command(&mut self, cmd: &COMMAND_LONG_DATA, now_us: u64, events: &mut Vec<LinkEvent>) {
+        if cmd.command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL {
+            let result = self.set_interval(cmd.param1, cmd.param2);
+            self.ack(cmd.command, result, now_us);
+            return;
+        }
+        match ground_command(cmd) {
+            Ok(command) => {
+                // These take time (a process starts or stops): say so at once.
+                self.ack(cmd.command, MavResult::MAV_RESULT_IN_PROGRESS, now_us);
+                events.push(LinkEvent::Command {
+                    token: CommandToken {
+                        command: cmd.command,
+                    },
+                    command,
+                });
+            }
+            Err(crate::command::CommandError::Unsupported(_)) => {
+                self.ack(cmd.command, MavResult::MAV_RESULT_UNSUPPORTED, now_us);
+            }
+            Err(e) => {
+                self.status_text(
+                    MavSeverity::MAV_SEVERITY_ERROR,
+                    &format!("command refused: {e}"),
+                    now_us,
+                );
+                self.ack(cmd.command, MavResult::MAV_RESULT_DENIED, now_us);
+            }
+        }
+    }
+
+    fn set_interval(&mut self, message_id: f32, interval_us: f32) -> MavResult {
+        let id = message_id as u32;
+        if !self.intervals.contains_key(&id) || !message_id.is_finite() {
+            return MavResult::MAV_RESULT_DENIED;
+        }
+        let interval = if interval_us < -0.5 {
+            None
+        } else if interval_us.abs() < 0.5 {
+            Some(DEFAULT_INTERVAL_US)
+        } else if interval_us.is_finite() && interval_us >= 10_000.0 {
+            Some(interval_us as u64)
+        } else {
+            // Faster than 100 Hz is more than the telemetry has.
+            return MavResult::MAV_RESULT_DENIED;
+        };
+        self.intervals.insert(id, interval);
+        self.next_due.remove(&id);
+        MavResult::MAV_RESULT_ACCEPTED
+    }
+
+    fn ack(&mut self, command: MavCmd, result: MavResult, now_us: u64) {
+        self.send(
+            &MavMessage::COMMAND_ACK(COMMAND_ACK_DATA { command, result }),
+            now_us,
+        );
+    }
+
+    /// The final acknowledgement of a command: `Ok` accepted, `Err(why)` failed, with a
+    /// status text saying why.
+    pub fn finish(&mut self, token: CommandToken, result: Result<String, String>, now_us: u64) {
+        let name = match token.command {
+            CMD_CONNECT => "connect",
+            CMD_START_LOGGING => "start logging",
+            CMD_STOP => "stop",
+            _ => "command",
+        };
+        match result {
+            Ok(text) => {
+                self.status_text(
+                    MavSeverity::MAV_SEVERITY_INFO,
+                    &format!("{name}: {text}"),
+                    now_us,
+                );
+                self.ack(token.command, MavResult::MAV_RESULT_ACCEPTED, now_us);
+            }
+            Err(why) => {
+                self.status_text(
+                    MavSeverity::MAV_SEVERITY_ERROR,
+                    &format!("{name}: {why}"),
+                    now_us,
+                );
+                self.ack(token.command, MavResult::MAV_RESULT_FAILED, now_us);
+            }
+        }
+    }
+
+    /// Time passes: heartbeat, telemetry due, log packets, link-loss check.
+    pub fn tick(
+        &mut self,
+        now_us: u64,
+        status: VehicleStatus,
+        telemetry: Option<&Telemetry>,
+        store: &dyn LogStore,
+    ) -> Vec<LinkEvent> {
+        let mut events = Vec::new();
+        if self.due(HEARTBEAT_DATA::ID, Some(HEARTBEAT_US), now_us) {
+            let hb = heartbeat(status);
+            self.send(&hb, now_us);
+        }
+        let boot_ms = u32::try_from(now_us.saturating_sub(self.started_us) / 1000).unwrap_or(0);
+        let ids: Vec<(u32, Option<u64>)> = self.intervals.iter().map(|(k, v)| (*k, *v)).collect();
+        for (id, interval) in ids {
+            if !self.due(id, interval, now_us) {
+                continue;
+            }
+            let msg = telemetry
+                .and_then(|t| telemetry::message(id, t, boot_ms))
+                .or_else(|| {
+                    (id == SYS_STATUS_DATA::ID)
+                        .then(|| telemetry::message(id, &Telemetry::default(), boot_ms))
+                        .flatten()
+                });
+            if let Some(msg) = msg {
+                self.send(&msg, now_us);
+            }
+        }
+        for packet in self.logs.next_packets(store, LOG_PACKETS_PER_TICK) {
+            self.send(&packet, now_us);
+        }
+        let silent = self
+            .heard_us
+            .is_some_and(|heard| now_us.saturating_sub(heard) > LINK_LOST_AFTER_US);
+        if silent && !self.lost {
+            self.lost = true;
+            events.push(LinkEvent::LinkLost);
+        }
+        events
+    }
+
+    /// Whether message `id` with `interval` is due at `now_us` (and books the next time).
+    fn due(&mut self, id: u32, interval: Option<u64>, now_us: u64) -> bool {
+        let Some(interval) = interval else {
+            return false;
+        };
+        let next = self.next_due.get(&id).copied().unwrap_or(now_us);
+        if now_us < next {
+            return false;
+        }
+        // Keep the cadence; after a long pause start again from now.
+        let following = next.saturating_add(interval);
+        self.next_due.insert(
+            id,
+            if following <= now_us {
+                now_us.saturating_add(interval)
+            } else {
+                following
+            },
+        );
+        true
+    }
+}
+
+/// The heartbeat for `status`.
+pub fn heartbeat(status: VehicleStatus) -> MavMessage {
+    let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+    if status.state == BootstrapState::Flying {
+        base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+        if status.mode == 2 {
+            base_mode |= MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED;
+        } else if status.mode >= 3 {
+            base_mode |= MavModeFlag::MAV_MODE_FLAG_STABILIZE_ENABLED;
+        } else {
+            base_mode |= MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED;
+        }
+    }
+    let system_status = match status.state {
+        BootstrapState::Idle | BootstrapState::Connected => MavState::MAV_STATE_STANDBY,
+        BootstrapState::Connecting | BootstrapState::Starting => MavState::MAV_STATE_BOOT,
+        BootstrapState::Flying => MavState::MAV_STATE_ACTIVE,
+        BootstrapState::Stopping => MavState::MAV_STATE_POWEROFF,
+    };
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: u32::from(status.state as u8) | (u32::from(status.mode) << 8),
+        mavtype: MavType::MAV_TYPE_HELICOPTER,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_GENERIC,
+        base_mode,
+        system_status,
+        mavlink_version: 3,
+    })
+}
+
+#[cfg(test)]
+#[path = "vehicle_tests.rs"]
+mod tests;

@@ -1,0 +1,281 @@
+//! The vehicle's link against the ground's, datagram by datagram, with no sockets.
+
+use super::*;
+use crate::command::command_long;
+use crate::ground::GroundLink;
+use crate::logs::MemoryStore;
+use crate::messages::StartParameters;
+use crate::telemetry::{ImuRow, StateRow};
+
+const T0: u64 = 1_763_900_000_000_000;
+
+fn store() -> MemoryStore {
+    MemoryStore {
+        logs: vec![(
+            "flight_a.mcap".into(),
+            (0..20_000u32).map(|i| (i * 7 % 251) as u8).collect(),
+        )],
+    }
+}
+
+fn telemetry() -> Telemetry {
+    Telemetry {
+        imu: Some(ImuRow::default()),
+        state: Some(StateRow::default()),
+        ..Telemetry::default()
+    }
+}
+
+/// Runs both ends for `steps` of 10 ms, carrying datagrams both ways; `drop` decides from a
+/// counter whether a datagram is lost.
+fn run(
+    vehicle: &mut VehicleLink,
+    ground: &mut GroundLink,
+    t: &mut u64,
+    steps: u32,
+    drop: &mut dyn FnMut() -> bool,
+    events: &mut Vec<LinkEvent>,
+) {
+    let s = store();
+    for _ in 0..steps {
+        *t += 10_000;
+        let status = VehicleStatus::default();
+        events.extend(vehicle.tick(*t, status, Some(&telemetry()), &s));
+        for d in vehicle.take_outgoing() {
+            if !drop() {
+                ground.receive(&d, *t);
+            }
+        }
+        let mut up = Vec::new();
+        if t.is_multiple_of(1_000_000) {
+            up.push(ground.heartbeat_frame(*t));
+        }
+        up.extend(ground.download_tick(*t));
+        for d in up {
+            if !drop() {
+                events.extend(vehicle.receive(&d, *t, &s));
+            }
+        }
+    }
+}
+
+fn never() -> impl FnMut() -> bool {
+    || false
+}
+
+#[test]
+fn heartbeats_and_telemetry_arrive_at_their_rates() {
+    let mut v = VehicleLink::new(None, T0);
+    let mut g = GroundLink::new(None);
+    let (mut t, mut ev) = (T0, Vec::new());
+    run(&mut v, &mut g, &mut t, 300, &mut never(), &mut ev);
+    // 3 s: 3 heartbeats, about 9 attitudes (3 Hz).
+    let hb = g.counts[&HEARTBEAT_DATA::ID];
+    let att = g.counts[&ATTITUDE_DATA::ID];
+    assert!((3..=4).contains(&hb), "{hb}");
+    assert!((9..=10).contains(&att), "{att}");
+    let (_, h) = g.heartbeat.clone().unwrap();
+    assert_eq!(h.mavtype, MavType::MAV_TYPE_HELICOPTER);
+    assert!(
+        !h.base_mode
+            .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)
+    );
+}
+
+#[test]
+fn a_message_interval_is_set_and_a_message_can_be_stopped() {
+    let mut v = VehicleLink::new(None, T0);
+    let mut g = GroundLink::new(None);
+    let (mut t, mut ev) = (T0, Vec::new());
+    let s = store();
+    for (id, us) in [(ATTITUDE_DATA::ID, 100_000.0), (SCALED_IMU_DATA::ID, -1.0)] {
+        let cmd = COMMAND_LONG_DATA {
+            command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+            param1: id as f32,
+            param2: us,
+            ..Default::default()
+        };
+        let frame = g.command_frame(cmd, t);
+        v.receive(&frame, t, &s);
+    }
+    run(&mut v, &mut g, &mut t, 300, &mut never(), &mut ev);
+    let att = g.counts[&ATTITUDE_DATA::ID];
+    assert!((29..=31).contains(&att), "10 Hz for 3 s: {att}");
+    assert!(!g.counts.contains_key(&SCALED_IMU_DATA::ID));
+    assert_eq!(
+        g.final_ack(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL),
+        Some(MavResult::MAV_RESULT_ACCEPTED)
+    );
+}
+
+#[test]
+fn a_thesis_command_is_handed_on_and_acknowledged_twice() {
+    let mut v = VehicleLink::new(None, T0);
+    let mut g = GroundLink::new(None);
+    let start = StartParameters::new("hover1", "autonomous").unwrap();
+    let long = command_long(&GroundCommand::StartLogging(start.clone()), (1, 1)).unwrap();
+    let frame = g.command_frame(long, T0);
+    let events = v.receive(&frame, T0, &store());
+    let [LinkEvent::Command { token, command }] = events.as_slice() else {
+        panic!("{events:?}")
+    };
+    assert_eq!(*command, GroundCommand::StartLogging(start));
+    v.finish(*token, Ok("flying".into()), T0);
+    for d in v.take_outgoing() {
+        g.receive(&d, T0);
+    }
+    assert_eq!(
+        g.acks,
+        vec![
+            (CMD_START_LOGGING, MavResult::MAV_RESULT_IN_PROGRESS),
+            (CMD_START_LOGGING, MavResult::MAV_RESULT_ACCEPTED)
+        ]
+    );
+    assert!(
+        g.texts
+            .iter()
+            .any(|(_, t)| t.contains("start logging: flying"))
+    );
+}
+
+#[test]
+fn with_a_key_unsigned_wrong_and_replayed_commands_are_refused_and_the_ground_told() {
+    let key = Key::new([3; 32]);
+    let mut v = VehicleLink::new(Some(key.clone()), T0);
+    let mut good = GroundLink::new(Some(key.clone()));
+    let mut unsigned = GroundLink::new(None);
+    let mut wrong = GroundLink::new(Some(Key::new([4; 32])));
+    let stop = command_long(&GroundCommand::Stop, (1, 1)).unwrap();
+    let s = store();
+    let signed = good.command_frame(stop.clone(), T0);
+    let mut commands = 0;
+    let mut refused = Vec::new();
+    let frames = [
+        signed.clone(),
+        unsigned.command_frame(stop.clone(), T0),
+        wrong.command_frame(stop.clone(), T0),
+        signed,
+    ];
+    for (i, f) in frames.iter().enumerate() {
+        for e in v.receive(f, T0 + i as u64 * 2_000_000, &s) {
+            match e {
+                LinkEvent::Command { .. } => commands += 1,
+                LinkEvent::Refused { reason, .. } => refused.push(reason),
+                _ => {}
+            }
+        }
+    }
+    assert_eq!(commands, 1);
+    assert_eq!(
+        refused,
+        vec![Refusal::Unsigned, Refusal::BadSignature, Refusal::Replayed]
+    );
+    assert_eq!(v.refused().total(), 3);
+    for d in v.take_outgoing() {
+        good.receive(&d, T0 + 6_000_000);
+    }
+    let notices = good
+        .texts
+        .iter()
+        .filter(|(_, t)| t.contains("refused"))
+        .count();
+    assert_eq!(notices, 3, "{:?}", good.texts);
+    // What the vehicle sends is signed: the unsigned ground cannot read it... but accepts
+    // it (it has no key); the wrong key refuses it all.
+    assert_eq!(good.bad_frames, 0);
+}
+
+#[test]
+fn a_log_downloads_byte_exact_with_a_fifth_of_the_datagrams_lost_both_ways() {
+    let mut v = VehicleLink::new(Some(Key::new([5; 32])), T0);
+    let mut g = GroundLink::new(Some(Key::new([5; 32])));
+    let (mut t, mut ev) = (T0, Vec::new());
+    let s = store();
+    let list = g.log_list_frame(t);
+    v.receive(&list, t, &s);
+    for d in v.take_outgoing() {
+        g.receive(&d, t);
+    }
+    let entry = g.log_entries[&1].clone();
+    assert_eq!(entry.size, 20_000);
+    let req = g.start_download(1, entry.size, t);
+    v.receive(&req, t, &s);
+    // A fixed pseudo-random sequence that loses one datagram in five, both ways (a plain
+    // "every fifth" would fall into step with the vehicle's bursts of ten).
+    let mut state = 0x2545_f491_u32;
+    let mut drop = move || {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        state.is_multiple_of(5)
+    };
+    run(&mut v, &mut g, &mut t, 3000, &mut drop, &mut ev);
+    let dl = g.download.as_ref().unwrap();
+    assert!(
+        dl.complete(),
+        "{} of {}, {} requests",
+        dl.received(),
+        dl.size,
+        dl.requests
+    );
+    assert_eq!(dl.bytes, s.logs[0].1);
+    assert!(dl.requests > 1, "gaps were asked for again");
+}
+
+#[test]
+fn the_ground_falling_silent_is_an_event_and_its_return_too() {
+    let mut v = VehicleLink::new(None, T0);
+    let mut g = GroundLink::new(None);
+    let (mut t, mut ev) = (T0, Vec::new());
+    run(&mut v, &mut g, &mut t, 200, &mut never(), &mut ev);
+    let mut silent = || true;
+    run(&mut v, &mut g, &mut t, 700, &mut silent, &mut ev);
+    assert!(ev.contains(&LinkEvent::LinkLost));
+    run(&mut v, &mut g, &mut t, 200, &mut never(), &mut ev);
+    assert!(ev.contains(&LinkEvent::LinkRegained));
+}
+
+#[test]
+fn bad_commands_are_denied_with_a_reason_and_unknown_ones_unsupported() {
+    let mut v = VehicleLink::new(None, T0);
+    let mut g = GroundLink::new(None);
+    let s = store();
+    let mut long = command_long(
+        &GroundCommand::StartLogging(StartParameters::new("x", "manual").unwrap()),
+        (1, 1),
+    )
+    .unwrap();
+    long.param1 = 42.0;
+    let f = g.command_frame(long, T0);
+    assert!(v.receive(&f, T0, &s).is_empty());
+    let takeoff = COMMAND_LONG_DATA {
+        command: MavCmd::MAV_CMD_NAV_TAKEOFF,
+        ..Default::default()
+    };
+    let f = g.command_frame(takeoff, T0);
+    v.receive(&f, T0, &s);
+    for d in v.take_outgoing() {
+        g.receive(&d, T0);
+    }
+    assert_eq!(
+        g.final_ack(CMD_START_LOGGING),
+        Some(MavResult::MAV_RESULT_DENIED)
+    );
+    assert_eq!(
+        g.final_ack(MavCmd::MAV_CMD_NAV_TAKEOFF),
+        Some(MavResult::MAV_RESULT_UNSUPPORTED)
+    );
+    assert!(g.texts.iter().any(|(_, t)| t.contains("controller 42")));
+}
+
+proptest::proptest! {
+    #[test]
+    fn random_datagrams_never_panic_the_vehicle(bytes in proptest::collection::vec(proptest::num::u8::ANY, 0..400)) {
+        let mut v = VehicleLink::new(Some(Key::new([1; 32])), T0);
+        let _ = v.receive(&bytes, T0, &store());
+        let mut open = VehicleLink::new(None, T0);
+        let _ = open.receive(&bytes, T0, &store());
+        let mut g = GroundLink::new(None);
+        g.receive(&bytes, T0);
+    }
+}
