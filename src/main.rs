@@ -6,7 +6,9 @@
 mod bench_hil;
 mod campaign_cmd;
 mod driver_cmd;
+mod ground_cmd;
 mod hilsim_cmd;
+mod link_cmd;
 mod replay_cmd;
 mod suite_cmd;
 mod vehicle_cmd;
@@ -63,6 +65,12 @@ enum Command {
         /// The bootstrap's control socket.
         #[arg(long, global = true, env = "HELI_VEHICLE_SOCKET", default_value = vehicle_cmd::DEFAULT_SOCKET)]
         socket: std::path::PathBuf,
+        /// Serve the MAVLink 2 link on this address (udp:HOST:PORT; e.g. udp:0.0.0.0:14550).
+        #[arg(long)]
+        link: Option<String>,
+        /// The signing key file (heli link keygen); without one the link is unauthenticated.
+        #[arg(long, env = "HELI_LINK_KEY")]
+        key: Option<std::path::PathBuf>,
         #[command(subcommand)]
         ctl: Option<VehicleCtl>,
     },
@@ -81,6 +89,14 @@ enum Command {
         #[command(subcommand)]
         merge: Option<campaign_cmd::MergeCommand>,
     },
+    /// The ground station as a command-line client of the vehicle's MAVLink link
+    /// (docs/link.md).
+    Ground(ground_cmd::GroundArgs),
+    /// The MAVLink link's signing key.
+    Link {
+        #[command(subcommand)]
+        action: LinkAction,
+    },
     /// Read flight logs.
     Log {
         #[command(subcommand)]
@@ -96,6 +112,19 @@ enum VehicleCtl {
         /// The command and its arguments.
         #[arg(required = true, num_args = 1..)]
         command: Vec<String>,
+    },
+}
+
+#[derive(Subcommand)]
+enum LinkAction {
+    /// Make a new signing key file (32 random bytes, readable by its owner only).
+    Keygen {
+        /// Where to write it.
+        #[arg(long, default_value = "heli-link.key")]
+        out: std::path::PathBuf,
+        /// Replace an existing key file.
+        #[arg(long)]
+        force: bool,
     },
 }
 
@@ -237,11 +266,17 @@ fn main() -> ExitCode {
         Command::Vehicle {
             flight,
             socket,
+            link,
+            key,
             ctl,
         } => match ctl {
             Some(VehicleCtl::Ctl { command }) => vehicle_cmd::ctl(&command, &socket),
-            None => vehicle_cmd::vehicle(&flight, &socket),
+            None => vehicle_cmd::vehicle(&flight, &socket, link.as_deref(), key.as_deref()),
         },
+        Command::Ground(args) => ground_cmd::ground(&args),
+        Command::Link {
+            action: LinkAction::Keygen { out, force },
+        } => link_cmd::keygen(&out, force),
         Command::Flight(args) => vehicle_cmd::flight_process(&args),
         Command::Driver(args) => driver_cmd::driver(&args),
         Command::Campaign { run, merge } => match merge {

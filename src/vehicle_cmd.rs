@@ -166,12 +166,19 @@ pub fn write_compass_cal(path: &Path, cal: &CompassCalibration) -> Result<()> {
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
 }
 
-/// `heli vehicle`: the bootstrap.
-pub fn vehicle(args: &FlightArgs, socket: &Path) -> Result<ExitCode> {
+/// `heli vehicle`: the bootstrap, serving the MAVLink link too with `link`.
+pub fn vehicle(
+    args: &FlightArgs,
+    socket: &Path,
+    link: Option<&str>,
+    key: Option<&Path>,
+) -> Result<ExitCode> {
     args.validate()?;
     // Fail now, not at the first Connect, on a devices file that cannot be used.
     args.devices()?;
     args.compass()?;
+    let link_addr = link.map(crate::link_cmd::parse_link).transpose()?;
+    let key = crate::link_cmd::load_key(key)?;
     let exe = std::env::current_exe().context("finding the heli program")?;
     let mut child = vec![exe.into_os_string(), "flight".into()];
     child.extend(args.to_args());
@@ -180,14 +187,43 @@ pub fn vehicle(args: &FlightArgs, socket: &Path) -> Result<ExitCode> {
         child,
         warm_file: Some(heli_vehicle::warm::path_in(&args.log_dir)),
     };
-    let report = Box::new(|line: &str| {
+    let shared = Arc::new(heli_vehicle::link::LinkShared::default());
+    let print = |line: &str| {
         let mut out = std::io::stdout().lock();
         let _ = writeln!(out, "{line}");
         let _ = out.flush();
+    };
+    let to_link = Arc::clone(&shared);
+    let serving = link_addr.is_some();
+    let report = Box::new(move |line: &str| {
+        print(line);
+        if serving {
+            to_link.line(line);
+        }
     });
-    Bootstrap::new(config, report)
-        .run()
-        .map_err(anyhow::Error::msg)?;
+    let mut bootstrap = Bootstrap::new(config, report);
+    let stop = Arc::new(AtomicBool::new(false));
+    if let Some(addr) = link_addr {
+        bootstrap = bootstrap.with_link(Arc::clone(&shared));
+        let say_shared = Arc::clone(&shared);
+        let say = Arc::new(move |line: &str| {
+            print(line);
+            say_shared.line(line);
+        });
+        heli_vehicle::link::spawn(
+            addr,
+            key,
+            args.log_dir.clone(),
+            shared,
+            bootstrap.requests(),
+            say,
+            Arc::clone(&stop),
+        )
+        .with_context(|| format!("serving the link on udp {addr}"))?;
+    }
+    let result = bootstrap.run().map_err(anyhow::Error::msg);
+    stop.store(true, Ordering::Release);
+    result?;
     Ok(ExitCode::SUCCESS)
 }
 

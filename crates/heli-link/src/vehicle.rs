@@ -174,14 +174,13 @@ impl VehicleLink {
         self.outbox.push(bytes);
     }
 
-    /// Queues a status text, cut into 50-character chunks.
+    /// Queues a status text, cut at spaces into chunks of at most 50 characters (a
+    /// STATUSTEXT's size), a longer word where it must.
     pub fn status_text(&mut self, severity: MavSeverity, text: &str, now_us: u64) {
-        let chars: Vec<char> = text.chars().collect();
-        for chunk in chars.chunks(50) {
-            let s: String = chunk.iter().collect();
+        for chunk in chunks(text, 50) {
             let msg = MavMessage::STATUSTEXT(STATUSTEXT_DATA {
                 severity,
-                text: s.as_str().into(),
+                text: chunk.as_str().into(),
             });
             self.send(&msg, now_us);
         }
@@ -425,6 +424,32 @@ impl VehicleLink {
         );
         true
     }
+}
+
+/// `text` in chunks of at most `max` characters, cut at spaces where it can be.
+pub fn chunks(text: &str, max: usize) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut current = String::new();
+    for word in text.split(' ') {
+        let mut word: Vec<char> = word.chars().collect();
+        let len = current.chars().count();
+        if len > 0 && len.saturating_add(1).saturating_add(word.len()) > max {
+            out.push(std::mem::take(&mut current));
+        }
+        while word.len() > max {
+            let rest = word.split_off(max);
+            out.push(word.iter().collect());
+            word = rest;
+        }
+        if !current.is_empty() {
+            current.push(' ');
+        }
+        current.extend(word);
+    }
+    if !current.is_empty() || out.is_empty() {
+        out.push(current);
+    }
+    out
 }
 
 /// The heartbeat for `status`.

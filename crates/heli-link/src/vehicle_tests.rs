@@ -279,3 +279,13 @@ proptest::proptest! {
         g.receive(&bytes, T0);
     }
 }
+
+#[test]
+fn status_texts_are_cut_at_spaces() {
+    let text = "flight: event activity-hi t=6.03 s calibration done, gyro bias [0.0028, -0.0137, 0.0010] rad/s";
+    let parts = chunks(text, 50);
+    assert!(parts.iter().all(|p| p.chars().count() <= 50), "{parts:?}");
+    assert_eq!(parts.join(" "), text);
+    assert_eq!(chunks(&"x".repeat(120), 50).len(), 3);
+    assert_eq!(chunks("", 50), vec![String::new()]);
+}

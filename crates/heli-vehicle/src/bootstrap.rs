@@ -137,6 +137,24 @@ pub struct Bootstrap {
     restarting: bool,
     /// When flight processes were started again, for [`MAX_RESTARTS`].
     restarts: Vec<Instant>,
+    /// The MAVLink link's view of the bootstrap, when it serves one.
+    link: Option<std::sync::Arc<crate::link::LinkShared>>,
+}
+
+/// Sends requests to a running bootstrap from another thread (the link's); each reply
+/// arrives on the returned receiver.
+#[derive(Clone)]
+pub struct RequestHandle {
+    tx: Sender<Msg>,
+}
+
+impl RequestHandle {
+    /// Sends `request`; its reply (`ok …` or `error …`) comes on the receiver.
+    pub fn send(&self, request: Request) -> Receiver<String> {
+        let (tx, rx) = channel();
+        let _ = self.tx.send(Msg::Request(request, tx));
+        rx
+    }
 }
 
 impl Bootstrap {
@@ -159,6 +177,20 @@ impl Bootstrap {
             flying: None,
             restarting: false,
             restarts: Vec::new(),
+            link: None,
+        }
+    }
+
+    /// Keeps `shared` told of the state and the telemetry, for the MAVLink link.
+    pub fn with_link(mut self, shared: std::sync::Arc<crate::link::LinkShared>) -> Self {
+        self.link = Some(shared);
+        self
+    }
+
+    /// A handle to send this bootstrap requests from another thread.
+    pub fn requests(&self) -> RequestHandle {
+        RequestHandle {
+            tx: self.tx.clone(),
         }
     }
 
@@ -177,12 +209,12 @@ impl Bootstrap {
         }
         let listener = UnixListener::bind(socket)
             .map_err(|e| format!("control socket {}: {e}", socket.display()))?;
-        let tx = self.tx.clone();
+        let handle = self.requests();
         let (written_tx, written_rx) = channel();
         self.written = Some(written_rx);
         std::thread::Builder::new()
             .name("ctl".into())
-            .spawn(move || serve(&listener, &tx, &written_tx))
+            .spawn(move || crate::ctl::serve(&listener, &handle, &written_tx))
             .map_err(|e| e.to_string())?;
         self.say(&format!("listening on {}", self.config.socket.display()));
         self.resume_after_power_on();
@@ -198,6 +230,9 @@ impl Bootstrap {
     fn set_state(&mut self, state: State) {
         if self.state != state {
             self.state = state;
+            if let Some(link) = &self.link {
+                link.set_state(state, self.flying.as_deref());
+            }
             let pid = self.child.as_ref().map(|c| c.pid);
             match pid {
                 Some(pid) => self.say(&format!("state {} (pid {pid})", state.name())),
@@ -436,6 +471,9 @@ impl Bootstrap {
         let (word, rest) = line.split_once(' ').unwrap_or((line, ""));
         if word == "telemetry" {
             if self.current(generation) {
+                if let Some(link) = &self.link {
+                    link.set_telemetry(rest);
+                }
                 self.last_telemetry = Some(rest.to_string());
             }
             return;
@@ -550,46 +588,4 @@ impl Bootstrap {
             Err(e) => self.say(&format!("warm-start record unreadable, not resuming: {e}")),
         }
     }
-}
-
-/// Accepts control connections: one request line, one reply line.
-fn serve(listener: &UnixListener, tx: &Sender<Msg>, written: &Sender<()>) {
-    for stream in listener.incoming() {
-        let Ok(stream) = stream else { continue };
-        // One thread a connection, with a read timeout: an idle client holds up no one.
-        let tx = tx.clone();
-        let written = written.clone();
-        let _ = std::thread::Builder::new()
-            .name("ctl-conn".into())
-            .spawn(move || serve_one(stream, &tx, &written));
-    }
-}
-
-/// One control connection: one request line, one reply line.
-fn serve_one(mut stream: UnixStream, tx: &Sender<Msg>, written: &Sender<()>) {
-    let _ = stream.set_read_timeout(Some(Duration::from_secs(2)));
-    let mut line = String::new();
-    let read = stream
-        .try_clone()
-        .map(BufReader::new)
-        .and_then(|mut r| r.read_line(&mut line));
-    if read.is_err() {
-        return;
-    }
-    let reply = match Request::parse(&line) {
-        Ok(request) => {
-            let (reply_tx, reply_rx) = channel();
-            if tx.send(Msg::Request(request, reply_tx)).is_err() {
-                return;
-            }
-            // The reply may wait for the flight process (connect, stop).
-            reply_rx
-                .recv()
-                .unwrap_or_else(|_| "error the bootstrap is ending".into())
-        }
-        Err(e) => format!("error {e}"),
-    };
-    let _ = writeln!(stream, "{reply}");
-    let _ = stream.flush();
-    let _ = written.send(());
 }

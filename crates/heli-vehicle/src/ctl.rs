@@ -104,6 +104,51 @@ pub fn send(socket: &Path, request: &Request) -> Result<String, String> {
     }
 }
 
+/// Accepts control connections on the bootstrap's socket: one request line, one reply line.
+pub fn serve(
+    listener: &std::os::unix::net::UnixListener,
+    bootstrap: &crate::bootstrap::RequestHandle,
+    written: &std::sync::mpsc::Sender<()>,
+) {
+    for stream in listener.incoming() {
+        let Ok(stream) = stream else { continue };
+        // One thread a connection, with a read timeout: an idle client holds up no one.
+        let bootstrap = bootstrap.clone();
+        let written = written.clone();
+        let _ = std::thread::Builder::new()
+            .name("ctl-conn".into())
+            .spawn(move || serve_one(stream, &bootstrap, &written));
+    }
+}
+
+/// One control connection: one request line, one reply line.
+fn serve_one(
+    mut stream: UnixStream,
+    bootstrap: &crate::bootstrap::RequestHandle,
+    written: &std::sync::mpsc::Sender<()>,
+) {
+    let _ = stream.set_read_timeout(Some(Duration::from_secs(2)));
+    let mut line = String::new();
+    let read = stream
+        .try_clone()
+        .map(BufReader::new)
+        .and_then(|mut r| r.read_line(&mut line));
+    if read.is_err() {
+        return;
+    }
+    let reply = match Request::parse(&line) {
+        // The reply may wait for the flight process (connect, stop).
+        Ok(request) => bootstrap
+            .send(request)
+            .recv()
+            .unwrap_or_else(|_| "error the bootstrap is ending".into()),
+        Err(e) => format!("error {e}"),
+    };
+    let _ = writeln!(stream, "{reply}");
+    let _ = stream.flush();
+    let _ = written.send(());
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -22,8 +22,9 @@ use crate::threads::{Clock, sleep_unless_stopped};
 
 /// Battery read period.
 pub const BATTERY_PERIOD: Duration = Duration::from_secs(1);
-/// Telemetry report period (the thesis's display refreshes a few times a second).
-pub const TELEMETRY_PERIOD: Duration = Duration::from_millis(500);
+/// Telemetry report period: 10 Hz, so the link can serve each message at up to that rate
+/// (3 Hz by default, as the thesis's display asked).
+pub const TELEMETRY_PERIOD: Duration = Duration::from_millis(100);
 
 /// A request to the battery server: the reply goes to the enclosed sender.
 pub type BatteryRequest = Sender<Option<Stamped<f64>>>;
@@ -79,52 +80,108 @@ pub fn ask_battery(server: &Sender<BatteryRequest>) -> Option<Stamped<f64>> {
     rx.recv_timeout(Duration::from_millis(200)).ok().flatten()
 }
 
-/// One telemetry report: the freshest value of each stream, as the ground display's rows.
+/// One telemetry report: the freshest value of each stream, as the ground display's rows
+/// and the link's telemetry messages.
 pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u64) -> Value {
+    use heli_link::telemetry as t;
     let state = streams.state.latest().map(|s| {
         let nav = &s.value.nav;
         let (roll, pitch, yaw) = nav.euler_rad();
-        json!({
-            "t_us": s.t_us,
-            "phase": s.value.phase.name(),
-            "roll_rad": roll, "pitch_rad": pitch, "yaw_rad": yaw,
-            "pos_ned_m": [nav.pos_ned_m.x, nav.pos_ned_m.y, nav.pos_ned_m.z],
-            "vel_ned_mps": [nav.vel_ned_mps.x, nav.vel_ned_mps.y, nav.vel_ned_mps.z],
-        })
+        t::StateRow {
+            phase: s.value.phase.name().to_string(),
+            euler_rad: [roll, pitch, yaw],
+            rate_rps: [
+                nav.rate_body_rps.x,
+                nav.rate_body_rps.y,
+                nav.rate_body_rps.z,
+            ],
+            pos_ned_m: [nav.pos_ned_m.x, nav.pos_ned_m.y, nav.pos_ned_m.z],
+            vel_ned_mps: [nav.vel_ned_mps.x, nav.vel_ned_mps.y, nav.vel_ned_mps.z],
+        }
     });
     let servo = streams.servo.latest().map(|s| {
         let c = s.value.controls;
-        json!({"t_us": s.t_us, "aileron": c.aileron, "elevator": c.elevator,
-               "rudder": c.rudder, "collective": c.collective, "throttle": c.throttle,
-               "rotor_rpm": s.value.rotor_rpm})
+        t::ServoRow {
+            commands: [c.aileron, c.elevator, c.rudder, c.collective, c.throttle],
+        }
     });
-    let gps = streams.gps.latest().map(|g| {
-        json!({"t_us": g.t_us, "satellites": g.value.satellites,
-               "lat_deg": g.value.lat_deg, "lon_deg": g.value.lon_deg})
+    let uplink = streams.uplink.latest().map(|u| {
+        let p = u.value.pulses;
+        t::UplinkRow {
+            pulses_us: [
+                p.aileron_us,
+                p.elevator_us,
+                p.rudder_us,
+                p.collective_us,
+                p.throttle_us,
+            ],
+            auto_mode: u.value.auto_mode,
+            bypass: u.value.bypass,
+            rotor_rpm: u.value.rotor_rpm,
+        }
     });
-    let health = streams.health.latest().map(|h| {
-        Device::ALL
-            .iter()
-            .map(|d| (d.name().to_string(), json!(h.state(*d).name())))
-            .collect::<serde_json::Map<String, Value>>()
+    let gps = streams.gps.latest().map(|g| t::GpsRow {
+        lat_deg: g.value.lat_deg,
+        lon_deg: g.value.lon_deg,
+        alt_m: g.value.alt_m,
+        vel_ned_mps: g.value.vel_ned_mps,
+        satellites: g.value.satellites,
+        fix_3d: g.value.fix == heli_proto::gps::FixType::Fix3D,
     });
-    json!({
-        "t_us": now_us,
-        "state": state,
-        "servo": servo,
-        "gps": gps,
-        "battery_v": battery.map(|b| b.value),
-        "health": health,
-        "published": {
-            "imu": streams.imu.published(),
-            "state": streams.state.published(),
-            "servo": streams.servo.published(),
-            "uplink": streams.uplink.published(),
-            "gps": streams.gps.published(),
-            "baro": streams.baro.published(),
-            "compass": streams.compass.published(),
-        },
-    })
+    let imu = streams.imu.latest().map(|i| t::ImuRow {
+        rate_rps: i.value.imu.rate_rps,
+        accel_mps2: i.value.imu.accel_mps2,
+    });
+    let baro = streams.baro.latest().map(|b| t::BaroRow {
+        pressure_mbar: b.value.pressure_mbar,
+        alt_m: b.value.alt_m,
+    });
+    let compass = streams.compass.latest().map(|c| t::CompassRow {
+        field_gauss: c.value.field.field_gauss,
+        heading_rad: c.value.heading_rad,
+    });
+    let health = streams
+        .health
+        .latest()
+        .map(|h| {
+            Device::ALL
+                .iter()
+                .map(|d| t::DeviceHealth {
+                    device: d.name().to_string(),
+                    state: h.state(*d).name().to_string(),
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let telemetry = t::Telemetry {
+        t_us: now_us,
+        imu,
+        state,
+        uplink,
+        servo,
+        gps,
+        baro,
+        compass,
+        battery_v: battery.map(|b| b.value),
+        battery_remaining: None,
+        health,
+    };
+    let mut value = serde_json::to_value(&telemetry).unwrap_or(Value::Null);
+    if let Some(map) = value.as_object_mut() {
+        map.insert(
+            "published".into(),
+            json!({
+                "imu": streams.imu.published(),
+                "state": streams.state.published(),
+                "servo": streams.servo.published(),
+                "uplink": streams.uplink.published(),
+                "gps": streams.gps.published(),
+                "baro": streams.baro.published(),
+                "compass": streams.compass.published(),
+            }),
+        );
+    }
+    value
 }
 
 /// Starts the telemetry server: every [`TELEMETRY_PERIOD`] it takes a [`snapshot`] and hands

@@ -1,0 +1,350 @@
+//! The bootstrap's MAVLink link (`heli vehicle --link udp:HOST:PORT`): a thread that serves
+//! [`heli_link::vehicle::VehicleLink`] on a UDP socket. Datagrams from any ground station
+//! are taken; what the vehicle sends goes to every ground heard in the last
+//! [`PEER_TIMEOUT`]. The thesis commands go to the bootstrap like the control socket's, and
+//! their replies become the commands' acknowledgements; the bootstrap's and the flight
+//! process's lines become status texts; the flight process's telemetry feeds the link's
+//! messages. Losing the link changes nothing on board but a reported event.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::net::{SocketAddr, UdpSocket};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Receiver;
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use heli_link::logs::{LogInfo, LogStore};
+use heli_link::signing::Key;
+use heli_link::telemetry::Telemetry;
+use heli_link::vehicle::{BootstrapState, LinkEvent, VehicleLink, VehicleStatus};
+use mavlink::dialects::common::MavSeverity;
+
+use crate::bootstrap::{RequestHandle, State};
+use crate::ctl::Request;
+
+/// A ground not heard for this long is no longer sent to.
+pub const PEER_TIMEOUT: Duration = Duration::from_secs(10);
+/// The link thread's period.
+const TICK: Duration = Duration::from_millis(10);
+/// Most status texts waiting to be sent (older ones are dropped first).
+const MAX_QUEUED_TEXTS: usize = 200;
+
+/// What the bootstrap shares with its link thread.
+#[derive(Default)]
+pub struct LinkShared {
+    inner: Mutex<Shared>,
+}
+
+#[derive(Default)]
+struct Shared {
+    status: VehicleStatus,
+    telemetry: Option<Telemetry>,
+    texts: VecDeque<(MavSeverity, String)>,
+}
+
+impl LinkShared {
+    fn lock(&self) -> std::sync::MutexGuard<'_, Shared> {
+        self.inner
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// The bootstrap's state changed; `flying` is the start line of the flight under way.
+    pub fn set_state(&self, state: State, flying: Option<&str>) {
+        let state = match state {
+            State::Idle => BootstrapState::Idle,
+            State::Connecting => BootstrapState::Connecting,
+            State::Connected => BootstrapState::Connected,
+            State::Starting => BootstrapState::Starting,
+            State::Flying => BootstrapState::Flying,
+            State::Stopping => BootstrapState::Stopping,
+        };
+        let mode = flying
+            .and_then(|words| words.split_whitespace().nth(1))
+            .map_or(0, mode_code);
+        self.lock().status = VehicleStatus { state, mode };
+    }
+
+    /// The flight process's telemetry line (JSON).
+    pub fn set_telemetry(&self, json: &str) {
+        if let Ok(t) = serde_json::from_str::<Telemetry>(json) {
+            self.lock().telemetry = Some(t);
+        }
+    }
+
+    /// A line the bootstrap reported, to go to the ground as a status text.
+    pub fn line(&self, line: &str) {
+        let severity = severity_of(line);
+        let mut shared = self.lock();
+        if shared.texts.len() >= MAX_QUEUED_TEXTS {
+            shared.texts.pop_front();
+        }
+        shared.texts.push_back((severity, line.to_string()));
+    }
+}
+
+/// The heartbeat's mode code of a controller name.
+fn mode_code(name: &str) -> u8 {
+    match name {
+        "manual" => 1,
+        "autonomous" => 2,
+        "rate" => 3,
+        "attitude" => 4,
+        "velocity" => 5,
+        _ => 0,
+    }
+}
+
+/// The MAVLink severity of a bootstrap line: the flight process's events carry theirs.
+fn severity_of(line: &str) -> MavSeverity {
+    let event_level = line
+        .strip_prefix("flight: event ")
+        .and_then(|rest| rest.split_whitespace().next());
+    match event_level {
+        Some("fatal") => MavSeverity::MAV_SEVERITY_CRITICAL,
+        Some("warning-hi") => MavSeverity::MAV_SEVERITY_WARNING,
+        Some("warning-lo") => MavSeverity::MAV_SEVERITY_NOTICE,
+        Some(_) => MavSeverity::MAV_SEVERITY_INFO,
+        None if line.contains("CRASHED") => MavSeverity::MAV_SEVERITY_CRITICAL,
+        None if line.starts_with("bootstrap:") && line.contains("error") => {
+            MavSeverity::MAV_SEVERITY_ERROR
+        }
+        None => MavSeverity::MAV_SEVERITY_INFO,
+    }
+}
+
+/// The flight logs of a directory (`*.mcap`, numbered from 1 by name).
+pub struct DirStore {
+    dir: PathBuf,
+}
+
+impl DirStore {
+    /// The logs of `dir`.
+    pub fn new(dir: PathBuf) -> Self {
+        Self { dir }
+    }
+
+    fn files(&self) -> Vec<(String, std::fs::Metadata)> {
+        let mut files: Vec<(String, std::fs::Metadata)> = std::fs::read_dir(&self.dir)
+            .map(|rd| {
+                rd.filter_map(Result::ok)
+                    .filter_map(|e| {
+                        let name = e.file_name().to_string_lossy().to_string();
+                        let meta = e.metadata().ok()?;
+                        (name.ends_with(".mcap") && meta.is_file()).then_some((name, meta))
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        files.sort_by(|a, b| a.0.cmp(&b.0));
+        files
+    }
+}
+
+impl LogStore for DirStore {
+    fn list(&self) -> Vec<LogInfo> {
+        self.files()
+            .into_iter()
+            .zip(1u16..)
+            .map(|((name, meta), id)| LogInfo {
+                id,
+                name,
+                size: u32::try_from(meta.len()).unwrap_or(u32::MAX),
+                time_utc: meta
+                    .modified()
+                    .ok()
+                    .and_then(|m| m.duration_since(UNIX_EPOCH).ok())
+                    .map_or(0, |d| u32::try_from(d.as_secs()).unwrap_or(u32::MAX)),
+            })
+            .collect()
+    }
+
+    fn read(&self, id: u16, ofs: u32, buf: &mut [u8]) -> usize {
+        use std::io::{Read, Seek, SeekFrom};
+        let Some((name, _)) = self
+            .files()
+            .into_iter()
+            .nth(usize::from(id).saturating_sub(1))
+        else {
+            return 0;
+        };
+        if id == 0 {
+            return 0;
+        }
+        let Ok(mut file) = std::fs::File::open(self.dir.join(name)) else {
+            return 0;
+        };
+        if file.seek(SeekFrom::Start(u64::from(ofs))).is_err() {
+            return 0;
+        }
+        let mut n = 0;
+        while n < buf.len() {
+            match file.read(buf.get_mut(n..).unwrap_or(&mut [])) {
+                Ok(0) | Err(_) => break,
+                Ok(k) => n = n.saturating_add(k),
+            }
+        }
+        n
+    }
+}
+
+fn unix_us() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
+}
+
+/// Starts the link thread on `addr`. `say` prints a line of the link's own (it is also sent
+/// to the ground).
+pub fn spawn(
+    addr: SocketAddr,
+    key: Option<Key>,
+    log_dir: PathBuf,
+    shared: Arc<LinkShared>,
+    requests: RequestHandle,
+    say: Arc<dyn Fn(&str) + Send + Sync>,
+    stop: Arc<AtomicBool>,
+) -> std::io::Result<JoinHandle<()>> {
+    let socket = UdpSocket::bind(addr)?;
+    socket.set_read_timeout(Some(TICK))?;
+    let local = socket.local_addr()?;
+    let signed = key.is_some();
+    say(&format!(
+        "link: MAVLink 2 on udp {local}, {}",
+        if signed {
+            "commands must be signed"
+        } else {
+            "UNAUTHENTICATED: no signing key, anyone on the network can command the vehicle (heli link keygen)"
+        }
+    ));
+    std::thread::Builder::new().name("link".into()).spawn(move || {
+        let store = DirStore::new(log_dir);
+        let mut link = VehicleLink::new(key, unix_us());
+        let mut peers: BTreeMap<SocketAddr, Instant> = BTreeMap::new();
+        let mut pending: Vec<(heli_link::vehicle::CommandToken, Receiver<String>)> = Vec::new();
+        let mut buf = [0u8; 2048];
+        let mut last_unsigned_warning: Option<Instant> = None;
+        let mut last_refusal_line: Option<Instant> = None;
+        while !stop.load(Ordering::Acquire) {
+            let mut events = Vec::new();
+            if let Ok((n, from)) = socket.recv_from(&mut buf) {
+                peers.insert(from, Instant::now());
+                events.extend(link.receive(buf.get(..n).unwrap_or(&[]), unix_us(), &store));
+            }
+            let (status, telemetry, texts) = {
+                let mut s = shared.lock();
+                (s.status, s.telemetry.clone(), std::mem::take(&mut s.texts))
+            };
+            for (severity, text) in texts {
+                link.status_text(severity, &text, unix_us());
+            }
+            if !signed && last_unsigned_warning.is_none_or(|t| t.elapsed() > Duration::from_secs(30)) {
+                link.status_text(
+                    MavSeverity::MAV_SEVERITY_WARNING,
+                    "link unauthenticated: no signing key set",
+                    unix_us(),
+                );
+                last_unsigned_warning = Some(Instant::now());
+            }
+            events.extend(link.tick(unix_us(), status, telemetry.as_ref(), &store));
+            for event in events {
+                match event {
+                    LinkEvent::Command { token, command } => {
+                        pending.push((token, requests.send(Request::Ground(command))));
+                    }
+                    // The link tells the ground itself (at most once a second); the
+                    // console gets the same, no more often.
+                    LinkEvent::Refused { reason, from, message_id } => {
+                        if last_refusal_line.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
+                            println!(
+                                "link: refused a {} frame (message {message_id}) from {}/{}; {} refused so far",
+                                reason.text(),
+                                from.system,
+                                from.component,
+                                link.refused().total()
+                            );
+                            last_refusal_line = Some(Instant::now());
+                        }
+                    }
+                    LinkEvent::LinkLost => say("link: lost (no ground heard for 5 s); flying on"),
+                    LinkEvent::LinkRegained => say("link: ground heard again"),
+                }
+            }
+            pending.retain(|(token, rx)| match rx.try_recv() {
+                Ok(reply) => {
+                    let result = match reply.strip_prefix("ok ") {
+                        Some(rest) => Ok(rest.to_string()),
+                        None => Err(reply.strip_prefix("error ").unwrap_or(&reply).to_string()),
+                    };
+                    link.finish(*token, result, unix_us());
+                    false
+                }
+                Err(std::sync::mpsc::TryRecvError::Empty) => true,
+                Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                    link.finish(*token, Err("the bootstrap did not answer".into()), unix_us());
+                    false
+                }
+            });
+            peers.retain(|_, heard| heard.elapsed() < PEER_TIMEOUT);
+            for datagram in link.take_outgoing() {
+                for peer in peers.keys() {
+                    let _ = socket.send_to(&datagram, peer);
+                }
+            }
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lines_get_the_severity_of_their_events() {
+        assert_eq!(
+            severity_of("flight: event fatal t=1.00 s imu silent"),
+            MavSeverity::MAV_SEVERITY_CRITICAL
+        );
+        assert_eq!(
+            severity_of("flight: event warning-hi t=1.00 s GPS lost"),
+            MavSeverity::MAV_SEVERITY_WARNING
+        );
+        assert_eq!(
+            severity_of("bootstrap: flight process CRASHED: signal 9 (SIGKILL)"),
+            MavSeverity::MAV_SEVERITY_CRITICAL
+        );
+        assert_eq!(
+            severity_of("bootstrap: state idle"),
+            MavSeverity::MAV_SEVERITY_INFO
+        );
+    }
+
+    #[test]
+    fn the_heartbeat_knows_the_mode_of_the_flight_under_way() {
+        let shared = LinkShared::default();
+        shared.set_state(State::Flying, Some("hover1 velocity hover"));
+        let s = shared.lock().status;
+        assert_eq!((s.state, s.mode), (BootstrapState::Flying, 5));
+    }
+
+    #[test]
+    fn a_directory_of_logs_is_listed_and_read() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("flight_b.mcap"), vec![2u8; 300]).unwrap();
+        std::fs::write(dir.path().join("flight_a.mcap"), vec![1u8; 100]).unwrap();
+        std::fs::write(dir.path().join("warm-start"), "x").unwrap();
+        let store = DirStore::new(dir.path().to_path_buf());
+        let list = store.list();
+        assert_eq!(list.len(), 2);
+        assert_eq!(
+            (list[0].id, list[0].name.as_str(), list[0].size),
+            (1, "flight_a.mcap", 100)
+        );
+        let mut buf = [0u8; 90];
+        assert_eq!(store.read(2, 250, &mut buf), 50);
+        assert_eq!(buf[0], 2);
+        assert_eq!(store.read(3, 0, &mut buf), 0);
+    }
+}

@@ -1,0 +1,387 @@
+//! `heli ground --link udp:HOST:PORT COMMAND`: the ground station as a command-line client
+//! of the vehicle's MAVLink link (the web display will use the same client library,
+//! `heli_link::ground`). Connect, Start Logging, Stop (with the final parameters: the
+//! flight's log is downloaded into the base directory under the suffix), status, the log
+//! list and downloads.
+
+use std::net::{SocketAddr, UdpSocket};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand};
+use heli_link::GroundCommand;
+use heli_link::command::command_long;
+use heli_link::ground::{COMMAND_RETRY_US, GroundLink};
+use heli_link::messages::StartParameters;
+use mavlink::dialects::common::MavResult;
+
+use crate::link_cmd::{load_key, parse_link};
+
+/// `heli ground` options.
+#[derive(Args)]
+pub struct GroundArgs {
+    /// The vehicle's link address.
+    #[arg(long, global = true, default_value = "udp:127.0.0.1:14550")]
+    link: String,
+    /// The signing key file shared with the vehicle (heli link keygen).
+    #[arg(long, global = true, env = "HELI_LINK_KEY")]
+    key: Option<PathBuf>,
+    /// How long to wait for the vehicle's answer (s).
+    #[arg(long, global = true, default_value_t = 30.0)]
+    timeout: f64,
+    #[command(subcommand)]
+    action: GroundAction,
+}
+
+/// What the ground does.
+#[derive(Subcommand)]
+pub enum GroundAction {
+    /// Connect: the bootstrap starts the flight process.
+    Connect,
+    /// Start Logging with the flight parameters.
+    Start {
+        /// Suffix of this flight's log file (1-15 letters, digits, '-' or '_').
+        suffix: String,
+        /// Controller: manual, autonomous, rate, attitude or velocity.
+        mode: String,
+        /// Flight plan the vehicle knows by name (hover, demo, rolls); its default if absent.
+        plan: Option<String>,
+    },
+    /// Stop; then, with the final parameters, the flight's log is saved as
+    /// BASE_DIR/flight_SUFFIX.mcap.
+    Stop {
+        /// Base directory for the flight's log.
+        #[arg(long)]
+        base_dir: Option<PathBuf>,
+        /// File suffix for the flight's log.
+        #[arg(long)]
+        suffix: Option<String>,
+    },
+    /// The vehicle's heartbeat, telemetry and messages for a few seconds.
+    Status {
+        /// How long to listen (s).
+        #[arg(long, default_value_t = 2.0)]
+        seconds: f64,
+    },
+    /// The logs on the vehicle.
+    Logs,
+    /// Download one log.
+    Download {
+        /// Log id (from `heli ground logs`).
+        id: u16,
+        /// Where to write it.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+fn unix_us() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
+}
+
+/// A ground station session on a socket.
+struct Session {
+    socket: UdpSocket,
+    vehicle: SocketAddr,
+    link: GroundLink,
+    last_heartbeat: Option<Instant>,
+    texts_shown: usize,
+}
+
+impl Session {
+    fn open(args: &GroundArgs) -> Result<Self> {
+        let vehicle = parse_link(&args.link)?;
+        let key = load_key(args.key.as_deref())?;
+        let bind: SocketAddr = if vehicle.is_ipv4() {
+            "0.0.0.0:0".parse()?
+        } else {
+            "[::]:0".parse()?
+        };
+        let socket = UdpSocket::bind(bind).context("opening a UDP socket")?;
+        socket.set_read_timeout(Some(Duration::from_millis(10)))?;
+        Ok(Self {
+            socket,
+            vehicle,
+            link: GroundLink::new(key),
+            last_heartbeat: None,
+            texts_shown: 0,
+        })
+    }
+
+    fn send(&self, datagram: &[u8]) {
+        let _ = self.socket.send_to(datagram, self.vehicle);
+    }
+
+    /// One turn: heartbeat when due, receive what came, print new status texts.
+    fn pump(&mut self) {
+        if self
+            .last_heartbeat
+            .is_none_or(|t| t.elapsed() >= Duration::from_secs(1))
+        {
+            let hb = self.link.heartbeat_frame(unix_us());
+            self.send(&hb);
+            self.last_heartbeat = Some(Instant::now());
+        }
+        let mut buf = [0u8; 2048];
+        while let Ok(n) = self.socket.recv(&mut buf) {
+            self.link.receive(buf.get(..n).unwrap_or(&[]), unix_us());
+        }
+        for (severity, text) in self.link.texts.iter().skip(self.texts_shown) {
+            eprintln!("vehicle [{}]: {text}", severity_word(*severity));
+        }
+        self.texts_shown = self.link.texts.len();
+        if let Some(dl) = self.link.download_tick(unix_us()) {
+            self.send(&dl);
+        }
+    }
+
+    /// Sends a command until it is acknowledged with a final result, or `timeout` passes.
+    fn command(&mut self, command: &GroundCommand, timeout: Duration) -> Result<MavResult> {
+        let long = command_long(command, (1, 1))
+            .context("this command or its parameters cannot go over the link")?;
+        let id = long.command;
+        let start = Instant::now();
+        let acks_before = self.link.acks.len();
+        let mut sent: Option<Instant> = None;
+        let mut in_progress = false;
+        while start.elapsed() < timeout {
+            let retry = Duration::from_micros(COMMAND_RETRY_US);
+            if !in_progress && sent.is_none_or(|t| t.elapsed() >= retry) {
+                let frame = self.link.command_frame(long.clone(), unix_us());
+                self.send(&frame);
+                sent = Some(Instant::now());
+            }
+            self.pump();
+            for (c, r) in self.link.acks.iter().skip(acks_before) {
+                if *c == id {
+                    if *r == MavResult::MAV_RESULT_IN_PROGRESS {
+                        in_progress = true;
+                    } else {
+                        return Ok(*r);
+                    }
+                }
+            }
+        }
+        bail!(
+            "no answer from the vehicle at {} within {:.0} s{}",
+            self.vehicle,
+            timeout.as_secs_f64(),
+            if self.link.heartbeat.is_none() {
+                " (no heartbeat either: is `heli vehicle --link` running there, with the same key?)"
+            } else {
+                ""
+            }
+        )
+    }
+
+    fn listen(&mut self, seconds: f64) {
+        let end = Instant::now() + Duration::from_secs_f64(seconds.clamp(0.0, 3600.0));
+        while Instant::now() < end {
+            self.pump();
+        }
+    }
+
+    fn log_list(&mut self, timeout: Duration) -> Result<()> {
+        let frame = self.link.log_list_frame(unix_us());
+        self.send(&frame);
+        let start = Instant::now();
+        let mut asked = Instant::now();
+        while start.elapsed() < timeout {
+            self.pump();
+            let want = self
+                .link
+                .log_entries
+                .values()
+                .next()
+                .map(|e| usize::from(e.num_logs));
+            if want
+                .is_some_and(|n| self.link.log_entries.values().filter(|e| e.id > 0).count() >= n)
+            {
+                return Ok(());
+            }
+            if asked.elapsed() > Duration::from_secs(1) {
+                let frame = self.link.log_list_frame(unix_us());
+                self.send(&frame);
+                asked = Instant::now();
+            }
+        }
+        bail!(
+            "the vehicle's log list did not arrive within {:.0} s",
+            timeout.as_secs_f64()
+        )
+    }
+
+    fn download(&mut self, id: u16, out: &Path, timeout: Duration) -> Result<()> {
+        self.log_list(timeout)?;
+        let Some(entry) = self
+            .link
+            .log_entries
+            .get(&id)
+            .cloned()
+            .filter(|e| e.num_logs > 0)
+        else {
+            bail!("the vehicle has no log {id} (heli ground logs lists them)");
+        };
+        let bar = indicatif::ProgressBar::new(u64::from(entry.size));
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "log {msg} {bar:40} {bytes}/{total_bytes} {bytes_per_sec} eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar.set_message(id.to_string());
+        let req = self.link.start_download(id, entry.size, unix_us());
+        self.send(&req);
+        let mut last_progress = Instant::now();
+        let mut received = 0;
+        loop {
+            self.pump();
+            let Some(dl) = self.link.download.as_ref() else {
+                break;
+            };
+            if dl.received() != received {
+                received = dl.received();
+                last_progress = Instant::now();
+                bar.set_position(received);
+            }
+            if dl.complete() {
+                break;
+            }
+            if last_progress.elapsed() > timeout {
+                bail!(
+                    "log {id}: nothing new for {:.0} s ({received} of {} bytes)",
+                    timeout.as_secs_f64(),
+                    entry.size
+                );
+            }
+        }
+        bar.finish();
+        let end = self.link.log_end_frame(unix_us());
+        self.send(&end);
+        let bytes = self
+            .link
+            .download
+            .take()
+            .map(|d| d.bytes)
+            .unwrap_or_default();
+        if let Some(dir) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
+        std::fs::write(out, &bytes).with_context(|| format!("writing {}", out.display()))?;
+        println!("log {id}: {} bytes to {}", bytes.len(), out.display());
+        Ok(())
+    }
+}
+
+fn severity_word(s: mavlink::dialects::common::MavSeverity) -> &'static str {
+    use mavlink::dialects::common::MavSeverity::*;
+    match s {
+        MAV_SEVERITY_EMERGENCY | MAV_SEVERITY_ALERT | MAV_SEVERITY_CRITICAL => "critical",
+        MAV_SEVERITY_ERROR => "error",
+        MAV_SEVERITY_WARNING => "warning",
+        MAV_SEVERITY_NOTICE => "notice",
+        MAV_SEVERITY_INFO | MAV_SEVERITY_DEBUG => "info",
+    }
+}
+
+fn outcome(what: &str, result: MavResult) -> Result<ExitCode> {
+    if result == MavResult::MAV_RESULT_ACCEPTED {
+        println!("{what}: accepted");
+        Ok(ExitCode::SUCCESS)
+    } else {
+        bail!("{what}: {result:?} (the vehicle's messages above say why)")
+    }
+}
+
+/// `heli ground …`.
+pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
+    if !(args.timeout.is_finite() && args.timeout > 0.0) {
+        bail!("--timeout must be a positive number of seconds");
+    }
+    let timeout = Duration::from_secs_f64(args.timeout.min(86_400.0));
+    let mut s = Session::open(args)?;
+    match &args.action {
+        GroundAction::Connect => outcome("connect", s.command(&GroundCommand::Connect, timeout)?),
+        GroundAction::Start { suffix, mode, plan } => {
+            let mut p = StartParameters::new(suffix, mode).map_err(anyhow::Error::msg)?;
+            p.plan = plan.clone();
+            let c = GroundCommand::StartLogging(p);
+            outcome("start logging", s.command(&c, timeout)?)
+        }
+        GroundAction::Stop { base_dir, suffix } => {
+            let result = s.command(&GroundCommand::Stop, timeout)?;
+            if result != MavResult::MAV_RESULT_ACCEPTED {
+                return outcome("stop", result);
+            }
+            println!("stop: accepted");
+            // The thesis's cleanup routine: the final parameters say where the flight's
+            // log goes. The newest log on the vehicle is the flight just stopped.
+            let (Some(dir), Some(suffix)) = (base_dir, suffix) else {
+                return Ok(ExitCode::SUCCESS);
+            };
+            StartParameters::new(suffix, "manual").map_err(anyhow::Error::msg)?;
+            s.log_list(timeout)?;
+            let newest = s
+                .link
+                .log_entries
+                .values()
+                .filter(|e| e.id > 0)
+                .max_by_key(|e| (e.time_utc, e.id))
+                .map(|e| e.id)
+                .context("the vehicle has no log to save")?;
+            s.download(newest, &dir.join(format!("flight_{suffix}.mcap")), timeout)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        GroundAction::Status { seconds } => {
+            s.listen(*seconds);
+            let Some((_, hb)) = s.link.heartbeat.clone() else {
+                bail!(
+                    "no heartbeat from {} (is `heli vehicle --link` running, with the same key?)",
+                    s.vehicle
+                );
+            };
+            let states = [
+                "idle",
+                "connecting",
+                "connected",
+                "starting",
+                "flying",
+                "stopping",
+            ];
+            let modes = ["-", "manual", "autonomous", "rate", "attitude", "velocity"];
+            let state = states.get((hb.custom_mode & 0xFF) as usize).unwrap_or(&"?");
+            let mode = modes
+                .get(((hb.custom_mode >> 8) & 0xFF) as usize)
+                .unwrap_or(&"?");
+            println!("vehicle: {:?}, bootstrap {state}, mode {mode}", hb.mavtype);
+            for (id, n) in &s.link.counts {
+                let name = s
+                    .link
+                    .latest
+                    .get(id)
+                    .map_or("?", |(_, m)| mavlink::Message::message_name(m));
+                println!("  {name:<22} {n:>5} in {seconds:.1} s");
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        GroundAction::Logs => {
+            s.log_list(timeout)?;
+            let logs: Vec<_> = s.link.log_entries.values().filter(|e| e.id > 0).collect();
+            if logs.is_empty() {
+                println!("no logs on the vehicle");
+            }
+            for e in logs {
+                println!("{:>4}  {:>10} bytes  time {}", e.id, e.size, e.time_utc);
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        GroundAction::Download { id, out } => {
+            s.download(*id, out, timeout)?;
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
