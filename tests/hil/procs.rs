@@ -152,8 +152,22 @@ impl Vehicle {
 
     /// Starts the bootstrap with its flight clock running `clock_speed` times real time.
     pub fn start_with(dir: &Path, dev: &Path, clock_speed: f64) -> Self {
+        Self::start_full(dir, dev, clock_speed, &[])
+    }
+
+    /// Starts the bootstrap serving the MAVLink link on `link` (`udp:HOST:PORT`), signed
+    /// with the key file `key` when one is given.
+    pub fn start_linked(dir: &Path, dev: &Path, link: &str, key: Option<&Path>) -> Self {
+        let mut extra = vec!["--link".to_string(), link.to_string()];
+        if let Some(key) = key {
+            extra.extend(["--key".to_string(), key.display().to_string()]);
+        }
+        Self::start_full(dir, dev, 1.0, &extra)
+    }
+
+    fn start_full(dir: &Path, dev: &Path, clock_speed: f64, extra: &[String]) -> Self {
         let socket = dir.join("ctl.sock");
-        let args: Vec<String> = [
+        let mut args: Vec<String> = [
             "vehicle",
             "--hilsim",
             &dev.display().to_string(),
@@ -171,6 +185,7 @@ impl Vehicle {
         .iter()
         .map(|s| s.to_string())
         .collect();
+        args.extend_from_slice(extra);
         let proc = Lines::spawn(&args);
         proc.wait_for("bootstrap: listening", Duration::from_secs(10));
         Self { proc, socket }
@@ -300,4 +315,31 @@ pub fn python_reads(log: &Path) {
         "python mcap read only {n} messages of {}",
         log.display()
     );
+}
+
+/// A free UDP port on the loopback (taken and let go: nothing else on this machine is
+/// expected to grab it in between).
+pub fn free_udp_port() -> u16 {
+    std::net::UdpSocket::bind("127.0.0.1:0")
+        .and_then(|s| s.local_addr())
+        .map(|a| a.port())
+        .unwrap_or_else(|e| panic!("no UDP port: {e}"))
+}
+
+/// Runs `heli ground ARGS --link LINK [--key KEY]`; returns (success, stdout + stderr).
+pub fn ground(link: &str, key: Option<&Path>, args: &[&str]) -> (bool, String) {
+    let mut all: Vec<String> = vec!["ground".into()];
+    all.extend(args.iter().map(|s| s.to_string()));
+    all.extend(["--link".into(), link.into()]);
+    if let Some(key) = key {
+        all.extend(["--key".into(), key.display().to_string()]);
+    }
+    let refs: Vec<&str> = all.iter().map(String::as_str).collect();
+    let out = heli(&refs);
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.success(), text)
 }
