@@ -65,6 +65,13 @@ pub enum GroundAction {
         #[arg(long, default_value_t = 2.0)]
         seconds: f64,
     },
+    /// The vehicle's parameters; `params set NAME VALUE` sets one (checked on board: a bad
+    /// value is refused with its reason and changes nothing).
+    Params {
+        /// `set NAME VALUE`.
+        #[arg(num_args = 0..=3)]
+        set: Vec<String>,
+    },
     /// The logs on the vehicle.
     Logs,
     /// Download one log.
@@ -183,6 +190,63 @@ impl Session {
         while Instant::now() < end {
             self.pump();
         }
+    }
+
+    fn param_list(&mut self, timeout: Duration) -> Result<()> {
+        let start = Instant::now();
+        let mut asked: Option<Instant> = None;
+        while start.elapsed() < timeout {
+            if asked.is_none_or(|t| t.elapsed() > Duration::from_secs(1)) {
+                let frame = self.link.param_list_frame(unix_us());
+                self.send(&frame);
+                asked = Some(Instant::now());
+            }
+            self.pump();
+            let count = self
+                .link
+                .params
+                .values()
+                .next()
+                .map(|(_, _, n)| usize::from(*n));
+            if count.is_some_and(|n| self.link.params.len() >= n) {
+                return Ok(());
+            }
+        }
+        bail!(
+            "the vehicle's parameters did not arrive within {:.0} s",
+            timeout.as_secs_f64()
+        )
+    }
+
+    fn param_set(&mut self, name: &str, value: f32, timeout: Duration) -> Result<f32> {
+        let start = Instant::now();
+        let mut asked: Option<Instant> = None;
+        let texts_before = self.link.texts.len();
+        self.link.params.remove(name);
+        while start.elapsed() < timeout {
+            if asked.is_none_or(|t| t.elapsed() > Duration::from_secs(1)) {
+                let frame = self.link.param_set_frame(name, value, unix_us());
+                self.send(&frame);
+                asked = Some(Instant::now());
+            }
+            self.pump();
+            if let Some((kept, _, _)) = self.link.params.get(name) {
+                return Ok(*kept);
+            }
+            if self
+                .link
+                .texts
+                .iter()
+                .skip(texts_before)
+                .any(|(_, t)| t.contains("no such parameter"))
+            {
+                bail!("param {name}: the vehicle has no such parameter");
+            }
+        }
+        bail!(
+            "param {name}: no answer within {:.0} s",
+            timeout.as_secs_f64()
+        )
     }
 
     fn log_list(&mut self, timeout: Duration) -> Result<()> {
@@ -368,6 +432,30 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
             }
             Ok(ExitCode::SUCCESS)
         }
+        GroundAction::Params { set } => match set.as_slice() {
+            [] => {
+                s.param_list(timeout)?;
+                for (name, (value, _, _)) in &s.link.params {
+                    println!("{name:<16} {value}");
+                }
+                Ok(ExitCode::SUCCESS)
+            }
+            [verb, name, value] if verb == "set" => {
+                let v: f32 = value
+                    .parse()
+                    .with_context(|| format!("param {name}: '{value}' is not a number"))?;
+                let kept = s.param_set(name, v, timeout)?;
+                if kept == v {
+                    println!("{name} = {kept}");
+                    Ok(ExitCode::SUCCESS)
+                } else {
+                    bail!(
+                        "param {name}: refused, kept {kept} (the vehicle's message above says why)"
+                    )
+                }
+            }
+            _ => bail!("expected `params` or `params set NAME VALUE`"),
+        },
         GroundAction::Logs => {
             s.log_list(timeout)?;
             let logs: Vec<_> = s.link.log_entries.values().filter(|e| e.id > 0).collect();

@@ -63,7 +63,7 @@ fn setup_of(contents: &LogContents) -> Result<ReplaySetup> {
     };
     let plan = crate::vehicle_cmd::plan_of(&legs)
         .with_context(|| format!("the logged flight plan '{plan_name}'"))?;
-    let config = CoreConfig {
+    let mut config = CoreConfig {
         calibration_s: number("calibration_s")?,
         imu_warm_up_s: number("warm_up_s")?,
         compass: heli_proto::compass::CompassCalibration {
@@ -72,6 +72,14 @@ fn setup_of(contents: &LogContents) -> Result<ReplaySetup> {
         },
         ..CoreConfig::default()
     };
+    // The parameters the flight flew with (logs before the link's parameters have none).
+    if let Some(text) = entries.get("params").filter(|t| !t.is_empty()) {
+        let mut table = heli_vehicle::params::defaults();
+        table
+            .load_text(text)
+            .map_err(|e| anyhow!("flight metadata 'params': {e}"))?;
+        heli_vehicle::params::apply(&table, &mut config);
+    }
     let baro_rate_hz = get("baro_rate_hz")?
         .parse::<u8>()
         .context("flight metadata 'baro_rate_hz' is not a rate")?;

@@ -369,12 +369,26 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
         None
     };
     let log_path = next_free_log(&args.log_dir, &suffix, restart);
-    let config = CoreConfig {
+    let mut config = CoreConfig {
         calibration_s: args.calibration_s,
         imu_warm_up_s: args.warm_up_s,
         compass,
         ..CoreConfig::default()
     };
+    // The parameters set over the link: a file that cannot be used stops the start, with
+    // its reason, rather than flying on values nobody chose.
+    // With no file the flight software's own defaults are flown, exactly.
+    let params = if heli_vehicle::params::path_in(&args.log_dir).exists() {
+        let table = heli_vehicle::params::load(&args.log_dir).map_err(anyhow::Error::msg)?;
+        heli_vehicle::params::apply(&table, &mut config);
+        Some(table)
+    } else {
+        None
+    };
+    let baro_rate = params
+        .as_ref()
+        .and_then(heli_vehicle::params::baro_rate_hz)
+        .unwrap_or(args.baro_rate);
     let software = concat!("heli ", env!("CARGO_PKG_VERSION"));
     let parameters = [
         ("suffix".to_string(), suffix.clone()),
@@ -383,7 +397,11 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
         ("plan_legs_json".to_string(), plan_legs),
         ("calibration_s".to_string(), args.calibration_s.to_string()),
         ("warm_up_s".to_string(), args.warm_up_s.to_string()),
-        ("baro_rate_hz".to_string(), args.baro_rate.to_string()),
+        ("baro_rate_hz".to_string(), baro_rate.to_string()),
+        (
+            "params".to_string(),
+            params.as_ref().map(|t| t.to_text()).unwrap_or_default(),
+        ),
         ("clock_speed".to_string(), args.clock_speed.to_string()),
         (
             "compass_bias_gauss".to_string(),
@@ -404,7 +422,7 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
         devices,
         config,
         params: FlightParams { mode, plan },
-        baro_rate_hz: args.baro_rate,
+        baro_rate_hz: baro_rate,
         log_path: Some(log_path.clone()),
         metadata,
         clock_speed: args.clock_speed,

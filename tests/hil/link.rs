@@ -31,6 +31,15 @@ fn the_ground_flies_a_signed_hover_over_the_link_and_saves_its_log_by_the_final_
     let logs = dir.path().join("logs");
     std::fs::create_dir_all(&logs).unwrap();
     let vehicle = Vehicle::start_linked(&logs, &hil.dev, &link, Some(&key));
+    // A gain set over the link, and a value out of its range refused.
+    let (ok, text) = ground(
+        &link,
+        Some(&key),
+        &["params", "set", "HOV_MAX_SPEED", "1.5"],
+    );
+    assert!(ok, "{text}");
+    let (ok, text) = ground(&link, Some(&key), &["params", "set", "HOV_MAX_SPEED", "99"]);
+    assert!(!ok && text.contains("HOV_MAX_SPEED: 99 refused"), "{text}");
     let (ok, text) = ground(&link, Some(&key), &["connect"]);
     assert!(ok && text.contains("connect: accepted"), "{text}");
     let (ok, text) = ground(

@@ -71,6 +71,17 @@ assert hb.type == C.MAV_TYPE_HELICOPTER, hb
 assert m.mav.signing.goodsig_count > 0, "the vehicle's frames are signed"
 print("heartbeat ok: helicopter, signed")
 
+mav.param_request_read_send(1, 1, b"YAW_RATE_P", -1)
+_, p = pump(5.0, lambda x: x.get_type() == "PARAM_VALUE" and x.param_id == "YAW_RATE_P")
+assert p is not None and abs(p.param_value - 0.3) < 1e-6, p
+mav.param_set_send(1, 1, b"YAW_RATE_P", 0.25, C.MAV_PARAM_TYPE_REAL32)
+_, p = pump(5.0, lambda x: x.get_type() == "PARAM_VALUE" and x.param_id == "YAW_RATE_P")
+assert p is not None and abs(p.param_value - 0.25) < 1e-6, p
+mav.param_set_send(1, 1, b"YAW_RATE_P", 9.0, C.MAV_PARAM_TYPE_REAL32)
+counts, p = pump(5.0, lambda x: x.get_type() == "PARAM_VALUE" and x.param_id == "YAW_RATE_P")
+assert p is not None and abs(p.param_value - 0.25) < 1e-6, f"a bad value changed it: {p}"
+print("parameters ok: read, set, a bad value refused")
+
 assert command(C.MAV_CMD_USER_1) == C.MAV_RESULT_ACCEPTED  # Connect
 assert command(C.MAV_CMD_USER_2, 1.0, 1.0, *pack("py1")) == C.MAV_RESULT_ACCEPTED  # Start
 print("connect and start logging ok")

@@ -122,6 +122,8 @@ pub struct GroundLink {
     pub log_entries: BTreeMap<u16, LOG_ENTRY_DATA>,
     /// The download under way.
     pub download: Option<Download>,
+    /// Parameters received (`PARAM_VALUE`), by name: value, index and count.
+    pub params: BTreeMap<String, (f32, u16, u16)>,
     /// Frames that were not valid, or refused by the signing check.
     pub bad_frames: u64,
 }
@@ -140,6 +142,7 @@ impl GroundLink {
             acks: Vec::new(),
             log_entries: BTreeMap::new(),
             download: None,
+            params: BTreeMap::new(),
             bad_frames: 0,
         }
     }
@@ -218,6 +221,12 @@ impl GroundLink {
                 MavMessage::LOG_ENTRY(e) => {
                     self.log_entries.insert(e.id, e.clone());
                 }
+                MavMessage::PARAM_VALUE(p) => {
+                    self.params.insert(
+                        crate::params::param_name(&p.param_id),
+                        (p.param_value, p.param_index, p.param_count),
+                    );
+                }
                 MavMessage::LOG_DATA(d) => {
                     if let Some(dl) = self.download.as_mut().filter(|dl| dl.id == d.id) {
                         dl.accept(d, now_us);
@@ -275,6 +284,27 @@ impl GroundLink {
             end: 0xFFFF,
             target_system: VEHICLE.system,
             target_component: VEHICLE.component,
+        });
+        self.encode(&req, now_us)
+    }
+
+    /// The request for every parameter.
+    pub fn param_list_frame(&mut self, now_us: u64) -> Vec<u8> {
+        let req = MavMessage::PARAM_REQUEST_LIST(PARAM_REQUEST_LIST_DATA {
+            target_system: VEHICLE.system,
+            target_component: VEHICLE.component,
+        });
+        self.encode(&req, now_us)
+    }
+
+    /// Sets parameter `name` to `value`.
+    pub fn param_set_frame(&mut self, name: &str, value: f32, now_us: u64) -> Vec<u8> {
+        let req = MavMessage::PARAM_SET(PARAM_SET_DATA {
+            param_value: value,
+            target_system: VEHICLE.system,
+            target_component: VEHICLE.component,
+            param_id: name.into(),
+            param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
         });
         self.encode(&req, now_us)
     }

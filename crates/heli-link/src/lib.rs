@@ -28,6 +28,7 @@ pub mod frame;
 pub mod ground;
 pub mod logs;
 pub mod messages;
+pub mod params;
 pub mod signing;
 pub mod telemetry;
 pub mod vehicle;

@@ -13,6 +13,7 @@ use crate::command::{CMD_CONNECT, CMD_START_LOGGING, CMD_STOP, ground_command};
 use crate::frame::{self, Sender};
 use crate::logs::{LogServer, LogStore};
 use crate::messages::GroundCommand;
+use crate::params::{ParamTable, param_name};
 use crate::signing::{Key, Refusal, Signer, Verifier, timestamp_from_unix_us};
 use crate::telemetry::{self, DEFAULT_INTERVAL_US, TELEMETRY_MESSAGES, Telemetry};
 
@@ -81,6 +82,11 @@ pub enum LinkEvent {
     LinkLost,
     /// The ground is heard again.
     LinkRegained,
+    /// A parameter was set (already checked); the runtime keeps the table.
+    ParamSet {
+        /// The whole table after the change, as its file's text.
+        table_text: String,
+    },
 }
 
 /// A command awaiting its final acknowledgement.
@@ -115,6 +121,7 @@ pub struct VehicleLink {
     last_refusal_notice_us: Option<u64>,
     refused_since_notice: u64,
     logs: LogServer,
+    params: ParamTable,
     outbox: Vec<Vec<u8>>,
     /// Counters.
     pub stats: LinkStats,
@@ -140,9 +147,21 @@ impl VehicleLink {
             last_refusal_notice_us: None,
             refused_since_notice: 0,
             logs: LogServer::default(),
+            params: ParamTable::new(&[]),
             outbox: Vec::new(),
             stats: LinkStats::default(),
         }
+    }
+
+    /// The link serves `params` with the parameter protocol.
+    pub fn with_params(mut self, params: ParamTable) -> Self {
+        self.params = params;
+        self
+    }
+
+    /// The parameters as they are now.
+    pub fn params(&self) -> &ParamTable {
+        &self.params
     }
 
     /// Whether commands must be signed.
@@ -268,6 +287,31 @@ impl VehicleLink {
             }
             MavMessage::LOG_REQUEST_DATA(r) => self.logs.request(store, r.id, r.ofs, r.count),
             MavMessage::LOG_REQUEST_END(_) => self.logs.end(),
+            MavMessage::PARAM_REQUEST_LIST(_) => {
+                let all: Vec<MavMessage> = (0..self.params.iter().count())
+                    .filter_map(|i| self.params.value_message(i))
+                    .collect();
+                for m in all {
+                    self.send(&m, now_us);
+                }
+            }
+            MavMessage::PARAM_REQUEST_READ(r) => {
+                let msg = match usize::try_from(r.param_index) {
+                    Ok(i) => self.params.value_message(i),
+                    Err(_) => self.params.value_message_named(&param_name(&r.param_id)),
+                };
+                match msg {
+                    Some(m) => self.send(&m, now_us),
+                    None => self.status_text(
+                        MavSeverity::MAV_SEVERITY_ERROR,
+                        &format!("param {}: no such parameter", param_name(&r.param_id)),
+                        now_us,
+                    ),
+                }
+            }
+            MavMessage::PARAM_SET(p) => {
+                self.param_set(&param_name(&p.param_id), p.param_value, now_us, events)
+            }
             // Heartbeats keep the link alive (above); everything else is not for us.
             _ => {}
         }
@@ -301,6 +345,19 @@ impl VehicleLink {
                 );
                 self.ack(cmd.command, MavResult::MAV_RESULT_DENIED, now_us);
             }
+        }
+    }
+
+    fn param_set(&mut self, name: &str, value: f32, now_us: u64, events: &mut Vec<LinkEvent>) {
+        match self.params.set(name, value) {
+            Ok(()) => events.push(LinkEvent::ParamSet {
+                table_text: self.params.to_text(),
+            }),
+            Err(e) => self.status_text(MavSeverity::MAV_SEVERITY_ERROR, &e.to_string(), now_us),
+        }
+        // The value kept, changed or not, as the protocol asks.
+        if let Some(m) = self.params.value_message_named(name) {
+            self.send(&m, now_us);
         }
     }
 

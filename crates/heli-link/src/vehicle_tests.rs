@@ -289,3 +289,98 @@ fn status_texts_are_cut_at_spaces() {
     assert_eq!(chunks(&"x".repeat(120), 50).len(), 3);
     assert_eq!(chunks("", 50), vec![String::new()]);
 }
+
+#[test]
+fn parameters_are_listed_read_and_set_and_a_bad_value_changes_nothing() {
+    use crate::params::{ParamSpec, ParamTable, param_name};
+    const SPECS: [ParamSpec; 2] = [
+        ParamSpec {
+            name: "A_GAIN",
+            what: "",
+            min: 0.0,
+            max: 1.0,
+            default: 0.5,
+        },
+        ParamSpec {
+            name: "B_LIMIT",
+            what: "",
+            min: 1.0,
+            max: 9.0,
+            default: 3.0,
+        },
+    ];
+    let mut v = VehicleLink::new(None, T0).with_params(ParamTable::new(&SPECS));
+    let mut g = GroundLink::new(None);
+    let s = store();
+    let send = |g: &mut GroundLink, m: MavMessage| g.encode(&m, T0);
+    let list = send(
+        &mut g,
+        MavMessage::PARAM_REQUEST_LIST(PARAM_REQUEST_LIST_DATA {
+            target_system: 1,
+            target_component: 1,
+        }),
+    );
+    let good = send(
+        &mut g,
+        MavMessage::PARAM_SET(PARAM_SET_DATA {
+            param_value: 0.75,
+            target_system: 1,
+            target_component: 1,
+            param_id: "A_GAIN".into(),
+            param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+        }),
+    );
+    let bad = send(
+        &mut g,
+        MavMessage::PARAM_SET(PARAM_SET_DATA {
+            param_value: 50.0,
+            target_system: 1,
+            target_component: 1,
+            param_id: "B_LIMIT".into(),
+            param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+        }),
+    );
+    let read = send(
+        &mut g,
+        MavMessage::PARAM_REQUEST_READ(PARAM_REQUEST_READ_DATA {
+            param_index: -1,
+            target_system: 1,
+            target_component: 1,
+            param_id: "A_GAIN".into(),
+        }),
+    );
+    let mut events = Vec::new();
+    for f in [list, good, bad, read] {
+        events.extend(v.receive(&f, T0, &s));
+    }
+    for d in v.take_outgoing() {
+        g.receive(&d, T0);
+    }
+    assert_eq!(
+        g.counts[&PARAM_VALUE_DATA::ID],
+        5,
+        "2 listed, 2 set answers, 1 read"
+    );
+    let Some((_, MavMessage::PARAM_VALUE(last))) = g.latest.get(&PARAM_VALUE_DATA::ID) else {
+        panic!()
+    };
+    assert_eq!(
+        (param_name(&last.param_id).as_str(), last.param_value),
+        ("A_GAIN", 0.75)
+    );
+    assert_eq!(v.params().get("B_LIMIT"), Some(3.0));
+    assert!(
+        g.texts
+            .iter()
+            .any(|(_, t)| t.contains("B_LIMIT: 50 refused")),
+        "{:?}",
+        g.texts
+    );
+    assert_eq!(
+        events
+            .iter()
+            .filter(|e| matches!(e, LinkEvent::ParamSet { .. }))
+            .count(),
+        1
+    );
+}

@@ -36,6 +36,7 @@ pub mod devices;
 pub mod flight;
 pub mod link;
 pub mod logger;
+pub mod params;
 pub mod port;
 pub mod replay;
 pub mod rt;

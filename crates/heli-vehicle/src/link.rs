@@ -220,8 +220,15 @@ pub fn spawn(
         }
     ));
     std::thread::Builder::new().name("link".into()).spawn(move || {
-        let store = DirStore::new(log_dir);
-        let mut link = VehicleLink::new(key, unix_us());
+        let params = match crate::params::load(&log_dir) {
+            Ok(t) => t,
+            Err(e) => {
+                say(&format!("link: parameters not loaded ({e}); serving the defaults"));
+                crate::params::defaults()
+            }
+        };
+        let store = DirStore::new(log_dir.clone());
+        let mut link = VehicleLink::new(key, unix_us()).with_params(params);
         let mut peers: BTreeMap<SocketAddr, Instant> = BTreeMap::new();
         let mut pending: Vec<(heli_link::vehicle::CommandToken, Receiver<String>)> = Vec::new();
         let mut buf = [0u8; 2048];
@@ -266,6 +273,16 @@ pub fn spawn(
                                 link.refused().total()
                             );
                             last_refusal_line = Some(Instant::now());
+                        }
+                    }
+                    LinkEvent::ParamSet { table_text } => {
+                        match crate::params::save(&log_dir, &table_text) {
+                            Ok(()) => link.status_text(
+                                MavSeverity::MAV_SEVERITY_INFO,
+                                "param saved; applies from the next Start Logging",
+                                unix_us(),
+                            ),
+                            Err(e) => say(&format!("link: parameter not saved: {e}")),
                         }
                     }
                     LinkEvent::LinkLost => say("link: lost (no ground heard for 5 s); flying on"),
