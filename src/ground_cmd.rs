@@ -133,9 +133,13 @@ impl Session {
             self.send(&hb);
             self.last_heartbeat = Some(Instant::now());
         }
+        // Wait up to the socket's timeout for the first datagram, then take all that came
+        // without waiting again.
         let mut buf = [0u8; 2048];
+        let _ = self.socket.set_nonblocking(false);
         while let Ok(n) = self.socket.recv(&mut buf) {
             self.link.receive(buf.get(..n).unwrap_or(&[]), unix_us());
+            let _ = self.socket.set_nonblocking(true);
         }
         for (severity, text) in self.link.texts.iter().skip(self.texts_shown) {
             eprintln!("vehicle [{}]: {text}", severity_word(*severity));

@@ -4,6 +4,7 @@
 //! `heli-sim`, `heli-fsw` and the others.
 
 mod bench_hil;
+mod bench_link;
 mod campaign_cmd;
 mod driver_cmd;
 mod ground_cmd;
@@ -52,6 +53,10 @@ enum Command {
         /// latency and the flight process's CPU share and memory.
         #[arg(long, value_name = "SECONDS")]
         hil: Option<f64>,
+        /// Instead: the MAVLink link on loopback: log download throughput and command
+        /// round-trip time.
+        #[arg(long, conflicts_with = "hil")]
+        link: bool,
     },
     /// The HILSim alone, in real time: the helicopter's devices on pseudo-terminals and
     /// IIO-style ADC files for a flight computer outside (`heli vehicle --hilsim DIR`).
@@ -257,10 +262,16 @@ fn main() -> ExitCode {
         Command::Sim(args) => sim(args),
         Command::Model(args) => model(args),
         Command::Log { action } => log(action),
-        Command::Bench { json, hil: None } => bench(json),
+        Command::Bench {
+            json, link: true, ..
+        } => bench_link::command(json),
+        Command::Bench {
+            json, hil: None, ..
+        } => bench(json),
         Command::Bench {
             json,
             hil: Some(seconds),
+            ..
         } => bench_hil::command(seconds, json),
         Command::Hilsim(args) => hilsim_cmd::hilsim(&args),
         Command::Vehicle {

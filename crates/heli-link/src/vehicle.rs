@@ -164,6 +164,11 @@ impl VehicleLink {
         &self.params
     }
 
+    /// Whether a log is being sent (the runtime should tick often meanwhile).
+    pub fn sending_log(&self) -> bool {
+        self.logs.busy()
+    }
+
     /// Whether commands must be signed.
     pub fn signed(&self) -> bool {
         self.verifier.has_key()

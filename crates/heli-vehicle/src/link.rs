@@ -26,7 +26,7 @@ use crate::ctl::Request;
 
 /// A ground not heard for this long is no longer sent to.
 pub const PEER_TIMEOUT: Duration = Duration::from_secs(10);
-/// The link thread's period.
+/// The link thread's longest wait for a datagram.
 const TICK: Duration = Duration::from_millis(10);
 /// Most status texts waiting to be sent (older ones are dropped first).
 const MAX_QUEUED_TEXTS: usize = 200;
@@ -236,9 +236,20 @@ pub fn spawn(
         let mut last_refusal_line: Option<Instant> = None;
         while !stop.load(Ordering::Acquire) {
             let mut events = Vec::new();
-            if let Ok((n, from)) = socket.recv_from(&mut buf) {
+            // Wait for a datagram up to a tick (a socket timeout is only as fine as the
+            // kernel's tick, a few ms); while a log is being sent, do not wait here but
+            // sleep a millisecond below, so the log goes out at its pace. Then take all
+            // that came without waiting again.
+            let sending = link.sending_log();
+            let _ = socket.set_nonblocking(sending);
+            let mut first = true;
+            while let Ok((n, from)) = socket.recv_from(&mut buf) {
                 peers.insert(from, Instant::now());
                 events.extend(link.receive(buf.get(..n).unwrap_or(&[]), unix_us(), &store));
+                if first {
+                    let _ = socket.set_nonblocking(true);
+                    first = false;
+                }
             }
             let (status, telemetry, texts) = {
                 let mut s = shared.lock();
@@ -309,6 +320,9 @@ pub fn spawn(
                 for peer in peers.keys() {
                     let _ = socket.send_to(&datagram, peer);
                 }
+            }
+            if sending {
+                std::thread::sleep(Duration::from_millis(1));
             }
         }
     })
