@@ -124,7 +124,11 @@ pub fn measure() -> Result<LinkBench> {
         let i = ((rtts.len() as f64 - 1.0) * p).round() as usize;
         rtts.get(i).copied().unwrap_or(f64::NAN)
     };
-    let command_rtt_us = [pct(0.5), pct(0.99), rtts.last().copied().unwrap_or(f64::NAN)];
+    let command_rtt_us = [
+        pct(0.5),
+        pct(0.99),
+        rtts.last().copied().unwrap_or(f64::NAN),
+    ];
     // Download.
     let t0 = Instant::now();
     let req = ground.start_download(1, LOG_BYTES as u32, unix_us());

@@ -48,8 +48,9 @@ fn the_ground_flies_a_signed_hover_over_the_link_and_saves_its_log_by_the_final_
         &["start", "linked1", "autonomous", "hover"],
     );
     assert!(ok && text.contains("start logging: accepted"), "{text}");
-    // While it flies: a Stop without the key, and one with the wrong key, are refused; the
-    // flight goes on (the HILSim's truth decides below).
+    // While it flies: no ground for 12 s (the link is lost: nothing changes on board), then
+    // a Stop without the key, and one with the wrong key, are refused; the flight goes on
+    // (the HILSim's truth decides below).
     std::thread::sleep(Duration::from_secs(12));
     for bad_key in [None, Some(wrong.as_path())] {
         let (ok, text) = ground(&link, bad_key, &["stop", "--timeout", "2"]);
@@ -59,6 +60,9 @@ fn the_ground_flies_a_signed_hover_over_the_link_and_saves_its_log_by_the_final_
             assert!(text.contains("refused unsigned"), "{text}");
         }
     }
+    // A signed command sent twice, byte for byte (a replay), and garbage datagrams: the
+    // replay is refused, the garbage dropped, the vehicle flies on.
+    replay_and_garbage(&link, &key);
     let (ok, status) = ground(&link, Some(&key), &["status", "--seconds", "1.5"]);
     assert!(ok, "{status}");
     assert!(
@@ -90,6 +94,11 @@ fn the_ground_flies_a_signed_hover_over_the_link_and_saves_its_log_by_the_final_
         "{summary:#}\nthe vehicle said:\n{said}"
     );
     assert!(said.contains("refused a unsigned frame"), "{said}");
+    assert!(said.contains("refused a replayed frame"), "{said}");
+    // No ground spoke for 12 s after Start Logging: the link was lost and found again, and
+    // the flight went on (the truth passed above).
+    assert!(said.contains("link: lost"), "{said}");
+    assert!(said.contains("link: ground heard again"), "{said}");
     let downloaded = std::fs::read(saved.join("flight_mine.mcap")).unwrap();
     let onboard = std::fs::read(logs.join("flight_linked1.mcap")).unwrap();
     assert!(downloaded == onboard, "the download is not byte-exact");
@@ -103,6 +112,46 @@ fn the_ground_flies_a_signed_hover_over_the_link_and_saves_its_log_by_the_final_
         "{}",
         String::from_utf8_lossy(&replay.stdout)
     );
+}
+
+/// Sends a signed, harmless command (a message interval) twice over, then random bytes.
+fn replay_and_garbage(link: &str, key: &Path) {
+    use heli_link::ground::GroundLink;
+    use heli_link::signing::Key;
+    use mavlink::dialects::common::{COMMAND_LONG_DATA, MavCmd};
+    let key = Key::from_text(&std::fs::read_to_string(key).unwrap()).unwrap();
+    let addr = link.trim_start_matches("udp:");
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let mut g = GroundLink::new(Some(key));
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_micros() as u64;
+    let frame = g.command_frame(
+        COMMAND_LONG_DATA {
+            command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+            param1: 30.0,
+            param2: 0.0,
+            ..Default::default()
+        },
+        now,
+    );
+    socket.send_to(&frame, addr).unwrap();
+    std::thread::sleep(Duration::from_millis(200));
+    socket.send_to(&frame, addr).unwrap();
+    let mut x = 0x9e37_79b9_u32;
+    for len in [0usize, 1, 7, 64, 280, 1400] {
+        let bytes: Vec<u8> = (0..len)
+            .map(|_| {
+                x ^= x << 13;
+                x ^= x >> 17;
+                x ^= x << 5;
+                (x & 0xFF) as u8
+            })
+            .collect();
+        socket.send_to(&bytes, addr).unwrap();
+    }
+    std::thread::sleep(Duration::from_millis(200));
 }
 
 /// The Python in `.ci/run`'s virtual environment, if there is one (`HELI_PYTHON`).

@@ -28,7 +28,7 @@ pub const HEARTBEAT_US: u64 = 1_000_000;
 pub const LINK_LOST_AFTER_US: u64 = 5_000_000;
 /// Log packets sent per [`VehicleLink::tick`].
 pub const LOG_PACKETS_PER_TICK: usize = 40;
-/// Status texts about refused frames, at most one per this period (µs).
+/// Status texts about refused frames, at most one of each kind per this period (µs).
 const REFUSAL_NOTICE_US: u64 = 1_000_000;
 
 /// The bootstrap's state, as the heartbeat's custom mode (low byte) tells it.
@@ -118,8 +118,8 @@ pub struct VehicleLink {
     next_due: BTreeMap<u32, u64>,
     heard_us: Option<u64>,
     lost: bool,
-    last_refusal_notice_us: Option<u64>,
-    refused_since_notice: u64,
+    /// When each kind of refusal was last told to the ground.
+    last_refusal_notice_us: BTreeMap<&'static str, u64>,
     logs: LogServer,
     params: ParamTable,
     outbox: Vec<Vec<u8>>,
@@ -144,8 +144,7 @@ impl VehicleLink {
             next_due: BTreeMap::new(),
             heard_us: None,
             lost: false,
-            last_refusal_notice_us: None,
-            refused_since_notice: 0,
+            last_refusal_notice_us: BTreeMap::new(),
             logs: LogServer::default(),
             params: ParamTable::new(&[]),
             outbox: Vec::new(),
@@ -251,10 +250,12 @@ impl VehicleLink {
     }
 
     fn note_refusal(&mut self, reason: Refusal, raw: &frame::RawFrame, now_us: u64) {
-        self.refused_since_notice = self.refused_since_notice.saturating_add(1);
+        // One status text per kind of refusal per second: a flood of bad frames does not
+        // flood the ground, and one kind does not hide another.
         let due = self
             .last_refusal_notice_us
-            .is_none_or(|t| now_us.saturating_sub(t) >= REFUSAL_NOTICE_US);
+            .get(reason.text())
+            .is_none_or(|t| now_us.saturating_sub(*t) >= REFUSAL_NOTICE_US);
         if due {
             let text = format!(
                 "refused {} msg {} from {}/{} (#{})",
@@ -265,8 +266,7 @@ impl VehicleLink {
                 self.verifier.refused.total()
             );
             self.status_text(MavSeverity::MAV_SEVERITY_WARNING, &text, now_us);
-            self.last_refusal_notice_us = Some(now_us);
-            self.refused_since_notice = 0;
+            self.last_refusal_notice_us.insert(reason.text(), now_us);
         }
     }
 

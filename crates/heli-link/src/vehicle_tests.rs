@@ -384,3 +384,36 @@ fn parameters_are_listed_read_and_set_and_a_bad_value_changes_nothing() {
         1
     );
 }
+
+#[test]
+fn a_flood_of_refusals_is_told_once_a_second_per_kind() {
+    let key = Key::new([3; 32]);
+    let mut v = VehicleLink::new(Some(key.clone()), T0);
+    let mut unsigned = GroundLink::new(None);
+    let mut good = GroundLink::new(Some(key));
+    let stop = command_long(&GroundCommand::Stop, (1, 1)).unwrap();
+    let s = store();
+    let signed = good.command_frame(stop.clone(), T0);
+    v.receive(&signed, T0, &s);
+    for i in 0..50 {
+        let f = unsigned.command_frame(stop.clone(), T0 + i * 1000);
+        v.receive(&f, T0 + i * 1000, &s);
+    }
+    // A replay within the same second is a kind of its own: told too.
+    v.receive(&signed, T0 + 60_000, &s);
+    for d in v.take_outgoing() {
+        good.receive(&d, T0 + 100_000);
+    }
+    let told: Vec<&String> = good.texts.iter().map(|(_, t)| t).collect();
+    assert_eq!(
+        told.iter().filter(|t| t.contains("unsigned")).count(),
+        1,
+        "{told:?}"
+    );
+    assert_eq!(
+        told.iter().filter(|t| t.contains("replayed")).count(),
+        1,
+        "{told:?}"
+    );
+    assert_eq!(v.refused().unsigned, 50);
+}

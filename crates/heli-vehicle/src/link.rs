@@ -233,7 +233,8 @@ pub fn spawn(
         let mut pending: Vec<(heli_link::vehicle::CommandToken, Receiver<String>)> = Vec::new();
         let mut buf = [0u8; 2048];
         let mut last_unsigned_warning: Option<Instant> = None;
-        let mut last_refusal_line: Option<Instant> = None;
+        // When each kind of refusal was last printed (one line per kind per second).
+        let mut last_refusal_line: BTreeMap<&'static str, Instant> = BTreeMap::new();
         while !stop.load(Ordering::Acquire) {
             let mut events = Vec::new();
             // Wait for a datagram up to a tick (a socket timeout is only as fine as the
@@ -275,7 +276,8 @@ pub fn spawn(
                     // The link tells the ground itself (at most once a second); the
                     // console gets the same, no more often.
                     LinkEvent::Refused { reason, from, message_id } => {
-                        if last_refusal_line.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
+                        let last = last_refusal_line.get(reason.text());
+                        if last.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
                             println!(
                                 "link: refused a {} frame (message {message_id}) from {}/{}; {} refused so far",
                                 reason.text(),
@@ -283,7 +285,7 @@ pub fn spawn(
                                 from.component,
                                 link.refused().total()
                             );
-                            last_refusal_line = Some(Instant::now());
+                            last_refusal_line.insert(reason.text(), Instant::now());
                         }
                     }
                     LinkEvent::ParamSet { table_text } => {
