@@ -109,6 +109,10 @@ impl Session {
             "[::]:0".parse()?
         };
         let socket = UdpSocket::bind(bind).context("opening a UDP socket")?;
+        // Datagrams from the vehicle's address only.
+        socket
+            .connect(vehicle)
+            .with_context(|| format!("link {}", args.link))?;
         socket.set_read_timeout(Some(Duration::from_millis(10)))?;
         Ok(Self {
             socket,
@@ -120,7 +124,7 @@ impl Session {
     }
 
     fn send(&self, datagram: &[u8]) {
-        let _ = self.socket.send_to(datagram, self.vehicle);
+        let _ = self.socket.send(datagram);
     }
 
     /// One turn: heartbeat when due, receive what came, print new status texts.
@@ -151,8 +155,11 @@ impl Session {
     }
 
     /// Sends a command until it is acknowledged with a final result, or `timeout` passes.
+    /// Retries carry a rising `confirmation`, so the vehicle answers them without carrying
+    /// the command out twice; after `IN_PROGRESS` they go slowly, to recover a lost final
+    /// acknowledgement.
     fn command(&mut self, command: &GroundCommand, timeout: Duration) -> Result<MavResult> {
-        let long = command_long(command, (1, 1))
+        let mut long = command_long(command, (1, 1))
             .context("this command or its parameters cannot go over the link")?;
         let id = long.command;
         let start = Instant::now();
@@ -160,11 +167,16 @@ impl Session {
         let mut sent: Option<Instant> = None;
         let mut in_progress = false;
         while start.elapsed() < timeout {
-            let retry = Duration::from_micros(COMMAND_RETRY_US);
-            if !in_progress && sent.is_none_or(|t| t.elapsed() >= retry) {
+            let retry = if in_progress {
+                Duration::from_secs(2)
+            } else {
+                Duration::from_micros(COMMAND_RETRY_US)
+            };
+            if sent.is_none_or(|t| t.elapsed() >= retry) {
                 let frame = self.link.command_frame(long.clone(), unix_us());
                 self.send(&frame);
                 sent = Some(Instant::now());
+                long.confirmation = long.confirmation.saturating_add(1);
             }
             self.pump();
             for (c, r) in self.link.acks.iter().skip(acks_before) {

@@ -48,21 +48,35 @@ fn the_ground_flies_a_signed_hover_over_the_link_and_saves_its_log_by_the_final_
         &["start", "linked1", "autonomous", "hover"],
     );
     assert!(ok && text.contains("start logging: accepted"), "{text}");
-    // While it flies: no ground for 12 s (the link is lost: nothing changes on board), then
-    // a Stop without the key, and one with the wrong key, are refused; the flight goes on
-    // (the HILSim's truth decides below).
+    // While it flies: no ground for 12 s (the link is lost: nothing changes on board). Then,
+    // while the operator's ground listens, a Stop without the key and one with the wrong
+    // key are refused, a signed command sent twice (a replay) is refused, and garbage is
+    // dropped; the operator's ground is told; the flight goes on (the truth decides below).
     std::thread::sleep(Duration::from_secs(12));
+    let listener = {
+        let (link, key) = (link.clone(), key.clone());
+        std::thread::spawn(move || ground(&link, Some(&key), &["status", "--seconds", "8"]))
+    };
+    std::thread::sleep(Duration::from_millis(1500));
     for bad_key in [None, Some(wrong.as_path())] {
         let (ok, text) = ground(&link, bad_key, &["stop", "--timeout", "2"]);
         assert!(!ok, "a stop with {bad_key:?} was obeyed: {text}");
-        if bad_key.is_none() {
-            // A ground without a key reads the vehicle's signed frames: it is told.
-            assert!(text.contains("refused unsigned"), "{text}");
-        }
+        // A refused ground is sent nothing, not even why.
+        assert!(!text.contains("vehicle ["), "{text}");
     }
-    // A signed command sent twice, byte for byte (a replay), and garbage datagrams: the
-    // replay is refused, the garbage dropped, the vehicle flies on.
     replay_and_garbage(&link, &key);
+    let (ok, told) = listener.join().unwrap();
+    assert!(ok, "{told}");
+    for kind in [
+        "refused unsigned",
+        "refused wrongly signed",
+        "refused replayed",
+    ] {
+        assert!(
+            told.contains(kind),
+            "the operator's ground is told '{kind}': {told}"
+        );
+    }
     let (ok, status) = ground(&link, Some(&key), &["status", "--seconds", "1.5"]);
     assert!(ok, "{status}");
     assert!(

@@ -20,6 +20,8 @@ pub const GROUND: Sender = Sender {
 };
 /// A command not acknowledged within this time (µs) is sent again.
 pub const COMMAND_RETRY_US: u64 = 500_000;
+/// Largest log the ground downloads (bytes): it holds the log in memory.
+pub const MAX_DOWNLOAD_BYTES: u32 = 1 << 30;
 /// A download with nothing new for this long (µs) asks again for what is missing.
 pub const DOWNLOAD_RETRY_US: u64 = 300_000;
 
@@ -196,10 +198,13 @@ impl GroundLink {
                 self.bad_frames = self.bad_frames.saturating_add(1);
                 continue;
             };
-            if self
-                .verifier
-                .check(&raw, timestamp_from_unix_us(now_us))
-                .is_err()
+            // Only the vehicle's frames: a copy of our own reflected back, or another
+            // ground's, is not the vehicle speaking.
+            if raw.sender != VEHICLE
+                || self
+                    .verifier
+                    .check(&raw, timestamp_from_unix_us(now_us))
+                    .is_err()
             {
                 self.bad_frames = self.bad_frames.saturating_add(1);
                 continue;
@@ -238,8 +243,10 @@ impl GroundLink {
         }
     }
 
-    /// Starts downloading log `id` of `size` bytes; returns the request to send.
+    /// Starts downloading log `id` of `size` bytes (at most [`MAX_DOWNLOAD_BYTES`]); returns
+    /// the request to send.
     pub fn start_download(&mut self, id: u16, size: u32, now_us: u64) -> Vec<u8> {
+        let size = size.min(MAX_DOWNLOAD_BYTES);
         let mut dl = Download::new(id, size, now_us);
         dl.requests = 1;
         self.download = Some(dl);

@@ -30,6 +30,7 @@ pub mod logs;
 pub mod messages;
 pub mod params;
 pub mod signing;
+pub mod status;
 pub mod telemetry;
 pub mod vehicle;
 

@@ -27,17 +27,20 @@ pub struct LogInfo {
 pub trait LogStore {
     /// The logs, by id.
     fn list(&self) -> Vec<LogInfo>;
-    /// Reads up to `buf.len()` bytes of log `id` from `ofs`; the count read (0 at the end or
-    /// for an unknown log).
-    fn read(&self, id: u16, ofs: u32, buf: &mut [u8]) -> usize;
+    /// Reads up to `buf.len()` bytes of the log named `name` (as [`LogStore::list`] gave it)
+    /// from `ofs`; the count read (0 at the end or for an unknown log). By name, so that a
+    /// new log appearing during a transfer cannot change which file is read.
+    fn read(&self, name: &str, ofs: u32, buf: &mut [u8]) -> usize;
 }
 
 /// A data request being served.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 struct Transfer {
     id: u16,
+    name: String,
     next: u32,
     end: u32,
+    size: u32,
 }
 
 /// The vehicle's log server.
@@ -74,16 +77,18 @@ impl LogServer {
 
     /// Starts serving `count` bytes of log `id` from `ofs` (a later request replaces it).
     pub fn request(&mut self, store: &dyn LogStore, id: u16, ofs: u32, count: u32) {
-        let size = store
+        let (name, size) = store
             .list()
-            .iter()
+            .into_iter()
             .find(|l| l.id == id)
-            .map_or(0, |l| l.size);
+            .map_or((String::new(), 0), |l| (l.name, l.size));
         let end = ofs.saturating_add(count).min(size);
         self.transfer = Some(Transfer {
             id,
+            name,
             next: ofs.min(end),
             end,
+            size,
         });
     }
 
@@ -97,8 +102,9 @@ impl LogServer {
         self.transfer.is_some()
     }
 
-    /// Up to `max` packets of the transfer under way. The last packet of a request is short
-    /// (possibly empty, at the end of the file), which tells the ground the request is done.
+    /// Up to `max` packets of the transfer under way. The end of the file is told by a short
+    /// packet (an empty one when the file ends on a packet boundary), as ArduPilot does; a
+    /// request that ends before the end of the file simply stops.
     pub fn next_packets(&mut self, store: &dyn LogStore, max: usize) -> Vec<MavMessage> {
         let mut out = Vec::new();
         while out.len() < max {
@@ -109,18 +115,25 @@ impl LogServer {
             let want = usize::try_from(t.end.saturating_sub(t.next))
                 .unwrap_or(LOG_DATA_LEN)
                 .min(LOG_DATA_LEN);
-            let got = store.read(t.id, t.next, data.get_mut(..want).unwrap_or(&mut []));
-            out.push(MavMessage::LOG_DATA(LOG_DATA_DATA {
-                ofs: t.next,
-                id: t.id,
-                count: u8::try_from(got).unwrap_or(0),
-                data,
-            }));
-            self.packets_sent = self.packets_sent.saturating_add(1);
+            let got = if want == 0 {
+                0
+            } else {
+                store.read(&t.name, t.next, data.get_mut(..want).unwrap_or(&mut []))
+            };
+            let at_eof = t.next.saturating_add(u32::try_from(got).unwrap_or(0)) >= t.size;
+            if got > 0 || at_eof {
+                out.push(MavMessage::LOG_DATA(LOG_DATA_DATA {
+                    ofs: t.next,
+                    id: t.id,
+                    count: u8::try_from(got).unwrap_or(0),
+                    data,
+                }));
+                self.packets_sent = self.packets_sent.saturating_add(1);
+            }
             t.next = t.next.saturating_add(u32::try_from(got).unwrap_or(0));
-            if got < LOG_DATA_LEN || t.next >= t.end {
-                if got == LOG_DATA_LEN {
-                    // Ended exactly on a packet boundary: say so with an empty packet.
+            if got < want || t.next >= t.end {
+                if got == LOG_DATA_LEN && t.next >= t.size {
+                    // The file ended exactly on a packet boundary: say so with an empty packet.
                     out.push(MavMessage::LOG_DATA(LOG_DATA_DATA {
                         ofs: t.next,
                         id: t.id,
@@ -156,13 +169,10 @@ impl LogStore for MemoryStore {
             .collect()
     }
 
-    fn read(&self, id: u16, ofs: u32, buf: &mut [u8]) -> usize {
-        let Some((_, bytes)) = self.logs.get(usize::from(id).saturating_sub(1)) else {
+    fn read(&self, name: &str, ofs: u32, buf: &mut [u8]) -> usize {
+        let Some((_, bytes)) = self.logs.iter().find(|(n, _)| n == name) else {
             return 0;
         };
-        if id == 0 {
-            return 0;
-        }
         let from = usize::try_from(ofs).unwrap_or(usize::MAX).min(bytes.len());
         let rest = bytes.get(from..).unwrap_or(&[]);
         let n = rest.len().min(buf.len());

@@ -215,7 +215,8 @@ impl Verifier {
     }
 
     /// Checks `frame` at the receiver's `now` (signing timestamp units); counts a refusal.
-    pub fn check(&mut self, frame: &RawFrame, now: u64) -> Result<(), Refusal> {
+    /// Gives the frame's signed timestamp (`None` for an unsigned frame taken without a key).
+    pub fn check(&mut self, frame: &RawFrame, now: u64) -> Result<Option<u64>, Refusal> {
         let result = self.verdict(frame, now);
         if let Err(r) = result {
             self.refused.count(r);
@@ -223,9 +224,9 @@ impl Verifier {
         result
     }
 
-    fn verdict(&mut self, frame: &RawFrame, now: u64) -> Result<(), Refusal> {
+    fn verdict(&mut self, frame: &RawFrame, now: u64) -> Result<Option<u64>, Refusal> {
         let Some(key) = &self.key else {
-            return Ok(());
+            return Ok(None);
         };
         let flags = frame.bytes.get(2).copied().unwrap_or(0);
         if flags & IFLAG_SIGNED == 0 || frame.bytes.len() < SIGNATURE_LEN {
@@ -253,8 +254,10 @@ impl Verifier {
             _ => {}
         }
         self.streams.insert(stream, ts);
-        self.clock = clock.max(ts);
-        Ok(())
+        // A frame from the future does not move the clock further than a minute ahead, so
+        // one bad timestamp cannot lock out every correctly clocked sender.
+        self.clock = clock.max(ts.min(now.saturating_add(NEW_STREAM_WINDOW)));
+        Ok(Some(ts))
     }
 }
 
@@ -318,7 +321,7 @@ mod tests {
         let mut verifier = Verifier::new(Some(key.clone()));
         let mut signer = Signer::new(key, 0);
         let good = encode(GROUND, 1, &stop(), Some((&mut signer, NOW)));
-        assert_eq!(verifier.check(&frame_of(&good), NOW), Ok(()));
+        assert!(verifier.check(&frame_of(&good), NOW).is_ok());
         // The same frame again: a replay.
         assert_eq!(
             verifier.check(&frame_of(&good), NOW),
@@ -344,7 +347,7 @@ mod tests {
         );
         assert_eq!(verifier.check(&frame_of(&stale), NOW), Err(Refusal::Stale));
         let next = encode(GROUND, 5, &stop(), Some((&mut signer, NOW)));
-        assert_eq!(verifier.check(&frame_of(&next), NOW), Ok(()));
+        assert!(verifier.check(&frame_of(&next), NOW).is_ok());
         assert_eq!(
             verifier.refused,
             RefusalCounts {
@@ -375,7 +378,7 @@ mod tests {
     fn without_a_key_everything_is_accepted() {
         let mut verifier = Verifier::new(None);
         let unsigned = encode(GROUND, 2, &stop(), None);
-        assert_eq!(verifier.check(&frame_of(&unsigned), NOW), Ok(()));
+        assert_eq!(verifier.check(&frame_of(&unsigned), NOW), Ok(None));
         assert!(!verifier.has_key());
     }
 

@@ -17,6 +17,8 @@ use crate::params::{ParamTable, param_name};
 use crate::signing::{Key, Refusal, Signer, Verifier, timestamp_from_unix_us};
 use crate::telemetry::{self, DEFAULT_INTERVAL_US, TELEMETRY_MESSAGES, Telemetry};
 
+pub use crate::status::{BootstrapState, VehicleStatus, chunks, heartbeat};
+
 /// The vehicle's system and component ids.
 pub const VEHICLE: Sender = Sender {
     system: 1,
@@ -28,36 +30,13 @@ pub const HEARTBEAT_US: u64 = 1_000_000;
 pub const LINK_LOST_AFTER_US: u64 = 5_000_000;
 /// Log packets sent per [`VehicleLink::tick`].
 pub const LOG_PACKETS_PER_TICK: usize = 40;
+/// A signed command older than this (10 µs units: 10 s) is refused as held back.
+pub const COMMAND_MAX_AGE: u64 = 1_000_000;
+/// A retried command (`confirmation` > 0) this soon (µs) after one finished gets its result
+/// again instead of being carried out twice.
+const RESULT_KEPT_US: u64 = 10_000_000;
 /// Status texts about refused frames, at most one of each kind per this period (µs).
 const REFUSAL_NOTICE_US: u64 = 1_000_000;
-
-/// The bootstrap's state, as the heartbeat's custom mode (low byte) tells it.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum BootstrapState {
-    /// No flight process.
-    #[default]
-    Idle = 0,
-    /// Flight process starting.
-    Connecting = 1,
-    /// Flight process up, waiting for Start Logging.
-    Connected = 2,
-    /// Start Logging sent, waiting for the process.
-    Starting = 3,
-    /// Flying and logging.
-    Flying = 4,
-    /// Stopping.
-    Stopping = 5,
-}
-
-/// What the heartbeat says of the vehicle.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct VehicleStatus {
-    /// The bootstrap's state.
-    pub state: BootstrapState,
-    /// The control mode of the flight under way (custom mode's second byte: 1 manual, 2
-    /// autonomous, 3 rate, 4 attitude, 5 velocity; 0 none).
-    pub mode: u8,
-}
 
 /// Something the runtime must act on.
 #[derive(Clone, Debug, PartialEq)]
@@ -122,6 +101,12 @@ pub struct VehicleLink {
     last_refusal_notice_us: BTreeMap<&'static str, u64>,
     logs: LogServer,
     params: ParamTable,
+    /// The last status the runtime gave ([`VehicleLink::tick`]).
+    status: VehicleStatus,
+    /// The thesis command being carried out.
+    pending: Option<MavCmd>,
+    /// The last thesis command answered: which, its result, when.
+    last_result: Option<(MavCmd, MavResult, u64)>,
     outbox: Vec<Vec<u8>>,
     /// Counters.
     pub stats: LinkStats,
@@ -147,6 +132,9 @@ impl VehicleLink {
             last_refusal_notice_us: BTreeMap::new(),
             logs: LogServer::default(),
             params: ParamTable::new(&[]),
+            status: VehicleStatus::default(),
+            pending: None,
+            last_result: None,
             outbox: Vec::new(),
             stats: LinkStats::default(),
         }
@@ -156,6 +144,11 @@ impl VehicleLink {
     pub fn with_params(mut self, params: ParamTable) -> Self {
         self.params = params;
         self
+    }
+
+    /// Puts back `params` (the runtime could not keep a change).
+    pub fn replace_params(&mut self, params: ParamTable) {
+        self.params = params;
     }
 
     /// The parameters as they are now.
@@ -225,13 +218,26 @@ impl VehicleLink {
                     continue;
                 }
             };
-            if let Err(reason) = self.verifier.check(&raw, timestamp_from_unix_us(now_us)) {
-                self.note_refusal(reason, &raw, now_us);
-                events.push(LinkEvent::Refused {
-                    reason,
-                    from: raw.sender,
-                    message_id: raw.message_id,
-                });
+            if raw.sender == VEHICLE {
+                // Our own frames come back only by reflection: never a ground's.
+                self.stats.malformed = self.stats.malformed.saturating_add(1);
+                continue;
+            }
+            let now_ts = timestamp_from_unix_us(now_us);
+            let signed_ts = match self.verifier.check(&raw, now_ts) {
+                Ok(ts) => ts,
+                Err(reason) => {
+                    self.refuse(reason, &raw, now_us, &mut events);
+                    continue;
+                }
+            };
+            // A signed command held back and let go later (an operator's Stop delivered in
+            // the middle of the next flight) is too old to obey.
+            let held_back = signed_ts.is_some_and(|ts| ts.saturating_add(COMMAND_MAX_AGE) < now_ts)
+                && raw.message_id == COMMAND_LONG_DATA::ID;
+            if held_back {
+                self.verifier.refused.stale = self.verifier.refused.stale.saturating_add(1);
+                self.refuse(Refusal::Stale, &raw, now_us, &mut events);
                 continue;
             }
             let Ok(message) = raw.message() else {
@@ -247,6 +253,21 @@ impl VehicleLink {
             self.handle(message, now_us, store, &mut events);
         }
         events
+    }
+
+    fn refuse(
+        &mut self,
+        reason: Refusal,
+        raw: &frame::RawFrame,
+        now_us: u64,
+        events: &mut Vec<LinkEvent>,
+    ) {
+        self.note_refusal(reason, raw, now_us);
+        events.push(LinkEvent::Refused {
+            reason,
+            from: raw.sender,
+            message_id: raw.message_id,
+        });
     }
 
     fn note_refusal(&mut self, reason: Refusal, raw: &frame::RawFrame, now_us: u64) {
@@ -279,20 +300,22 @@ impl VehicleLink {
     ) {
         match message {
             MavMessage::COMMAND_LONG(cmd) => {
-                if cmd.target_system != VEHICLE.system && cmd.target_system != 0 {
+                if !for_us(cmd.target_system) {
                     return;
                 }
                 self.stats.commands = self.stats.commands.saturating_add(1);
                 self.command(&cmd, now_us, events);
             }
-            MavMessage::LOG_REQUEST_LIST(r) => {
+            MavMessage::LOG_REQUEST_LIST(r) if for_us(r.target_system) => {
                 for entry in LogServer::entries(store, r.start, r.end) {
                     self.send(&entry, now_us);
                 }
             }
-            MavMessage::LOG_REQUEST_DATA(r) => self.logs.request(store, r.id, r.ofs, r.count),
-            MavMessage::LOG_REQUEST_END(_) => self.logs.end(),
-            MavMessage::PARAM_REQUEST_LIST(_) => {
+            MavMessage::LOG_REQUEST_DATA(r) if for_us(r.target_system) => {
+                self.logs.request(store, r.id, r.ofs, r.count)
+            }
+            MavMessage::LOG_REQUEST_END(r) if for_us(r.target_system) => self.logs.end(),
+            MavMessage::PARAM_REQUEST_LIST(r) if for_us(r.target_system) => {
                 let all: Vec<MavMessage> = (0..self.params.iter().count())
                     .filter_map(|i| self.params.value_message(i))
                     .collect();
@@ -300,7 +323,7 @@ impl VehicleLink {
                     self.send(&m, now_us);
                 }
             }
-            MavMessage::PARAM_REQUEST_READ(r) => {
+            MavMessage::PARAM_REQUEST_READ(r) if for_us(r.target_system) => {
                 let msg = match usize::try_from(r.param_index) {
                     Ok(i) => self.params.value_message(i),
                     Err(_) => self.params.value_message_named(&param_name(&r.param_id)),
@@ -314,7 +337,7 @@ impl VehicleLink {
                     ),
                 }
             }
-            MavMessage::PARAM_SET(p) => {
+            MavMessage::PARAM_SET(p) if for_us(p.target_system) => {
                 self.param_set(&param_name(&p.param_id), p.param_value, now_us, events)
             }
             // Heartbeats keep the link alive (above); everything else is not for us.
@@ -330,8 +353,37 @@ impl VehicleLink {
         }
         match ground_command(cmd) {
             Ok(command) => {
+                // A retry of a command under way, or of one just answered (its ack was
+                // lost), is answered again, never carried out twice.
+                if self.pending == Some(cmd.command) {
+                    self.ack(cmd.command, MavResult::MAV_RESULT_IN_PROGRESS, now_us);
+                    return;
+                }
+                let answered = self.last_result.filter(|(c, _, at)| {
+                    *c == cmd.command && now_us.saturating_sub(*at) < RESULT_KEPT_US
+                });
+                if let Some((_, result, _)) = answered.filter(|_| cmd.confirmation > 0) {
+                    self.ack(cmd.command, result, now_us);
+                    return;
+                }
+                // Connect starts a fresh flight process and kills a running one: over the
+                // link, never while a flight is under way.
+                let flying = matches!(
+                    self.status.state,
+                    BootstrapState::Starting | BootstrapState::Flying | BootstrapState::Stopping
+                );
+                if command == GroundCommand::Connect && flying {
+                    self.status_text(
+                        MavSeverity::MAV_SEVERITY_ERROR,
+                        "connect refused: a flight is under way (stop it first)",
+                        now_us,
+                    );
+                    self.ack(cmd.command, MavResult::MAV_RESULT_DENIED, now_us);
+                    return;
+                }
                 // These take time (a process starts or stops): say so at once.
                 self.ack(cmd.command, MavResult::MAV_RESULT_IN_PROGRESS, now_us);
+                self.pending = Some(cmd.command);
                 events.push(LinkEvent::Command {
                     token: CommandToken {
                         command: cmd.command,
@@ -396,6 +448,15 @@ impl VehicleLink {
     /// The final acknowledgement of a command: `Ok` accepted, `Err(why)` failed, with a
     /// status text saying why.
     pub fn finish(&mut self, token: CommandToken, result: Result<String, String>, now_us: u64) {
+        if self.pending == Some(token.command) {
+            self.pending = None;
+        }
+        let code = if result.is_ok() {
+            MavResult::MAV_RESULT_ACCEPTED
+        } else {
+            MavResult::MAV_RESULT_FAILED
+        };
+        self.last_result = Some((token.command, code, now_us));
         let name = match token.command {
             CMD_CONNECT => "connect",
             CMD_START_LOGGING => "start logging",
@@ -431,6 +492,7 @@ impl VehicleLink {
         store: &dyn LogStore,
     ) -> Vec<LinkEvent> {
         let mut events = Vec::new();
+        self.status = status;
         if self.due(HEARTBEAT_DATA::ID, Some(HEARTBEAT_US), now_us) {
             let hb = heartbeat(status);
             self.send(&hb, now_us);
@@ -448,7 +510,17 @@ impl VehicleLink {
                         .then(|| telemetry::message(id, &Telemetry::default(), boot_ms))
                         .flatten()
                 });
-            if let Some(msg) = msg {
+            if let Some(mut msg) = msg {
+                if let MavMessage::SYS_STATUS(st) = &mut msg {
+                    // The link's own health: frames refused by the signing check, and
+                    // datagrams that were not valid MAVLink.
+                    let errors = self
+                        .verifier
+                        .refused
+                        .total()
+                        .saturating_add(self.stats.malformed);
+                    st.errors_comm = u16::try_from(errors).unwrap_or(u16::MAX);
+                }
                 self.send(&msg, now_us);
             }
         }
@@ -488,59 +560,9 @@ impl VehicleLink {
     }
 }
 
-/// `text` in chunks of at most `max` characters, cut at spaces where it can be.
-pub fn chunks(text: &str, max: usize) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut current = String::new();
-    for word in text.split(' ') {
-        let mut word: Vec<char> = word.chars().collect();
-        let len = current.chars().count();
-        if len > 0 && len.saturating_add(1).saturating_add(word.len()) > max {
-            out.push(std::mem::take(&mut current));
-        }
-        while word.len() > max {
-            let rest = word.split_off(max);
-            out.push(word.iter().collect());
-            word = rest;
-        }
-        if !current.is_empty() {
-            current.push(' ');
-        }
-        current.extend(word);
-    }
-    if !current.is_empty() || out.is_empty() {
-        out.push(current);
-    }
-    out
-}
-
-/// The heartbeat for `status`.
-pub fn heartbeat(status: VehicleStatus) -> MavMessage {
-    let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
-    if status.state == BootstrapState::Flying {
-        base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
-        if status.mode == 2 {
-            base_mode |= MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED;
-        } else if status.mode >= 3 {
-            base_mode |= MavModeFlag::MAV_MODE_FLAG_STABILIZE_ENABLED;
-        } else {
-            base_mode |= MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED;
-        }
-    }
-    let system_status = match status.state {
-        BootstrapState::Idle | BootstrapState::Connected => MavState::MAV_STATE_STANDBY,
-        BootstrapState::Connecting | BootstrapState::Starting => MavState::MAV_STATE_BOOT,
-        BootstrapState::Flying => MavState::MAV_STATE_ACTIVE,
-        BootstrapState::Stopping => MavState::MAV_STATE_POWEROFF,
-    };
-    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-        custom_mode: u32::from(status.state as u8) | (u32::from(status.mode) << 8),
-        mavtype: MavType::MAV_TYPE_HELICOPTER,
-        autopilot: MavAutopilot::MAV_AUTOPILOT_GENERIC,
-        base_mode,
-        system_status,
-        mavlink_version: 3,
-    })
+/// Whether a message addressed to `target_system` is for this vehicle (0: for all).
+fn for_us(target_system: u8) -> bool {
+    target_system == VEHICLE.system || target_system == 0
 }
 
 #[cfg(test)]

@@ -171,6 +171,7 @@ fn with_a_key_unsigned_wrong_and_replayed_commands_are_refused_and_the_ground_to
         vec![Refusal::Unsigned, Refusal::BadSignature, Refusal::Replayed]
     );
     assert_eq!(v.refused().total(), 3);
+    v.tick(T0 + 6_000_000, VehicleStatus::default(), None, &s);
     for d in v.take_outgoing() {
         good.receive(&d, T0 + 6_000_000);
     }
@@ -180,9 +181,12 @@ fn with_a_key_unsigned_wrong_and_replayed_commands_are_refused_and_the_ground_to
         .filter(|(_, t)| t.contains("refused"))
         .count();
     assert_eq!(notices, 3, "{:?}", good.texts);
-    // What the vehicle sends is signed: the unsigned ground cannot read it... but accepts
-    // it (it has no key); the wrong key refuses it all.
     assert_eq!(good.bad_frames, 0);
+    // SYS_STATUS counts them too.
+    let Some((_, MavMessage::SYS_STATUS(st))) = good.latest.get(&SYS_STATUS_DATA::ID) else {
+        panic!("no SYS_STATUS")
+    };
+    assert_eq!(st.errors_comm, 3);
 }
 
 #[test]
@@ -416,4 +420,133 @@ fn a_flood_of_refusals_is_told_once_a_second_per_kind() {
         "{told:?}"
     );
     assert_eq!(v.refused().unsigned, 50);
+}
+
+#[test]
+fn a_retried_command_is_answered_again_never_carried_out_twice() {
+    let mut v = VehicleLink::new(None, T0);
+    let mut g = GroundLink::new(None);
+    let s = store();
+    let mut stop = command_long(&GroundCommand::Stop, (1, 1)).unwrap();
+    let first = g.command_frame(stop.clone(), T0);
+    let commands = |ev: &[LinkEvent]| {
+        ev.iter()
+            .filter(|e| matches!(e, LinkEvent::Command { .. }))
+            .count()
+    };
+    let ev = v.receive(&first, T0, &s);
+    assert_eq!(commands(&ev), 1);
+    let token = match &ev[0] {
+        LinkEvent::Command { token, .. } => *token,
+        other => panic!("{other:?}"),
+    };
+    // The IN_PROGRESS was lost: the ground retries while the stop is under way.
+    stop.confirmation = 1;
+    let retry = g.command_frame(stop.clone(), T0 + 500_000);
+    assert_eq!(commands(&v.receive(&retry, T0 + 500_000, &s)), 0);
+    v.finish(token, Ok("stopped (exit code 0)".into()), T0 + 1_000_000);
+    // The final ack was lost: a later retry gets the result again.
+    stop.confirmation = 2;
+    let again = g.command_frame(stop, T0 + 3_000_000);
+    assert_eq!(commands(&v.receive(&again, T0 + 3_000_000, &s)), 0);
+    for d in v.take_outgoing() {
+        g.receive(&d, T0 + 3_000_000);
+    }
+    let acks: Vec<MavResult> = g.acks.iter().map(|a| a.1).collect();
+    assert_eq!(
+        acks,
+        vec![
+            MavResult::MAV_RESULT_IN_PROGRESS,
+            MavResult::MAV_RESULT_IN_PROGRESS,
+            MavResult::MAV_RESULT_ACCEPTED,
+            MavResult::MAV_RESULT_ACCEPTED
+        ]
+    );
+}
+
+#[test]
+fn connect_over_the_link_is_refused_while_a_flight_is_under_way() {
+    let mut v = VehicleLink::new(None, T0);
+    let mut g = GroundLink::new(None);
+    let s = store();
+    let flying = VehicleStatus {
+        state: BootstrapState::Flying,
+        mode: 2,
+    };
+    v.tick(T0, flying, None, &s);
+    let connect = g.command_frame(command_long(&GroundCommand::Connect, (1, 1)).unwrap(), T0);
+    let ev = v.receive(&connect, T0, &s);
+    assert!(
+        !ev.iter().any(|e| matches!(e, LinkEvent::Command { .. })),
+        "{ev:?}"
+    );
+    for d in v.take_outgoing() {
+        g.receive(&d, T0);
+    }
+    assert_eq!(g.final_ack(CMD_CONNECT), Some(MavResult::MAV_RESULT_DENIED));
+    assert!(
+        g.texts
+            .iter()
+            .any(|(_, t)| t.contains("flight is under way"))
+    );
+}
+
+#[test]
+fn a_signed_command_held_back_is_refused_and_reflections_are_ignored() {
+    let key = Key::new([6; 32]);
+    let mut v = VehicleLink::new(Some(key.clone()), T0);
+    let mut g = GroundLink::new(Some(key.clone()));
+    let s = store();
+    // Signed 30 s before it arrives (a fresh stream would accept up to a minute).
+    let stop = command_long(&GroundCommand::Stop, (1, 1)).unwrap();
+    let late = g.command_frame(stop, T0 - 30_000_000);
+    let ev = v.receive(&late, T0, &s);
+    assert!(
+        matches!(
+            ev.as_slice(),
+            [LinkEvent::Refused {
+                reason: Refusal::Stale,
+                ..
+            }]
+        ),
+        "{ev:?}"
+    );
+    // The vehicle's own heartbeat, bounced back: neither a ground nor the link's life.
+    v.tick(T0, VehicleStatus::default(), None, &s);
+    let own = v.take_outgoing();
+    for d in &own {
+        assert!(v.receive(d, T0 + 1, &s).is_empty());
+    }
+    assert_eq!(v.stats.frames_in, 0);
+    // And the ground does not take its own frames for the vehicle's.
+    let hb = g.heartbeat_frame(T0);
+    g.receive(&hb, T0);
+    assert!(g.heartbeat.is_none());
+}
+
+#[test]
+fn messages_for_another_system_change_nothing() {
+    use crate::params::{ParamSpec, ParamTable};
+    const SPECS: [ParamSpec; 1] = [ParamSpec {
+        name: "A_GAIN",
+        what: "",
+        min: 0.0,
+        max: 1.0,
+        default: 0.5,
+    }];
+    let mut v = VehicleLink::new(None, T0).with_params(ParamTable::new(&SPECS));
+    let mut g = GroundLink::new(None);
+    let set = g.encode(
+        &MavMessage::PARAM_SET(PARAM_SET_DATA {
+            param_value: 0.9,
+            target_system: 2,
+            target_component: 1,
+            param_id: "A_GAIN".into(),
+            param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+        }),
+        T0,
+    );
+    let ev = v.receive(&set, T0, &store());
+    assert!(ev.is_empty(), "{ev:?}");
+    assert_eq!(v.params().get("A_GAIN"), Some(0.5));
 }

@@ -26,6 +26,8 @@ use crate::ctl::Request;
 
 /// A ground not heard for this long is no longer sent to.
 pub const PEER_TIMEOUT: Duration = Duration::from_secs(10);
+/// Most ground stations sent to at once (the one heard longest ago makes room).
+pub const MAX_PEERS: usize = 8;
 /// The link thread's longest wait for a datagram.
 const TICK: Duration = Duration::from_millis(10);
 /// Most status texts waiting to be sent (older ones are dropped first).
@@ -64,7 +66,13 @@ impl LinkShared {
         let mode = flying
             .and_then(|words| words.split_whitespace().nth(1))
             .map_or(0, mode_code);
-        self.lock().status = VehicleStatus { state, mode };
+        let mut shared = self.lock();
+        shared.status = VehicleStatus { state, mode };
+        // A flight process gone or not yet flying has no telemetry: the last one's values
+        // must not go on being sent as if fresh.
+        if matches!(state, BootstrapState::Idle | BootstrapState::Connecting) {
+            shared.telemetry = None;
+        }
     }
 
     /// The flight process's telemetry line (JSON).
@@ -147,9 +155,10 @@ impl LogStore for DirStore {
     fn list(&self) -> Vec<LogInfo> {
         self.files()
             .into_iter()
-            .zip(1u16..)
-            .map(|((name, meta), id)| LogInfo {
-                id,
+            .take(usize::from(u16::MAX))
+            .enumerate()
+            .map(|(i, (name, meta))| LogInfo {
+                id: u16::try_from(i.saturating_add(1)).unwrap_or(u16::MAX),
                 name,
                 size: u32::try_from(meta.len()).unwrap_or(u32::MAX),
                 time_utc: meta
@@ -161,16 +170,10 @@ impl LogStore for DirStore {
             .collect()
     }
 
-    fn read(&self, id: u16, ofs: u32, buf: &mut [u8]) -> usize {
+    fn read(&self, name: &str, ofs: u32, buf: &mut [u8]) -> usize {
         use std::io::{Read, Seek, SeekFrom};
-        let Some((name, _)) = self
-            .files()
-            .into_iter()
-            .nth(usize::from(id).saturating_sub(1))
-        else {
-            return 0;
-        };
-        if id == 0 {
+        // Only a log of the directory, by its plain name.
+        if name.is_empty() || name.contains('/') || !name.ends_with(".mcap") {
             return 0;
         }
         let Ok(mut file) = std::fs::File::open(self.dir.join(name)) else {
@@ -207,6 +210,11 @@ pub fn spawn(
     say: Arc<dyn Fn(&str) + Send + Sync>,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<JoinHandle<()>> {
+    if key.is_some() && heli_link::signing::timestamp_from_unix_us(unix_us()) == 0 {
+        return Err(std::io::Error::other(
+            "the clock is before 2015: signed MAVLink needs the time (set the clock, or sync it by NTP or GPS, before serving a signed link)",
+        ));
+    }
     let socket = UdpSocket::bind(addr)?;
     socket.set_read_timeout(Some(TICK))?;
     let local = socket.local_addr()?;
@@ -245,8 +253,19 @@ pub fn spawn(
             let _ = socket.set_nonblocking(sending);
             let mut first = true;
             while let Ok((n, from)) = socket.recv_from(&mut buf) {
-                peers.insert(from, Instant::now());
+                let accepted_before = link.stats.frames_in;
                 events.extend(link.receive(buf.get(..n).unwrap_or(&[]), unix_us(), &store));
+                // Only a sender of a frame that passed the checks is sent to: a refused or
+                // garbled datagram earns its sender nothing.
+                if link.stats.frames_in > accepted_before {
+                    if !peers.contains_key(&from) && peers.len() >= MAX_PEERS {
+                        let oldest = peers.iter().min_by_key(|(_, t)| **t).map(|(a, _)| *a);
+                        if let Some(a) = oldest {
+                            peers.remove(&a);
+                        }
+                    }
+                    peers.insert(from, Instant::now());
+                }
                 if first {
                     let _ = socket.set_nonblocking(true);
                     first = false;
@@ -278,7 +297,9 @@ pub fn spawn(
                     LinkEvent::Refused { reason, from, message_id } => {
                         let last = last_refusal_line.get(reason.text());
                         if last.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
-                            println!(
+                            use std::io::Write;
+                            let _ = writeln!(
+                                std::io::stdout().lock(),
                                 "link: refused a {} frame (message {message_id}) from {}/{}; {} refused so far",
                                 reason.text(),
                                 from.system,
@@ -292,10 +313,21 @@ pub fn spawn(
                         match crate::params::save(&log_dir, &table_text) {
                             Ok(()) => link.status_text(
                                 MavSeverity::MAV_SEVERITY_INFO,
-                                "param saved; applies from the next Start Logging",
+                                "param saved; a flight process takes it when it starts",
                                 unix_us(),
                             ),
-                            Err(e) => say(&format!("link: parameter not saved: {e}")),
+                            Err(e) => {
+                                // Not kept on disk: not kept at all, and the ground is told.
+                                let kept = crate::params::load(&log_dir)
+                                    .unwrap_or_else(|_| crate::params::defaults());
+                                link.replace_params(kept);
+                                link.status_text(
+                                    MavSeverity::MAV_SEVERITY_ERROR,
+                                    &format!("param not saved, change undone: {e}"),
+                                    unix_us(),
+                                );
+                                say(&format!("link: parameter not saved: {e}"));
+                            }
                         }
                     }
                     LinkEvent::LinkLost => say("link: lost (no ground heard for 5 s); flying on"),
@@ -376,8 +408,9 @@ mod tests {
             (1, "flight_a.mcap", 100)
         );
         let mut buf = [0u8; 90];
-        assert_eq!(store.read(2, 250, &mut buf), 50);
+        assert_eq!(store.read("flight_b.mcap", 250, &mut buf), 50);
         assert_eq!(buf[0], 2);
-        assert_eq!(store.read(3, 0, &mut buf), 0);
+        assert_eq!(store.read("flight_c.mcap", 0, &mut buf), 0);
+        assert_eq!(store.read("../warm-start", 0, &mut buf), 0);
     }
 }

@@ -1,0 +1,87 @@
+//! What the vehicle says of itself: the heartbeat (the bootstrap's state and the control
+//! mode, docs/link.md) and status texts cut to a STATUSTEXT's size.
+
+use mavlink::dialects::common::*;
+
+/// The bootstrap's state, as the heartbeat's custom mode (low byte) tells it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BootstrapState {
+    /// No flight process.
+    #[default]
+    Idle = 0,
+    /// Flight process starting.
+    Connecting = 1,
+    /// Flight process up, waiting for Start Logging.
+    Connected = 2,
+    /// Start Logging sent, waiting for the process.
+    Starting = 3,
+    /// Flying and logging.
+    Flying = 4,
+    /// Stopping.
+    Stopping = 5,
+}
+
+/// What the heartbeat says of the vehicle.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VehicleStatus {
+    /// The bootstrap's state.
+    pub state: BootstrapState,
+    /// The control mode of the flight under way (custom mode's second byte: 1 manual, 2
+    /// autonomous, 3 rate, 4 attitude, 5 velocity; 0 none).
+    pub mode: u8,
+}
+
+/// `text` in chunks of at most `max` bytes (a STATUSTEXT holds 50), cut at spaces where it
+/// can be and never inside a character.
+pub fn chunks(text: &str, max: usize) -> Vec<String> {
+    let max = max.max(4);
+    let mut out = Vec::new();
+    let mut current = String::new();
+    for word in text.split(' ') {
+        if !current.is_empty() && current.len().saturating_add(1).saturating_add(word.len()) > max {
+            out.push(std::mem::take(&mut current));
+        }
+        if !current.is_empty() {
+            current.push(' ');
+        }
+        for c in word.chars() {
+            if current.len().saturating_add(c.len_utf8()) > max {
+                out.push(std::mem::take(&mut current));
+            }
+            current.push(c);
+        }
+    }
+    if !current.is_empty() || out.is_empty() {
+        out.push(current);
+    }
+    out
+}
+
+/// The heartbeat for `status`.
+pub fn heartbeat(status: VehicleStatus) -> MavMessage {
+    let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+    if status.state == BootstrapState::Flying {
+        base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+        if status.mode == 2 {
+            base_mode |= MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED;
+        } else if status.mode >= 3 {
+            base_mode |= MavModeFlag::MAV_MODE_FLAG_STABILIZE_ENABLED;
+        } else {
+            base_mode |= MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED;
+        }
+    }
+    let system_status = match status.state {
+        BootstrapState::Idle | BootstrapState::Connected => MavState::MAV_STATE_STANDBY,
+        BootstrapState::Connecting | BootstrapState::Starting => MavState::MAV_STATE_BOOT,
+        BootstrapState::Flying => MavState::MAV_STATE_ACTIVE,
+        BootstrapState::Stopping => MavState::MAV_STATE_POWEROFF,
+    };
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: u32::from(status.state as u8) | (u32::from(status.mode) << 8),
+        mavtype: MavType::MAV_TYPE_HELICOPTER,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_GENERIC,
+        base_mode,
+        system_status,
+        mavlink_version: 3,
+    })
+}
