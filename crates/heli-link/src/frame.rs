@@ -178,6 +178,40 @@ pub fn encode(
     bytes
 }
 
+/// One sender's outgoing frames: its ids, its sequence number, and its signer when a key is
+/// set. Both ends of the link send through one.
+#[derive(Clone, Debug)]
+pub struct Outgoing {
+    from: Sender,
+    sequence: u8,
+    signer: Option<Signer>,
+}
+
+impl Outgoing {
+    /// Frames from `from`, signed by `signer` when one is given.
+    pub fn new(from: Sender, signer: Option<Signer>) -> Self {
+        Self {
+            from,
+            sequence: 0,
+            signer,
+        }
+    }
+
+    /// The bytes of `message`, next in the sequence, signed at `now_us` (Unix µs) if a key is
+    /// set.
+    pub fn encode(&mut self, message: &MavMessage, now_us: u64) -> Vec<u8> {
+        let ts = crate::signing::timestamp_from_unix_us(now_us);
+        let bytes = encode(
+            self.from,
+            self.sequence,
+            message,
+            self.signer.as_mut().map(|s| (s, ts)),
+        );
+        self.sequence = self.sequence.wrapping_add(1);
+        bytes
+    }
+}
+
 /// Splits a datagram into frames. Bytes between frames are reported as garbage and skipped;
 /// a frame with a bad checksum is reported and the search goes on after its start byte, so
 /// one damaged frame costs only itself.

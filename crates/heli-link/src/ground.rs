@@ -107,8 +107,7 @@ impl Download {
 
 /// The ground's link.
 pub struct GroundLink {
-    sequence: u8,
-    signer: Option<Signer>,
+    out: frame::Outgoing,
     verifier: Verifier,
     /// The vehicle's last heartbeat and when it came (µs).
     pub heartbeat: Option<(u64, HEARTBEAT_DATA)>,
@@ -134,8 +133,7 @@ impl GroundLink {
     /// A ground link signing with `key` (and refusing what the vehicle did not sign with it).
     pub fn new(key: Option<Key>) -> Self {
         Self {
-            sequence: 0,
-            signer: key.clone().map(|k| Signer::new(k, 1)),
+            out: frame::Outgoing::new(GROUND, key.clone().map(|k| Signer::new(k, 1))),
             verifier: Verifier::new(key),
             heartbeat: None,
             latest: BTreeMap::new(),
@@ -151,15 +149,7 @@ impl GroundLink {
 
     /// The bytes of `message`, signed if a key is set.
     pub fn encode(&mut self, message: &MavMessage, now_us: u64) -> Vec<u8> {
-        let ts = timestamp_from_unix_us(now_us);
-        let bytes = frame::encode(
-            GROUND,
-            self.sequence,
-            message,
-            self.signer.as_mut().map(|s| (s, ts)),
-        );
-        self.sequence = self.sequence.wrapping_add(1);
-        bytes
+        self.out.encode(message, now_us)
     }
 
     /// The ground's heartbeat.

@@ -89,8 +89,7 @@ pub struct LinkStats {
 
 /// The vehicle's link.
 pub struct VehicleLink {
-    sequence: u8,
-    signer: Option<Signer>,
+    out: frame::Outgoing,
     verifier: Verifier,
     started_us: u64,
     intervals: BTreeMap<u32, Option<u64>>,
@@ -121,8 +120,7 @@ impl VehicleLink {
             .map(|&id| (id, Some(DEFAULT_INTERVAL_US)))
             .collect();
         Self {
-            sequence: 0,
-            signer: key.clone().map(|k| Signer::new(k, 0)),
+            out: frame::Outgoing::new(VEHICLE, key.clone().map(|k| Signer::new(k, 0))),
             verifier: Verifier::new(key),
             started_us: now_us,
             intervals,
@@ -178,14 +176,7 @@ impl VehicleLink {
 
     /// Queues `message`.
     pub fn send(&mut self, message: &MavMessage, now_us: u64) {
-        let ts = timestamp_from_unix_us(now_us);
-        let bytes = frame::encode(
-            VEHICLE,
-            self.sequence,
-            message,
-            self.signer.as_mut().map(|s| (s, ts)),
-        );
-        self.sequence = self.sequence.wrapping_add(1);
+        let bytes = self.out.encode(message, now_us);
         self.stats.frames_out = self.stats.frames_out.saturating_add(1);
         self.outbox.push(bytes);
     }
