@@ -37,6 +37,10 @@ pub struct Download {
     /// Which 90-byte blocks have arrived.
     have: Vec<bool>,
     last_progress_us: u64,
+    /// Where the current request ends (bytes).
+    request_end: u32,
+    /// The current request's last packet has come: what is still missing was lost.
+    request_done: bool,
     /// Requests sent (the first and each ask for a missing part).
     pub requests: u64,
 }
@@ -50,6 +54,8 @@ impl Download {
             bytes: vec![0; usize::try_from(size).unwrap_or(0)],
             have: vec![false; blocks],
             last_progress_us: now_us,
+            request_end: size,
+            request_done: false,
             requests: 0,
         }
     }
@@ -86,6 +92,13 @@ impl Download {
     fn accept(&mut self, d: &LOG_DATA_DATA, now_us: u64) {
         let ofs = usize::try_from(d.ofs).unwrap_or(usize::MAX);
         let n = usize::from(d.count).min(LOG_DATA_LEN);
+        // The last packet of the current request (or the end-of-file marker): whatever is
+        // still missing was lost, and can be asked for at once.
+        if d.ofs.saturating_add(u32::from(d.count)) >= self.request_end
+            || usize::from(d.count) < LOG_DATA_LEN
+        {
+            self.request_done = true;
+        }
         if ofs % LOG_DATA_LEN != 0 || n == 0 {
             return;
         }
@@ -250,18 +263,21 @@ impl GroundLink {
         self.encode(&req, now_us)
     }
 
-    /// When the download has stalled, the request for its first missing part (and, once
-    /// complete, the request that ends the transfer on the vehicle).
+    /// The request for the download's first missing part, when its last request has ended
+    /// with parts missing, or when nothing new has come for [`DOWNLOAD_RETRY_US`].
     pub fn download_tick(&mut self, now_us: u64) -> Option<Vec<u8>> {
         let dl = self.download.as_mut()?;
         if dl.complete() {
             return None;
         }
-        if now_us.saturating_sub(dl.last_progress_us) < DOWNLOAD_RETRY_US {
+        let stalled = now_us.saturating_sub(dl.last_progress_us) >= DOWNLOAD_RETRY_US;
+        if !(dl.request_done || stalled) {
             return None;
         }
         let (ofs, count) = dl.first_gap()?;
         dl.last_progress_us = now_us;
+        dl.request_done = false;
+        dl.request_end = ofs.saturating_add(count);
         dl.requests = dl.requests.saturating_add(1);
         let id = dl.id;
         let req = MavMessage::LOG_REQUEST_DATA(LOG_REQUEST_DATA_DATA {
