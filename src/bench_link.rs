@@ -10,13 +10,14 @@
 use std::net::UdpSocket;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use heli_link::ground::GroundLink;
 use heli_link::logs::MemoryStore;
 use heli_link::signing::Key;
 use heli_link::vehicle::{VehicleLink, VehicleStatus};
+use heli_vehicle::link::unix_us;
 use mavlink::dialects::common::{COMMAND_LONG_DATA, MavCmd, MavResult};
 use serde::Serialize;
 
@@ -38,12 +39,6 @@ pub struct LinkBench {
     pub download_requests: u64,
     /// Command round trip (µs): p50, p99, max.
     pub command_rtt_us: [f64; 3],
-}
-
-fn unix_us() -> u64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
 }
 
 /// Runs the benchmark.

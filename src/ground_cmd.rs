@@ -7,7 +7,7 @@
 use std::net::{SocketAddr, UdpSocket};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
@@ -15,6 +15,7 @@ use heli_link::GroundCommand;
 use heli_link::command::command_long;
 use heli_link::ground::{COMMAND_RETRY_US, GroundLink};
 use heli_link::messages::StartParameters;
+use heli_vehicle::link::unix_us;
 use mavlink::dialects::common::MavResult;
 
 use crate::link_cmd::{load_key, parse_link};
@@ -82,12 +83,6 @@ pub enum GroundAction {
         #[arg(long)]
         out: PathBuf,
     },
-}
-
-fn unix_us() -> u64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
 }
 
 /// A ground station session on a socket.

@@ -126,12 +126,17 @@ fn severity_of(line: &str) -> MavSeverity {
 /// The flight logs of a directory (`*.mcap`, numbered from 1 by name).
 pub struct DirStore {
     dir: PathBuf,
+    /// The log being read, kept open between packets (a transfer reads it 90 bytes at a time).
+    open: std::cell::RefCell<Option<(String, std::fs::File)>>,
 }
 
 impl DirStore {
     /// The logs of `dir`.
     pub fn new(dir: PathBuf) -> Self {
-        Self { dir }
+        Self {
+            dir,
+            open: std::cell::RefCell::new(None),
+        }
     }
 
     fn files(&self) -> Vec<(String, std::fs::Metadata)> {
@@ -176,7 +181,13 @@ impl LogStore for DirStore {
         if name.is_empty() || name.contains('/') || !name.ends_with(".mcap") {
             return 0;
         }
-        let Ok(mut file) = std::fs::File::open(self.dir.join(name)) else {
+        let mut open = self.open.borrow_mut();
+        if open.as_ref().is_none_or(|(n, _)| n != name) {
+            *open = std::fs::File::open(self.dir.join(name))
+                .ok()
+                .map(|f| (name.to_string(), f));
+        }
+        let Some((_, file)) = open.as_mut() else {
             return 0;
         };
         if file.seek(SeekFrom::Start(u64::from(ofs))).is_err() {
@@ -193,7 +204,9 @@ impl LogStore for DirStore {
     }
 }
 
-fn unix_us() -> u64 {
+/// The wall clock as Unix time (µs): MAVLink signing's time base. The link's runtime and
+/// `heli ground` read the clock here; the link's state machines only take it as an argument.
+pub fn unix_us() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_or(0, |d| u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
@@ -264,7 +277,10 @@ pub fn spawn(
                             peers.remove(&a);
                         }
                     }
-                    peers.insert(from, Instant::now());
+                    if peers.insert(from, Instant::now()).is_none() {
+                        // A ground just arrived is told at once, not at the next 30 s.
+                        last_unsigned_warning = None;
+                    }
                 }
                 if first {
                     let _ = socket.set_nonblocking(true);
@@ -392,6 +408,93 @@ mod tests {
         shared.set_state(State::Flying, Some("hover1 velocity hover"));
         let s = shared.lock().status;
         assert_eq!((s.state, s.mode), (BootstrapState::Flying, 5));
+    }
+
+    #[test]
+    fn telemetry_of_a_flight_process_gone_is_not_kept() {
+        let shared = LinkShared::default();
+        shared.set_state(State::Flying, Some("hover1 autonomous"));
+        shared.set_telemetry(&serde_json::to_string(&Telemetry::default()).unwrap());
+        assert!(shared.lock().telemetry.is_some());
+        shared.set_state(State::Idle, None);
+        assert!(shared.lock().telemetry.is_none());
+    }
+
+    /// Starts a link thread without a key on loopback; returns its address, what it said,
+    /// and the stop flag.
+    fn open_link(dir: &std::path::Path) -> (SocketAddr, Arc<Mutex<Vec<String>>>, Arc<AtomicBool>) {
+        let config = crate::bootstrap::BootstrapConfig {
+            socket: dir.join("ctl.sock"),
+            child: Vec::new(),
+            warm_file: None,
+        };
+        let bootstrap = crate::bootstrap::Bootstrap::new(config, Box::new(|_: &str| {}));
+        let probe = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let addr = probe.local_addr().unwrap();
+        drop(probe);
+        let said = Arc::new(Mutex::new(Vec::new()));
+        let said_to = Arc::clone(&said);
+        let stop = Arc::new(AtomicBool::new(false));
+        spawn(
+            addr,
+            None,
+            dir.to_path_buf(),
+            Arc::new(LinkShared::default()),
+            bootstrap.requests(),
+            Arc::new(move |l: &str| said_to.lock().unwrap().push(l.to_string())),
+            Arc::clone(&stop),
+        )
+        .unwrap();
+        (addr, said, stop)
+    }
+
+    #[test]
+    fn without_a_key_the_link_says_it_is_unauthenticated_and_a_garbler_is_sent_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let (addr, said, stop) = open_link(dir.path());
+        assert!(
+            said.lock().unwrap()[0].contains("UNAUTHENTICATED"),
+            "{said:?}"
+        );
+        // A sender of garbage is not a peer: it gets nothing back.
+        let garbler = UdpSocket::bind("127.0.0.1:0").unwrap();
+        garbler
+            .set_read_timeout(Some(Duration::from_millis(300)))
+            .unwrap();
+        garbler.send_to(&[0xFD, 1, 2, 3], addr).unwrap();
+        let mut buf = [0u8; 512];
+        assert!(garbler.recv(&mut buf).is_err(), "garbage earned an answer");
+        // A ground's heartbeat makes it a peer, told the link is unauthenticated.
+        let mut ground = heli_link::ground::GroundLink::new(None);
+        let ground_socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+        ground_socket
+            .set_read_timeout(Some(Duration::from_millis(100)))
+            .unwrap();
+        ground_socket
+            .send_to(&ground.heartbeat_frame(unix_us()), addr)
+            .unwrap();
+        let end = Instant::now() + Duration::from_secs(3);
+        while Instant::now() < end
+            && !(ground.heartbeat.is_some()
+                && ground
+                    .texts
+                    .iter()
+                    .any(|(_, t)| t.contains("unauthenticated")))
+        {
+            if let Ok(n) = ground_socket.recv(&mut buf) {
+                ground.receive(&buf[..n], unix_us());
+            }
+        }
+        stop.store(true, Ordering::Release);
+        assert!(
+            ground
+                .texts
+                .iter()
+                .any(|(_, t)| t.contains("link unauthenticated")),
+            "{:?}",
+            ground.texts
+        );
+        assert!(ground.heartbeat.is_some());
     }
 
     #[test]
