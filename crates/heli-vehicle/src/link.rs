@@ -107,14 +107,16 @@ fn mode_code(name: &str) -> u8 {
 
 /// The MAVLink severity of a bootstrap line: the flight process's events carry theirs.
 fn severity_of(line: &str) -> MavSeverity {
-    let event_level = line
+    use heli_fsw::core::Severity;
+    let event = line
         .strip_prefix("flight: event ")
-        .and_then(|rest| rest.split_whitespace().next());
-    match event_level {
-        Some("fatal") => MavSeverity::MAV_SEVERITY_CRITICAL,
-        Some("warning-hi") => MavSeverity::MAV_SEVERITY_WARNING,
-        Some("warning-lo") => MavSeverity::MAV_SEVERITY_NOTICE,
-        Some(_) => MavSeverity::MAV_SEVERITY_INFO,
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(Severity::from_name);
+    match event {
+        Some(Severity::Fatal) => MavSeverity::MAV_SEVERITY_CRITICAL,
+        Some(Severity::WarningHi) => MavSeverity::MAV_SEVERITY_WARNING,
+        Some(Severity::WarningLo) => MavSeverity::MAV_SEVERITY_NOTICE,
+        Some(Severity::ActivityHi | Severity::ActivityLo) => MavSeverity::MAV_SEVERITY_INFO,
         None if line.contains("CRASHED") => MavSeverity::MAV_SEVERITY_CRITICAL,
         None if line.starts_with("bootstrap:") && line.contains("error") => {
             MavSeverity::MAV_SEVERITY_ERROR

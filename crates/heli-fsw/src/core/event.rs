@@ -32,6 +32,20 @@ impl Severity {
             Severity::Fatal => "fatal",
         }
     }
+
+    /// Every severity, least first.
+    pub const ALL: [Severity; 5] = [
+        Severity::ActivityLo,
+        Severity::ActivityHi,
+        Severity::WarningLo,
+        Severity::WarningHi,
+        Severity::Fatal,
+    ];
+
+    /// The severity named `name` (as [`Severity::name`] writes it).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
 }
 
 /// Notable things that happened, for the ground's message area.
