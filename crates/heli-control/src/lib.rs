@@ -30,6 +30,7 @@ pub mod hover;
 pub mod manual;
 pub mod mode;
 pub mod roll;
+pub mod safety;
 
 pub use augmented::{AugmentedMode, StickScales, augmented_controls};
 pub use hover::{HoverController, HoverGains, Target};

@@ -105,6 +105,7 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
         CoreEvent::GpsReset => {
             format!("t={t:.2} s GPS reset: position and velocity set to the GPS after a long coast")
         }
+        CoreEvent::ModeRefused(refusal) => format!("t={t:.2} s {}", refusal.text()),
         CoreEvent::TakeoffRefused(why) => {
             format!("t={t:.2} s take-off refused: {}", why.text())
         }

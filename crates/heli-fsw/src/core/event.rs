@@ -119,6 +119,8 @@ pub enum CoreEvent {
     },
     /// A reading of an aid reported refused was fused again.
     AidAccepted(super::aids::Aid),
+    /// The mode the pilot's switch asked for is refused by the safety rule.
+    ModeRefused(super::mode_check::ModeRefusal),
 }
 
 impl CoreEvent {
@@ -143,7 +145,8 @@ impl CoreEvent {
             | CoreEvent::RestartedInAir
             | CoreEvent::EstimateDegraded { .. }
             | CoreEvent::AidRefused { .. }
-            | CoreEvent::TakeoffRefused(_) => Severity::WarningHi,
+            | CoreEvent::TakeoffRefused(_)
+            | CoreEvent::ModeRefused(_) => Severity::WarningHi,
             CoreEvent::DeviceHealth { device, state } => match (device, state) {
                 (_, HealthState::Ok | HealthState::Waiting) => Severity::ActivityLo,
                 (_, HealthState::Late) => Severity::WarningLo,

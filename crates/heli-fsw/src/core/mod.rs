@@ -17,6 +17,7 @@ mod dispatch;
 mod event;
 pub mod gps;
 mod main_loop;
+pub mod mode_check;
 pub mod mission;
 mod phase;
 pub mod preflight;
@@ -31,6 +32,7 @@ pub use event::{CoreEvent, Severity};
 pub use gps::Implausible;
 pub use heli_nav::calibration::Motion;
 pub use phase::Phase;
+pub use mode_check::ModeRefusal;
 pub use preflight::Refusal;
 pub use restart::WarmStart;
 
@@ -230,6 +232,8 @@ pub struct FlightCore {
     /// During the calibration window: the compass heading when it opened, and the
     /// readings' running average (rad).
     calibration_heading: Option<(f64, f64)>,
+    /// The mode the pilot's switch asked for, refused by the safety rule (`mode_check`).
+    mode_refused: Option<ModeRefusal>,
     stats: CoreStats,
 }
 
@@ -266,6 +270,7 @@ impl FlightCore {
             alignment: None,
             trim: None,
             calibration_heading: None,
+            mode_refused: None,
             stats: CoreStats::default(),
         }
     }
@@ -505,3 +510,5 @@ fn input_is_finite(input: &Input) -> bool {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod mode_check_tests;

@@ -8,7 +8,8 @@
 //! - a GPS fix fused in the last [`GPS_FRESH_S`] seconds (the position hold needs one);
 //! - at least [`MIN_SATELLITES`] satellites in the last good fix (the thesis: fewer than
 //!   five is dangerous);
-//! - an IMU whose watchdog says it is on time.
+//! - an IMU whose watchdog says it is on time;
+//! - and then the whole safety rule for automatic flight (`heli_control::safety`).
 
 use super::*;
 
@@ -32,6 +33,8 @@ pub enum Refusal {
     TooFewSatellites(u8),
     /// The IMU is late or silent.
     ImuNotHealthy,
+    /// The safety rule for automatic flight fails (`heli_control::safety::AUTOMATIC`).
+    Unsafe(heli_control::safety::Verdict),
 }
 
 impl Refusal {
@@ -44,6 +47,7 @@ impl Refusal {
                 format!("{n} satellites, fewer than {MIN_SATELLITES}")
             }
             Refusal::ImuNotHealthy => "the IMU is not on time".into(),
+            Refusal::Unsafe(verdict) => format!("not safe for automatic flight: {verdict}"),
         }
     }
 }
@@ -63,9 +67,11 @@ impl FlightCore {
         }
         match self.last_good_fix {
             Some((_, fix)) if fix.satellites < MIN_SATELLITES => {
-                Some(Refusal::TooFewSatellites(fix.satellites))
+                return Some(Refusal::TooFewSatellites(fix.satellites));
             }
-            _ => None,
+            _ => {}
         }
+        let verdict = self.automatic_verdict();
+        (!verdict.allowed).then_some(Refusal::Unsafe(verdict))
     }
 }

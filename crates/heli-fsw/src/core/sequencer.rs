@@ -29,6 +29,7 @@ impl FlightCore {
                 };
             }
             if self.estimate_valid {
+                self.refuse_while_calibrating(now_us, out);
                 return Phase::Calibrating;
             }
             // The estimate is gone: the pilot flies if there is one; otherwise the blind
@@ -80,6 +81,12 @@ impl FlightCore {
         if !wants_auto {
             // The emergency bypass: the board drives the servos from the pilot; the computer
             // still supplies the tail with yaw damping.
+            self.clear_refusal();
+            return Phase::Manual;
+        }
+        // The pilot's switch asks for a mode: the safety rule may refuse it (a transmitter
+        // loss asks for nothing: its failsafe is never refused).
+        if !signal_lost && self.refuse_mode(on_ground, now_us, out) {
             return Phase::Manual;
         }
         if let (FlightMode::Augmented(mode), false) = (self.params.mode, signal_lost) {

@@ -1,6 +1,6 @@
 use super::*;
 
-fn still() -> ImuRepr {
+pub(super) fn still() -> ImuRepr {
     ImuRepr {
         rate_rps: [0.001, 0.0, -0.002],
         accel_mps2: [0.0, 0.0, -9.81],
@@ -9,7 +9,7 @@ fn still() -> ImuRepr {
 }
 
 /// A core with a short calibration, flying `mode` with a 10 m hover plan.
-fn core_with(mode: FlightMode) -> FlightCore {
+pub(super) fn core_with(mode: FlightMode) -> FlightCore {
     FlightCore::new(
         CoreConfig {
             imu_warm_up_s: 0.1,
@@ -104,7 +104,7 @@ fn calibration_then_auto_switch_starts_a_takeoff() {
     ));
 }
 
-fn uplink(auto_mode: bool, lost: bool) -> PilotUplink {
+pub(super) fn uplink(auto_mode: bool, lost: bool) -> PilotUplink {
     let sticks = Controls {
         collective: 0.0,
         throttle: 0.8,
@@ -271,12 +271,8 @@ fn emergency_bypass_hands_the_pilot_the_helicopter_with_yaw_damping() {
 
 #[test]
 fn augmented_mode_follows_the_auto_switch() {
-    let mut core = core_with(FlightMode::Augmented(AugmentedMode::Rate));
-    let mut out = Vec::new();
-    core.handle(Input::Uplink(uplink(true, false)), 0, &mut out);
-    for k in 0..200u64 {
-        core.handle(Input::Imu(still()), k * 10_000, &mut out);
-    }
+    let (mut core, mut out) =
+        core_with_gps(FlightMode::Augmented(AugmentedMode::Rate), Some(8), 2);
     assert_eq!(core.phase(), Phase::Augmented(AugmentedMode::Rate));
     core.handle(Input::Uplink(uplink(false, false)), 2_000_000, &mut out);
     core.handle(Input::Imu(still()), 2_000_000, &mut out);
@@ -287,7 +283,7 @@ fn augmented_mode_follows_the_auto_switch() {
 /// Feeds the core for `duration_us` after `t`: IMU samples every 10 ms when `imu`, pilot
 /// packets every 20 ms when `pilot` is given, and the timer whenever it is due. Returns the
 /// time reached.
-fn fly_for(
+pub(super) fn fly_for(
     core: &mut FlightCore,
     out: &mut Vec<Action>,
     t: u64,
@@ -316,7 +312,7 @@ fn fly_for(
     now
 }
 
-fn raised(out: &[Action], event: CoreEvent) -> bool {
+pub(super) fn raised(out: &[Action], event: CoreEvent) -> bool {
     out.iter()
         .any(|a| matches!(a, Action::Event(e) if e.value == event))
 }
@@ -515,7 +511,7 @@ fn a_device_that_comes_back_is_raised_as_back() {
     assert_eq!(core.phase(), Phase::Manual, "the pilot has it again");
 }
 
-fn gps_fix(satellites: u8) -> heli_proto::gps::GpsNav {
+pub(super) fn gps_fix(satellites: u8) -> heli_proto::gps::GpsNav {
     heli_proto::gps::GpsNav {
         tow_ms: 0,
         lat_deg: 42.3581,
@@ -530,7 +526,17 @@ fn gps_fix(satellites: u8) -> heli_proto::gps::GpsNav {
 /// A short-calibration autonomous core with the auto switch on, fed IMU and (if
 /// `satellites` is given) GPS fixes at 2 Hz for `seconds`.
 fn auto_core_with_gps(satellites: Option<u8>, seconds: u64) -> (FlightCore, Vec<Action>) {
-    let mut core = core_with(FlightMode::Autonomous);
+    core_with_gps(FlightMode::Autonomous, satellites, seconds)
+}
+
+/// A short-calibration core flying `mode` with the auto switch on, fed IMU, the pilot's
+/// packets and (if `satellites` is given) GPS fixes at 2 Hz for `seconds`.
+pub(super) fn core_with_gps(
+    mode: FlightMode,
+    satellites: Option<u8>,
+    seconds: u64,
+) -> (FlightCore, Vec<Action>) {
+    let mut core = core_with(mode);
     let mut out = Vec::new();
     core.start(0);
     let mut now = 0;
@@ -650,7 +656,7 @@ fn a_gps_fix_that_jumps_is_refused_before_the_filter() {
 
 /// A calibrated manual core (see [`calibrated_manual_core`]) flown 0.2 s more with the IMU
 /// and `pilot`'s packets, so that every watchdog is fed.
-fn settled(height_m: f64, pilot: PilotUplink) -> (FlightCore, Vec<Action>, u64) {
+pub(super) fn settled(height_m: f64, pilot: PilotUplink) -> (FlightCore, Vec<Action>, u64) {
     let (mut core, mut out, t) = calibrated_manual_core(height_m);
     let t = fly_for(&mut core, &mut out, t, 200_000, true, Some(pilot));
     (core, out, t)

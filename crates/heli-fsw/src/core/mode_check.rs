@@ -1,0 +1,149 @@
+//! The safety rule on board: the flight core judges the thesis §4.3 conditions it observes
+//! itself (`heli_control::safety`) before it enters an augmented or automatic mode at the
+//! pilot's switch, and refuses, raising why, when the rule does not allow it. The same rule
+//! is what the ground display shows.
+//!
+//! - The check is made when a mode is *entered*; a mode already flown is left by the
+//!   failsafes, not by this check.
+//! - A transmitter loss is no request: the hover failsafe is never refused.
+//! - An autonomous take-off from the ground is judged by the pre-flight check
+//!   (`preflight`), which waits up to 30 s for the conditions before refusing.
+//! - In the air, a refusal stands until the pilot takes the auto switch off: a mode that
+//!   flickers on and off as a satellite comes and goes is worse than none. On the ground the
+//!   mode is entered as soon as the rule allows it.
+//! - The battery and the ground link are not observed by the flight core: they are passed
+//!   as "not judged here" (the ground judges them).
+
+use heli_control::safety::{AUGMENTED, AUTOMATIC, Condition, Facts, Rule, Verdict};
+
+use super::*;
+
+/// A mode the pilot's switch asked for and the rule refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ModeRefusal {
+    /// The mode asked for.
+    pub mode: FlightMode,
+    /// What failed.
+    pub verdict: Verdict,
+}
+
+impl ModeRefusal {
+    /// What it says on the ground display.
+    pub fn text(&self) -> String {
+        format!("{} flight refused: {}", self.mode.name(), self.verdict)
+    }
+}
+
+/// The rule a mode needs, if any.
+pub fn rule_for(mode: FlightMode) -> Option<Rule> {
+    match mode {
+        FlightMode::Manual => None,
+        FlightMode::Autonomous => Some(AUTOMATIC),
+        FlightMode::Augmented(_) => Some(AUGMENTED),
+    }
+}
+
+impl FlightCore {
+    /// What the flight core observes of the safety rule's conditions now.
+    pub fn safety_facts(&self) -> Facts {
+        let ok = |d| self.health.state(d) == HealthState::Ok;
+        let satellites = self
+            .last_good_fix
+            .is_some_and(|(_, fix)| fix.satellites >= preflight::MIN_SATELLITES);
+        Facts::none()
+            .with(
+                Condition::Calibrated,
+                self.estimate_valid && self.phase != Phase::Calibrating,
+            )
+            .with(Condition::Imu, ok(Device::Imu))
+            .with(Condition::Uplink, ok(Device::Uplink) && !self.uplink_lost)
+            .with(Condition::Gps, ok(Device::Gps))
+            .with(Condition::Satellites, satellites)
+            .with(Condition::Altimeter, ok(Device::Baro))
+            .with(Condition::Compass, ok(Device::Compass))
+            .with(Condition::Bypass, self.pilot.is_some_and(|p| p.bypass))
+    }
+
+    /// The refusal standing in the air, if any.
+    pub fn mode_refusal(&self) -> Option<ModeRefusal> {
+        self.mode_refused
+    }
+
+    /// Raises `refusal` unless it is the one already raised.
+    fn raise_refusal(&mut self, refusal: ModeRefusal, now_us: u64, out: &mut Vec<Action>) {
+        if self.mode_refused != Some(refusal) {
+            out.push(Action::Event(Stamped::new(
+                now_us,
+                CoreEvent::ModeRefused(refusal),
+            )));
+        }
+        self.mode_refused = Some(refusal);
+    }
+
+    /// While calibrating with the auto switch on: the mode asked for is refused, named once.
+    pub(super) fn refuse_while_calibrating(&mut self, now_us: u64, out: &mut Vec<Action>) {
+        let asked = self.pilot.is_some_and(|p| p.auto_mode && !p.signal_lost() && !p.bypass);
+        if !asked {
+            self.mode_refused = None;
+        }
+        let Some(rule) = rule_for(self.params.mode).filter(|_| asked) else {
+            return;
+        };
+        // Raised once while the switch stays on: the devices coming up one by one during
+        // the calibration would otherwise raise a new verdict each.
+        if self.mode_refused.is_some() {
+            return;
+        }
+        let verdict = rule.judge(self.safety_facts());
+        if !verdict.allowed {
+            let refusal = ModeRefusal {
+                mode: self.params.mode,
+                verdict,
+            };
+            self.raise_refusal(refusal, now_us, out);
+        }
+    }
+
+    /// Whether the mode the pilot's switch asks for is refused now (`on_ground`: judged
+    /// afresh each step; in the air a refusal stands until the switch goes off).
+    pub(super) fn refuse_mode(
+        &mut self,
+        on_ground: bool,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) -> bool {
+        let mode = self.params.mode;
+        let entering = matches!(
+            self.phase,
+            Phase::Manual | Phase::Calibrating | Phase::GroundFailsafe | Phase::BlindDescent
+        );
+        let Some(rule) = rule_for(mode).filter(|_| entering) else {
+            return false;
+        };
+        // An autonomous take-off is the pre-flight check's to judge (it waits for the GPS).
+        if on_ground && mode == FlightMode::Autonomous {
+            return false;
+        }
+        if !on_ground && self.mode_refused.is_some() {
+            return true;
+        }
+        // Called with an estimate: the calibration is done.
+        let verdict = rule.judge(self.safety_facts().with(Condition::Calibrated, true));
+        if verdict.allowed {
+            self.mode_refused = None;
+            return false;
+        }
+        self.raise_refusal(ModeRefusal { mode, verdict }, now_us, out);
+        true
+    }
+
+    /// The pilot took the auto switch off: a standing refusal is over.
+    pub(super) fn clear_refusal(&mut self) {
+        self.mode_refused = None;
+    }
+
+    /// The automatic rule's verdict for a take-off (used by the pre-flight check).
+    pub(super) fn automatic_verdict(&self) -> Verdict {
+        AUTOMATIC.judge(self.safety_facts().with(Condition::Calibrated, true))
+    }
+}
