@@ -32,8 +32,16 @@ pub struct GroundArgs {
     /// How long to wait for the vehicle's answer (s).
     #[arg(long, global = true, default_value_t = 30.0)]
     timeout: f64,
+    /// Serve the operator's display (thesis Fig. 2-4) in a browser at this address
+    /// (`127.0.0.1:8080`; port 0 picks a free one) instead of running one command.
+    #[arg(long)]
+    http: Option<SocketAddr>,
+    /// With --http: the directory the operator's base directories are under; flight logs are
+    /// saved only below it.
+    #[arg(long, default_value = "flights")]
+    save_root: PathBuf,
     #[command(subcommand)]
-    action: GroundAction,
+    action: Option<GroundAction>,
 }
 
 /// What the ground does.
@@ -140,6 +148,7 @@ impl Session {
             self.link.receive(buf.get(..n).unwrap_or(&[]), unix_us());
             let _ = self.socket.set_nonblocking(true);
         }
+        self.link.flush_texts(unix_us());
         for (severity, text) in self.link.texts.iter().skip(self.texts_shown) {
             eprintln!("vehicle [{}]: {text}", severity_word(*severity));
         }
@@ -378,8 +387,19 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
         bail!("--timeout must be a positive number of seconds");
     }
     let timeout = Duration::from_secs_f64(args.timeout.min(86_400.0));
+    if let Some(http) = args.http {
+        if args.action.is_some() {
+            bail!("--http serves the display: give no command with it");
+        }
+        return display(args, http);
+    }
+    let Some(action) = &args.action else {
+        bail!(
+            "give a command (connect, start, stop, status, params, logs, download) or --http ADDR for the display"
+        );
+    };
     let mut s = Session::open(args)?;
-    match &args.action {
+    match action {
         GroundAction::Connect => outcome("connect", s.command(&GroundCommand::Connect, timeout)?),
         GroundAction::Start { suffix, mode, plan } => {
             let mut p = StartParameters::new(suffix, mode).map_err(anyhow::Error::msg)?;
@@ -483,4 +503,24 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// `heli ground --http ADDR`: the operator's display in a browser.
+fn display(args: &GroundArgs, http: SocketAddr) -> Result<ExitCode> {
+    let config = heli_ground::server::ServerConfig {
+        vehicle: parse_link(&args.link)?,
+        http,
+        station: heli_ground::station::StationConfig {
+            save_root: args.save_root.clone(),
+            curve: heli_ground::checks::BatteryCurve::default(),
+            key: load_key(args.key.as_deref())?,
+        },
+    };
+    let link = args.link.clone();
+    heli_ground::server::run(config, |addr| {
+        println!("ground: display at http://{addr}/ (vehicle at {link}); Ctrl-C to stop");
+    })
+    .map_err(anyhow::Error::msg)?;
+    println!("ground: stopped");
+    Ok(ExitCode::SUCCESS)
 }

@@ -86,6 +86,22 @@ impl Condition {
         }
     }
 
+    /// What is wrong when the condition is false where a rule wants it true.
+    pub const fn missing(self) -> &'static str {
+        match self {
+            Condition::Calibrated => "still calibrating",
+            Condition::Imu => "IMU not updating",
+            Condition::Uplink => "servo board uplink not updating",
+            Condition::Gps => "GPS not updating",
+            Condition::Satellites => "fewer than 5 satellites",
+            Condition::Altimeter => "altimeter not updating",
+            Condition::Compass => "compass not updating",
+            Condition::Battery => "battery down to a third of its life",
+            Condition::Link => "ground link not fresh",
+            Condition::Bypass => "emergency bypass switch off",
+        }
+    }
+
     const fn bit(self) -> u16 {
         1 << (self as u16)
     }
@@ -187,7 +203,9 @@ impl Conditions {
 
     /// The members, in [`Condition::ALL`] order.
     pub fn iter(self) -> impl Iterator<Item = Condition> {
-        Condition::ALL.into_iter().filter(move |c| self.contains(*c))
+        Condition::ALL
+            .into_iter()
+            .filter(move |c| self.contains(*c))
     }
 }
 
@@ -289,15 +307,15 @@ impl fmt::Display for Rule {
 }
 
 impl fmt::Display for Verdict {
-    /// `allowed`, or what fails: `not: calibration done, at least 5 satellites; bypass switch
-    /// on`.
+    /// `allowed`, or what fails: `still calibrating, fewer than 5 satellites, emergency
+    /// bypass switch on`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if self.allowed {
             return write!(f, "allowed");
         }
         let mut first = true;
         for c in self.wanted_true.iter() {
-            write!(f, "{}no {}", if first { "" } else { ", " }, c.meaning())?;
+            write!(f, "{}{}", if first { "" } else { ", " }, c.missing())?;
             first = false;
         }
         for c in self.wanted_false.iter() {
@@ -325,7 +343,7 @@ mod tests {
         let v = AUTOMATIC.judge(all_good().with(Condition::Calibrated, false));
         assert!(!v.allowed);
         assert!(v.wanted_true.contains(Condition::Calibrated));
-        assert_eq!(v.to_string(), "no calibration done");
+        assert_eq!(v.to_string(), "still calibrating");
         // NOT: the bypass switch on refuses both.
         let v = AUGMENTED.judge(all_good().with(Condition::Bypass, true));
         assert!(!v.allowed && v.wanted_false.contains(Condition::Bypass));
@@ -344,7 +362,9 @@ mod tests {
         let neither = no_compass.with(Condition::Gps, false);
         let v = AUGMENTED.judge(neither);
         assert!(!v.allowed);
-        assert!(v.wanted_true.contains(Condition::Compass) && v.wanted_true.contains(Condition::Gps));
+        assert!(
+            v.wanted_true.contains(Condition::Compass) && v.wanted_true.contains(Condition::Gps)
+        );
     }
 
     #[test]
@@ -356,7 +376,9 @@ mod tests {
         };
         let v = AUTOMATIC.judge(onboard);
         assert!(v.allowed);
-        assert!(v.not_judged.contains(Condition::Link) && v.not_judged.contains(Condition::Battery));
+        assert!(
+            v.not_judged.contains(Condition::Link) && v.not_judged.contains(Condition::Battery)
+        );
         assert!(!v.not_judged.contains(Condition::Imu));
     }
 
@@ -366,12 +388,18 @@ mod tests {
             AUGMENTED.to_string(),
             "calibrated AND imu AND uplink AND satellites AND battery AND (compass OR gps) AND NOT bypass"
         );
-        assert!(AUTOMATIC.to_string().ends_with("NOT bypass AND gps AND link"));
+        assert!(
+            AUTOMATIC
+                .to_string()
+                .ends_with("NOT bypass AND gps AND link")
+        );
     }
 
     #[test]
     fn facts_set_and_reset() {
-        let f = Facts::none().with(Condition::Imu, true).with(Condition::Imu, false);
+        let f = Facts::none()
+            .with(Condition::Imu, true)
+            .with(Condition::Imu, false);
         assert_eq!(f.get(Condition::Imu), Some(false));
         assert_eq!(f.get(Condition::Gps), None);
     }

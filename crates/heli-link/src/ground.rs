@@ -138,9 +138,18 @@ pub struct GroundLink {
     pub download: Option<Download>,
     /// Parameters received (`PARAM_VALUE`), by name: value, index and count.
     pub params: BTreeMap<String, (f32, u16, u16)>,
+    /// The newest `BATTERY_STATUS` of each battery id (the flight battery and the servo
+    /// board's two), with the time it came.
+    pub batteries: BTreeMap<u8, (u64, BATTERY_STATUS_DATA)>,
     /// Frames that were not valid, or refused by the signing check.
     pub bad_frames: u64,
+    /// The start of a status text continued in the next one: severity, text, when it came.
+    partial_text: Option<(MavSeverity, String, u64)>,
 }
+
+/// A status text's continuation that has not come for this long (µs) is given up: the part
+/// received is kept as it is.
+pub const TEXT_JOIN_US: u64 = 1_000_000;
 
 impl GroundLink {
     /// A ground link signing with `key` (and refusing what the vehicle did not sign with it).
@@ -156,7 +165,9 @@ impl GroundLink {
             log_entries: BTreeMap::new(),
             download: None,
             params: BTreeMap::new(),
+            batteries: BTreeMap::new(),
             bad_frames: 0,
+            partial_text: None,
         }
     }
 
@@ -221,11 +232,13 @@ impl GroundLink {
             *count = count.saturating_add(1);
             match &message {
                 MavMessage::HEARTBEAT(hb) => self.heartbeat = Some((now_us, hb.clone())),
-                MavMessage::STATUSTEXT(t) => self.texts.push((
-                    t.severity,
-                    t.text.to_str().unwrap_or("(not UTF-8)").to_string(),
-                )),
+                MavMessage::STATUSTEXT(t) => {
+                    self.status_text(t.severity, t.text.to_str().unwrap_or("(not UTF-8)"), now_us)
+                }
                 MavMessage::COMMAND_ACK(a) => self.acks.push((a.command, a.result)),
+                MavMessage::BATTERY_STATUS(b) => {
+                    self.batteries.insert(b.id, (now_us, b.clone()));
+                }
                 MavMessage::LOG_ENTRY(e) => {
                     self.log_entries.insert(e.id, e.clone());
                 }
@@ -243,6 +256,32 @@ impl GroundLink {
                 _ => {}
             }
             self.latest.insert(id, (now_us, message));
+        }
+    }
+
+    /// A status text: joined to the one before when that one said it continues (it ended
+    /// with a space, or was full).
+    fn status_text(&mut self, severity: MavSeverity, text: &str, now_us: u64) {
+        let mut whole = match self.partial_text.take() {
+            Some((_, start, _)) => start,
+            None => String::new(),
+        };
+        whole.push_str(text);
+        if text.ends_with(' ') || text.len() >= 50 {
+            self.partial_text = Some((severity, whole, now_us));
+        } else {
+            self.texts.push((severity, whole));
+        }
+    }
+
+    /// Keeps a status text whose continuation has not come within [`TEXT_JOIN_US`].
+    pub fn flush_texts(&mut self, now_us: u64) {
+        if let Some((severity, text, at)) = self.partial_text.take() {
+            if now_us.saturating_sub(at) >= TEXT_JOIN_US {
+                self.texts.push((severity, text.trim_end().to_string()));
+            } else {
+                self.partial_text = Some((severity, text, at));
+            }
         }
     }
 

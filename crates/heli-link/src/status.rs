@@ -31,6 +31,49 @@ pub struct VehicleStatus {
     pub mode: u8,
 }
 
+impl BootstrapState {
+    /// Every state, in number order.
+    pub const ALL: [BootstrapState; 6] = [
+        BootstrapState::Idle,
+        BootstrapState::Connecting,
+        BootstrapState::Connected,
+        BootstrapState::Starting,
+        BootstrapState::Flying,
+        BootstrapState::Stopping,
+    ];
+
+    /// Its name on displays.
+    pub const fn name(self) -> &'static str {
+        match self {
+            BootstrapState::Idle => "idle",
+            BootstrapState::Connecting => "connecting",
+            BootstrapState::Connected => "connected",
+            BootstrapState::Starting => "starting",
+            BootstrapState::Flying => "flying",
+            BootstrapState::Stopping => "stopping",
+        }
+    }
+}
+
+impl VehicleStatus {
+    /// What a vehicle's heartbeat says (`None`: not one of ours: an unknown state number).
+    pub fn from_heartbeat(hb: &HEARTBEAT_DATA) -> Option<Self> {
+        let state = BootstrapState::ALL
+            .into_iter()
+            .find(|s| *s as u32 == hb.custom_mode & 0xFF)?;
+        Some(Self {
+            state,
+            mode: u8::try_from((hb.custom_mode >> 8) & 0xFF).unwrap_or(0),
+        })
+    }
+
+    /// The control mode of the flight under way, if any.
+    pub fn flight_mode(self) -> Option<crate::FlightMode> {
+        let index = usize::from(self.mode).checked_sub(1)?;
+        crate::FlightMode::ALL.get(index).copied()
+    }
+}
+
 /// `text` in chunks of at most `max` bytes (a STATUSTEXT holds 50), cut at spaces where it
 /// can be and never inside a character.
 pub fn chunks(text: &str, max: usize) -> Vec<String> {

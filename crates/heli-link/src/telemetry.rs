@@ -45,6 +45,12 @@ pub struct UplinkRow {
     pub bypass: bool,
     /// Rotor speed (rpm).
     pub rotor_rpm: u16,
+    /// The receiver battery (V): the thesis's RTXB.
+    #[serde(default)]
+    pub receiver_batt_v: f64,
+    /// The servo battery (V): the thesis's Sbat.
+    #[serde(default)]
+    pub servo_batt_v: f64,
 }
 
 /// The servo command row (normalised commands, −1..1).
@@ -127,7 +133,7 @@ pub struct Telemetry {
 }
 
 /// The messages of the telemetry, in the order they are offered, by message id.
-pub const TELEMETRY_MESSAGES: [u32; 11] = [
+pub const TELEMETRY_MESSAGES: [u32; 12] = [
     ATTITUDE_DATA::ID,
     LOCAL_POSITION_NED_DATA::ID,
     GLOBAL_POSITION_INT_DATA::ID,
@@ -139,7 +145,15 @@ pub const TELEMETRY_MESSAGES: [u32; 11] = [
     SYS_STATUS_DATA::ID,
     BATTERY_STATUS_DATA::ID,
     HEARTBEAT_DATA::ID,
+    RAW_RPM_DATA::ID,
 ];
+
+/// `BATTERY_STATUS.id` of the flight computer's battery.
+pub const FLIGHT_BATTERY_ID: u8 = 0;
+/// `BATTERY_STATUS.id` of the servo board's receiver battery (the thesis's RTXB).
+pub const RECEIVER_BATTERY_ID: u8 = 1;
+/// `BATTERY_STATUS.id` of the servo battery (the thesis's Sbat).
+pub const SERVO_BATTERY_ID: u8 = 2;
 
 use mavlink::MessageData;
 
@@ -314,6 +328,15 @@ pub fn message(id: u32, t: &Telemetry, time_boot_ms: u32) -> Option<MavMessage> 
                     healthy |= sensor_bit(&h.device);
                 }
             }
+            // The estimate (AHRS): present with the IMU, healthy once the calibration is
+            // done and the estimate runs.
+            let ahrs = MavSysStatusSensor::MAV_SYS_STATUS_AHRS;
+            if t.imu.is_some() || t.state.is_some() {
+                present |= ahrs;
+            }
+            if t.state.as_ref().is_some_and(|s| s.phase != "calibrating") {
+                healthy |= ahrs;
+            }
             MavMessage::SYS_STATUS(SYS_STATUS_DATA {
                 onboard_control_sensors_present: present,
                 onboard_control_sensors_enabled: present,
@@ -342,9 +365,46 @@ pub fn message(id: u32, t: &Telemetry, time_boot_ms: u32) -> Option<MavMessage> 
                 battery_remaining: remaining_percent(t.battery_remaining),
             })
         }
+        RAW_RPM_DATA::ID => {
+            let u = t.uplink.as_ref()?;
+            MavMessage::RAW_RPM(RAW_RPM_DATA {
+                frequency: f32::from(u.rotor_rpm),
+                index: 0,
+            })
+        }
         _ => return None,
     };
     Some(msg)
+}
+
+/// The servo board's two batteries as `BATTERY_STATUS` instances
+/// ([`RECEIVER_BATTERY_ID`], [`SERVO_BATTERY_ID`]), sent with the flight battery's.
+pub fn board_batteries(t: &Telemetry) -> Vec<MavMessage> {
+    let Some(u) = t.uplink.as_ref() else {
+        return Vec::new();
+    };
+    [
+        (RECEIVER_BATTERY_ID, u.receiver_batt_v),
+        (SERVO_BATTERY_ID, u.servo_batt_v),
+    ]
+    .into_iter()
+    .filter(|(_, v)| v.is_finite() && *v > 0.0)
+    .map(|(id, v)| {
+        let mut voltages = [u16::MAX; 10];
+        voltages[0] = (v * 1000.0).round().clamp(0.0, 65_534.0) as u16;
+        MavMessage::BATTERY_STATUS(BATTERY_STATUS_DATA {
+            voltages,
+            current_battery: -1,
+            current_consumed: -1,
+            energy_consumed: -1,
+            temperature: i16::MAX,
+            id,
+            battery_function: MavBatteryFunction::MAV_BATTERY_FUNCTION_UNKNOWN,
+            mavtype: MavBatteryType::MAV_BATTERY_TYPE_NIMH,
+            battery_remaining: -1,
+        })
+    })
+    .collect()
 }
 
 fn remaining_percent(fraction: Option<f64>) -> i8 {
@@ -374,6 +434,8 @@ mod tests {
                 auto_mode: true,
                 bypass: false,
                 rotor_rpm: 1600,
+                receiver_batt_v: 4.8,
+                servo_batt_v: 4.9,
             }),
             servo: Some(ServoRow {
                 commands: [0.0, 1.0, -1.0, 0.5, 0.0],

@@ -184,7 +184,14 @@ impl VehicleLink {
     /// Queues a status text, cut at spaces into chunks of at most 50 characters (a
     /// STATUSTEXT's size), a longer word where it must.
     pub fn status_text(&mut self, severity: MavSeverity, text: &str, now_us: u64) {
-        for chunk in chunks(text, 50) {
+        // A line longer than one text goes as several: each but the last ends with a space
+        // (or is full), so a ground can join them (`GroundLink` does).
+        let parts = chunks(text, 49);
+        let last = parts.len().saturating_sub(1);
+        for (i, mut chunk) in parts.into_iter().enumerate() {
+            if i < last {
+                chunk.push(' ');
+            }
             let msg = MavMessage::STATUSTEXT(STATUSTEXT_DATA {
                 severity,
                 text: chunk.as_str().into(),
@@ -513,6 +520,14 @@ impl VehicleLink {
                     st.errors_comm = u16::try_from(errors).unwrap_or(u16::MAX);
                 }
                 self.send(&msg, now_us);
+                if id == BATTERY_STATUS_DATA::ID {
+                    for board in telemetry
+                        .map(telemetry::board_batteries)
+                        .unwrap_or_default()
+                    {
+                        self.send(&board, now_us);
+                    }
+                }
             }
         }
         for packet in self.logs.next_packets(store, LOG_PACKETS_PER_TICK) {

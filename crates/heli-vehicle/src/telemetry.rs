@@ -118,6 +118,8 @@ pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u6
             auto_mode: u.value.auto_mode,
             bypass: u.value.bypass,
             rotor_rpm: u.value.rotor_rpm,
+            receiver_batt_v: u.value.receiver_batt_v,
+            servo_batt_v: u.value.servo_batt_v,
         }
     });
     let gps = streams.gps.latest().map(|g| t::GpsRow {

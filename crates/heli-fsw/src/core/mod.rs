@@ -17,8 +17,8 @@ mod dispatch;
 mod event;
 pub mod gps;
 mod main_loop;
-pub mod mode_check;
 pub mod mission;
+pub mod mode_check;
 mod phase;
 pub mod preflight;
 pub mod restart;
@@ -31,8 +31,8 @@ pub use aids::Aid;
 pub use event::{CoreEvent, Severity};
 pub use gps::Implausible;
 pub use heli_nav::calibration::Motion;
-pub use phase::Phase;
 pub use mode_check::ModeRefusal;
+pub use phase::Phase;
 pub use preflight::Refusal;
 pub use restart::WarmStart;
 
@@ -509,6 +509,6 @@ fn input_is_finite(input: &Input) -> bool {
 }
 
 #[cfg(test)]
-mod tests;
-#[cfg(test)]
 mod mode_check_tests;
+#[cfg(test)]
+mod tests;

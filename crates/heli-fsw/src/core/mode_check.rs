@@ -82,7 +82,9 @@ impl FlightCore {
 
     /// While calibrating with the auto switch on: the mode asked for is refused, named once.
     pub(super) fn refuse_while_calibrating(&mut self, now_us: u64, out: &mut Vec<Action>) {
-        let asked = self.pilot.is_some_and(|p| p.auto_mode && !p.signal_lost() && !p.bypass);
+        let asked = self
+            .pilot
+            .is_some_and(|p| p.auto_mode && !p.signal_lost() && !p.bypass);
         if !asked {
             self.mode_refused = None;
         }

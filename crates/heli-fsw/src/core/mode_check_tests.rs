@@ -34,7 +34,7 @@ fn the_switch_on_during_calibration_is_refused_once_naming_the_calibration() {
                 .contains(Condition::Calibrated)
         );
         assert!(
-            refused[0].text().contains("no calibration done"),
+            refused[0].text().contains("still calibrating"),
             "{}",
             refused[0].text()
         );
@@ -48,12 +48,23 @@ fn augmented_flight_waits_on_the_ground_for_five_satellites() {
     let refused = refusals(&out);
     let last = refused.last().copied().unwrap();
     assert!(last.verdict.wanted_true.contains(Condition::Satellites));
-    assert!(last.text().contains("no at least 5 satellites"), "{}", last.text());
+    assert!(
+        last.text().contains("fewer than 5 satellites"),
+        "{}",
+        last.text()
+    );
     // On the ground the mode is entered as soon as the rule allows it.
     out.clear();
     let mut t = 3_000_000;
     for _ in 0..4 {
-        t = fly_for(&mut core, &mut out, t, 500_000, true, Some(uplink(true, false)));
+        t = fly_for(
+            &mut core,
+            &mut out,
+            t,
+            500_000,
+            true,
+            Some(uplink(true, false)),
+        );
         core.handle(Input::Gps(gps_fix(9)), t, &mut out);
     }
     assert_eq!(core.phase(), Phase::Augmented(AugmentedMode::Rate));
@@ -66,7 +77,14 @@ fn in_the_air_a_refusal_stands_until_the_switch_goes_off() {
     core_out.0.params.mode = RATE;
     let (mut core, mut out, t) = core_out;
     out.clear();
-    let t = fly_for(&mut core, &mut out, t, 200_000, true, Some(uplink(true, false)));
+    let t = fly_for(
+        &mut core,
+        &mut out,
+        t,
+        200_000,
+        true,
+        Some(uplink(true, false)),
+    );
     assert_eq!(core.phase(), Phase::Manual);
     let refused = refusals(&out);
     assert_eq!(refused.len(), 1, "{refused:?}");
@@ -75,14 +93,35 @@ fn in_the_air_a_refusal_stands_until_the_switch_goes_off() {
     let mut t = t;
     for _ in 0..3 {
         core.handle(Input::Gps(gps_fix(9)), t, &mut out);
-        t = fly_for(&mut core, &mut out, t, 500_000, true, Some(uplink(true, false)));
+        t = fly_for(
+            &mut core,
+            &mut out,
+            t,
+            500_000,
+            true,
+            Some(uplink(true, false)),
+        );
     }
     assert_eq!(core.phase(), Phase::Manual);
     // Off, then on again: judged afresh, and allowed.
-    let t = fly_for(&mut core, &mut out, t, 100_000, true, Some(uplink(false, false)));
+    let t = fly_for(
+        &mut core,
+        &mut out,
+        t,
+        100_000,
+        true,
+        Some(uplink(false, false)),
+    );
     assert!(core.mode_refusal().is_none());
     core.handle(Input::Gps(gps_fix(9)), t, &mut out);
-    fly_for(&mut core, &mut out, t, 100_000, true, Some(uplink(true, false)));
+    fly_for(
+        &mut core,
+        &mut out,
+        t,
+        100_000,
+        true,
+        Some(uplink(true, false)),
+    );
     assert_eq!(core.phase(), Phase::Augmented(AugmentedMode::Rate));
 }
 

@@ -271,8 +271,7 @@ fn emergency_bypass_hands_the_pilot_the_helicopter_with_yaw_damping() {
 
 #[test]
 fn augmented_mode_follows_the_auto_switch() {
-    let (mut core, mut out) =
-        core_with_gps(FlightMode::Augmented(AugmentedMode::Rate), Some(8), 2);
+    let (mut core, mut out) = core_with_gps(FlightMode::Augmented(AugmentedMode::Rate), Some(8), 2);
     assert_eq!(core.phase(), Phase::Augmented(AugmentedMode::Rate));
     core.handle(Input::Uplink(uplink(false, false)), 2_000_000, &mut out);
     core.handle(Input::Imu(still()), 2_000_000, &mut out);

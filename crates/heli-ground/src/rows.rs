@@ -1,0 +1,271 @@
+//! The telemetry rows of thesis Fig. 2-4 — IMU, STATE, UPLINK, SERVO, GPS, BAR, CMPS — with
+//! their fields, made from the newest MAVLink message of each kind (docs/link.md has the
+//! mapping). A row with nothing yet is `None` ("NOTHING YET" on the display). A row is
+//! *stale* when its message is older than [`STALE_AFTER_US`] or when the vehicle's watchdog
+//! for its device says the device is not on time (`SYS_STATUS` health bits): the vehicle
+//! keeps sending a silent device's last value, so the age of the message alone would not
+//! tell.
+
+use std::collections::BTreeMap;
+
+use mavlink::MessageData;
+use mavlink::dialects::common::*;
+use serde::Serialize;
+
+/// A row older than this (µs) is stale: four and a half telemetry periods at 3 Hz.
+pub const STALE_AFTER_US: u64 = 1_500_000;
+
+/// One field of a row.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Cell {
+    /// Its label (Fig. 2-4's, with the unit).
+    pub label: String,
+    /// Its value, formatted.
+    pub value: String,
+}
+
+/// One row of the display.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Row {
+    /// The vehicle's time of the message (s since its link started).
+    pub time_s: f64,
+    /// The fields.
+    pub cells: Vec<Cell>,
+    /// Old, or the device is not on time.
+    pub stale: bool,
+}
+
+/// Every row, in Fig. 2-4's order; `None` is "NOTHING YET".
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Rows {
+    /// IMU: rates and specific forces.
+    pub imu: Option<Row>,
+    /// STATE: the estimate.
+    pub state: Option<Row>,
+    /// UPLINK: the pilot's commands and the board's batteries.
+    pub uplink: Option<Row>,
+    /// SERVO: the commands to the servos.
+    pub servo: Option<Row>,
+    /// GPS.
+    pub gps: Option<Row>,
+    /// BAR: the altimeter.
+    pub bar: Option<Row>,
+    /// CMPS: the compass.
+    pub cmps: Option<Row>,
+}
+
+/// The newest message of each id with the time it came (µs), as the link keeps them.
+pub type Latest = BTreeMap<u32, (u64, MavMessage)>;
+
+/// What the vehicle's `SYS_STATUS` says of a sensor: `Some(healthy)` when present.
+pub fn sensor_health(latest: &Latest, bit: MavSysStatusSensor) -> Option<bool> {
+    match latest.get(&SYS_STATUS_DATA::ID) {
+        Some((_, MavMessage::SYS_STATUS(s))) if s.onboard_control_sensors_present.contains(bit) => {
+            Some(s.onboard_control_sensors_health.contains(bit))
+        }
+        _ => None,
+    }
+}
+
+fn cell(label: &str, value: String) -> Cell {
+    Cell {
+        label: label.to_string(),
+        value,
+    }
+}
+
+fn num(x: f64, decimals: usize) -> String {
+    if x.is_finite() {
+        format!("{x:.decimals$}")
+    } else {
+        "–".into()
+    }
+}
+
+/// Heading in degrees, 0..360.
+fn heading_deg(rad: f64) -> f64 {
+    rad.to_degrees().rem_euclid(360.0)
+}
+
+/// Pressure altitude (m) in the standard atmosphere.
+pub fn pressure_altitude_m(pressure_mbar: f64) -> f64 {
+    44_330.0 * (1.0 - (pressure_mbar / 1013.25).powf(0.190_3))
+}
+
+/// The compass heading (rad) of a level helicopter from the body-frame field.
+pub fn compass_heading_rad(x: f64, y: f64) -> f64 {
+    (-y).atan2(x)
+}
+
+struct RowMaker<'a> {
+    latest: &'a Latest,
+    now_us: u64,
+}
+
+impl RowMaker<'_> {
+    fn get(&self, id: u32) -> Option<(u64, &MavMessage)> {
+        self.latest.get(&id).map(|(t, m)| (*t, m))
+    }
+
+    fn row(
+        &self,
+        at_us: u64,
+        time_ms: u32,
+        cells: Vec<Cell>,
+        bit: Option<MavSysStatusSensor>,
+    ) -> Row {
+        let old = self.now_us.saturating_sub(at_us) > STALE_AFTER_US;
+        let unhealthy = bit.is_some_and(|b| sensor_health(self.latest, b) == Some(false));
+        Row {
+            time_s: f64::from(time_ms) / 1000.0,
+            cells,
+            stale: old || unhealthy,
+        }
+    }
+}
+
+/// The rows now, from the link's newest messages and battery instances (`uplink_labels`: the
+/// five stick labels for the chosen controller).
+pub fn rows(latest: &Latest, batteries: &Batteries, now_us: u64, uplink_labels: [&str; 5]) -> Rows {
+    let m = RowMaker { latest, now_us };
+    let mut out = Rows::default();
+    if let Some((at, MavMessage::SCALED_IMU(i))) = m.get(SCALED_IMU_DATA::ID) {
+        let g = 9.806_65 / 1000.0;
+        let rate = |v: i16| num((f64::from(v) / 1000.0).to_degrees(), 1);
+        let acc = |v: i16| num(f64::from(v) * g, 2);
+        let cells = vec![
+            cell("Wx °/s", rate(i.xgyro)),
+            cell("Wy °/s", rate(i.ygyro)),
+            cell("Wz °/s", rate(i.zgyro)),
+            cell("Ax m/s²", acc(i.xacc)),
+            cell("Ay m/s²", acc(i.yacc)),
+            cell("Az m/s²", acc(i.zacc)),
+        ];
+        let bit = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO;
+        out.imu = Some(m.row(at, i.time_boot_ms, cells, Some(bit)));
+        let mag = [i.xmag, i.ymag, i.zmag].map(|v| f64::from(v) / 1000.0);
+        if mag.iter().any(|v| *v != 0.0) {
+            let cells = vec![
+                cell("CmpX G", num(mag[0], 3)),
+                cell("CmpY G", num(mag[1], 3)),
+                cell("CmpZ G", num(mag[2], 3)),
+                cell(
+                    "Heading °",
+                    num(heading_deg(compass_heading_rad(mag[0], mag[1])), 1),
+                ),
+            ];
+            let bit = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG;
+            out.cmps = Some(m.row(at, i.time_boot_ms, cells, Some(bit)));
+        }
+    }
+    if let Some((at, MavMessage::ATTITUDE(a))) = m.get(ATTITUDE_DATA::ID) {
+        let yaw = f64::from(a.yaw);
+        let (fwd, side, up) = match m.get(LOCAL_POSITION_NED_DATA::ID) {
+            Some((_, MavMessage::LOCAL_POSITION_NED(p))) => {
+                let (vn, ve) = (f64::from(p.vx), f64::from(p.vy));
+                (
+                    vn * yaw.cos() + ve * yaw.sin(),
+                    -vn * yaw.sin() + ve * yaw.cos(),
+                    -f64::from(p.vz),
+                )
+            }
+            _ => (f64::NAN, f64::NAN, f64::NAN),
+        };
+        let cells = vec![
+            cell("Roll °", num(f64::from(a.roll).to_degrees(), 1)),
+            cell("Pitch °", num(f64::from(a.pitch).to_degrees(), 1)),
+            cell("Heading °", num(heading_deg(yaw), 1)),
+            cell("Vfwd m/s", num(fwd, 2)),
+            cell("Vside m/s", num(side, 2)),
+            cell("Vascend m/s", num(up, 2)),
+        ];
+        let bit = MavSysStatusSensor::MAV_SYS_STATUS_AHRS;
+        out.state = Some(m.row(at, a.time_boot_ms, cells, Some(bit)));
+    }
+    let rpm = match m.get(RAW_RPM_DATA::ID) {
+        Some((_, MavMessage::RAW_RPM(r))) => num(f64::from(r.frequency), 0),
+        _ => "–".into(),
+    };
+    if let Some((at, MavMessage::RC_CHANNELS(rc))) = m.get(RC_CHANNELS_DATA::ID) {
+        let board = |id: u8| board_battery_v(batteries, id).map_or("–".into(), |v| num(v, 2));
+        let pulses = [
+            rc.chan1_raw,
+            rc.chan2_raw,
+            rc.chan3_raw,
+            rc.chan4_raw,
+            rc.chan5_raw,
+        ];
+        let mut cells = vec![cell("RPM", rpm.clone())];
+        for (label, p) in uplink_labels.iter().zip(pulses) {
+            cells.push(cell(&format!("{label} µs"), p.to_string()));
+        }
+        cells.push(cell(
+            "Auto",
+            if rc.chan6_raw > 1500 { "on" } else { "off" }.into(),
+        ));
+        cells.push(cell(
+            "RTXB V",
+            board(heli_link::telemetry::RECEIVER_BATTERY_ID),
+        ));
+        cells.push(cell(
+            "Sbat V",
+            board(heli_link::telemetry::SERVO_BATTERY_ID),
+        ));
+        let bit = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_RC_RECEIVER;
+        out.uplink = Some(m.row(at, rc.time_boot_ms, cells, Some(bit)));
+    }
+    if let Some((at, MavMessage::SERVO_OUTPUT_RAW(s))) = m.get(SERVO_OUTPUT_RAW_DATA::ID) {
+        let cmd = |us: u16| num((f64::from(us) - 1500.0) / 500.0, 2);
+        let cells = vec![
+            cell("RPM", rpm),
+            cell("Aile", cmd(s.servo1_raw)),
+            cell("Elev", cmd(s.servo2_raw)),
+            cell("Rudd", cmd(s.servo3_raw)),
+            cell("Coll", cmd(s.servo4_raw)),
+            cell("Thro", cmd(s.servo5_raw)),
+        ];
+        out.servo = Some(m.row(at, s.time_usec / 1000, cells, None));
+    }
+    if let Some((at, MavMessage::GPS_RAW_INT(g))) = m.get(GPS_RAW_INT_DATA::ID) {
+        let speed = f64::from(g.vel) / 100.0;
+        let course = (f64::from(g.cog) / 100.0).to_radians();
+        let vd = match m.get(GLOBAL_POSITION_INT_DATA::ID) {
+            Some((_, MavMessage::GLOBAL_POSITION_INT(p))) => f64::from(p.vz) / 100.0,
+            _ => f64::NAN,
+        };
+        let cells = vec![
+            cell("VelN m/s", num(speed * course.cos(), 2)),
+            cell("VelE m/s", num(speed * course.sin(), 2)),
+            cell("VelD m/s", num(vd, 2)),
+            cell("#SAT", g.satellites_visible.to_string()),
+            cell("Lat °", num(f64::from(g.lat) / 1e7, 7)),
+            cell("Lon °", num(f64::from(g.lon) / 1e7, 7)),
+            cell("Altitude m", num(f64::from(g.alt) / 1000.0, 1)),
+        ];
+        let bit = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS;
+        let time_ms = u32::try_from(g.time_usec / 1000).unwrap_or(u32::MAX);
+        out.gps = Some(m.row(at, time_ms, cells, Some(bit)));
+    }
+    if let Some((at, MavMessage::SCALED_PRESSURE(p))) = m.get(SCALED_PRESSURE_DATA::ID) {
+        let mbar = f64::from(p.press_abs);
+        let cells = vec![
+            cell("Pressure mbar", num(mbar, 2)),
+            cell("Altitude m", num(pressure_altitude_m(mbar), 1)),
+        ];
+        let bit = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE;
+        out.bar = Some(m.row(at, p.time_boot_ms, cells, Some(bit)));
+    }
+    out
+}
+
+/// The newest `BATTERY_STATUS` of each battery id, with the time it came (µs).
+pub type Batteries = BTreeMap<u8, (u64, BATTERY_STATUS_DATA)>;
+
+/// The voltage of battery `id` (the first cell's reading), if known.
+pub fn board_battery_v(batteries: &Batteries, id: u8) -> Option<f64> {
+    batteries
+        .get(&id)
+        .and_then(|(_, b)| b.voltages.first().copied())
+        .filter(|mv| *mv != u16::MAX)
+        .map(|mv| f64::from(mv) / 1000.0)
+}

@@ -1,0 +1,291 @@
+//! The ground station's I/O: a UDP socket to the vehicle and the display's web server.
+//!
+//! - `GET /` and the page's files, embedded in the binary from `web/` (nothing is fetched
+//!   from elsewhere, at build or run time);
+//! - `GET /ws`, a WebSocket per page: the station's [`crate::view::View`] as JSON ten times a
+//!   second, and the operator's requests ([`crate::station::Request`]) answered one by one.
+//!
+//! The station ([`Station`]) does the work; this module only moves bytes, keeps the time and
+//! saves transferred logs.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use axum::Router;
+use axum::extract::State;
+use axum::extract::ws::{Message as WsMessage, WebSocket, WebSocketUpgrade};
+use axum::http::{StatusCode, Uri, header};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use include_dir::{Dir, include_dir};
+use tokio::net::UdpSocket;
+use tokio::sync::broadcast;
+
+use crate::station::{Output, Station, StationConfig};
+
+/// The page's files.
+static WEB: Dir<'_> = include_dir!("$CARGO_MANIFEST_DIR/web");
+
+/// How often the station steps (commands, transfer, heartbeat).
+const TICK: Duration = Duration::from_millis(20);
+/// How often the pages get the view.
+const VIEW_EVERY_TICKS: u32 = 5;
+
+/// Where the ground station talks and serves.
+#[derive(Clone, Debug)]
+pub struct ServerConfig {
+    /// The vehicle's link address.
+    pub vehicle: SocketAddr,
+    /// Where the display is served.
+    pub http: SocketAddr,
+    /// The station.
+    pub station: StationConfig,
+}
+
+type Shared = Arc<Mutex<Station>>;
+
+#[derive(Clone)]
+struct AppState {
+    station: Shared,
+    views: broadcast::Sender<Arc<str>>,
+    udp: Arc<UdpSocket>,
+}
+
+/// Microseconds since the Unix epoch (the link's signing needs the wall clock).
+fn unix_us() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
+        .unwrap_or(0)
+}
+
+fn lock(station: &Shared) -> std::sync::MutexGuard<'_, Station> {
+    station.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Runs the ground station until Ctrl-C or SIGTERM; `ready` is called with the display's
+/// address once it is served.
+pub fn run(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(), String> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(|e| format!("starting the ground's runtime: {e}"))?;
+    rt.block_on(serve(config, ready))
+}
+
+async fn serve(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(), String> {
+    let bind: SocketAddr = if config.vehicle.is_ipv4() {
+        SocketAddr::from(([0, 0, 0, 0], 0))
+    } else {
+        SocketAddr::from(([0u16; 8], 0))
+    };
+    let udp = UdpSocket::bind(bind)
+        .await
+        .map_err(|e| format!("opening a UDP socket: {e}"))?;
+    udp.connect(config.vehicle)
+        .await
+        .map_err(|e| format!("link udp:{}: {e}", config.vehicle))?;
+    let udp = Arc::new(udp);
+    let listener = tokio::net::TcpListener::bind(config.http)
+        .await
+        .map_err(|e| format!("serving the display on {}: {e}", config.http))?;
+    let addr = listener
+        .local_addr()
+        .map_err(|e| format!("serving the display: {e}"))?;
+    let station: Shared = Arc::new(Mutex::new(Station::new(config.station)));
+    let (views, _) = broadcast::channel(16);
+    let state = AppState {
+        station: Arc::clone(&station),
+        views: views.clone(),
+        udp: Arc::clone(&udp),
+    };
+    tokio::spawn(receive(Arc::clone(&udp), Arc::clone(&station)));
+    tokio::spawn(step(Arc::clone(&udp), Arc::clone(&station), views));
+    let app = Router::new()
+        .route("/ws", get(ws))
+        .fallback(asset)
+        .with_state(state);
+    ready(addr);
+    axum::serve(listener, app)
+        .with_graceful_shutdown(shutdown())
+        .await
+        .map_err(|e| format!("the display's server: {e}"))
+}
+
+async fn shutdown() {
+    #[cfg(unix)]
+    {
+        let term = async {
+            if let Ok(mut s) =
+                tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+            {
+                s.recv().await;
+            } else {
+                std::future::pending::<()>().await;
+            }
+        };
+        tokio::select! {
+            _ = tokio::signal::ctrl_c() => {}
+            () = term => {}
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = tokio::signal::ctrl_c().await;
+}
+
+/// Datagrams from the vehicle into the station.
+async fn receive(udp: Arc<UdpSocket>, station: Shared) {
+    let mut buf = vec![0u8; 65_536];
+    loop {
+        match udp.recv(&mut buf).await {
+            Ok(n) => lock(&station).receive(buf.get(..n).unwrap_or(&[]), unix_us()),
+            // Nothing listening at the vehicle's address yet (ICMP refused): keep going.
+            Err(_) => tokio::time::sleep(TICK).await,
+        }
+    }
+}
+
+/// The station's steps, its frames sent, its logs saved, the view to every page.
+async fn step(udp: Arc<UdpSocket>, station: Shared, views: broadcast::Sender<Arc<str>>) {
+    let mut ticker = tokio::time::interval(TICK);
+    ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut n: u32 = 0;
+    loop {
+        ticker.tick().await;
+        let now = unix_us();
+        let (outputs, view) = {
+            let mut s = lock(&station);
+            let outputs = s.tick(now);
+            n = n.wrapping_add(1);
+            let view = n.is_multiple_of(VIEW_EVERY_TICKS).then(|| s.view(now));
+            (outputs, view)
+        };
+        for out in outputs {
+            match out {
+                Output::Send(frame) => {
+                    let _ = udp.send(&frame).await;
+                }
+                Output::Save(path, bytes) => {
+                    let station = Arc::clone(&station);
+                    tokio::task::spawn_blocking(move || {
+                        let result = save(&path, &bytes);
+                        lock(&station).saved(&path, result);
+                    });
+                }
+            }
+        }
+        if let Some(view) = view
+            && let Ok(json) =
+                serde_json::to_string(&serde_json::json!({"type": "view", "view": view}))
+        {
+            let _ = views.send(Arc::from(json));
+        }
+    }
+}
+
+fn save(path: &PathBuf, bytes: &[u8]) -> Result<(), String> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+    }
+    std::fs::write(path, bytes).map_err(|e| e.to_string())
+}
+
+async fn asset(uri: Uri) -> Response {
+    let path = uri.path().trim_start_matches('/');
+    let path = if path.is_empty() { "index.html" } else { path };
+    let Some(file) = WEB.get_file(path) else {
+        return (
+            StatusCode::NOT_FOUND,
+            format!("no {path} on this ground station"),
+        )
+            .into_response();
+    };
+    let mime = match path.rsplit('.').next() {
+        Some("html") => "text/html; charset=utf-8",
+        Some("js") => "text/javascript; charset=utf-8",
+        Some("css") => "text/css; charset=utf-8",
+        Some("svg") => "image/svg+xml",
+        Some("png") => "image/png",
+        _ => "application/octet-stream",
+    };
+    (
+        [
+            (header::CONTENT_TYPE, mime),
+            (header::CACHE_CONTROL, "no-cache"),
+        ],
+        file.contents(),
+    )
+        .into_response()
+}
+
+async fn ws(upgrade: WebSocketUpgrade, State(state): State<AppState>) -> Response {
+    upgrade.on_upgrade(move |socket| page(socket, state))
+}
+
+/// One page: the views out, its requests in.
+async fn page(mut socket: WebSocket, state: AppState) {
+    let id = lock(&state.station).join();
+    let mut views = state.views.subscribe();
+    let hello = serde_json::json!({"type": "hello", "client": id}).to_string();
+    if socket.send(WsMessage::Text(hello.into())).await.is_err() {
+        lock(&state.station).leave(id);
+        return;
+    }
+    loop {
+        tokio::select! {
+            view = views.recv() => match view {
+                Ok(json) => {
+                    if socket.send(WsMessage::Text(json.as_ref().into())).await.is_err() {
+                        break;
+                    }
+                }
+                Err(broadcast::error::RecvError::Lagged(_)) => {}
+                Err(broadcast::error::RecvError::Closed) => break,
+            },
+            msg = socket.recv() => match msg {
+                Some(Ok(WsMessage::Text(text))) => {
+                    let reply = request(&state, id, text.as_str()).await;
+                    if socket.send(WsMessage::Text(reply.into())).await.is_err() {
+                        break;
+                    }
+                }
+                Some(Ok(WsMessage::Binary(_))) => {
+                    let reply = serde_json::json!({"type": "reply", "ok": false,
+                        "text": "binary messages are not requests"});
+                    if socket.send(WsMessage::Text(reply.to_string().into())).await.is_err() {
+                        break;
+                    }
+                }
+                Some(Ok(_)) => {}
+                Some(Err(_)) | None => break,
+            },
+        }
+    }
+    lock(&state.station).leave(id);
+}
+
+/// An operator's request: the station's answer, and the frames it made sent at once.
+async fn request(state: &AppState, id: u64, text: &str) -> String {
+    let seq = serde_json::from_str::<serde_json::Value>(text)
+        .ok()
+        .and_then(|v| v.get("seq").and_then(serde_json::Value::as_u64));
+    let (result, frames) = {
+        let mut s = lock(&state.station);
+        let result = s.request(id, text, unix_us());
+        if let Err(e) = &result {
+            s.note("error", format!("operator {id}: {e}"));
+        }
+        (result, s.take_outbox())
+    };
+    for frame in frames {
+        let _ = state.udp.send(&frame).await;
+    }
+    let (ok, text) = match result {
+        Ok(t) => (true, t),
+        Err(t) => (false, t),
+    };
+    serde_json::json!({"type": "reply", "seq": seq, "ok": ok, "text": text}).to_string()
+}

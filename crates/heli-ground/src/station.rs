@@ -1,0 +1,493 @@
+//! The ground station, sans-I/O: the link's ground end ([`GroundLink`]) with everything the
+//! operator's display needs — the panel of §2.4, the rows of Fig. 2-4, the battery meter, the
+//! GPS indicator, the message area, the safety checks of §4.3, the operators' control token
+//! and the log transfer after Stop. Datagrams, operators' requests and the time go in;
+//! datagrams to send, files to save and a [`View`] come out. The web server
+//! ([`crate::server`]) is only its I/O.
+
+use std::collections::VecDeque;
+use std::path::{Component, Path, PathBuf};
+
+use heli_link::command::{PLANS, command_long};
+use heli_link::ground::{COMMAND_RETRY_US, GroundLink};
+use heli_link::signing::Key;
+use heli_link::status::{BootstrapState, VehicleStatus};
+use heli_link::{FlightMode, GroundCommand, StartParameters};
+use mavlink::dialects::common::*;
+use serde::Deserialize;
+
+use crate::checks::BatteryCurve;
+use crate::operators::{ClientId, Operators};
+use crate::panel::{Panel, PanelState};
+use crate::transfer::Transfer;
+use crate::view::Message;
+
+/// A command with no final answer for this long (µs) is given up.
+pub const COMMAND_TIMEOUT_US: u64 = 30_000_000;
+/// After `IN_PROGRESS`, a command is sent again this often (µs), to recover a lost answer.
+const IN_PROGRESS_RETRY_US: u64 = 2_000_000;
+/// The ground's heartbeat period (µs).
+const HEARTBEAT_US: u64 = 1_000_000;
+/// No heartbeat from the vehicle for this long (µs): the panel forgets its state.
+const VEHICLE_LOST_US: u64 = 5_000_000;
+/// Lines kept in the message area.
+pub const MESSAGES_KEPT: usize = 300;
+
+/// How the station is set up.
+#[derive(Clone, Debug)]
+pub struct StationConfig {
+    /// The directory the operator's base directories are under (logs are saved only below
+    /// it).
+    pub save_root: PathBuf,
+    /// The flight battery's discharge curve (the meter).
+    pub curve: BatteryCurve,
+    /// The link's signing key.
+    pub key: Option<Key>,
+}
+
+/// What the station wants done.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Output {
+    /// Send this datagram to the vehicle.
+    Send(Vec<u8>),
+    /// Save these bytes at this path (then call [`Station::saved`]).
+    Save(PathBuf, Vec<u8>),
+}
+
+/// An operator's request, as the page sends it (JSON).
+#[derive(Clone, Debug, Deserialize)]
+pub struct Request {
+    /// Rises with every request of a page.
+    pub seq: u64,
+    /// What is asked.
+    #[serde(flatten)]
+    pub op: Op,
+}
+
+/// What an operator asks.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "op", rename_all = "kebab-case")]
+pub enum Op {
+    /// Take the control token.
+    Take,
+    /// Give it back.
+    Release,
+    /// Connect.
+    Connect,
+    /// Start Logging with the flight parameters.
+    Start {
+        /// The log file suffix.
+        suffix: String,
+        /// The controller's name.
+        controller: String,
+        /// The flight plan's name (empty or absent: the vehicle's default).
+        #[serde(default)]
+        plan: Option<String>,
+    },
+    /// Stop, with the final parameters (both absent: no log transfer).
+    Stop {
+        /// Base directory, below the station's save root.
+        #[serde(default)]
+        base_dir: Option<String>,
+        /// File suffix of the saved log.
+        #[serde(default)]
+        suffix: Option<String>,
+    },
+}
+
+/// A command on its way.
+#[derive(Clone, Debug)]
+pub(crate) struct Pending {
+    long: COMMAND_LONG_DATA,
+    name: &'static str,
+    first_us: u64,
+    sent_us: u64,
+    in_progress: bool,
+    acks_from: usize,
+    /// For Stop: where the log goes.
+    dest: Option<PathBuf>,
+}
+
+/// The ground station.
+pub struct Station {
+    /// The link's ground end.
+    pub link: GroundLink,
+    pub(crate) config: StationConfig,
+    pub(crate) panel: Panel,
+    pub(crate) operators: Operators,
+    pub(crate) pending: Option<Pending>,
+    pub(crate) transfer: Option<Transfer>,
+    pub(crate) messages: VecDeque<Message>,
+    next_message: u64,
+    texts_seen: usize,
+    pub(crate) chosen: FlightMode,
+    heartbeat_sent_us: Option<u64>,
+    outbox: Vec<Vec<u8>>,
+    /// When our last command was answered: heartbeats from before say the old state.
+    answered_us: u64,
+}
+
+impl Station {
+    /// A station on a link signed with the configuration's key.
+    pub fn new(config: StationConfig) -> Self {
+        Self {
+            link: GroundLink::new(config.key.clone()),
+            config,
+            panel: Panel::default(),
+            operators: Operators::default(),
+            pending: None,
+            transfer: None,
+            messages: VecDeque::new(),
+            next_message: 0,
+            texts_seen: 0,
+            chosen: FlightMode::Manual,
+            heartbeat_sent_us: None,
+            outbox: Vec::new(),
+            answered_us: 0,
+        }
+    }
+
+    /// Adds a line to the message area.
+    pub fn note(&mut self, severity: &'static str, text: impl Into<String>) {
+        self.next_message = self.next_message.saturating_add(1);
+        self.messages.push_back(Message {
+            seq: self.next_message,
+            severity,
+            source: "ground",
+            text: text.into(),
+        });
+        while self.messages.len() > MESSAGES_KEPT {
+            self.messages.pop_front();
+        }
+    }
+
+    /// A datagram from the vehicle.
+    pub fn receive(&mut self, datagram: &[u8], now_us: u64) {
+        self.link.receive(datagram, now_us);
+        self.take_texts();
+    }
+
+    /// The vehicle's new status texts into the message area.
+    fn take_texts(&mut self) {
+        let new: Vec<(MavSeverity, String)> = self
+            .link
+            .texts
+            .iter()
+            .skip(self.texts_seen)
+            .cloned()
+            .collect();
+        self.texts_seen = self.link.texts.len();
+        for (severity, text) in new {
+            self.next_message = self.next_message.saturating_add(1);
+            self.messages.push_back(Message {
+                seq: self.next_message,
+                severity: crate::view::severity_word(severity),
+                source: "vehicle",
+                text,
+            });
+        }
+        while self.messages.len() > MESSAGES_KEPT {
+            self.messages.pop_front();
+        }
+    }
+
+    /// The vehicle's status from its last heartbeat, if recent.
+    pub fn vehicle_status(&self, now_us: u64) -> Option<VehicleStatus> {
+        let (at, hb) = self.link.heartbeat.as_ref()?;
+        (now_us.saturating_sub(*at) < VEHICLE_LOST_US)
+            .then(|| VehicleStatus::from_heartbeat(hb))
+            .flatten()
+    }
+
+    /// One step: the heartbeat, the command under way, the log transfer.
+    pub fn tick(&mut self, now_us: u64) -> Vec<Output> {
+        let mut out = Vec::new();
+        if self
+            .heartbeat_sent_us
+            .is_none_or(|t| now_us.saturating_sub(t) >= HEARTBEAT_US)
+        {
+            out.push(Output::Send(self.link.heartbeat_frame(now_us)));
+            self.heartbeat_sent_us = Some(now_us);
+        }
+        self.link.flush_texts(now_us);
+        self.take_texts();
+        // The heartbeat is the truth, once it is newer than our last command's answer.
+        let heard_after = self
+            .link
+            .heartbeat
+            .as_ref()
+            .is_some_and(|(t, _)| *t >= self.answered_us);
+        if heard_after || self.vehicle_status(now_us).is_none() {
+            let status = self.vehicle_status(now_us);
+            self.panel.vehicle(status.map(|s| s.state));
+        }
+        self.command_tick(now_us, &mut out);
+        if let Some(mut transfer) = self.transfer.take() {
+            let step = transfer.tick(&mut self.link, now_us);
+            out.extend(step.frames.into_iter().map(Output::Send));
+            for n in step.notes {
+                self.note(if step.failed { "error" } else { "info" }, n);
+            }
+            if let Some((path, bytes)) = step.save {
+                out.push(Output::Save(path, bytes));
+            }
+            if !step.done {
+                self.transfer = Some(transfer);
+            }
+        }
+        out
+    }
+
+    fn command_tick(&mut self, now_us: u64, out: &mut Vec<Output>) {
+        let Some(mut p) = self.pending.take() else {
+            return;
+        };
+        let answers: Vec<MavResult> = self
+            .link
+            .acks
+            .iter()
+            .skip(p.acks_from)
+            .filter(|(c, _)| *c == p.long.command)
+            .map(|(_, r)| *r)
+            .collect();
+        p.acks_from = self.link.acks.len();
+        for r in answers {
+            if r == MavResult::MAV_RESULT_IN_PROGRESS {
+                p.in_progress = true;
+            } else {
+                self.answered(&p, r, now_us);
+                return;
+            }
+        }
+        if now_us.saturating_sub(p.first_us) > COMMAND_TIMEOUT_US {
+            self.panel.answered();
+            self.note(
+                "error",
+                format!(
+                    "{}: no answer from the vehicle in {} s",
+                    p.name,
+                    COMMAND_TIMEOUT_US / 1_000_000
+                ),
+            );
+            return;
+        }
+        let retry = if p.in_progress {
+            IN_PROGRESS_RETRY_US
+        } else {
+            COMMAND_RETRY_US
+        };
+        if now_us.saturating_sub(p.sent_us) >= retry {
+            p.long.confirmation = p.long.confirmation.saturating_add(1);
+            out.push(Output::Send(
+                self.link.command_frame(p.long.clone(), now_us),
+            ));
+            p.sent_us = now_us;
+        }
+        self.pending = Some(p);
+    }
+
+    fn answered(&mut self, p: &Pending, result: MavResult, now_us: u64) {
+        self.panel.answered();
+        self.answered_us = now_us;
+        let accepted = result == MavResult::MAV_RESULT_ACCEPTED;
+        let word = if accepted {
+            "accepted".to_string()
+        } else {
+            format!("{result:?}")
+                .trim_start_matches("MAV_RESULT_")
+                .to_lowercase()
+        };
+        self.note(
+            if accepted { "info" } else { "error" },
+            format!("{}: {word}", p.name),
+        );
+        match (p.name, accepted) {
+            ("connect", true) => self.panel.vehicle(Some(BootstrapState::Connected)),
+            ("start logging", true) => self.panel.vehicle(Some(BootstrapState::Flying)),
+            ("start logging", false) => {
+                self.panel.logging_failed();
+                self.note("error", "logging failed: press Stop to reset the display");
+            }
+            ("stop", true) => {
+                self.panel.vehicle(Some(BootstrapState::Idle));
+                if let Some(dest) = p.dest.clone() {
+                    self.transfer = Some(Transfer::new(dest, now_us));
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// A page joins; returns its id.
+    pub fn join(&mut self) -> ClientId {
+        self.operators.join()
+    }
+
+    /// A page leaves.
+    pub fn leave(&mut self, id: ClientId) {
+        self.operators.leave(id);
+    }
+
+    /// The runtime saved (or failed to save) a transferred log.
+    pub fn saved(&mut self, path: &Path, result: Result<(), String>) {
+        match result {
+            Ok(()) => self.note("info", format!("log saved: {}", path.display())),
+            Err(e) => self.note("error", format!("log not saved to {}: {e}", path.display())),
+        }
+    }
+
+    /// An operator's request (JSON text) from page `client`: what was done, or why nothing
+    /// was.
+    pub fn request(&mut self, client: ClientId, text: &str, now_us: u64) -> Result<String, String> {
+        let req: Request =
+            serde_json::from_str(text).map_err(|e| format!("malformed request: {e}"))?;
+        self.operators
+            .accept(client, req.seq)
+            .map_err(|e| e.to_string())?;
+        match req.op {
+            Op::Take => self
+                .operators
+                .take(client)
+                .map(|()| "you are in control".to_string())
+                .map_err(|e| e.to_string()),
+            Op::Release => {
+                self.operators.release(client);
+                Ok("control released".into())
+            }
+            op => {
+                self.operators
+                    .may_command(client)
+                    .map_err(|e| e.to_string())?;
+                self.command(op, now_us)
+            }
+        }
+    }
+
+    fn command(&mut self, op: Op, now_us: u64) -> Result<String, String> {
+        if self.pending.is_some() {
+            return Err("a command is still on its way: wait for its answer".into());
+        }
+        let state = self.panel.state();
+        let (connect, start, stop) = state.buttons();
+        let (command, name, meanwhile, dest) = match op {
+            Op::Connect if connect => (
+                GroundCommand::Connect,
+                "connect",
+                PanelState::Connecting,
+                None,
+            ),
+            Op::Start {
+                suffix,
+                controller,
+                plan,
+            } if start => {
+                let mut p = StartParameters::new(suffix.trim(), controller.trim())
+                    .map_err(|e| e.to_string())?;
+                let plan = plan.filter(|p| !p.trim().is_empty());
+                if let Some(name) = plan.as_deref()
+                    && !PLANS.contains(&name)
+                {
+                    return Err(format!(
+                        "unknown flight plan '{name}' (the vehicle knows {})",
+                        PLANS.join(", ")
+                    ));
+                }
+                p.plan = plan;
+                self.chosen = p.controller;
+                (
+                    GroundCommand::StartLogging(p),
+                    "start logging",
+                    PanelState::Starting,
+                    None,
+                )
+            }
+            Op::Stop { base_dir, suffix } if stop => {
+                let dest = self.final_parameters(base_dir, suffix)?;
+                if state == PanelState::LoggingFailed
+                    && self
+                        .vehicle_status(now_us)
+                        .is_none_or(|s| s.state == BootstrapState::Idle)
+                {
+                    self.panel.reset();
+                    self.note("info", "display reset");
+                    return Ok("display reset".into());
+                }
+                self.panel.reset();
+                (GroundCommand::Stop, "stop", PanelState::Stopping, dest)
+            }
+            other => {
+                return Err(format!(
+                    "{} is not active now (the panel is {})",
+                    match other {
+                        Op::Connect => "Connect",
+                        Op::Start { .. } => "Start Logging",
+                        _ => "Stop",
+                    },
+                    serde_json::to_string(&state)
+                        .unwrap_or_default()
+                        .trim_matches('"')
+                ));
+            }
+        };
+        let long = command_long(&command, (1, 1))
+            .ok_or("the parameters cannot go over the link (a suffix is at most 15 characters)")?;
+        self.note("info", format!("{name}: sent"));
+        let frame = self.link.command_frame(long.clone(), now_us);
+        self.pending = Some(Pending {
+            long,
+            name,
+            first_us: now_us,
+            sent_us: now_us,
+            in_progress: false,
+            acks_from: self.link.acks.len(),
+            dest,
+        });
+        self.panel.sent(meanwhile);
+        self.outbox.push(frame);
+        Ok(format!("{name}: sent"))
+    }
+
+    /// The path a stopped flight's log is saved at, from the final parameters: both or
+    /// neither; the base directory relative, below the save root.
+    fn final_parameters(
+        &self,
+        base_dir: Option<String>,
+        suffix: Option<String>,
+    ) -> Result<Option<PathBuf>, String> {
+        let base_dir = base_dir.filter(|s| !s.trim().is_empty());
+        let suffix = suffix.filter(|s| !s.trim().is_empty());
+        let (base, suffix) = match (base_dir, suffix) {
+            (None, None) => return Ok(None),
+            (Some(b), Some(s)) => (b, s),
+            _ => {
+                return Err(
+                    "final parameters: give both the base directory and the suffix, or neither"
+                        .into(),
+                );
+            }
+        };
+        StartParameters::new(suffix.trim(), "manual")
+            .map_err(|e| format!("final parameters: {e}"))?;
+        let rel = Path::new(base.trim());
+        if !rel
+            .components()
+            .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
+        {
+            return Err(format!(
+                "final parameters: base directory '{base}' must be a relative path below {} (no '..', no leading '/')",
+                self.config.save_root.display()
+            ));
+        }
+        Ok(Some(
+            self.config
+                .save_root
+                .join(rel)
+                .join(format!("flight_{}.mcap", suffix.trim())),
+        ))
+    }
+
+    /// Frames a request produced, to send now.
+    pub fn take_outbox(&mut self) -> Vec<Vec<u8>> {
+        std::mem::take(&mut self.outbox)
+    }
+}

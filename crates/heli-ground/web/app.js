@@ -1,0 +1,231 @@
+// The operator's display: draws the station's view and sends the operator's requests.
+// Everything the vehicle is told goes through the ground station, which validates it; this
+// page only draws and asks.
+"use strict";
+
+const ROWS = [
+  ["imu", "IMU"], ["state", "STATE"], ["uplink", "UPLINK"], ["servo", "SERVO"],
+  ["gps", "GPS"], ["bar", "BAR"], ["cmps", "CMPS"],
+];
+
+const page = {
+  socket: null,
+  client: null,
+  seq: 0,
+  lastCount: 0,
+  lastMessage: 0,
+  view: null,
+  history: [],
+  pending: new Map(),
+};
+
+const $ = (id) => document.getElementById(id);
+
+function connectSocket() {
+  const scheme = location.protocol === "https:" ? "wss" : "ws";
+  const socket = new WebSocket(`${scheme}://${location.host}/ws`);
+  page.socket = socket;
+  socket.onopen = () => setLink(true);
+  socket.onclose = () => {
+    setLink(false);
+    setTimeout(connectSocket, 1000);
+  };
+  socket.onmessage = (ev) => {
+    let msg;
+    try { msg = JSON.parse(ev.data); } catch { return; }
+    if (msg.type === "hello") page.client = msg.client;
+    else if (msg.type === "view") render(msg.view);
+    else if (msg.type === "reply") showReply(msg);
+  };
+}
+
+function setLink(up) {
+  const el = $("link-state");
+  el.textContent = up ? "ground station connected" : "no link to the ground station";
+  el.className = "pill " + (up ? "good" : "bad");
+}
+
+// Sends a request; its answer comes back as a reply with the same sequence number.
+function send(op, extra = {}) {
+  if (!page.socket || page.socket.readyState !== WebSocket.OPEN) {
+    showReply({ ok: false, text: "not connected to the ground station" });
+    return;
+  }
+  page.seq += 1;
+  page.socket.send(JSON.stringify({ seq: page.seq, op, ...extra }));
+}
+
+function showReply(msg) {
+  const el = $("reply");
+  el.textContent = msg.text || "";
+  el.className = msg.ok ? "" : "error";
+}
+
+// For tests and scripting: send a request as raw text (a replay, a malformed message).
+window.heli = {
+  sendRaw: (text) => page.socket.send(text),
+  request: (op, extra) => send(op, extra),
+  seq: () => page.seq,
+};
+
+function render(view) {
+  page.view = view;
+  const inControl = page.client !== null && view.operators.holder === page.client;
+  renderOperators(view, inControl);
+  renderPanel(view, inControl);
+  renderVehicle(view);
+  renderRows(view);
+  renderPower(view);
+  renderSafety(view.safety);
+  renderMessages(view.messages);
+  if (view.instruments) {
+    page.history.push(view.instruments);
+    const cut = view.instruments.time_s - 30;
+    while (page.history.length && page.history[0].time_s < cut) page.history.shift();
+    if (page.history.length > 2000) page.history.shift();
+  }
+  window.heliInstruments.draw(view.instruments, page.history);
+}
+
+function renderOperators(view, inControl) {
+  const ops = view.operators;
+  const token = $("token");
+  const who = ops.holder === null ? "nobody" : inControl ? "you" : `operator ${ops.holder}`;
+  token.textContent = `${ops.pages} page${ops.pages === 1 ? "" : "s"} · in control: ${who}`;
+  token.className = inControl ? "mine" : "";
+  $("take-control").disabled = ops.holder !== null;
+  $("release-control").disabled = !inControl;
+}
+
+function renderPanel(view, inControl) {
+  const p = view.panel;
+  const watching = inControl ? "" : "take control to command";
+  for (const [id, active] of [["connect", p.connect], ["start", p.start], ["stop", p.stop]]) {
+    $(id).disabled = !(active && inControl);
+    $(id).title = active ? watching : "not active now";
+  }
+  const ind = $("indicator");
+  ind.className = "indicator " + (p.green ? "green" : "red");
+  if (p.telemetry_count > page.lastCount) {
+    ind.classList.add("flash");
+    setTimeout(() => ind.classList.remove("flash"), 120);
+  }
+  page.lastCount = p.telemetry_count;
+  $("counter").textContent = String(p.telemetry_count);
+  document.body.dataset.panel = p.state;
+}
+
+function renderVehicle(view) {
+  const v = view.vehicle;
+  const el = $("vehicle-state");
+  el.textContent = v.heard
+    ? `vehicle: ${v.state}${v.mode ? ", " + v.mode : ""}`
+    : "vehicle: not heard";
+  el.className = "pill " + (v.heard ? "good" : "bad");
+}
+
+function renderRows(view) {
+  const body = $("rows-body");
+  if (!body.children.length) {
+    for (const [key, name] of ROWS) {
+      const tr = document.createElement("tr");
+      tr.id = `row-${key}`;
+      body.appendChild(tr);
+    }
+  }
+  for (const [key, name] of ROWS) {
+    const tr = $(`row-${key}`);
+    const row = view.rows[key];
+    tr.className = row && row.stale ? "stale" : "";
+    let html = `<td class="name">${name}</td>`;
+    if (!row) {
+      html += `<td class="nothing" colspan="11">NOTHING YET</td>`;
+    } else {
+      html += `<td><span class="cell-label">Time s</span>${row.time_s.toFixed(2)}</td>`;
+      for (const c of row.cells) {
+        html += `<td><span class="cell-label">${esc(c.label)}</span>${esc(c.value)}</td>`;
+      }
+    }
+    if (tr.innerHTML !== html) tr.innerHTML = html;
+  }
+}
+
+function renderPower(view) {
+  const b = view.battery;
+  const meter = $("battery");
+  if (b) {
+    $("battery-fill").style.height = `${Math.max(0, Math.min(100, b.percent))}%`;
+    meter.className = "meter " + (b.green ? "green" : "red");
+    $("battery-pct").textContent = `${b.percent.toFixed(0)} %`;
+    $("battery-v").textContent = `${b.volts.toFixed(2)} V`;
+  } else {
+    $("battery-fill").style.height = "0";
+    $("battery-pct").textContent = "–";
+    $("battery-v").textContent = "– V";
+  }
+  const g = view.gps;
+  $("gps-indicator").className = "lamp " + (g && g.ok ? "green" : "red");
+  $("gps-sats").textContent = g ? `${g.satellites} satellites` : "no fix";
+}
+
+function renderSafety(s) {
+  for (const [id, v] of [["safe-augmented", s.augmented], ["safe-automatic", s.automatic]]) {
+    const el = $(id);
+    el.className = "verdict " + (v.allowed ? "yes" : "no");
+    el.querySelector(".answer").textContent = v.allowed ? "YES" : "NO";
+    el.querySelector(".failing").textContent = v.failing;
+    el.querySelector(".rule").textContent = v.rule;
+  }
+  const list = $("conditions");
+  const html = s.conditions
+    .map((c) => `<li class="${c.value === c.wanted}" title="${esc(c.meaning)}">` +
+      `${esc(c.name)}: ${esc(c.meaning)}${c.value ? "" : ": no"}</li>`)
+    .join("");
+  if (list.innerHTML !== html) list.innerHTML = html;
+}
+
+function renderMessages(messages) {
+  const list = $("messages");
+  let added = false;
+  for (const m of messages) {
+    if (m.seq <= page.lastMessage) continue;
+    page.lastMessage = m.seq;
+    const li = document.createElement("li");
+    li.className = m.severity;
+    li.innerHTML = `<span class="src">${m.source}</span> ${esc(m.text)}`;
+    list.appendChild(li);
+    added = true;
+  }
+  while (list.children.length > 500) list.removeChild(list.firstChild);
+  if (added) list.scrollTop = list.scrollHeight;
+}
+
+function esc(s) {
+  return String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
+}
+
+function wire() {
+  $("take-control").onclick = () => send("take");
+  $("release-control").onclick = () => send("release");
+  $("connect").onclick = () => send("connect");
+  $("start").onclick = () => send("start", {
+    suffix: $("suffix").value,
+    controller: $("controller").value,
+    plan: $("plan").value,
+  });
+  $("stop").onclick = () => {
+    $("final-suffix").value = $("suffix").value;
+    $("final-dialog").showModal();
+  };
+  $("final-dialog").addEventListener("close", () => {
+    const how = $("final-dialog").returnValue;
+    if (how === "save") {
+      send("stop", { base_dir: $("final-base").value, suffix: $("final-suffix").value });
+    } else if (how === "nosave") {
+      send("stop", {});
+    }
+  });
+}
+
+wire();
+connectSocket();

@@ -1,0 +1,249 @@
+// The instruments of the display, drawn from telemetry (the estimate, never the simulator's
+// truth): attitude indicator, top-down track, a 3D view of the helicopter, and plots.
+// Plain 2D canvas; no library.
+"use strict";
+
+(function () {
+  const DEG = 180 / Math.PI;
+
+  function ctx(id) {
+    const c = document.getElementById(id);
+    return c ? c.getContext("2d") : null;
+  }
+
+  function clear(g, text) {
+    g.fillStyle = "#0b0e12";
+    g.fillRect(0, 0, g.canvas.width, g.canvas.height);
+    if (text) {
+      g.fillStyle = "#8a94a3";
+      g.font = "13px system-ui";
+      g.fillText(text, 12, 22);
+    }
+  }
+
+  // Attitude indicator: the horizon rolls with the roll angle and moves with the pitch.
+  function attitude(inst) {
+    const g = ctx("attitude");
+    if (!g) return;
+    const w = g.canvas.width, h = g.canvas.height, cx = w / 2, cy = h / 2;
+    if (!inst) return clear(g, "NOTHING YET");
+    const [roll, pitch, yaw] = inst.euler_rad;
+    const pxPerRad = h / 1.2;
+    g.save();
+    g.translate(cx, cy);
+    g.rotate(-roll);
+    g.translate(0, pitch * pxPerRad);
+    g.fillStyle = "#3b7fc4";
+    g.fillRect(-w * 2, -h * 4, w * 4, h * 4);
+    g.fillStyle = "#8a5a2b";
+    g.fillRect(-w * 2, 0, w * 4, h * 4);
+    g.strokeStyle = "#fff";
+    g.lineWidth = 1;
+    g.font = "10px system-ui";
+    g.fillStyle = "#fff";
+    for (let d = -60; d <= 60; d += 10) {
+      if (d === 0) continue;
+      const y = -d / DEG * pxPerRad;
+      const half = d % 20 === 0 ? 30 : 15;
+      g.beginPath(); g.moveTo(-half, y); g.lineTo(half, y); g.stroke();
+      if (d % 20 === 0) g.fillText(String(d), half + 4, y + 3);
+    }
+    g.lineWidth = 2;
+    g.beginPath(); g.moveTo(-w * 2, 0); g.lineTo(w * 2, 0); g.stroke();
+    g.restore();
+    // The aircraft symbol stays fixed.
+    g.strokeStyle = "#ffd24a";
+    g.lineWidth = 3;
+    g.beginPath(); g.moveTo(cx - 45, cy); g.lineTo(cx - 12, cy); g.lineTo(cx, cy + 8);
+    g.lineTo(cx + 12, cy); g.lineTo(cx + 45, cy); g.stroke();
+    g.fillStyle = "#fff";
+    g.font = "12px ui-monospace, monospace";
+    const hdg = ((yaw * DEG) % 360 + 360) % 360;
+    g.fillText(`HDG ${hdg.toFixed(0).padStart(3, "0")}°`, cx - 32, 16);
+    g.fillText(`R ${(roll * DEG).toFixed(0)}° P ${(pitch * DEG).toFixed(0)}°`, 8, h - 8);
+  }
+
+  // Top-down track: north up, the trail of the estimate, home, and the helicopter's heading.
+  function track(inst, history) {
+    const g = ctx("track");
+    if (!g) return;
+    const w = g.canvas.width, h = g.canvas.height;
+    const pts = history.filter((s) => s.pos_ned_m).map((s) => s.pos_ned_m);
+    if (!inst || !pts.length) return clear(g, "NOTHING YET");
+    clear(g);
+    let span = 10;
+    for (const p of pts) span = Math.max(span, Math.abs(p[0]) * 2.4, Math.abs(p[1]) * 2.4);
+    const scale = Math.min(w, h) / span;
+    const X = (p) => w / 2 + p[1] * scale;
+    const Y = (p) => h / 2 - p[0] * scale;
+    g.strokeStyle = "#2a323d";
+    g.lineWidth = 1;
+    const step = span > 60 ? 20 : span > 25 ? 10 : 5;
+    for (let m = -Math.ceil(span / step) * step; m <= span; m += step) {
+      g.beginPath(); g.moveTo(X([0, m]), 0); g.lineTo(X([0, m]), h); g.stroke();
+      g.beginPath(); g.moveTo(0, Y([m, 0])); g.lineTo(w, Y([m, 0])); g.stroke();
+    }
+    g.fillStyle = "#8a94a3";
+    g.font = "11px system-ui";
+    g.fillText(`grid ${step} m`, 6, h - 6);
+    g.fillText("N", w / 2 - 3, 11);
+    // Home.
+    g.strokeStyle = "#e0a21b";
+    g.strokeRect(X([0, 0]) - 5, Y([0, 0]) - 5, 10, 10);
+    // Trail.
+    g.strokeStyle = "#4a90d9";
+    g.lineWidth = 2;
+    g.beginPath();
+    pts.forEach((p, i) => (i ? g.lineTo(X(p), Y(p)) : g.moveTo(X(p), Y(p))));
+    g.stroke();
+    const p = inst.pos_ned_m || pts[pts.length - 1];
+    const yaw = inst.euler_rad[2];
+    g.save();
+    g.translate(X(p), Y(p));
+    g.rotate(yaw);
+    g.fillStyle = "#ffd24a";
+    g.beginPath(); g.moveTo(0, -9); g.lineTo(6, 7); g.lineTo(-6, 7); g.closePath(); g.fill();
+    g.restore();
+    g.fillStyle = "#e6e9ee";
+    g.fillText(`N ${p[0].toFixed(1)} E ${p[1].toFixed(1)} h ${(-p[2]).toFixed(1)} m`, 6, 14);
+  }
+
+  // Rotation body → NED from roll, pitch, yaw (ZYX).
+  function dcm([phi, theta, psi]) {
+    const cf = Math.cos(phi), sf = Math.sin(phi), ct = Math.cos(theta), st = Math.sin(theta);
+    const cp = Math.cos(psi), sp = Math.sin(psi);
+    return [
+      [ct * cp, sf * st * cp - cf * sp, cf * st * cp + sf * sp],
+      [ct * sp, sf * st * sp + cf * cp, cf * st * sp - sf * cp],
+      [-st, sf * ct, cf * ct],
+    ];
+  }
+  const mul = (m, v) => m.map((r) => r[0] * v[0] + r[1] * v[1] + r[2] * v[2]);
+
+  // 3D view: a chase camera behind and above the helicopter, the field's grid, home, the
+  // trail, and the helicopter as lines (fuselage, tail boom, rotor disk).
+  function view3d(inst, history) {
+    const g = ctx("view3d");
+    if (!g) return;
+    const w = g.canvas.width, h = g.canvas.height;
+    if (!inst || !inst.pos_ned_m) return clear(g, "NOTHING YET");
+    const gradient = g.createLinearGradient(0, 0, 0, h);
+    gradient.addColorStop(0, "#1d3550");
+    gradient.addColorStop(1, "#0b0e12");
+    g.fillStyle = gradient;
+    g.fillRect(0, 0, w, h);
+    const pos = inst.pos_ned_m;
+    const yaw = inst.euler_rad[2];
+    // Camera: 9 m behind along the heading, 4 m above; looking at the helicopter.
+    const cam = [pos[0] - 9 * Math.cos(yaw), pos[1] - 9 * Math.sin(yaw), pos[2] - 4];
+    const fwd = [Math.cos(yaw), Math.sin(yaw), 0];
+    const right = [-Math.sin(yaw), Math.cos(yaw), 0];
+    const tilt = Math.atan2(4, 9);
+    const f = w * 0.9;
+    const project = (p) => {
+      const d = [p[0] - cam[0], p[1] - cam[1], p[2] - cam[2]];
+      const x = d[0] * right[0] + d[1] * right[1];
+      const along = d[0] * fwd[0] + d[1] * fwd[1];
+      const down = d[2];
+      const z = along * Math.cos(tilt) + down * Math.sin(tilt);
+      const y = -along * Math.sin(tilt) + down * Math.cos(tilt);
+      if (z < 0.5) return null;
+      return [w / 2 + (f * x) / z, h / 2 + (f * y) / z];
+    };
+    const line = (a, b, color, width) => {
+      const pa = project(a), pb = project(b);
+      if (!pa || !pb) return;
+      g.strokeStyle = color;
+      g.lineWidth = width || 1;
+      g.beginPath(); g.moveTo(pa[0], pa[1]); g.lineTo(pb[0], pb[1]); g.stroke();
+    };
+    // Field grid, 5 m, around the helicopter.
+    const gx = Math.round(pos[0] / 5) * 5, gy = Math.round(pos[1] / 5) * 5;
+    for (let k = -40; k <= 40; k += 5) {
+      line([gx + k, gy - 40, 0], [gx + k, gy + 40, 0], "#27452f");
+      line([gx - 40, gy + k, 0], [gx + 40, gy + k, 0], "#27452f");
+    }
+    // Home.
+    line([-1, 0, 0], [1, 0, 0], "#e0a21b", 2);
+    line([0, -1, 0], [0, 1, 0], "#e0a21b", 2);
+    // Trail.
+    const pts = history.filter((s) => s.pos_ned_m).map((s) => s.pos_ned_m);
+    for (let i = 1; i < pts.length; i++) line(pts[i - 1], pts[i], "#4a90d9", 1.5);
+    // Shadow straight below.
+    line([pos[0], pos[1], 0], [pos[0], pos[1], pos[2]], "#55606e");
+    // The helicopter, in the body frame (x forward, y right, z down), metres.
+    const R = dcm(inst.euler_rad);
+    const at = (b) => { const n = mul(R, b); return [pos[0] + n[0], pos[1] + n[1], pos[2] + n[2]]; };
+    line(at([0.6, 0, 0]), at([-0.4, 0, 0]), "#ffd24a", 4);
+    line(at([-0.4, 0, 0]), at([-1.4, 0, -0.1]), "#ffd24a", 2);
+    line(at([-1.4, 0, -0.1]), at([-1.4, 0, -0.35]), "#ffd24a", 2);
+    line(at([0.2, 0, 0.25]), at([0.2, 0.25, 0.3]), "#c9ced6");
+    line(at([0.2, 0, 0.25]), at([0.2, -0.25, 0.3]), "#c9ced6");
+    line(at([0, 0, 0]), at([0, 0, -0.3]), "#c9ced6", 2);
+    // Rotor disk.
+    const disk = [];
+    for (let a = 0; a <= 24; a++) {
+      const t = (a / 24) * 2 * Math.PI;
+      disk.push(at([0.77 * Math.cos(t), 0.77 * Math.sin(t), -0.3]));
+    }
+    for (let i = 1; i < disk.length; i++) line(disk[i - 1], disk[i], "#e6e9ee", 1.5);
+    g.fillStyle = "#e6e9ee";
+    g.font = "12px system-ui";
+    g.fillText("estimated (telemetry), chase camera", 8, 16);
+  }
+
+  // A strip chart of `series` ([name, color, pick]) over the last 30 s.
+  function plot(id, history, series, limit) {
+    const g = ctx(id);
+    if (!g) return;
+    const w = g.canvas.width, h = g.canvas.height;
+    if (!history.length) return clear(g, "NOTHING YET");
+    clear(g);
+    const t1 = history[history.length - 1].time_s, t0 = t1 - 30;
+    let max = limit;
+    for (const s of history) for (const [, , pick] of series) {
+      const v = pick(s);
+      if (v !== null && isFinite(v)) max = Math.max(max, Math.abs(v));
+    }
+    g.strokeStyle = "#2a323d";
+    g.beginPath(); g.moveTo(0, h / 2); g.lineTo(w, h / 2); g.stroke();
+    series.forEach(([name, color, pick], k) => {
+      g.strokeStyle = color;
+      g.lineWidth = 1.5;
+      g.beginPath();
+      let started = false;
+      for (const s of history) {
+        const v = pick(s);
+        if (v === null || !isFinite(v)) continue;
+        const x = ((s.time_s - t0) / 30) * w, y = h / 2 - (v / max) * (h / 2 - 4);
+        started ? g.lineTo(x, y) : g.moveTo(x, y);
+        started = true;
+      }
+      g.stroke();
+      g.fillStyle = color;
+      g.font = "11px system-ui";
+      g.fillText(name, 6 + k * 22, 12);
+    });
+    g.fillStyle = "#8a94a3";
+    g.fillText(`±${max.toFixed(max < 2 ? 1 : 0)}`, w - 40, 12);
+  }
+
+  window.heliInstruments = {
+    draw(inst, history) {
+      attitude(inst);
+      track(inst, history);
+      view3d(inst, history);
+      plot("plot-rates", history, [
+        ["p", "#ff6b6b", (s) => s.rate_rps[0] * DEG],
+        ["q", "#6bd36b", (s) => s.rate_rps[1] * DEG],
+        ["r", "#6bb5ff", (s) => s.rate_rps[2] * DEG],
+      ], 10);
+      plot("plot-controls", history, [
+        ["a", "#ff6b6b", (s) => (s.servo ? s.servo[0] : null)],
+        ["e", "#6bd36b", (s) => (s.servo ? s.servo[1] : null)],
+        ["r", "#6bb5ff", (s) => (s.servo ? s.servo[2] : null)],
+        ["c", "#ffd24a", (s) => (s.servo ? s.servo[3] : null)],
+      ], 1);
+    },
+  };
+})();
