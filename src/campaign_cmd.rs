@@ -227,6 +227,9 @@ fn one_flight(campaign: &Campaign, index: u64, args: &RunArgs) -> Result<ExitCod
         json: args.json,
         list: false,
         log: args.log.clone(),
+        ui: false,
+        http: String::new(),
+        calibration_s: 0.0,
     };
     crate::fly(scenario, &sim)
 }

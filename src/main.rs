@@ -11,6 +11,7 @@ mod ground_cmd;
 mod hilsim_cmd;
 mod link_cmd;
 mod replay_cmd;
+mod sim_ui;
 mod suite_cmd;
 mod vehicle_cmd;
 
@@ -234,6 +235,17 @@ struct SimArgs {
     /// Write the flight log (MCAP: the seven streams and the events) to this file.
     #[arg(long)]
     log: Option<std::path::PathBuf>,
+    /// The whole system instead, in real time, as separate processes: the HILSim (default
+    /// scenario demo), the vehicle on its pseudo-terminals and the ground station's display
+    /// in the browser (its URL is printed). Ctrl-C stops everything.
+    #[arg(long)]
+    ui: bool,
+    /// With --ui: where the display is served (port 0 picks a free one).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    http: String,
+    /// With --ui: the vehicle's bias calibration (s); the thesis's 80 s by default.
+    #[arg(long, default_value_t = 80.0)]
+    calibration_s: f64,
 }
 
 /// A reader that stops early (`heli log info x.mcap | head`) closes the pipe; Rust ignores
@@ -306,6 +318,13 @@ fn main() -> ExitCode {
 }
 
 fn sim(args: SimArgs) -> Result<ExitCode> {
+    if args.ui {
+        return sim_ui::run(&sim_ui::UiOptions {
+            scenario: args.scenario.unwrap_or_else(|| "demo".into()),
+            http: args.http,
+            calibration_s: args.calibration_s,
+        });
+    }
     if args.list {
         for s in scenario::builtins() {
             println!("{:<16} {}", s.name, s.description);

@@ -4,6 +4,7 @@
 //! The flights use a documented test-only shortening: 1 s warm-up and 5 s calibration
 //! (`--warm-up-s 1 --calibration-s 5`) instead of 5 s and 80 s.
 
+mod display;
 mod link;
 mod procs;
 

@@ -343,3 +343,56 @@ pub fn ground(link: &str, key: Option<&Path>, args: &[&str]) -> (bool, String) {
     );
     (out.status.success(), text)
 }
+
+/// A running `heli ground --http` (the operator's display).
+pub struct Display {
+    proc: Lines,
+    /// The display's address, `http://127.0.0.1:PORT/`.
+    pub url: String,
+}
+
+impl Display {
+    /// Starts the display on a free port for the vehicle at `link`, saving logs below
+    /// `save_root`.
+    pub fn start(link: &str, key: Option<&Path>, save_root: &Path) -> Self {
+        let mut args: Vec<String> = [
+            "ground",
+            "--link",
+            link,
+            "--http",
+            "127.0.0.1:0",
+            "--save-root",
+            &save_root.display().to_string(),
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        if let Some(key) = key {
+            args.extend(["--key".to_string(), key.display().to_string()]);
+        }
+        let proc = Lines::spawn(&args);
+        let line = proc.wait_for("ground: display at ", Duration::from_secs(10));
+        let url = line
+            .split_whitespace()
+            .find(|w| w.starts_with("http://"))
+            .unwrap_or_else(|| panic!("no address in {line}"))
+            .to_string();
+        Self { proc, url }
+    }
+
+    /// Stops it with SIGTERM, as Ctrl-C would; returns whether it said it stopped.
+    pub fn stop(mut self) -> bool {
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.proc.child.id().to_string()])
+            .status();
+        let end = Instant::now() + Duration::from_secs(10);
+        while Instant::now() < end {
+            if let Ok(Some(_)) = self.proc.child.try_wait() {
+                std::thread::sleep(Duration::from_millis(100));
+                return self.proc.all().contains("ground: stopped");
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        false
+    }
+}

@@ -33,5 +33,7 @@ pub mod panel;
 pub mod rows;
 pub mod server;
 pub mod station;
+#[cfg(test)]
+mod station_tests;
 pub mod transfer;
 pub mod view;

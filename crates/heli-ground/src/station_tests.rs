@@ -1,0 +1,428 @@
+//! The station against the vehicle's link, with no sockets: a small stand-in for the
+//! bootstrap answers Connect, Start Logging and Stop as the real one does.
+
+use std::path::PathBuf;
+
+use heli_link::GroundCommand;
+use heli_link::logs::MemoryStore;
+use heli_link::status::{BootstrapState, VehicleStatus};
+use heli_link::telemetry::{
+    CompassRow, DeviceHealth, GpsRow, ImuRow, StateRow, Telemetry, UplinkRow,
+};
+use heli_link::vehicle::{LinkEvent, VehicleLink};
+
+use crate::checks::BatteryCurve;
+use crate::panel::PanelState;
+use crate::station::{Output, Station, StationConfig};
+
+const T0: u64 = 1_763_900_000_000_000;
+
+struct Bench {
+    vehicle: VehicleLink,
+    station: Station,
+    state: BootstrapState,
+    mode: u8,
+    store: MemoryStore,
+    t: u64,
+    telemetry: Option<Telemetry>,
+    fail_start: bool,
+    commands: Vec<GroundCommand>,
+    saved: Vec<(PathBuf, Vec<u8>)>,
+}
+
+fn flying_telemetry(phase: &str) -> Telemetry {
+    let ok = |d: &str| DeviceHealth {
+        device: d.into(),
+        state: "ok".into(),
+    };
+    Telemetry {
+        t_us: 1,
+        imu: Some(ImuRow {
+            rate_rps: [0.0; 3],
+            accel_mps2: [0.0, 0.0, -9.81],
+        }),
+        state: Some(StateRow {
+            phase: phase.into(),
+            ..StateRow::default()
+        }),
+        uplink: Some(UplinkRow {
+            pulses_us: [1500; 5],
+            auto_mode: true,
+            bypass: false,
+            rotor_rpm: 1600,
+            receiver_batt_v: 4.8,
+            servo_batt_v: 4.9,
+        }),
+        gps: Some(GpsRow {
+            lat_deg: 42.36,
+            lon_deg: -71.09,
+            alt_m: 10.0,
+            vel_ned_mps: [0.0; 3],
+            satellites: 8,
+            fix_3d: true,
+        }),
+        compass: Some(CompassRow {
+            field_gauss: [0.2, 0.0, 0.45],
+            heading_rad: Some(0.0),
+        }),
+        battery_v: Some(12.4),
+        health: ["imu", "uplink", "gps", "baro", "compass"]
+            .into_iter()
+            .map(ok)
+            .collect(),
+        ..Telemetry::default()
+    }
+}
+
+impl Bench {
+    fn new() -> Self {
+        let log: Vec<u8> = (0..5_000u32).map(|i| (i * 13 % 251) as u8).collect();
+        let mut b = Self {
+            vehicle: VehicleLink::new(None, T0),
+            station: Station::new(StationConfig {
+                save_root: PathBuf::from("/ground"),
+                curve: BatteryCurve::default(),
+                key: None,
+            }),
+            state: BootstrapState::Idle,
+            mode: 0,
+            store: MemoryStore {
+                logs: vec![("flight_a.mcap".into(), log)],
+            },
+            t: T0,
+            telemetry: None,
+            fail_start: false,
+            commands: Vec::new(),
+            saved: Vec::new(),
+        };
+        b.run(1.5);
+        b
+    }
+
+    fn deliver_up(&mut self, frames: Vec<Vec<u8>>) {
+        for f in frames {
+            let events = self.vehicle.receive(&f, self.t, &self.store);
+            for e in events {
+                if let LinkEvent::Command { token, command } = e {
+                    self.commands.push(command.clone());
+                    let result = match command {
+                        GroundCommand::Connect => {
+                            self.state = BootstrapState::Connected;
+                            Ok("connected".to_string())
+                        }
+                        GroundCommand::StartLogging(_) if self.fail_start => {
+                            self.state = BootstrapState::Idle;
+                            Err("the flight process exited".to_string())
+                        }
+                        GroundCommand::StartLogging(p) => {
+                            self.state = BootstrapState::Flying;
+                            self.mode = match p.controller {
+                                heli_link::FlightMode::Autonomous => 2,
+                                _ => 1,
+                            };
+                            self.telemetry = Some(flying_telemetry("calibrating"));
+                            Ok("flying".to_string())
+                        }
+                        GroundCommand::Stop => {
+                            self.state = BootstrapState::Idle;
+                            self.telemetry = None;
+                            Ok("stopped".to_string())
+                        }
+                        _ => Ok(String::new()),
+                    };
+                    self.vehicle.finish(token, result, self.t);
+                }
+            }
+        }
+    }
+
+    /// Runs both ends for `seconds` in 10 ms steps.
+    fn run(&mut self, seconds: f64) {
+        let steps = (seconds * 100.0).round() as u32;
+        for _ in 0..steps {
+            self.t += 10_000;
+            let status = VehicleStatus {
+                state: self.state,
+                mode: self.mode,
+            };
+            self.vehicle
+                .tick(self.t, status, self.telemetry.as_ref(), &self.store);
+            for d in self.vehicle.take_outgoing() {
+                self.station.receive(&d, self.t);
+            }
+            let mut up = Vec::new();
+            for out in self.station.tick(self.t) {
+                match out {
+                    Output::Send(f) => up.push(f),
+                    Output::Save(p, bytes) => {
+                        self.station.saved(&p, Ok(()));
+                        self.saved.push((p, bytes));
+                    }
+                }
+            }
+            self.deliver_up(up);
+        }
+    }
+
+    fn ask(&mut self, client: u64, json: &str) -> Result<String, String> {
+        let r = self.station.request(client, json, self.t);
+        let frames = self.station.take_outbox();
+        self.deliver_up(frames);
+        r
+    }
+
+    fn panel(&self) -> PanelState {
+        self.station.view(self.t).panel.state
+    }
+
+    fn messages(&self) -> String {
+        self.station
+            .view(self.t)
+            .messages
+            .iter()
+            .map(|m| m.text.clone())
+            .collect::<Vec<_>>()
+            .join("\n")
+    }
+}
+
+#[test]
+fn connect_start_and_stop_follow_section_2_4_and_the_log_is_saved_by_the_final_parameters() {
+    let mut b = Bench::new();
+    let op = b.station.join();
+    assert_eq!(b.panel(), PanelState::Idle);
+    b.ask(op, r#"{"seq":1,"op":"take"}"#).unwrap();
+    b.ask(op, r#"{"seq":2,"op":"connect"}"#).unwrap();
+    assert_eq!(
+        b.panel(),
+        PanelState::Connecting,
+        "no button while it is on its way"
+    );
+    b.run(1.0);
+    let v = b.station.view(b.t);
+    assert_eq!(v.panel.state, PanelState::Connected);
+    assert!(v.panel.green && !v.panel.connect && v.panel.start && v.panel.stop);
+    assert!(v.rows.imu.is_none(), "NOTHING YET");
+    b.ask(
+        op,
+        r#"{"seq":3,"op":"start","suffix":"f1","controller":"autonomous","plan":"hover"}"#,
+    )
+    .unwrap();
+    b.run(1.0);
+    let v = b.station.view(b.t);
+    assert_eq!(v.panel.state, PanelState::Logging);
+    assert_eq!(
+        (v.panel.connect, v.panel.start, v.panel.stop),
+        (false, false, true)
+    );
+    // Calibrating: the automatic verdict names it.
+    assert!(!v.safety.automatic.allowed);
+    assert!(
+        v.safety.automatic.failing.contains("still calibrating"),
+        "{}",
+        v.safety.automatic.failing
+    );
+    b.telemetry = Some(flying_telemetry("hold"));
+    let count0 = v.panel.telemetry_count;
+    b.run(3.0);
+    let v = b.station.view(b.t);
+    let rate = (v.panel.telemetry_count - count0) as f64 / 3.0;
+    assert!(
+        (2.6..=3.4).contains(&rate),
+        "{rate} telemetry messages a second"
+    );
+    assert!(v.rows.imu.is_some() && v.rows.uplink.is_some() && v.rows.gps.is_some());
+    assert!(v.safety.augmented.allowed, "{:?}", v.safety.augmented);
+    // The uplink row carries the board's batteries and the rotor speed.
+    let uplink = v.rows.uplink.as_ref().unwrap();
+    let cell = |l: &str| {
+        uplink
+            .cells
+            .iter()
+            .find(|c| c.label == l)
+            .unwrap()
+            .value
+            .clone()
+    };
+    assert_eq!(cell("RTXB V"), "4.80");
+    assert_eq!(cell("RPM"), "1600");
+    // Stop with the final parameters: the newest log is saved where they say.
+    b.ask(
+        op,
+        r#"{"seq":4,"op":"stop","base_dir":"day1","suffix":"mine"}"#,
+    )
+    .unwrap();
+    b.run(5.0);
+    let v = b.station.view(b.t);
+    assert_eq!(
+        (v.panel.connect, v.panel.start, v.panel.stop),
+        (true, false, false)
+    );
+    assert_eq!(b.saved.len(), 1, "{}", b.messages());
+    assert_eq!(b.saved[0].0, PathBuf::from("/ground/day1/flight_mine.mcap"));
+    assert_eq!(b.saved[0].1, b.store.logs[0].1);
+    let said = b.messages();
+    assert!(said.contains("log transfer: 100 %"), "{said}");
+    assert!(
+        said.contains("log saved: /ground/day1/flight_mine.mcap"),
+        "{said}"
+    );
+}
+
+#[test]
+fn bad_input_from_a_page_is_refused_visibly_and_sends_nothing() {
+    let mut b = Bench::new();
+    let op = b.station.join();
+    let watcher = b.station.join();
+    b.ask(op, r#"{"seq":1,"op":"take"}"#).unwrap();
+    b.ask(op, r#"{"seq":2,"op":"connect"}"#).unwrap();
+    b.run(1.0);
+    let sent = b.commands.len();
+    let cases = [
+        (
+            op,
+            r#"{"seq":3,"op":"start","suffix":"../etc","controller":"manual"}"#,
+            "file suffix",
+        ),
+        (
+            op,
+            r#"{"seq":4,"op":"start","suffix":"ok","controller":"loop"}"#,
+            "unknown controller 'loop'",
+        ),
+        (
+            op,
+            r#"{"seq":5,"op":"start","suffix":"ok","controller":"manual","plan":"moon"}"#,
+            "unknown flight plan 'moon'",
+        ),
+        (
+            op,
+            r#"{"seq":6,"op":"start","suffix":"a_suffix_too_long_for_it","controller":"manual"}"#,
+            "at most 15 characters",
+        ),
+        (
+            op,
+            r#"{"seq":7,"op":"stop","base_dir":"../up","suffix":"x"}"#,
+            "must be a relative path",
+        ),
+        (
+            op,
+            r#"{"seq":8,"op":"stop","base_dir":"/etc","suffix":"x"}"#,
+            "must be a relative path",
+        ),
+        (op, r#"{"seq":9,"op":"stop","base_dir":"d"}"#, "give both"),
+        (
+            op,
+            r#"{"seq":9,"op":"connect"}"#,
+            "replayed request refused",
+        ),
+        (op, r#"{"seq":10,"op":"fly"}"#, "malformed request"),
+        (op, "not json", "malformed request"),
+        (
+            op,
+            r#"{"seq":11,"op":"connect"}"#,
+            "Connect is not active now",
+        ),
+        (
+            watcher,
+            r#"{"seq":1,"op":"stop"}"#,
+            "operator 1 is in control",
+        ),
+        (
+            watcher,
+            r#"{"seq":2,"op":"take"}"#,
+            "operator 1 is in control",
+        ),
+        (99, r#"{"seq":1,"op":"take"}"#, "not connected"),
+    ];
+    for (who, json, why) in cases {
+        let r = b.ask(who, json);
+        let e = r.expect_err(json);
+        assert!(e.contains(why), "{json}: {e}");
+    }
+    b.run(1.0);
+    assert_eq!(b.commands.len(), sent, "nothing reached the vehicle");
+    assert_eq!(b.panel(), PanelState::Connected);
+    // The page that leaves gives the token back.
+    b.station.leave(op);
+    b.ask(watcher, r#"{"seq":3,"op":"take"}"#).unwrap();
+}
+
+#[test]
+fn a_failed_start_leaves_only_stop_which_resets_the_display() {
+    let mut b = Bench::new();
+    let op = b.station.join();
+    b.ask(op, r#"{"seq":1,"op":"take"}"#).unwrap();
+    b.ask(op, r#"{"seq":2,"op":"connect"}"#).unwrap();
+    b.run(1.0);
+    b.fail_start = true;
+    b.ask(
+        op,
+        r#"{"seq":3,"op":"start","suffix":"f","controller":"manual"}"#,
+    )
+    .unwrap();
+    b.run(2.0);
+    let v = b.station.view(b.t);
+    assert_eq!(v.panel.state, PanelState::LoggingFailed);
+    assert_eq!(
+        (v.panel.connect, v.panel.start, v.panel.stop),
+        (false, false, true)
+    );
+    assert!(!v.panel.green);
+    assert!(b.messages().contains("logging failed"));
+    b.ask(op, r#"{"seq":4,"op":"stop"}"#).unwrap();
+    b.run(0.5);
+    assert_eq!(b.panel(), PanelState::Idle);
+}
+
+#[test]
+fn a_silent_device_is_stale_and_a_low_battery_is_red_and_each_fails_its_condition() {
+    let mut b = Bench::new();
+    let op = b.station.join();
+    b.ask(op, r#"{"seq":1,"op":"take"}"#).unwrap();
+    b.ask(op, r#"{"seq":2,"op":"connect"}"#).unwrap();
+    b.run(1.0);
+    b.ask(
+        op,
+        r#"{"seq":3,"op":"start","suffix":"f","controller":"autonomous"}"#,
+    )
+    .unwrap();
+    b.telemetry = Some(flying_telemetry("hold"));
+    b.run(2.0);
+    let v = b.station.view(b.t);
+    assert!(!v.rows.gps.as_ref().unwrap().stale);
+    assert!(v.battery.as_ref().unwrap().green);
+    assert!(v.safety.automatic.allowed, "{:?}", v.safety.automatic);
+    // The GPS falls silent on board (its watchdog), the battery sags below its third.
+    let mut t = flying_telemetry("hold");
+    if let Some(h) = t.health.iter_mut().find(|h| h.device == "gps") {
+        h.state = "silent".into();
+    }
+    t.battery_v = Some(11.4);
+    b.telemetry = Some(t);
+    b.run(1.0);
+    let v = b.station.view(b.t);
+    assert!(v.rows.gps.as_ref().unwrap().stale, "the GPS row is stale");
+    assert!(!v.rows.imu.as_ref().unwrap().stale);
+    let battery = v.battery.as_ref().unwrap();
+    assert!(!battery.green && battery.percent < 33.4, "{battery:?}");
+    assert!(!v.safety.automatic.allowed);
+    for why in ["GPS not updating", "battery down to a third"] {
+        assert!(
+            v.safety.automatic.failing.contains(why),
+            "{}",
+            v.safety.automatic.failing
+        );
+    }
+    // Augmented flight keeps its heading on the compass; the satellites of a silent GPS
+    // are not known, and the battery is low.
+    assert_eq!(
+        v.safety.augmented.failing,
+        "fewer than 5 satellites, battery down to a third of its life"
+    );
+    // Telemetry that stops coming altogether ages into stale.
+    b.telemetry = None;
+    b.run(2.0);
+    let v = b.station.view(b.t);
+    assert!(v.rows.imu.as_ref().unwrap().stale);
+    assert!(!v.safety.augmented.allowed);
+}

@@ -1,0 +1,292 @@
+//! `heli sim --ui`: the whole system in one command, as separate processes like on the field —
+//! the HILSim on pseudo-terminals (`heli hilsim --ptys`), the vehicle's bootstrap on them
+//! serving the signed MAVLink link on loopback (`heli vehicle --link`), and the ground
+//! station's display (`heli ground --http`) — with the URL of the display printed, and all
+//! of it stopped cleanly on Ctrl-C. Each process's output goes to a file in the run's
+//! directory.
+
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitCode, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, channel};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+
+/// What `heli sim --ui` runs.
+pub struct UiOptions {
+    /// The HILSim's scenario (the world, the pilot, the faults).
+    pub scenario: String,
+    /// Where the display is served.
+    pub http: String,
+    /// The vehicle's bias calibration (s).
+    pub calibration_s: f64,
+}
+
+/// One of the system's processes.
+struct Proc {
+    name: &'static str,
+    child: Child,
+    lines: Receiver<String>,
+    log: PathBuf,
+}
+
+impl Proc {
+    /// Starts `heli ARGS` in its own process group (Ctrl-C reaches only `heli sim --ui`,
+    /// which stops the others in order), its output copied to `DIR/NAME.log`.
+    fn spawn(name: &'static str, dir: &Path, args: &[String]) -> Result<Self> {
+        use std::os::unix::process::CommandExt;
+        let exe = std::env::current_exe().context("finding the heli program")?;
+        let log = dir.join(format!("{name}.log"));
+        let mut file =
+            std::fs::File::create(&log).with_context(|| format!("creating {}", log.display()))?;
+        let mut child = Command::new(exe)
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .process_group(0)
+            .spawn()
+            .with_context(|| format!("starting heli {name}"))?;
+        let (tx, lines) = channel();
+        let out = child.stdout.take();
+        let err = child.stderr.take();
+        let mut err_file = file.try_clone()?;
+        std::thread::spawn(move || {
+            if let Some(out) = out {
+                for line in BufReader::new(out).lines().map_while(Result::ok) {
+                    let _ = writeln!(file, "{line}");
+                    let _ = tx.send(line);
+                }
+            }
+        });
+        std::thread::spawn(move || {
+            if let Some(err) = err {
+                for line in BufReader::new(err).lines().map_while(Result::ok) {
+                    let _ = writeln!(err_file, "{line}");
+                }
+            }
+        });
+        Ok(Self {
+            name,
+            child,
+            lines,
+            log,
+        })
+    }
+
+    /// Waits for a line containing `needle`; fails if the process ends first.
+    fn wait_for(&mut self, needle: &str, timeout: Duration) -> Result<String> {
+        let end = Instant::now() + timeout;
+        while Instant::now() < end {
+            match self.lines.recv_timeout(Duration::from_millis(100)) {
+                Ok(line) if line.contains(needle) => return Ok(line),
+                Ok(_) => {}
+                Err(_) => {
+                    if let Some(status) = self.child.try_wait()? {
+                        bail!(
+                            "heli {} ended ({status}) before it was ready: see {}",
+                            self.name,
+                            self.log.display()
+                        );
+                    }
+                }
+            }
+        }
+        bail!(
+            "heli {} was not ready within {timeout:?}: see {}",
+            self.name,
+            self.log.display()
+        )
+    }
+
+    /// Sends SIGTERM and waits up to `grace` before killing it.
+    fn terminate(&mut self, grace: Duration) {
+        if self.child.try_wait().ok().flatten().is_none() {
+            let _ = Command::new("kill")
+                .args(["-TERM", &self.child.id().to_string()])
+                .status();
+        }
+        self.wait_or_kill(grace);
+    }
+
+    fn wait_or_kill(&mut self, grace: Duration) {
+        let end = Instant::now() + grace;
+        while Instant::now() < end {
+            if self.child.try_wait().ok().flatten().is_some() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        eprintln!(
+            "heli sim --ui: {} did not stop in {grace:?}: killed",
+            self.name
+        );
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn free_udp_port() -> Result<u16> {
+    Ok(std::net::UdpSocket::bind("127.0.0.1:0")?
+        .local_addr()?
+        .port())
+}
+
+fn strings(args: &[&str]) -> Vec<String> {
+    args.iter().map(|s| s.to_string()).collect()
+}
+
+/// Runs the whole system until Ctrl-C (or SIGTERM), or until one of its processes ends.
+pub fn run(options: &UiOptions) -> Result<ExitCode> {
+    if !(options.calibration_s.is_finite() && (1.0..=600.0).contains(&options.calibration_s)) {
+        bail!("--calibration-s must be between 1 and 600 s");
+    }
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&stop))
+            .context("installing the signal handler")?;
+    }
+    let dir = std::env::temp_dir().join(format!("heli-ui-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("logs"))
+        .with_context(|| format!("creating {}", dir.display()))?;
+    let dir_s = dir.display().to_string();
+    let key = dir.join("link.key");
+    let key_s = key.display().to_string();
+    let status = Command::new(std::env::current_exe()?)
+        .args(["link", "keygen", "--out", &key_s])
+        .stdout(Stdio::null())
+        .status()?;
+    if !status.success() {
+        bail!("could not make the link's signing key");
+    }
+    let link = format!("udp:127.0.0.1:{}", free_udp_port()?);
+    let dev = format!("{dir_s}/dev");
+    let mut procs: Vec<Proc> = Vec::new();
+    let started = (|| -> Result<String> {
+        let mut hil = Proc::spawn(
+            "hilsim",
+            &dir,
+            &strings(&[
+                "hilsim",
+                "--ptys",
+                &dev,
+                "--scenario",
+                &options.scenario,
+                "--duration",
+                "86400",
+            ]),
+        )?;
+        hil.wait_for("hilsim: ready", Duration::from_secs(20))?;
+        procs.push(hil);
+        let calibration = options.calibration_s.to_string();
+        let mut vehicle = Proc::spawn(
+            "vehicle",
+            &dir,
+            &strings(&[
+                "vehicle",
+                "--hilsim",
+                &dev,
+                "--log-dir",
+                &format!("{dir_s}/logs"),
+                "--socket",
+                &format!("{dir_s}/ctl.sock"),
+                "--calibration-s",
+                &calibration,
+                "--link",
+                &link,
+                "--key",
+                &key_s,
+            ]),
+        )?;
+        vehicle.wait_for("bootstrap: listening", Duration::from_secs(20))?;
+        procs.push(vehicle);
+        let mut ground = Proc::spawn(
+            "ground",
+            &dir,
+            &strings(&[
+                "ground",
+                "--link",
+                &link,
+                "--key",
+                &key_s,
+                "--http",
+                &options.http,
+                "--save-root",
+                &format!("{dir_s}/flights"),
+            ]),
+        )?;
+        let line = ground.wait_for("ground: display at", Duration::from_secs(20))?;
+        procs.push(ground);
+        Ok(line
+            .split_whitespace()
+            .find(|w| w.starts_with("http://"))
+            .unwrap_or("(see ground.log)")
+            .to_string())
+    })();
+    let url = match started {
+        Ok(url) => url,
+        Err(e) => {
+            shut_down(&mut procs, &dir_s);
+            return Err(e);
+        }
+    };
+    println!("heli sim --ui: the display is at {url}");
+    println!("  open it, Take control, Connect, then Start Logging (autonomous, plan demo):");
+    println!(
+        "  the vehicle calibrates for {} s, takes off, hovers, rolls, flies home and lands",
+        options.calibration_s
+    );
+    println!(
+        "  HILSim scenario {}; vehicle link {link} (key {key_s})",
+        options.scenario
+    );
+    println!("  processes' output, logs and saved flights in {dir_s}");
+    println!("  Ctrl-C stops everything");
+    let _ = std::io::stdout().flush();
+    let mut code = ExitCode::SUCCESS;
+    while !stop.load(Ordering::Relaxed) {
+        if let Some(p) = procs
+            .iter_mut()
+            .find_map(|p| p.child.try_wait().ok().flatten().map(|_| &*p))
+        {
+            eprintln!(
+                "heli sim --ui: heli {} ended on its own: see {}",
+                p.name,
+                p.log.display()
+            );
+            code = ExitCode::FAILURE;
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    shut_down(&mut procs, &dir_s);
+    Ok(code)
+}
+
+/// Stops the display, then the vehicle (its flight process ends and closes its log), then
+/// the HILSim.
+fn shut_down(procs: &mut [Proc], dir: &str) {
+    println!("heli sim --ui: stopping");
+    for p in procs.iter_mut().rev() {
+        if p.name == "vehicle" && p.child.try_wait().ok().flatten().is_none() {
+            let _ = Command::new(std::env::current_exe().unwrap_or_else(|_| "heli".into()))
+                .args([
+                    "vehicle",
+                    "ctl",
+                    "quit",
+                    "--socket",
+                    &format!("{dir}/ctl.sock"),
+                ])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .status();
+            p.wait_or_kill(Duration::from_secs(10));
+        } else {
+            p.terminate(Duration::from_secs(5));
+        }
+    }
+    println!("heli sim --ui: stopped; everything it wrote is in {dir}");
+}

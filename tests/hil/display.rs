@@ -1,0 +1,201 @@
+//! The operator's display end to end: `heli hilsim`, `heli vehicle --link` and
+//! `heli ground --http` as processes on loopback, the display driven in headless Chromium
+//! (Debian's `chromium`, through playwright-core; `tests/ui/display.mjs` has the steps).
+//! Screenshots of every step are saved under the test's target directory.
+//!
+//! Needs `chromium` and `npm ci --prefix tests/ui` (`.ci/run` installs both). Without them
+//! the test says so and passes, unless `HELI_UI_REQUIRED=1` (set by `.ci/run`).
+
+use std::path::Path;
+use std::process::Command;
+
+use super::exclusive;
+use crate::procs::{Display, Hilsim, Vehicle, free_udp_port, heli};
+
+const CHROMIUM: &str = "/usr/bin/chromium";
+
+/// Whether the browser test can run here; panics when it must and cannot.
+fn browser_ready(ui: &Path) -> bool {
+    let missing: Vec<String> = [
+        (Path::new(CHROMIUM).to_path_buf(), "Debian's chromium"),
+        (
+            ui.join("node_modules/playwright-core"),
+            "playwright-core (npm ci --prefix tests/ui)",
+        ),
+    ]
+    .into_iter()
+    .filter(|(p, _)| !p.exists())
+    .map(|(p, what)| format!("{what} at {}", p.display()))
+    .collect();
+    if missing.is_empty() {
+        return true;
+    }
+    assert!(
+        std::env::var("HELI_UI_REQUIRED").as_deref() != Ok("1"),
+        "the browser test is required here, and these are missing: {}",
+        missing.join(", ")
+    );
+    eprintln!("skipped: the browser test needs {}", missing.join(", "));
+    false
+}
+
+#[test]
+fn the_operator_flies_a_hover_from_the_display_in_headless_chromium() {
+    let ui = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ui");
+    if !browser_ready(&ui) {
+        return;
+    }
+    let _one = exclusive();
+    let dir = tempfile::tempdir().unwrap();
+    let key = dir.path().join("link.key");
+    let out = heli(&["link", "keygen", "--out", &key.display().to_string()]);
+    assert!(out.status.success());
+    let link = format!("udp:127.0.0.1:{}", free_udp_port());
+    let scenario = ui.join("display-flight.toml");
+    let hil = Hilsim::start(dir.path(), &scenario.display().to_string(), 1.0, 75.0);
+    let logs = dir.path().join("logs");
+    std::fs::create_dir_all(&logs).unwrap();
+    let vehicle = Vehicle::start_linked(&logs, &hil.dev, &link, Some(&key));
+    let saved = dir.path().join("saved");
+    let display = Display::start(&link, Some(&key), &saved);
+    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/display");
+    let _ = std::fs::remove_dir_all(&shots);
+    let run = Command::new("node")
+        .arg(ui.join("display.mjs"))
+        .env("HELI_UI_URL", &display.url)
+        .env("HELI_UI_OUT", &shots)
+        .env("HELI_CHROMIUM", CHROMIUM)
+        .output()
+        .expect("node");
+    let said =
+        String::from_utf8_lossy(&run.stdout).to_string() + &String::from_utf8_lossy(&run.stderr);
+    eprintln!("{said}\nscreenshots in {}", shots.display());
+    let stopped = display.stop();
+    let vehicle_said = vehicle.output();
+    vehicle.quit();
+    drop(hil);
+    assert!(
+        run.status.success(),
+        "the browser test failed:\n{said}\nthe vehicle said:\n{vehicle_said}"
+    );
+    assert!(stopped, "heli ground did not stop cleanly on SIGTERM");
+    for step in [
+        "01-idle",
+        "02-connected",
+        "05-flying",
+        "07-gps-stale",
+        "08-battery-red",
+        "09-stopped-log-saved",
+    ] {
+        assert!(
+            shots.join(format!("{step}.png")).exists(),
+            "no screenshot {step}"
+        );
+    }
+    // The log the display saved by the final parameters is the vehicle's, byte for byte.
+    let downloaded = std::fs::read(saved.join("ui/flight_mine.mcap")).unwrap();
+    let onboard = std::fs::read(logs.join("flight_ui1.mcap")).unwrap();
+    assert!(downloaded == onboard, "the saved log is not the vehicle's");
+}
+
+/// Every process whose command line mentions `needle`.
+fn processes_mentioning(needle: &str) -> Vec<String> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir("/proc").into_iter().flatten().flatten() {
+        if let Ok(cmd) = std::fs::read(entry.path().join("cmdline")) {
+            let cmd = String::from_utf8_lossy(&cmd).replace('\0', " ");
+            if cmd.contains(needle) {
+                found.push(cmd);
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn heli_sim_ui_brings_up_the_whole_system_and_ctrl_c_stops_it() {
+    use std::io::{BufRead, BufReader, Read, Write};
+    let _one = exclusive();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_heli"))
+        .args([
+            "sim",
+            "--ui",
+            "--http",
+            "127.0.0.1:0",
+            "--calibration-s",
+            "5",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::inherit())
+        .spawn()
+        .unwrap();
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut said = String::new();
+    while !said.contains("Ctrl-C stops everything") {
+        let mut line = String::new();
+        assert!(
+            out.read_line(&mut line).unwrap() > 0,
+            "heli sim --ui ended:\n{said}"
+        );
+        said.push_str(&line);
+    }
+    let word_after = |key: &str| -> String {
+        let rest = &said[said
+            .find(key)
+            .unwrap_or_else(|| panic!("no '{key}' in\n{said}"))
+            + key.len()..];
+        rest.split_whitespace()
+            .next()
+            .unwrap()
+            .trim_end_matches(')')
+            .to_string()
+    };
+    let url = word_after("the display is at ");
+    let link = word_after("vehicle link ");
+    let key = word_after("(key ");
+    let dir = word_after("saved flights in ");
+    // The display answers.
+    let addr = url.trim_start_matches("http://").trim_end_matches('/');
+    let mut http = std::net::TcpStream::connect(addr).unwrap();
+    write!(
+        http,
+        "GET / HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut page = String::new();
+    http.read_to_string(&mut page).unwrap();
+    assert!(
+        page.starts_with("HTTP/1.1 200") && page.contains("heli ground station"),
+        "{page}"
+    );
+    // The vehicle answers on the signed link.
+    let (ok, status) = crate::procs::ground(
+        &link,
+        Some(Path::new(&key)),
+        &["status", "--seconds", "1.5"],
+    );
+    assert!(ok && status.contains("bootstrap idle"), "{status}");
+    assert_eq!(
+        processes_mentioning(&dir).len(),
+        3,
+        "hilsim, vehicle and ground: {:?}",
+        processes_mentioning(&dir)
+    );
+    // Ctrl-C: everything stops.
+    let _ = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status();
+    let mut rest = String::new();
+    out.read_to_string(&mut rest).unwrap();
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{status}: {rest}");
+    assert!(rest.contains("heli sim --ui: stopped"), "{rest}");
+    assert!(
+        processes_mentioning(&dir).is_empty(),
+        "left running: {:?}",
+        processes_mentioning(&dir)
+    );
+    let vehicle_log = std::fs::read_to_string(Path::new(&dir).join("vehicle.log")).unwrap();
+    assert!(vehicle_log.contains("bootstrap: quit"), "{vehicle_log}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
