@@ -1,6 +1,6 @@
 //! `heli ground --link udp:HOST:PORT COMMAND`: the ground station as a command-line client
-//! of the vehicle's MAVLink link (the web display will use the same client library,
-//! `heli_link::ground`). Connect, Start Logging, Stop (with the final parameters: the
+//! of the vehicle's MAVLink link (the same client library, `heli_link::ground`, as the web
+//! display that `--http ADDR` serves, `heli_ground::server`). Connect, Start Logging, Stop (with the final parameters: the
 //! flight's log is downloaded into the base directory under the suffix), status, the log
 //! list and downloads.
 

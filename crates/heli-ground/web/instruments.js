@@ -78,7 +78,7 @@
     const Y = (p) => h / 2 - p[0] * scale;
     g.strokeStyle = "#2a323d";
     g.lineWidth = 1;
-    const step = span > 60 ? 20 : span > 25 ? 10 : 5;
+    const step = [1, 2, 5, 10, 20, 50, 100, 200, 500, 1000].find((s) => s >= span / 8) || 2000;
     for (let m = -Math.ceil(span / step) * step; m <= span; m += step) {
       g.beginPath(); g.moveTo(X([0, m]), 0); g.lineTo(X([0, m]), h); g.stroke();
       g.beginPath(); g.moveTo(0, Y([m, 0])); g.lineTo(w, Y([m, 0])); g.stroke();

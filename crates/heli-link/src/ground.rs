@@ -1,5 +1,5 @@
-//! The ground's end of the link, sans-I/O: the client library of `heli ground` (and of the
-//! web display to come). It sends the ground's heartbeat, commands (resent until
+//! The ground's end of the link, sans-I/O: the client library of `heli ground` and of its
+//! web display (`heli_ground::station`). It sends the ground's heartbeat, commands (resent until
 //! acknowledged), message-interval requests and log requests; it keeps the vehicle's last
 //! heartbeat, the newest telemetry message of each kind with counts, the status texts, and
 //! downloads a log, asking again for whatever did not arrive.
