@@ -150,7 +150,10 @@ impl Session {
         }
         self.link.flush_texts(unix_us());
         for (severity, text) in self.link.texts.iter().skip(self.texts_shown) {
-            eprintln!("vehicle [{}]: {text}", severity_word(*severity));
+            eprintln!(
+                "vehicle [{}]: {text}",
+                heli_ground::view::severity_word(*severity)
+            );
         }
         self.texts_shown = self.link.texts.len();
         if let Some(dl) = self.link.download_tick(unix_us()) {
@@ -358,17 +361,6 @@ impl Session {
         std::fs::write(out, &bytes).with_context(|| format!("writing {}", out.display()))?;
         println!("log {id}: {} bytes to {}", bytes.len(), out.display());
         Ok(())
-    }
-}
-
-fn severity_word(s: mavlink::dialects::common::MavSeverity) -> &'static str {
-    use mavlink::dialects::common::MavSeverity::*;
-    match s {
-        MAV_SEVERITY_EMERGENCY | MAV_SEVERITY_ALERT | MAV_SEVERITY_CRITICAL => "critical",
-        MAV_SEVERITY_ERROR => "error",
-        MAV_SEVERITY_WARNING => "warning",
-        MAV_SEVERITY_NOTICE => "notice",
-        MAV_SEVERITY_INFO | MAV_SEVERITY_DEBUG => "info",
     }
 }
 

@@ -341,30 +341,18 @@ pub fn message(id: u32, t: &Telemetry, time_boot_ms: u32) -> Option<MavMessage> 
                 onboard_control_sensors_present: present,
                 onboard_control_sensors_enabled: present,
                 onboard_control_sensors_health: healthy,
-                voltage_battery: t.battery_v.map_or(u16::MAX, |v| {
-                    (v * 1000.0).round().clamp(0.0, 65_534.0) as u16
-                }),
+                voltage_battery: t.battery_v.map_or(u16::MAX, millivolts),
                 current_battery: -1,
                 battery_remaining: remaining_percent(t.battery_remaining),
                 ..Default::default()
             })
         }
-        BATTERY_STATUS_DATA::ID => {
-            let v = t.battery_v?;
-            let mut voltages = [u16::MAX; 10];
-            voltages[0] = (v * 1000.0).round().clamp(0.0, 65_534.0) as u16;
-            MavMessage::BATTERY_STATUS(BATTERY_STATUS_DATA {
-                voltages,
-                current_battery: -1,
-                current_consumed: -1,
-                energy_consumed: -1,
-                temperature: i16::MAX,
-                id: 0,
-                battery_function: MavBatteryFunction::MAV_BATTERY_FUNCTION_AVIONICS,
-                mavtype: MavBatteryType::MAV_BATTERY_TYPE_LIPO,
-                battery_remaining: remaining_percent(t.battery_remaining),
-            })
-        }
+        BATTERY_STATUS_DATA::ID => battery_status(
+            FLIGHT_BATTERY_ID,
+            t.battery_v?,
+            MavBatteryFunction::MAV_BATTERY_FUNCTION_AVIONICS,
+            remaining_percent(t.battery_remaining),
+        ),
         RAW_RPM_DATA::ID => {
             let u = t.uplink.as_ref()?;
             MavMessage::RAW_RPM(RAW_RPM_DATA {
@@ -389,22 +377,35 @@ pub fn board_batteries(t: &Telemetry) -> Vec<MavMessage> {
     ]
     .into_iter()
     .filter(|(_, v)| v.is_finite() && *v > 0.0)
-    .map(|(id, v)| {
-        let mut voltages = [u16::MAX; 10];
-        voltages[0] = (v * 1000.0).round().clamp(0.0, 65_534.0) as u16;
-        MavMessage::BATTERY_STATUS(BATTERY_STATUS_DATA {
-            voltages,
-            current_battery: -1,
-            current_consumed: -1,
-            energy_consumed: -1,
-            temperature: i16::MAX,
-            id,
-            battery_function: MavBatteryFunction::MAV_BATTERY_FUNCTION_UNKNOWN,
-            mavtype: MavBatteryType::MAV_BATTERY_TYPE_NIMH,
-            battery_remaining: -1,
-        })
-    })
+    .map(|(id, v)| battery_status(id, v, MavBatteryFunction::MAV_BATTERY_FUNCTION_UNKNOWN, -1))
     .collect()
+}
+
+/// A pack's voltage (V) as millivolts, `u16::MAX` when not known.
+fn millivolts(v: f64) -> u16 {
+    if v.is_finite() {
+        (v * 1000.0).round().clamp(0.0, 65_534.0) as u16
+    } else {
+        u16::MAX
+    }
+}
+
+/// `BATTERY_STATUS` of battery `id`: one cell's worth of voltage (the pack's), the rest not
+/// measured.
+fn battery_status(id: u8, volts: f64, function: MavBatteryFunction, remaining: i8) -> MavMessage {
+    let mut voltages = [u16::MAX; 10];
+    voltages[0] = millivolts(volts);
+    MavMessage::BATTERY_STATUS(BATTERY_STATUS_DATA {
+        voltages,
+        current_battery: -1,
+        current_consumed: -1,
+        energy_consumed: -1,
+        temperature: i16::MAX,
+        id,
+        battery_function: function,
+        mavtype: MavBatteryType::MAV_BATTERY_TYPE_NIMH,
+        battery_remaining: remaining,
+    })
 }
 
 fn remaining_percent(fraction: Option<f64>) -> i8 {
