@@ -348,6 +348,8 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
             bail!("{e:#}");
         }
     };
+    // The plan's legs, for the bootstrap to serve over the link's mission protocol.
+    say(&format!("plan {plan_legs}"));
     let warm_path = heli_vehicle::warm::path_in(&args.log_dir);
     // Started again by the bootstrap after a crash or a brown-out: resume from the record
     // the process before left, if it can be read (otherwise start cold, and say so).

@@ -3,7 +3,8 @@
 Usage: pymavlink_client.py PORT KEYFILE LOGFILE
 Connects to the vehicle on udp 127.0.0.1:PORT, reads heartbeats and telemetry at the rates
 set, changes a message interval, lists and downloads a log (compared with LOGFILE), and
-sends Connect, Start Logging and a signed Stop. Prints ALL OK at the end.
+sends Connect, Start Logging and a signed Stop, and fetches the flight's plan over the mission
+protocol. Prints ALL OK at the end.
 """
 import os
 import sys
@@ -100,6 +101,22 @@ counts, _ = pump(3.0)
 imu = counts.get("SCALED_IMU", 0)
 assert 24 <= imu <= 36, f"10 Hz for 3 s: {imu} SCALED_IMU"
 print(f"interval ok: {imu} SCALED_IMU in 3 s")
+
+# The flight's plan (hover: take off to 10 m, hold 60 s) over the mission protocol.
+mav.mission_request_list_send(1, 1)
+_, count = pump(5.0, lambda x: x.get_type() == "MISSION_COUNT")
+assert count is not None and count.count == 2, count
+items = []
+for seq in range(count.count):
+    mav.mission_request_int_send(1, 1, seq)
+    _, item = pump(5.0, lambda x: x.get_type() == "MISSION_ITEM_INT" and x.seq == seq)
+    assert item is not None, f"no mission item {seq}"
+    items.append(item)
+mav.mission_ack_send(1, 1, C.MAV_MISSION_ACCEPTED)
+assert items[0].command == C.MAV_CMD_NAV_TAKEOFF_LOCAL and abs(items[0].z + 10.0) < 1e-6, items[0]
+assert items[1].command == C.MAV_CMD_NAV_LOITER_TIME and items[1].param1 == 60.0, items[1]
+assert all(i.frame == C.MAV_FRAME_LOCAL_NED for i in items)
+print("mission ok: the hover's plan, 2 items")
 
 mav.log_request_list_send(1, 1, 0, 0xFFFF)
 _, entry = pump(5.0, lambda x: x.get_type() == "LOG_ENTRY" and x.id == 1)

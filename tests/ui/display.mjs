@@ -145,6 +145,9 @@ try {
   const rate = (Number(await text(page, "#counter")) - c0) / ((Date.now() - t0) / 1000);
   log(`telemetry counter: ${rate.toFixed(2)} per second`);
   if (!(rate > 2.2 && rate < 4)) throw new Error(`counter rose ${rate.toFixed(2)}/s, not about 3`);
+  // The flight's plan came from the vehicle (mission protocol) and is drawn on the track.
+  const plan = await page.evaluate(() => window.heli.view().plan.map((p) => p.kind).join(","));
+  if (plan !== "takeoff,hold") throw new Error(`the hover's plan: '${plan}'`);
   await shot(page, "05-flying");
 
   // A second operator sees the same state and cannot command.

@@ -221,6 +221,17 @@ impl Station {
             let status = self.vehicle_status(now_us);
             self.panel.vehicle(status.map(|s| s.state));
         }
+        // The flight's plan, fetched once per flight over the mission protocol.
+        if self
+            .vehicle_status(now_us)
+            .is_some_and(|s| s.state == BootstrapState::Flying)
+        {
+            if let Some(frame) = self.link.mission_tick(now_us) {
+                out.push(Output::Send(frame));
+            }
+        } else {
+            self.link.mission.restart();
+        }
         self.command_tick(now_us, &mut out);
         if let Some(mut transfer) = self.transfer.take() {
             let step = transfer.tick(&mut self.link, now_us);

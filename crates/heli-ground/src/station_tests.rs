@@ -17,6 +17,10 @@ use crate::station::{Output, Station, StationConfig};
 
 const T0: u64 = 1_763_900_000_000_000;
 
+/// The flight's plan, as the flight process reports it.
+const PLAN: &str = r#"[{"leg":"takeoff","alt_m":10.0},{"leg":"hold","seconds":5.0},
+    {"leg":"fly","north_m":30.0,"east_m":0.0,"alt_m":10.0,"speed_mps":3.0},{"leg":"land"}]"#;
+
 struct Bench {
     vehicle: VehicleLink,
     station: Station,
@@ -116,6 +120,9 @@ impl Bench {
                         }
                         GroundCommand::StartLogging(p) => {
                             self.state = BootstrapState::Flying;
+                            let legs = heli_link::mission::parse_plan(PLAN).unwrap();
+                            self.vehicle
+                                .set_mission(heli_link::mission::mission_items(&legs));
                             self.mode = match p.controller {
                                 heli_link::FlightMode::Autonomous => 2,
                                 _ => 1,
@@ -232,6 +239,10 @@ fn connect_start_and_stop_follow_section_2_4_and_the_log_is_saved_by_the_final_p
         "{rate} telemetry messages a second"
     );
     assert!(v.rows.imu.is_some() && v.rows.uplink.is_some() && v.rows.gps.is_some());
+    // The flight's plan came over the mission protocol, for the track.
+    let kinds: Vec<&str> = v.plan.iter().map(|p| p.kind).collect();
+    assert_eq!(kinds, ["takeoff", "hold", "waypoint", "land"]);
+    assert_eq!(v.plan[2].point, [30.0, 0.0, 10.0]);
     assert!(v.safety.augmented.allowed, "{:?}", v.safety.augmented);
     // The uplink row carries the board's batteries and the rotor speed.
     let uplink = v.rows.uplink.as_ref().unwrap();

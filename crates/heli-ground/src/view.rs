@@ -105,6 +105,36 @@ pub struct Instruments {
     pub servo: Option<[f64; 5]>,
 }
 
+/// A point of the flight plan, for the track and the 3D view.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PlanPoint {
+    /// takeoff, hold, waypoint, rolls or land.
+    pub kind: &'static str,
+    /// North, east (m) and height (m) above the take-off point.
+    pub point: [f64; 3],
+}
+
+/// The plan's points from its mission items (speed changes are not points).
+pub fn plan_points(items: &[MISSION_ITEM_INT_DATA]) -> Vec<PlanPoint> {
+    items
+        .iter()
+        .filter_map(|i| {
+            let kind = match i.command {
+                MavCmd::MAV_CMD_NAV_TAKEOFF_LOCAL => "takeoff",
+                MavCmd::MAV_CMD_NAV_LOITER_TIME | MavCmd::MAV_CMD_NAV_LOITER_UNLIM => "hold",
+                MavCmd::MAV_CMD_NAV_WAYPOINT => "waypoint",
+                MavCmd::MAV_CMD_NAV_LAND_LOCAL => "land",
+                c if c == heli_link::mission::CMD_ROLLS => "rolls",
+                _ => return None,
+            };
+            Some(PlanPoint {
+                kind,
+                point: heli_link::mission::item_point(i),
+            })
+        })
+        .collect()
+}
+
 /// The operators.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct OperatorsView {
@@ -144,6 +174,8 @@ pub struct View {
     pub safety: SafetyView,
     /// The instruments, once an estimate came.
     pub instruments: Option<Instruments>,
+    /// The flight plan's points, once fetched from the vehicle.
+    pub plan: Vec<PlanPoint>,
     /// The operators.
     pub operators: OperatorsView,
     /// The log transfer under way.
@@ -244,6 +276,12 @@ impl Station {
             gps,
             safety: safety_view(facts),
             instruments,
+            plan: self
+                .link
+                .mission
+                .plan()
+                .map(plan_points)
+                .unwrap_or_default(),
             operators: OperatorsView {
                 pages: self.operators.count(),
                 holder: self.operators.holder(),

@@ -65,6 +65,7 @@ function showReply(msg) {
 window.heli = {
   sendRaw: (text) => page.socket.send(text),
   request: (op, extra) => send(op, extra),
+  view: () => page.view,
   seq: () => page.seq,
 };
 
@@ -84,7 +85,7 @@ function render(view) {
     while (page.history.length && page.history[0].time_s < cut) page.history.shift();
     if (page.history.length > 2000) page.history.shift();
   }
-  window.heliInstruments.draw(view.instruments, page.history);
+  window.heliInstruments.draw(view.instruments, page.history, view.plan);
 }
 
 function renderOperators(view, inControl) {

@@ -64,7 +64,7 @@
   }
 
   // Top-down track: north up, the trail of the estimate, home, and the helicopter's heading.
-  function track(inst, history) {
+  function track(inst, history, plan) {
     const g = ctx("track");
     if (!g) return;
     const w = g.canvas.width, h = g.canvas.height;
@@ -72,7 +72,9 @@
     if (!inst || !pts.length) return clear(g, "NOTHING YET");
     clear(g);
     let span = 10;
-    for (const p of pts) span = Math.max(span, Math.abs(p[0]) * 2.4, Math.abs(p[1]) * 2.4);
+    for (const p of pts.concat(plan.map((q) => q.point))) {
+      span = Math.max(span, Math.abs(p[0]) * 2.4, Math.abs(p[1]) * 2.4);
+    }
     const scale = Math.min(w, h) / span;
     const X = (p) => w / 2 + p[1] * scale;
     const Y = (p) => h / 2 - p[0] * scale;
@@ -90,6 +92,24 @@
     // Home.
     g.strokeStyle = "#e0a21b";
     g.strokeRect(X([0, 0]) - 5, Y([0, 0]) - 5, 10, 10);
+    // The flight plan: its path dashed, each point marked with its kind's letter.
+    if (plan.length) {
+      g.setLineDash([5, 4]);
+      g.strokeStyle = "#c792ea";
+      g.lineWidth = 1.5;
+      g.beginPath();
+      plan.forEach((q, i) => (i ? g.lineTo(X(q.point), Y(q.point)) : g.moveTo(X(q.point), Y(q.point))));
+      g.stroke();
+      g.setLineDash([]);
+      g.fillStyle = "#c792ea";
+      g.font = "11px system-ui";
+      const letter = { takeoff: "T", hold: "H", waypoint: "W", rolls: "R", land: "L" };
+      for (const q of plan) {
+        g.beginPath(); g.arc(X(q.point), Y(q.point), 3, 0, 2 * Math.PI); g.fill();
+        g.fillText(letter[q.kind] || "?", X(q.point) + 5, Y(q.point) - 4);
+      }
+      g.fillText("plan", w - 34, h - 6);
+    }
     // Trail.
     g.strokeStyle = "#4a90d9";
     g.lineWidth = 2;
@@ -122,7 +142,7 @@
 
   // 3D view: a chase camera behind and above the helicopter, the field's grid, home, the
   // trail, and the helicopter as lines (fuselage, tail boom, rotor disk).
-  function view3d(inst, history) {
+  function view3d(inst, history, plan) {
     const g = ctx("view3d");
     if (!g) return;
     const w = g.canvas.width, h = g.canvas.height;
@@ -166,6 +186,11 @@
     // Home.
     line([-1, 0, 0], [1, 0, 0], "#e0a21b", 2);
     line([0, -1, 0], [0, 1, 0], "#e0a21b", 2);
+    // The flight plan (heights up, so z = −height).
+    const planNed = plan.map((q) => [q.point[0], q.point[1], -q.point[2]]);
+    g.setLineDash([5, 4]);
+    for (let i = 1; i < planNed.length; i++) line(planNed[i - 1], planNed[i], "#c792ea", 1.5);
+    g.setLineDash([]);
     // Trail.
     const pts = history.filter((s) => s.pos_ned_m).map((s) => s.pos_ned_m);
     for (let i = 1; i < pts.length; i++) line(pts[i - 1], pts[i], "#4a90d9", 1.5);
@@ -229,10 +254,10 @@
   }
 
   window.heliInstruments = {
-    draw(inst, history) {
+    draw(inst, history, plan) {
       attitude(inst);
-      track(inst, history);
-      view3d(inst, history);
+      track(inst, history, plan || []);
+      view3d(inst, history, plan || []);
       plot("plot-rates", history, [
         ["p", "#ff6b6b", (s) => s.rate_rps[0] * DEG],
         ["q", "#6bd36b", (s) => s.rate_rps[1] * DEG],

@@ -145,6 +145,8 @@ pub struct GroundLink {
     pub bad_frames: u64,
     /// The start of a status text continued in the next one: severity, text, when it came.
     partial_text: Option<(MavSeverity, String, u64)>,
+    /// The flight plan being fetched over the mission protocol.
+    pub mission: crate::mission::MissionClient,
 }
 
 /// A status text's continuation that has not come for this long (µs) is given up: the part
@@ -168,6 +170,7 @@ impl GroundLink {
             batteries: BTreeMap::new(),
             bad_frames: 0,
             partial_text: None,
+            mission: crate::mission::MissionClient::default(),
         }
     }
 
@@ -228,6 +231,7 @@ impl GroundLink {
                 continue;
             };
             let id = mavlink::Message::message_id(&message);
+            self.mission.receive(&message);
             let count = self.counts.entry(id).or_insert(0);
             *count = count.saturating_add(1);
             match &message {
@@ -327,6 +331,12 @@ impl GroundLink {
             target_component: VEHICLE.component,
         });
         Some(self.encode(&req, now_us))
+    }
+
+    /// The next request for the flight plan (mission protocol), if one is due.
+    pub fn mission_tick(&mut self, now_us: u64) -> Option<Vec<u8>> {
+        let request = self.mission.request(now_us)?;
+        Some(self.encode(&request, now_us))
     }
 
     /// The request for the vehicle's log list.

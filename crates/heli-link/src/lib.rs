@@ -5,7 +5,8 @@
 //! as typed values, with the validation a flight computer must apply to anything the ground
 //! sends ([`messages`]) — carried over MAVLink 2, common dialect (docs/link.md): framing
 //! ([`frame`]) and signing ([`signing`]) of our own, the commands ([`command`]), telemetry
-//! ([`telemetry`]), the log protocol ([`logs`]), and the two ends of the link, the vehicle's
+//! ([`telemetry`]), the log protocol ([`logs`]), the flight plan over the mission protocol
+//! ([`mission`]), and the two ends of the link, the vehicle's
 //! ([`vehicle`]) and the ground's ([`ground`]). All of it is sans-I/O: datagrams and the time
 //! go in, datagrams and events come out; the sockets are the runtime's.
 //!
@@ -28,6 +29,7 @@ pub mod frame;
 pub mod ground;
 pub mod logs;
 pub mod messages;
+pub mod mission;
 pub mod params;
 pub mod signing;
 pub mod status;

@@ -13,6 +13,7 @@ use crate::command::{CMD_CONNECT, CMD_START_LOGGING, CMD_STOP, ground_command};
 use crate::frame::{self, Sender};
 use crate::logs::{LogServer, LogStore};
 use crate::messages::GroundCommand;
+use crate::mission::MissionServer;
 use crate::params::{ParamTable, param_name};
 use crate::signing::{Key, Refusal, Signer, Verifier, timestamp_from_unix_us};
 use crate::telemetry::{self, DEFAULT_INTERVAL_US, TELEMETRY_MESSAGES, Telemetry};
@@ -100,6 +101,7 @@ pub struct VehicleLink {
     last_refusal_notice_us: BTreeMap<&'static str, u64>,
     logs: LogServer,
     params: ParamTable,
+    mission: MissionServer,
     /// The last status the runtime gave ([`VehicleLink::tick`]).
     status: VehicleStatus,
     /// The thesis command being carried out.
@@ -130,6 +132,7 @@ impl VehicleLink {
             last_refusal_notice_us: BTreeMap::new(),
             logs: LogServer::default(),
             params: ParamTable::new(&[]),
+            mission: MissionServer::default(),
             status: VehicleStatus::default(),
             pending: None,
             last_result: None,
@@ -338,9 +341,20 @@ impl VehicleLink {
             MavMessage::PARAM_SET(p) if for_us(p.target_system) => {
                 self.param_set(&param_name(&p.param_id), p.param_value, now_us, events)
             }
+            // The mission protocol: the flight's plan, for a ground to draw.
+            other if mavlink::Message::target_system_id(&other).is_some_and(for_us) => {
+                if let Some(answer) = self.mission.answer(&other) {
+                    self.send(&answer, now_us);
+                }
+            }
             // Heartbeats keep the link alive (above); everything else is not for us.
             _ => {}
         }
+    }
+
+    /// The plan of the flight under way, served over the mission protocol (empty: none).
+    pub fn set_mission(&mut self, items: Vec<MISSION_ITEM_INT_DATA>) {
+        self.mission.set(items);
     }
 
     fn command(&mut self, cmd: &COMMAND_LONG_DATA, now_us: u64, events: &mut Vec<LinkEvent>) {

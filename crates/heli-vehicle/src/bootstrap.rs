@@ -12,7 +12,8 @@
 //!
 //! The child protocol is line-based. Bootstrap → child (stdin): `start SUFFIX MODE [PLAN]`,
 //! `stop` (and end of input means stop). Child → bootstrap (stdout): `ready`, `started LOG`,
-//! `note TEXT`, `event SEVERITY TEXT`, `telemetry JSON`, `stopped JSON`.
+//! `note TEXT`, `event SEVERITY TEXT`, `telemetry JSON`, `plan JSON` (the flight plan's
+//! legs, for the link's mission protocol), `stopped JSON`.
 
 use std::ffi::OsString;
 use std::io::{BufRead, BufReader, Write};
@@ -475,6 +476,14 @@ impl Bootstrap {
                     link.set_telemetry(rest);
                 }
                 self.last_telemetry = Some(rest.to_string());
+            }
+            return;
+        }
+        if word == "plan" {
+            if self.current(generation)
+                && let Some(link) = &self.link
+            {
+                link.set_plan(rest);
             }
             return;
         }

@@ -44,6 +44,9 @@ struct Shared {
     status: VehicleStatus,
     telemetry: Option<Telemetry>,
     texts: VecDeque<(MavSeverity, String)>,
+    /// The plan of the flight under way as mission items, when it changed (taken by the
+    /// link thread).
+    mission: Option<Vec<mavlink::dialects::common::MISSION_ITEM_INT_DATA>>,
 }
 
 impl LinkShared {
@@ -72,6 +75,19 @@ impl LinkShared {
         // must not go on being sent as if fresh.
         if matches!(state, BootstrapState::Idle | BootstrapState::Connecting) {
             shared.telemetry = None;
+            shared.mission = Some(Vec::new());
+        }
+    }
+
+    /// The flight process's plan line (its legs, JSON): served over the mission protocol.
+    /// A plan that cannot be read is said, and no plan is served.
+    pub fn set_plan(&self, json: &str) {
+        match heli_link::mission::parse_plan(json) {
+            Ok(legs) => self.lock().mission = Some(heli_link::mission::mission_items(&legs)),
+            Err(e) => {
+                self.lock().mission = Some(Vec::new());
+                self.line(&format!("link: the flight plan cannot be served: {e}"));
+            }
         }
     }
 
@@ -289,10 +305,18 @@ pub fn spawn(
                     first = false;
                 }
             }
-            let (status, telemetry, texts) = {
+            let (status, telemetry, texts, mission) = {
                 let mut s = shared.lock();
-                (s.status, s.telemetry.clone(), std::mem::take(&mut s.texts))
+                (
+                    s.status,
+                    s.telemetry.clone(),
+                    std::mem::take(&mut s.texts),
+                    s.mission.take(),
+                )
             };
+            if let Some(items) = mission {
+                link.set_mission(items);
+            }
             for (severity, text) in texts {
                 link.status_text(severity, &text, unix_us());
             }
