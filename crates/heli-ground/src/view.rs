@@ -13,6 +13,10 @@ use crate::panel::PanelState;
 use crate::rows::{Rows, rows};
 use crate::station::Station;
 
+/// Lines of the message area sent with each view (ten a second): a page opened late
+/// starts with these.
+pub const MESSAGES_IN_VIEW: usize = 80;
+
 /// One line of the message area.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Message {
@@ -180,7 +184,7 @@ pub struct View {
     pub operators: OperatorsView,
     /// The log transfer under way.
     pub transfer: Option<TransferView>,
-    /// The message area (the newest [`crate::station::MESSAGES_KEPT`] lines).
+    /// The message area's newest [`MESSAGES_IN_VIEW`] lines.
     pub messages: Vec<Message>,
 }
 
@@ -294,7 +298,13 @@ impl Station {
                     size: p.map(|(_, s)| s),
                 }
             }),
-            messages: self.messages.iter().cloned().collect(),
+            // The newest lines only: a page keeps what it has seen (by sequence number).
+            messages: self
+                .messages
+                .iter()
+                .skip(self.messages.len().saturating_sub(MESSAGES_IN_VIEW))
+                .cloned()
+                .collect(),
         }
     }
 }
