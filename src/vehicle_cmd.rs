@@ -311,6 +311,13 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
     let devices = args.devices()?;
     let compass = args.compass()?;
     say("ready");
+    // What the bootstrap says of its link: 0 nothing (no link), 1 a ground heard, 2 none.
+    let ground_link = Arc::new(std::sync::atomic::AtomicU8::new(0));
+    let link_word = |words: &[&str]| match words {
+        ["link", "fresh"] => Some(1),
+        ["link", "lost"] => Some(2),
+        _ => None,
+    };
     let (restart, suffix, mode, plan_name) = loop {
         let Some(line) = read_line() else {
             say("stopped {}");
@@ -329,6 +336,9 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
             ["stop"] => {
                 say("stopped {}");
                 return Ok(ExitCode::SUCCESS);
+            }
+            w if link_word(w).is_some() => {
+                ground_link.store(link_word(w).unwrap_or(0), Ordering::Release);
             }
             _ => say(&format!("error not understood: '{line}'")),
         }
@@ -430,14 +440,20 @@ pub fn flight_process(args: &FlightArgs) -> Result<ExitCode> {
         clock_speed: args.clock_speed,
         restart_from: restart_from.map(|w| w.warm),
         warm_file: Some((warm_path, start_words)),
+        ground_link: Arc::clone(&ground_link),
     };
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = Arc::clone(&stop);
+        let ground_link = Arc::clone(&ground_link);
         std::thread::spawn(move || {
             while let Some(line) = read_line() {
-                if line.trim() == "stop" {
+                let words: Vec<&str> = line.split_whitespace().collect();
+                if words == ["stop"] {
                     break;
+                }
+                if let Some(state) = link_word(&words) {
+                    ground_link.store(state, Ordering::Release);
                 }
             }
             // `stop`, or the bootstrap is gone: clean up either way.

@@ -11,6 +11,7 @@
 //! device (the altimeter handshake, or a port the runtime reports failed) is reported to the
 //! core, which raises it and degrades.
 
+use heli_proto::battery::BatteryAdc;
 use heli_proto::compass::CompassAdc;
 
 use crate::core::{Action, CoreConfig, FlightCore, FlightParams, Input};
@@ -76,6 +77,14 @@ pub enum DeviceInput<'a> {
     PortFailed(Port),
     /// A timer tick: deliver at [`FlightComputer::poll_at`] (extra ticks do no harm).
     Tick,
+    /// The flight battery's analog channel was read (once a second).
+    Battery(BatteryAdc),
+    /// The bootstrap's link says whether a ground station is heard (sent on each change;
+    /// never on a vehicle without a link).
+    GroundLink {
+        /// A ground heard in the last few seconds.
+        fresh: bool,
+    },
 }
 
 /// An owned [`DeviceInput`], for recordings and flight logs.
@@ -89,6 +98,10 @@ pub enum RecordedInput {
     PortFailed(Port),
     /// A timer tick.
     Tick,
+    /// The battery's analog channel.
+    Battery(BatteryAdc),
+    /// Whether a ground station is heard.
+    GroundLink(bool),
 }
 
 impl RecordedInput {
@@ -99,6 +112,8 @@ impl RecordedInput {
             RecordedInput::Compass(adc) => DeviceInput::Compass(*adc),
             RecordedInput::PortFailed(port) => DeviceInput::PortFailed(*port),
             RecordedInput::Tick => DeviceInput::Tick,
+            RecordedInput::Battery(adc) => DeviceInput::Battery(*adc),
+            RecordedInput::GroundLink(fresh) => DeviceInput::GroundLink { fresh: *fresh },
         }
     }
 }
@@ -110,6 +125,8 @@ impl From<DeviceInput<'_>> for RecordedInput {
             DeviceInput::Compass(adc) => RecordedInput::Compass(adc),
             DeviceInput::PortFailed(port) => RecordedInput::PortFailed(port),
             DeviceInput::Tick => RecordedInput::Tick,
+            DeviceInput::Battery(adc) => RecordedInput::Battery(adc),
+            DeviceInput::GroundLink { fresh } => RecordedInput::GroundLink(fresh),
         }
     }
 }
@@ -200,6 +217,8 @@ impl FlightComputer {
                 }
             },
             DeviceInput::Compass(adc) => samples.push(Input::Compass(adc)),
+            DeviceInput::Battery(adc) => samples.push(Input::Battery { volts: adc.volts() }),
+            DeviceInput::GroundLink { fresh } => samples.push(Input::GroundLink { fresh }),
             DeviceInput::PortFailed(port) => samples.push(Input::DeviceFailed(port.device())),
             DeviceInput::Tick => {
                 self.drivers

@@ -12,58 +12,13 @@ pub fn gps_ok(satellites: u8) -> bool {
     satellites >= GPS_MIN_SATELLITES
 }
 
-/// A battery discharge curve: terminal voltage against fraction of life remaining,
-/// measured by bench tests as the thesis describes ("extensive battery tests comparing
-/// voltage to battery life").
-#[derive(Clone, Debug, PartialEq)]
-pub struct BatteryCurve {
-    /// (volts, fraction of life left) points, volts increasing.
-    pub points: Vec<(f64, f64)>,
-}
-
-impl Default for BatteryCurve {
-    /// A 10-cell NiMH flight pack (12 V nominal).
-    fn default() -> Self {
-        Self {
-            points: vec![
-                (10.0, 0.0),
-                (11.0, 0.1),
-                (11.6, 0.33),
-                (12.0, 0.6),
-                (12.4, 0.9),
-                (12.8, 1.0),
-            ],
-        }
-    }
-}
-
-impl BatteryCurve {
-    /// Fraction of life left at `volts`, interpolated, 0..1.
-    pub fn life_left(&self, volts: f64) -> f64 {
-        let (Some(first), Some(last)) = (self.points.first(), self.points.last()) else {
-            return 0.0;
-        };
-        if !volts.is_finite() || volts <= first.0 {
-            return first.1;
-        }
-        if volts >= last.0 {
-            return last.1;
-        }
-        self.points
-            .windows(2)
-            .find_map(|w| match w {
-                [a, b] if volts <= b.0 => Some(a.1 + (b.1 - a.1) * (volts - a.0) / (b.0 - a.0)),
-                _ => None,
-            })
-            .unwrap_or(last.1)
-    }
-}
+pub use heli_control::safety::BatteryCurve;
 
 /// The battery meter: percentage of a full charge, and whether it is still green (the
 /// thesis turns it red with a third of the lifetime left).
 pub fn battery_meter(curve: &BatteryCurve, volts: f64) -> (f64, bool) {
     let life = curve.life_left(volts);
-    (100.0 * life, life > 1.0 / 3.0)
+    (100.0 * life, heli_control::safety::battery_green(life))
 }
 
 #[cfg(test)]

@@ -352,6 +352,12 @@ impl VehicleLink {
         }
     }
 
+    /// Whether a ground station has been heard in the last [`LINK_LOST_AFTER_US`] at `now_us`.
+    pub fn ground_fresh(&self, now_us: u64) -> bool {
+        self.heard_us
+            .is_some_and(|heard| now_us.saturating_sub(heard) <= LINK_LOST_AFTER_US)
+    }
+
     /// The plan of the flight under way, served over the mission protocol (empty: none).
     pub fn set_mission(&mut self, items: Vec<MISSION_ITEM_INT_DATA>) {
         self.mission.set(items);

@@ -7,6 +7,7 @@
 //! compass reading `counts` (x, y, z); for a failed port `port`.
 
 use heli_fsw::{Port, RecordedInput};
+use heli_proto::battery::BatteryAdc;
 use heli_proto::compass::CompassAdc;
 use serde_json::{Value, json};
 
@@ -44,6 +45,8 @@ pub fn input_json(input: &RecordedInput) -> Value {
         RecordedInput::Compass(adc) => json!({"kind": "compass", "counts": adc.counts}),
         RecordedInput::PortFailed(port) => json!({"kind": "port_failed", "port": port.name()}),
         RecordedInput::Tick => json!({"kind": "tick"}),
+        RecordedInput::Battery(adc) => json!({"kind": "battery", "adc": adc.counts}),
+        RecordedInput::GroundLink(fresh) => json!({"kind": "ground_link", "fresh": fresh}),
     }
 }
 
@@ -80,6 +83,17 @@ pub fn input_from_json(value: &Value) -> Result<RecordedInput, String> {
         }
         Some("port_failed") => Ok(RecordedInput::PortFailed(port()?)),
         Some("tick") => Ok(RecordedInput::Tick),
+        Some("battery") => value
+            .get("adc")
+            .and_then(Value::as_u64)
+            .and_then(|c| u16::try_from(c).ok())
+            .map(|counts| RecordedInput::Battery(BatteryAdc { counts }))
+            .ok_or_else(|| "battery without its 'adc' counts".to_string()),
+        Some("ground_link") => value
+            .get("fresh")
+            .and_then(Value::as_bool)
+            .map(RecordedInput::GroundLink)
+            .ok_or_else(|| "ground_link without 'fresh'".to_string()),
         Some(other) => Err(format!("unknown input kind '{other}'")),
         None => Err("input without 'kind'".into()),
     }
@@ -134,6 +148,8 @@ mod tests {
             }),
             RecordedInput::PortFailed(Port::Gps),
             RecordedInput::Tick,
+            RecordedInput::Battery(BatteryAdc { counts: 3012 }),
+            RecordedInput::GroundLink(false),
         ];
         for i in &inputs {
             assert_eq!(input_from_json(&input_json(i)).as_ref(), Ok(i));

@@ -312,8 +312,8 @@ fn device_schema() -> ChannelSchema {
             "type": "object",
             "properties": {
                 "kind": {
-                    "type": "string", "enum": ["start", "bytes", "compass", "port_failed", "tick"],
-                    "description": "the flight computer started (the origin of a replay), bytes read from a port, a compass reading, a port that failed, or a timer tick",
+                    "type": "string", "enum": ["start", "bytes", "compass", "port_failed", "tick", "battery", "ground_link"],
+                    "description": "the flight computer started (the origin of a replay), bytes read from a port, a compass reading, a port that failed, a timer tick, a battery reading, or whether the bootstrap hears a ground station",
                 },
                 "port": { "type": "string", "enum": ports, "description": "serial port (kinds bytes and port_failed)" },
                 "hex": string("the bytes read, two lowercase hex digits per byte (kind bytes)"),
@@ -321,6 +321,14 @@ fn device_schema() -> ChannelSchema {
                     "type": "array", "items": { "type": "integer", "minimum": 0, "maximum": 65535 },
                     "minItems": 3, "maxItems": 3,
                     "description": "compass ADC counts of x, y, z, body FRD (counts; kind compass)",
+                },
+                "adc": {
+                    "type": "integer", "minimum": 0, "maximum": 65535,
+                    "description": "the battery channel's ADC counts (kind battery)",
+                },
+                "fresh": {
+                    "type": "boolean",
+                    "description": "a ground station heard in the last 5 s (kind ground_link)",
                 },
             },
             "required": ["kind"],
@@ -447,6 +455,8 @@ mod tests {
             json!({"kind": "port_failed", "port": "baro"}),
             json!({"kind": "tick"}),
             json!({"kind": "start"}),
+            json!({"kind": "battery", "adc": 3012}),
+            json!({"kind": "ground_link", "fresh": false}),
         ] {
             assert_eq!(validate(&device, &message, "device"), Ok(()), "{message}");
         }

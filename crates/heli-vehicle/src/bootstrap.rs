@@ -11,7 +11,8 @@
 //!   status; a later Connect starts a fresh one.
 //!
 //! The child protocol is line-based. Bootstrap → child (stdin): `start SUFFIX MODE [PLAN]`,
-//! `stop` (and end of input means stop). Child → bootstrap (stdout): `ready`, `started LOG`,
+//! `link fresh` / `link lost` (whether a ground is heard, on a vehicle with a link), `stop`
+//! (and end of input means stop). Child → bootstrap (stdout): `ready`, `started LOG`,
 //! `note TEXT`, `event SEVERITY TEXT`, `telemetry JSON`, `plan JSON` (the flight plan's
 //! legs, for the link's mission protocol), `stopped JSON`.
 
@@ -125,6 +126,8 @@ pub struct Bootstrap {
     pending: Option<Pending>,
     last_exit: Option<String>,
     last_telemetry: Option<String>,
+    /// What the flight process was last told of the link (`link fresh` / `link lost`).
+    told_link: Option<bool>,
     log: Option<String>,
     report: Box<dyn FnMut(&str)>,
     tx: Sender<Msg>,
@@ -170,6 +173,7 @@ impl Bootstrap {
             pending: None,
             last_exit: None,
             last_telemetry: None,
+            told_link: None,
             log: None,
             report,
             tx,
@@ -242,8 +246,32 @@ impl Bootstrap {
         }
     }
 
+    /// Tells the flight process whether a ground is heard, when that changes (and once to
+    /// each new process). A vehicle without a link tells nothing: the flight core then
+    /// leaves the `link` condition unjudged.
+    fn tell_link_state(&mut self) {
+        let Some(fresh) = self.link.as_ref().map(|l| l.ground_fresh()) else {
+            return;
+        };
+        let running = matches!(
+            self.state,
+            State::Connected | State::Starting | State::Flying
+        );
+        if !running {
+            self.told_link = None;
+            return;
+        }
+        if self.told_link != Some(fresh) {
+            let word = if fresh { "fresh" } else { "lost" };
+            if self.tell_child(&format!("link {word}")) {
+                self.told_link = Some(fresh);
+            }
+        }
+    }
+
     fn main_loop(&mut self) -> Result<(), String> {
         loop {
+            self.tell_link_state();
             let msg = match self.rx.recv_timeout(Duration::from_millis(100)) {
                 Ok(m) => Some(m),
                 Err(RecvTimeoutError::Timeout) => None,

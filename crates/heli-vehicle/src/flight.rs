@@ -49,6 +49,9 @@ pub struct FlightSetup {
     /// Where to keep this process's own record for a successor, with the start line it
     /// flies (`crate::warm`).
     pub warm_file: Option<(PathBuf, String)>,
+    /// What the bootstrap says of its link: 0 nothing (no link), 1 a ground is heard, 2 no
+    /// ground is heard. The control loop hands each change to the flight software.
+    pub ground_link: Arc<std::sync::atomic::AtomicU8>,
 }
 
 /// What the flight process reports while it runs.
@@ -132,6 +135,7 @@ pub fn run(
     let (battery, battery_thread) = telemetry::spawn_battery_server(
         setup.devices.adc.dir.clone(),
         setup.devices.adc.battery,
+        tx.clone(),
         clock,
         Arc::clone(&streams),
         log.clone(),
@@ -284,6 +288,7 @@ fn control_loop(
             k.offer(t_us, computer.core().warm_start());
         }
     };
+    let mut told_link = 0u8;
     while !stop.load(Ordering::Acquire) {
         let now = clock.now_us();
         let wait = computer
@@ -306,6 +311,16 @@ fn control_loop(
             }
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => break,
+        }
+        let link = setup.ground_link.load(Ordering::Acquire);
+        if link != 0 && link != told_link {
+            told_link = link;
+            last_t_us = last_t_us.max(clock.now_us());
+            feed(
+                &mut computer,
+                last_t_us,
+                RecordedInput::GroundLink(link == 1),
+            );
         }
         let now = clock.now_us();
         if computer.poll_at().is_some_and(|at| at <= now) {

@@ -44,6 +44,8 @@ struct Shared {
     status: VehicleStatus,
     telemetry: Option<Telemetry>,
     texts: VecDeque<(MavSeverity, String)>,
+    /// A ground station heard recently (the link thread keeps it).
+    ground_fresh: bool,
     /// The plan of the flight under way as mission items, when it changed (taken by the
     /// link thread).
     mission: Option<Vec<mavlink::dialects::common::MISSION_ITEM_INT_DATA>>,
@@ -77,6 +79,11 @@ impl LinkShared {
             shared.telemetry = None;
             shared.mission = Some(Vec::new());
         }
+    }
+
+    /// Whether a ground station has been heard in the last few seconds.
+    pub fn ground_fresh(&self) -> bool {
+        self.lock().ground_fresh
     }
 
     /// The flight process's plan line (its legs, JSON): served over the mission protocol.
@@ -317,6 +324,7 @@ pub fn spawn(
             if let Some(items) = mission {
                 link.set_mission(items);
             }
+            shared.lock().ground_fresh = link.ground_fresh(unix_us());
             for (severity, text) in texts {
                 link.status_text(severity, &text, unix_us());
             }

@@ -18,7 +18,8 @@ use serde_json::{Value, json};
 use crate::adc;
 use crate::logger::{LogItem, LogSender};
 use crate::streams::LiveStreams;
-use crate::threads::{Clock, sleep_unless_stopped};
+use crate::threads::{Clock, LoopMsg, sleep_unless_stopped};
+use heli_fsw::RecordedInput;
 
 /// Battery read period.
 pub const BATTERY_PERIOD: Duration = Duration::from_secs(1);
@@ -30,10 +31,12 @@ pub const TELEMETRY_PERIOD: Duration = Duration::from_millis(100);
 pub type BatteryRequest = Sender<Option<Stamped<f64>>>;
 
 /// Starts the battery server. It reads channel `adc_channel` of `dir` every [`BATTERY_PERIOD`],
-/// publishes the voltage, logs it, and answers requests on the returned sender.
+/// publishes the voltage, logs it, hands the reading to the control loop (the safety rule's
+/// `battery` condition) and answers requests on the returned sender.
 pub fn spawn_battery_server(
     dir: PathBuf,
     adc_channel: u8,
+    to_loop: Sender<LoopMsg>,
     clock: Clock,
     streams: Arc<LiveStreams>,
     log: Option<LogSender>,
@@ -51,6 +54,10 @@ pub fn spawn_battery_server(
                 if now >= next_read_us {
                     next_read_us = now.saturating_add(period_us);
                     if let Ok(counts) = adc::read_channel(&dir, adc_channel) {
+                        let _ = to_loop.send(LoopMsg::Input(
+                            now,
+                            RecordedInput::Battery(BatteryAdc { counts }),
+                        ));
                         let volts = BatteryAdc { counts }.volts();
                         let reading = Stamped::new(now, volts);
                         latest = Some(reading);

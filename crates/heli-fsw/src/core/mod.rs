@@ -87,6 +87,8 @@ pub struct CoreConfig {
     pub takeoff_tolerance_m: f64,
     /// Height above the take-off point at which the helicopter counts as airborne (m).
     pub airborne_height_m: f64,
+    /// The flight battery's discharge curve, for the safety rule's `battery` condition.
+    pub battery_curve: heli_control::safety::BatteryCurve,
 }
 
 impl Default for CoreConfig {
@@ -103,6 +105,7 @@ impl Default for CoreConfig {
             compass: CompassCalibration::default(),
             takeoff_tolerance_m: 0.3,
             airborne_height_m: 0.3,
+            battery_curve: heli_control::safety::BatteryCurve::default(),
         }
     }
 }
@@ -144,6 +147,16 @@ pub enum Input {
     /// A driver gave up on its device (the altimeter never answered its handshake, the
     /// port could not be opened or read).
     DeviceFailed(Device),
+    /// The flight battery's voltage.
+    Battery {
+        /// Terminal voltage (V).
+        volts: f64,
+    },
+    /// Whether the bootstrap hears a ground station (a vehicle without a link sends none).
+    GroundLink {
+        /// A ground heard in the last few seconds.
+        fresh: bool,
+    },
     /// The watchdog timer (deliver at [`FlightCore::poll_at`]).
     Timer,
 }
@@ -234,6 +247,10 @@ pub struct FlightCore {
     calibration_heading: Option<(f64, f64)>,
     /// The mode the pilot's switch asked for, refused by the safety rule (`mode_check`).
     mode_refused: Option<ModeRefusal>,
+    /// The flight battery's life left (fraction), once read.
+    battery_life: Option<f64>,
+    /// Whether the bootstrap hears a ground, on a vehicle with a link.
+    ground_link: Option<bool>,
     stats: CoreStats,
 }
 
@@ -271,6 +288,8 @@ impl FlightCore {
             trim: None,
             calibration_heading: None,
             mode_refused: None,
+            battery_life: None,
+            ground_link: None,
             stats: CoreStats::default(),
         }
     }
@@ -485,6 +504,10 @@ impl FlightCore {
                     },
                 ))));
             }
+            Input::Battery { volts } => {
+                self.battery_life = Some(self.config.battery_curve.life_left(volts));
+            }
+            Input::GroundLink { fresh } => self.ground_link = Some(fresh),
         }
     }
 }
@@ -504,7 +527,10 @@ fn input_is_finite(input: &Input) -> bool {
                 && f.vel_ned_mps.iter().all(|x| x.is_finite())
         }
         Input::Uplink(u) => u.receiver_batt_v.is_finite() && u.servo_batt_v.is_finite(),
-        Input::Compass(_) | Input::DeviceFailed(_) | Input::Timer => true,
+        Input::Battery { volts } => volts.is_finite(),
+        Input::Compass(_) | Input::DeviceFailed(_) | Input::Timer | Input::GroundLink { .. } => {
+            true
+        }
     }
 }
 

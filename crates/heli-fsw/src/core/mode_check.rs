@@ -11,8 +11,9 @@
 //! - In the air, a refusal stands until the pilot takes the auto switch off: a mode that
 //!   flickers on and off as a satellite comes and goes is worse than none. On the ground the
 //!   mode is entered as soon as the rule allows it.
-//! - The battery and the ground link are not observed by the flight core: they are passed
-//!   as "not judged here" (the ground judges them).
+//! - The battery is judged from its readings (once a second, through the safety rule's
+//!   discharge curve), the ground link from what the bootstrap says of it. Until the first
+//!   reading, and on a vehicle with no link, each is passed as "not judged here".
 
 use heli_control::safety::{AUGMENTED, AUTOMATIC, Condition, Facts, Rule, Verdict};
 
@@ -50,7 +51,7 @@ impl FlightCore {
         let satellites = self
             .last_good_fix
             .is_some_and(|(_, fix)| fix.satellites >= preflight::MIN_SATELLITES);
-        Facts::none()
+        let facts = Facts::none()
             .with(
                 Condition::Calibrated,
                 self.estimate_valid && self.phase != Phase::Calibrating,
@@ -61,7 +62,18 @@ impl FlightCore {
             .with(Condition::Satellites, satellites)
             .with(Condition::Altimeter, ok(Device::Baro))
             .with(Condition::Compass, ok(Device::Compass))
-            .with(Condition::Bypass, self.pilot.is_some_and(|p| p.bypass))
+            .with(Condition::Bypass, self.pilot.is_some_and(|p| p.bypass));
+        let facts = match self.battery_life {
+            Some(life) => facts.with(
+                Condition::Battery,
+                heli_control::safety::battery_green(life),
+            ),
+            None => facts,
+        };
+        match self.ground_link {
+            Some(fresh) => facts.with(Condition::Link, fresh),
+            None => facts,
+        }
     }
 
     /// The refusal standing in the air, if any.

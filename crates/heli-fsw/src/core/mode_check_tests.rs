@@ -126,7 +126,7 @@ fn in_the_air_a_refusal_stands_until_the_switch_goes_off() {
 }
 
 #[test]
-fn the_facts_the_core_does_not_observe_are_not_judged_on_board() {
+fn the_battery_and_the_link_are_not_judged_until_they_are_heard_of() {
     let (core, _) = core_with_gps(FlightMode::Autonomous, Some(8), 3);
     let facts = core.safety_facts();
     assert_eq!(facts.get(Condition::Battery), None);
@@ -134,4 +134,111 @@ fn the_facts_the_core_does_not_observe_are_not_judged_on_board() {
     assert_eq!(facts.get(Condition::Imu), Some(true));
     assert_eq!(facts.get(Condition::Satellites), Some(true));
     assert_eq!(facts.get(Condition::Bypass), Some(false));
+}
+
+#[test]
+fn a_battery_down_to_a_third_refuses_augmented_flight_on_board() {
+    let (mut core, mut out) = core_with_gps(RATE, Some(8), 1);
+    // 11.4 V on the 10-cell pack: below a third of its life.
+    core.handle(Input::Battery { volts: 11.4 }, 1_000_000, &mut out);
+    out.clear();
+    let mut t = 1_000_000;
+    for _ in 0..4 {
+        t = fly_for(
+            &mut core,
+            &mut out,
+            t,
+            500_000,
+            true,
+            Some(uplink(true, false)),
+        );
+        core.handle(Input::Gps(gps_fix(8)), t, &mut out);
+    }
+    assert_eq!(core.phase(), Phase::Manual);
+    let last = refusals(&out).last().copied().unwrap();
+    assert!(
+        last.verdict.wanted_true.contains(Condition::Battery),
+        "{last:?}"
+    );
+    assert!(
+        last.text().contains("battery down to a third"),
+        "{}",
+        last.text()
+    );
+    // A charged pack: the mode is entered (on the ground, as soon as the rule allows).
+    core.handle(Input::Battery { volts: 12.6 }, t, &mut out);
+    fly_for(
+        &mut core,
+        &mut out,
+        t,
+        100_000,
+        true,
+        Some(uplink(true, false)),
+    );
+    assert_eq!(core.phase(), Phase::Augmented(AugmentedMode::Rate));
+}
+
+#[test]
+fn without_a_ground_heard_the_autonomous_take_off_is_refused_naming_the_link() {
+    let mut core = super::tests::core_with(FlightMode::Autonomous);
+    let mut out = Vec::new();
+    core.start(0);
+    core.handle(Input::GroundLink { fresh: false }, 0, &mut out);
+    let mut t = 0;
+    while t < 40_000_000 {
+        t = fly_for(
+            &mut core,
+            &mut out,
+            t,
+            500_000,
+            true,
+            Some(uplink(true, false)),
+        );
+        core.handle(Input::Gps(gps_fix(8)), t, &mut out);
+    }
+    assert_eq!(core.phase(), Phase::TakeoffRefused);
+    let refused = out.iter().find_map(|a| match a {
+        Action::Event(e) => match e.value {
+            CoreEvent::TakeoffRefused(r) => Some(r),
+            _ => None,
+        },
+        _ => None,
+    });
+    let Some(Refusal::Unsafe(verdict)) = refused else {
+        panic!("{refused:?}");
+    };
+    assert!(verdict.wanted_true.contains(Condition::Link), "{verdict:?}");
+    assert!(
+        Refusal::Unsafe(verdict)
+            .text()
+            .contains("ground link not fresh")
+    );
+}
+
+#[test]
+fn with_a_ground_heard_the_same_take_off_goes() {
+    let mut core = super::tests::core_with(FlightMode::Autonomous);
+    let mut out = Vec::new();
+    core.start(0);
+    core.handle(Input::GroundLink { fresh: true }, 0, &mut out);
+    core.handle(Input::Battery { volts: 12.6 }, 0, &mut out);
+    let mut t = 0;
+    while t < 5_000_000 {
+        t = fly_for(
+            &mut core,
+            &mut out,
+            t,
+            500_000,
+            true,
+            Some(uplink(true, false)),
+        );
+        core.handle(Input::Gps(gps_fix(8)), t, &mut out);
+    }
+    assert!(
+        matches!(core.phase(), Phase::TakingOff { .. }),
+        "{:?}",
+        core.phase()
+    );
+    assert_eq!(core.safety_facts().get(Condition::Link), Some(true));
+    assert_eq!(core.safety_facts().get(Condition::Battery), Some(true));
 }

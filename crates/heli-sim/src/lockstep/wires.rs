@@ -228,14 +228,16 @@ impl Simulation {
     pub(super) fn read_battery(&mut self, battery: BatteryAdc) {
         let now = self.now_us;
         self.metrics.battery_min_v = self.metrics.battery_min_v.min(battery.volts());
-        if let Some(hil) = self.hil.as_mut() {
-            hil.outbox.push((
+        match self.hil.as_mut() {
+            Some(hil) => hil.outbox.push((
                 now,
                 HilOut::Adc {
                     channel: HIL_BATTERY_CHANNEL,
                     counts: battery.counts,
                 },
-            ));
+            )),
+            // The flight software reads it once a second, as the vehicle's battery server.
+            None => self.deliver(DeviceInput::Battery(battery)),
         }
     }
 
