@@ -29,7 +29,8 @@ pub struct UiOptions {
 struct Proc {
     name: &'static str,
     child: Child,
-    lines: Receiver<String>,
+    /// Its output lines until it is ready (then dropped: the log file keeps them).
+    lines: Option<Receiver<String>>,
     log: PathBuf,
 }
 
@@ -72,16 +73,23 @@ impl Proc {
         Ok(Self {
             name,
             child,
-            lines,
+            lines: Some(lines),
             log,
         })
     }
 
-    /// Waits for a line containing `needle`; fails if the process ends first.
-    fn wait_for(&mut self, needle: &str, timeout: Duration) -> Result<String> {
+    /// Waits for a line containing `needle`, then stops collecting lines; fails if the
+    /// process ends first or `stop` is set (Ctrl-C).
+    fn wait_for(&mut self, needle: &str, timeout: Duration, stop: &AtomicBool) -> Result<String> {
         let end = Instant::now() + timeout;
+        let Some(lines) = self.lines.take() else {
+            bail!("heli {}: its output is no longer read", self.name);
+        };
         while Instant::now() < end {
-            match self.lines.recv_timeout(Duration::from_millis(100)) {
+            if stop.load(Ordering::Relaxed) {
+                bail!("interrupted while heli {} was starting", self.name);
+            }
+            match lines.recv_timeout(Duration::from_millis(100)) {
                 Ok(line) if line.contains(needle) => return Ok(line),
                 Ok(_) => {}
                 Err(_) => {
@@ -124,6 +132,10 @@ impl Proc {
             "heli sim --ui: {} did not stop in {grace:?}: killed",
             self.name
         );
+        // The whole process group: the vehicle's flight process goes with its bootstrap.
+        let _ = Command::new("kill")
+            .args(["-KILL", "--", &format!("-{}", self.child.id())])
+            .status();
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
@@ -149,9 +161,15 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
         signal_hook::flag::register(signal, Arc::clone(&stop))
             .context("installing the signal handler")?;
     }
+    // A fresh directory of our own (it holds the link's key): made here, not found.
     let dir = std::env::temp_dir().join(format!("heli-ui-{}", std::process::id()));
-    std::fs::create_dir_all(dir.join("logs"))
-        .with_context(|| format!("creating {}", dir.display()))?;
+    std::fs::create_dir(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700))
+            .with_context(|| format!("restricting {}", dir.display()))?;
+    }
+    std::fs::create_dir(dir.join("logs")).with_context(|| format!("creating {}", dir.display()))?;
     let dir_s = dir.display().to_string();
     let key = dir.join("link.key");
     let key_s = key.display().to_string();
@@ -179,7 +197,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
                 "86400",
             ]),
         )?;
-        hil.wait_for("hilsim: ready", Duration::from_secs(20))?;
+        hil.wait_for("hilsim: ready", Duration::from_secs(20), &stop)?;
         procs.push(hil);
         let calibration = options.calibration_s.to_string();
         let mut vehicle = Proc::spawn(
@@ -201,7 +219,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
                 &key_s,
             ]),
         )?;
-        vehicle.wait_for("bootstrap: listening", Duration::from_secs(20))?;
+        vehicle.wait_for("bootstrap: listening", Duration::from_secs(20), &stop)?;
         procs.push(vehicle);
         let mut ground = Proc::spawn(
             "ground",
@@ -218,7 +236,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
                 &format!("{dir_s}/flights"),
             ]),
         )?;
-        let line = ground.wait_for("ground: display at", Duration::from_secs(20))?;
+        let line = ground.wait_for("ground: display at", Duration::from_secs(20), &stop)?;
         procs.push(ground);
         Ok(line
             .split_whitespace()

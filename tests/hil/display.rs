@@ -168,6 +168,17 @@ fn heli_sim_ui_brings_up_the_whole_system_and_ctrl_c_stops_it() {
         page.starts_with("HTTP/1.1 200") && page.contains("heli ground station"),
         "{page}"
     );
+    // A WebSocket opened by another site's page is refused.
+    let mut ws = std::net::TcpStream::connect(addr).unwrap();
+    write!(
+        ws,
+        "GET /ws HTTP/1.1\r\nHost: {addr}\r\nOrigin: http://evil.example\r\nConnection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n"
+    )
+    .unwrap();
+    let mut answer = [0u8; 64];
+    let n = ws.read(&mut answer).unwrap();
+    let answer = String::from_utf8_lossy(&answer[..n]).to_string();
+    assert!(answer.starts_with("HTTP/1.1 403"), "{answer}");
     // The vehicle answers on the signed link.
     let (ok, status) = crate::procs::ground(
         &link,

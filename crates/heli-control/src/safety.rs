@@ -193,8 +193,14 @@ impl Conditions {
         self.0 == 0
     }
 
-    const fn union(self, other: Conditions) -> Conditions {
+    /// The conditions in either set.
+    pub const fn union(self, other: Conditions) -> Conditions {
         Conditions(self.0 | other.0)
+    }
+
+    /// Whether every condition of `other` is in this set.
+    pub const fn contains_all(self, other: Conditions) -> bool {
+        self.0 & other.0 == other.0
     }
 
     const fn of(c: Condition) -> Conditions {

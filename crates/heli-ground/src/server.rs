@@ -9,7 +9,7 @@
 //! saves transferred logs.
 
 use std::net::SocketAddr;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -50,8 +50,20 @@ type Shared = Arc<Mutex<Station>>;
 struct AppState {
     station: Shared,
     views: broadcast::Sender<Arc<str>>,
-    udp: Arc<UdpSocket>,
+    /// Frames to the vehicle, queued in the order they were signed (under the station's
+    /// lock) and sent by one task: a signed frame sent after a newer one of the same stream
+    /// would be refused by the vehicle as a replay.
+    frames: Frames,
 }
+
+type Frames = tokio::sync::mpsc::UnboundedSender<Vec<u8>>;
+
+/// Longest a request may be (bytes): a request is a few hundred bytes of JSON.
+const MAX_REQUEST_BYTES: usize = 4096;
+/// How often a page is pinged, and how long it may stay silent before it is dropped (its
+/// control token freed): a tablet gone out of Wi-Fi range must not keep the token.
+const PING_EVERY: Duration = Duration::from_secs(2);
+const PAGE_SILENT_AFTER: Duration = Duration::from_secs(8);
 
 /// Microseconds since the Unix epoch (the link's signing needs the wall clock).
 fn unix_us() -> u64 {
@@ -97,13 +109,15 @@ async fn serve(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(
         .map_err(|e| format!("serving the display: {e}"))?;
     let station: Shared = Arc::new(Mutex::new(Station::new(config.station)));
     let (views, _) = broadcast::channel(16);
+    let (frames, outgoing) = tokio::sync::mpsc::unbounded_channel::<Vec<u8>>();
     let state = AppState {
         station: Arc::clone(&station),
         views: views.clone(),
-        udp: Arc::clone(&udp),
+        frames: frames.clone(),
     };
     tokio::spawn(receive(Arc::clone(&udp), Arc::clone(&station)));
-    tokio::spawn(step(Arc::clone(&udp), Arc::clone(&station), views));
+    tokio::spawn(send(Arc::clone(&udp), outgoing));
+    tokio::spawn(step(frames, Arc::clone(&station), views));
     let app = Router::new()
         .route("/ws", get(ws))
         .fallback(asset)
@@ -148,34 +162,43 @@ async fn receive(udp: Arc<UdpSocket>, station: Shared) {
     }
 }
 
-/// The station's steps, its frames sent, its logs saved, the view to every page.
-async fn step(udp: Arc<UdpSocket>, station: Shared, views: broadcast::Sender<Arc<str>>) {
+/// Frames to the vehicle, in the order they were queued.
+async fn send(udp: Arc<UdpSocket>, mut outgoing: tokio::sync::mpsc::UnboundedReceiver<Vec<u8>>) {
+    while let Some(frame) = outgoing.recv().await {
+        let _ = udp.send(&frame).await;
+    }
+}
+
+/// The station's steps, its frames queued, its logs saved, the view to every page.
+async fn step(frames: Frames, station: Shared, views: broadcast::Sender<Arc<str>>) {
     let mut ticker = tokio::time::interval(TICK);
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut n: u32 = 0;
     loop {
         ticker.tick().await;
         let now = unix_us();
-        let (outputs, view) = {
+        let (saves, view) = {
             let mut s = lock(&station);
-            let outputs = s.tick(now);
-            n = n.wrapping_add(1);
-            let view = n.is_multiple_of(VIEW_EVERY_TICKS).then(|| s.view(now));
-            (outputs, view)
-        };
-        for out in outputs {
-            match out {
-                Output::Send(frame) => {
-                    let _ = udp.send(&frame).await;
-                }
-                Output::Save(path, bytes) => {
-                    let station = Arc::clone(&station);
-                    tokio::task::spawn_blocking(move || {
-                        let result = save(&path, &bytes);
-                        lock(&station).saved(&path, result);
-                    });
+            let mut saves = Vec::new();
+            for out in s.tick(now) {
+                match out {
+                    // Queued under the lock: in signing order.
+                    Output::Send(frame) => {
+                        let _ = frames.send(frame);
+                    }
+                    Output::Save(path, bytes) => saves.push((path, bytes)),
                 }
             }
+            n = n.wrapping_add(1);
+            let view = n.is_multiple_of(VIEW_EVERY_TICKS).then(|| s.view(now));
+            (saves, view)
+        };
+        for (path, bytes) in saves {
+            let station = Arc::clone(&station);
+            tokio::task::spawn_blocking(move || {
+                let result = save(&path, &bytes);
+                lock(&station).saved(&path, result);
+            });
         }
         if let Some(view) = view
             && let Ok(json) =
@@ -186,11 +209,41 @@ async fn step(udp: Arc<UdpSocket>, station: Shared, views: broadcast::Sender<Arc
     }
 }
 
-fn save(path: &PathBuf, bytes: &[u8]) -> Result<(), String> {
+/// Saves a transferred log at `path`, or next to it as `NAME-2.mcap`, `NAME-3.mcap`… when
+/// a file of that name exists: an earlier flight's log is never overwritten. Returns where
+/// it went.
+fn save(path: &Path, bytes: &[u8]) -> Result<PathBuf, String> {
+    use std::io::Write;
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
     }
-    std::fs::write(path, bytes).map_err(|e| e.to_string())
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_default();
+    for n in 1..100u32 {
+        let candidate = if n == 1 {
+            path.to_path_buf()
+        } else {
+            path.with_file_name(format!("{stem}-{n}.mcap"))
+        };
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&candidate)
+        {
+            Ok(mut file) => {
+                return file
+                    .write_all(bytes)
+                    .and_then(|()| file.sync_all())
+                    .map(|()| candidate)
+                    .map_err(|e| e.to_string());
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(e.to_string()),
+        }
+    }
+    Err("99 logs of that name already: choose another suffix".into())
 }
 
 async fn asset(uri: Uri) -> Response {
@@ -221,8 +274,29 @@ async fn asset(uri: Uri) -> Response {
         .into_response()
 }
 
-async fn ws(upgrade: WebSocketUpgrade, State(state): State<AppState>) -> Response {
-    upgrade.on_upgrade(move |socket| page(socket, state))
+async fn ws(
+    upgrade: WebSocketUpgrade,
+    headers: axum::http::HeaderMap,
+    State(state): State<AppState>,
+) -> Response {
+    // Only the display's own pages: a page of another site the operator has open must not
+    // drive the vehicle through this socket (browsers always send Origin on a WebSocket).
+    let host = headers.get(header::HOST).and_then(|h| h.to_str().ok());
+    let origin = headers.get(header::ORIGIN).and_then(|h| h.to_str().ok());
+    if let Some(origin) = origin {
+        let origin_host = origin.split("://").nth(1).unwrap_or("");
+        if host != Some(origin_host) {
+            return (
+                StatusCode::FORBIDDEN,
+                format!("WebSocket from {origin} refused: only this display's pages"),
+            )
+                .into_response();
+        }
+    }
+    upgrade
+        .max_message_size(MAX_REQUEST_BYTES)
+        .max_frame_size(MAX_REQUEST_BYTES)
+        .on_upgrade(move |socket| page(socket, state))
 }
 
 /// One page: the views out, its requests in.
@@ -234,8 +308,17 @@ async fn page(mut socket: WebSocket, state: AppState) {
         lock(&state.station).leave(id);
         return;
     }
+    let mut ping = tokio::time::interval(PING_EVERY);
+    let mut heard = tokio::time::Instant::now();
     loop {
         tokio::select! {
+            _ = ping.tick() => {
+                if heard.elapsed() > PAGE_SILENT_AFTER
+                    || socket.send(WsMessage::Ping(Vec::new().into())).await.is_err()
+                {
+                    break;
+                }
+            }
             view = views.recv() => match view {
                 Ok(json) => {
                     if socket.send(WsMessage::Text(json.as_ref().into())).await.is_err() {
@@ -245,44 +328,41 @@ async fn page(mut socket: WebSocket, state: AppState) {
                 Err(broadcast::error::RecvError::Lagged(_)) => {}
                 Err(broadcast::error::RecvError::Closed) => break,
             },
-            msg = socket.recv() => match msg {
-                Some(Ok(WsMessage::Text(text))) => {
-                    let reply = request(&state, id, text.as_str()).await;
-                    if socket.send(WsMessage::Text(reply.into())).await.is_err() {
-                        break;
-                    }
+            msg = socket.recv() => {
+                let Some(Ok(msg)) = msg else {
+                    break;
+                };
+                heard = tokio::time::Instant::now();
+                let reply = match msg {
+                    WsMessage::Text(text) => request(&state, id, text.as_str()).await,
+                    WsMessage::Binary(_) => serde_json::json!({"type": "reply", "ok": false,
+                        "text": "binary messages are not requests"})
+                    .to_string(),
+                    _ => continue,
+                };
+                if socket.send(WsMessage::Text(reply.into())).await.is_err() {
+                    break;
                 }
-                Some(Ok(WsMessage::Binary(_))) => {
-                    let reply = serde_json::json!({"type": "reply", "ok": false,
-                        "text": "binary messages are not requests"});
-                    if socket.send(WsMessage::Text(reply.to_string().into())).await.is_err() {
-                        break;
-                    }
-                }
-                Some(Ok(_)) => {}
-                Some(Err(_)) | None => break,
-            },
+            }
         }
     }
     lock(&state.station).leave(id);
 }
 
-/// An operator's request: the station's answer, and the frames it made sent at once.
+/// An operator's request: the station's answer, and the frames it made queued at once.
 async fn request(state: &AppState, id: u64, text: &str) -> String {
     let seq = serde_json::from_str::<serde_json::Value>(text)
         .ok()
         .and_then(|v| v.get("seq").and_then(serde_json::Value::as_u64));
-    let (result, frames) = {
+    let result = {
         let mut s = lock(&state.station);
         let result = s.request(id, text, unix_us());
-        if let Err(e) = &result {
-            s.note("error", format!("operator {id}: {e}"));
+        // Queued under the lock: in signing order.
+        for frame in s.take_outbox() {
+            let _ = state.frames.send(frame);
         }
-        (result, s.take_outbox())
+        result
     };
-    for frame in frames {
-        let _ = state.udp.send(&frame).await;
-    }
     let (ok, text) = match result {
         Ok(t) => (true, t),
         Err(t) => (false, t),

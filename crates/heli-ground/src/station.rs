@@ -125,6 +125,8 @@ pub struct Station {
     outbox: Vec<Vec<u8>>,
     /// When our last command was answered: heartbeats from before say the old state.
     answered_us: u64,
+    /// A flight was seen under way since the station started or since the last Stop.
+    flight_seen: bool,
 }
 
 impl Station {
@@ -144,6 +146,7 @@ impl Station {
             heartbeat_sent_us: None,
             outbox: Vec::new(),
             answered_us: 0,
+            flight_seen: false,
         }
     }
 
@@ -220,6 +223,21 @@ impl Station {
         if heard_after || self.vehicle_status(now_us).is_none() {
             let status = self.vehicle_status(now_us);
             self.panel.vehicle(status.map(|s| s.state));
+        }
+        // A flight seen under way: its log is the newest on the vehicle, the one a Stop with
+        // final parameters saves.
+        if self
+            .vehicle_status(now_us)
+            .is_some_and(|s| s.state == BootstrapState::Flying)
+        {
+            self.flight_seen = true;
+        }
+        // What has been shown is not kept twice: texts once in the message area, answers
+        // once no command waits for them.
+        self.link.texts.clear();
+        self.texts_seen = 0;
+        if self.pending.is_none() {
+            self.link.acks.clear();
         }
         // The flight's plan, fetched once per flight over the mission protocol.
         if self
@@ -314,13 +332,17 @@ impl Station {
         );
         match (p.name, accepted) {
             ("connect", true) => self.panel.vehicle(Some(BootstrapState::Connected)),
-            ("start logging", true) => self.panel.vehicle(Some(BootstrapState::Flying)),
+            ("start logging", true) => {
+                self.panel.vehicle(Some(BootstrapState::Flying));
+                self.flight_seen = true;
+            }
             ("start logging", false) => {
                 self.panel.logging_failed();
                 self.note("error", "logging failed: press Stop to reset the display");
             }
             ("stop", true) => {
                 self.panel.vehicle(Some(BootstrapState::Idle));
+                self.flight_seen = false;
                 if let Some(dest) = p.dest.clone() {
                     self.transfer = Some(Transfer::new(dest, now_us));
                 }
@@ -339,17 +361,51 @@ impl Station {
         self.operators.leave(id);
     }
 
-    /// The runtime saved (or failed to save) a transferred log.
-    pub fn saved(&mut self, path: &Path, result: Result<(), String>) {
+    /// The runtime saved (or failed to save) a transferred log asked for at `path`; it says
+    /// where it went (another name when a file of that name exists).
+    pub fn saved(&mut self, path: &Path, result: Result<PathBuf, String>) {
         match result {
-            Ok(()) => self.note("info", format!("log saved: {}", path.display())),
+            Ok(at) if at == path => self.note("info", format!("log saved: {}", at.display())),
+            Ok(at) => self.note(
+                "info",
+                format!(
+                    "log saved: {} ({} exists already, not overwritten)",
+                    at.display(),
+                    path.display()
+                ),
+            ),
             Err(e) => self.note("error", format!("log not saved to {}: {e}", path.display())),
         }
     }
 
     /// An operator's request (JSON text) from page `client`: what was done, or why nothing
-    /// was.
+    /// was. The refusals of the operator in control are noted in the message area too; a
+    /// watching page's go only to that page.
     pub fn request(&mut self, client: ClientId, text: &str, now_us: u64) -> Result<String, String> {
+        let result = self.request_inner(client, text, now_us);
+        if let Err(e) = &result
+            && self.operators.holder() == Some(client)
+        {
+            let mut line = format!("operator {client}: {e}");
+            if line.len() > 200 {
+                let cut = (0..=200)
+                    .rev()
+                    .find(|i| line.is_char_boundary(*i))
+                    .unwrap_or(0);
+                line.truncate(cut);
+                line.push('…');
+            }
+            self.note("error", line);
+        }
+        result
+    }
+
+    fn request_inner(
+        &mut self,
+        client: ClientId,
+        text: &str,
+        now_us: u64,
+    ) -> Result<String, String> {
         let req: Request =
             serde_json::from_str(text).map_err(|e| format!("malformed request: {e}"))?;
         self.operators
@@ -414,6 +470,12 @@ impl Station {
             }
             Op::Stop { base_dir, suffix } if stop => {
                 let dest = self.final_parameters(base_dir, suffix)?;
+                if dest.is_some() && !self.flight_seen {
+                    return Err("final parameters: no flight has flown since this station started (or since the last Stop), so there is no log of it to save; Stop without saving".into());
+                }
+                if dest.is_some() && self.transfer.is_some() {
+                    return Err("final parameters: a log transfer is still under way".into());
+                }
                 if state == PanelState::LoggingFailed
                     && self
                         .vehicle_status(now_us)

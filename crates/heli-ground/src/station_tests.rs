@@ -162,7 +162,7 @@ impl Bench {
                 match out {
                     Output::Send(f) => up.push(f),
                     Output::Save(p, bytes) => {
-                        self.station.saved(&p, Ok(()));
+                        self.station.saved(&p, Ok(p.clone()));
                         self.saved.push((p, bytes));
                     }
                 }

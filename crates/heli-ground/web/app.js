@@ -33,7 +33,11 @@ function connectSocket() {
   socket.onmessage = (ev) => {
     let msg;
     try { msg = JSON.parse(ev.data); } catch { return; }
-    if (msg.type === "hello") page.client = msg.client;
+    if (msg.type === "hello") {
+      // A new session (perhaps a restarted ground station): its messages are numbered anew.
+      page.client = msg.client;
+      page.lastMessage = 0;
+    }
     else if (msg.type === "view") render(msg.view);
     else if (msg.type === "reply") showReply(msg);
   };
@@ -79,7 +83,8 @@ function render(view) {
   renderPower(view);
   renderSafety(view.safety);
   renderMessages(view.messages);
-  if (view.instruments) {
+  const last = page.history[page.history.length - 1];
+  if (view.instruments && (!last || view.instruments.time_s !== last.time_s)) {
     page.history.push(view.instruments);
     const cut = view.instruments.time_s - 30;
     while (page.history.length && page.history[0].time_s < cut) page.history.shift();
@@ -216,6 +221,8 @@ function wire() {
   });
   $("stop").onclick = () => {
     $("final-suffix").value = $("suffix").value;
+    // Escape closes the dialog with the last value otherwise: it must mean Cancel.
+    $("final-dialog").returnValue = "";
     $("final-dialog").showModal();
   };
   $("final-dialog").addEventListener("close", () => {

@@ -334,7 +334,11 @@ pub fn message(id: u32, t: &Telemetry, time_boot_ms: u32) -> Option<MavMessage> 
             if t.imu.is_some() || t.state.is_some() {
                 present |= ahrs;
             }
-            if t.state.as_ref().is_some_and(|s| s.phase != "calibrating") {
+            // Healthy once calibrated, and not once the estimate is lost (the blind failsafe).
+            if t.state
+                .as_ref()
+                .is_some_and(|s| !matches!(s.phase.as_str(), "calibrating" | "blind-descent"))
+            {
                 healthy |= ahrs;
             }
             MavMessage::SYS_STATUS(SYS_STATUS_DATA {

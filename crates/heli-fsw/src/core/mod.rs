@@ -245,8 +245,10 @@ pub struct FlightCore {
     /// During the calibration window: the compass heading when it opened, and the
     /// readings' running average (rad).
     calibration_heading: Option<(f64, f64)>,
-    /// The mode the pilot's switch asked for, refused by the safety rule (`mode_check`).
-    mode_refused: Option<ModeRefusal>,
+    /// A refusal standing in the air until the pilot's switch goes off (`mode_check`).
+    refused_in_air: Option<ModeRefusal>,
+    /// What was raised while the switch has been on (the failing conditions so far).
+    refusal_raised: Option<ModeRefusal>,
     /// The flight battery's life left (fraction), once read.
     battery_life: Option<f64>,
     /// Whether the bootstrap hears a ground, on a vehicle with a link.
@@ -287,7 +289,8 @@ impl FlightCore {
             alignment: None,
             trim: None,
             calibration_heading: None,
-            mode_refused: None,
+            refused_in_air: None,
+            refusal_raised: None,
             battery_life: None,
             ground_link: None,
             stats: CoreStats::default(),

@@ -78,34 +78,48 @@ impl FlightCore {
 
     /// The refusal standing in the air, if any.
     pub fn mode_refusal(&self) -> Option<ModeRefusal> {
-        self.mode_refused
+        self.refused_in_air
     }
 
-    /// Raises `refusal` unless it is the one already raised.
+    /// Raises `refusal` unless what fails was already raised while the switch has been on:
+    /// a condition that comes and goes raises one event, a new reason raises another.
     fn raise_refusal(&mut self, refusal: ModeRefusal, now_us: u64, out: &mut Vec<Action>) {
-        if self.mode_refused != Some(refusal) {
-            out.push(Action::Event(Stamped::new(
-                now_us,
-                CoreEvent::ModeRefused(refusal),
-            )));
+        let v = refusal.verdict;
+        let known = self.refusal_raised.is_some_and(|r| {
+            r.mode == refusal.mode
+                && r.verdict.wanted_true.contains_all(v.wanted_true)
+                && r.verdict.wanted_false.contains_all(v.wanted_false)
+        });
+        if known {
+            return;
         }
-        self.mode_refused = Some(refusal);
+        out.push(Action::Event(Stamped::new(
+            now_us,
+            CoreEvent::ModeRefused(refusal),
+        )));
+        let mut raised = refusal;
+        if let Some(r) = self.refusal_raised.filter(|r| r.mode == refusal.mode) {
+            raised.verdict.wanted_true = r.verdict.wanted_true.union(v.wanted_true);
+            raised.verdict.wanted_false = r.verdict.wanted_false.union(v.wanted_false);
+        }
+        self.refusal_raised = Some(raised);
     }
 
-    /// While calibrating with the auto switch on: the mode asked for is refused, named once.
+    /// While calibrating with the auto switch on: the mode asked for is refused, raised once.
     pub(super) fn refuse_while_calibrating(&mut self, now_us: u64, out: &mut Vec<Action>) {
         let asked = self
             .pilot
             .is_some_and(|p| p.auto_mode && !p.signal_lost() && !p.bypass);
         if !asked {
-            self.mode_refused = None;
+            self.clear_refusal();
+            return;
         }
-        let Some(rule) = rule_for(self.params.mode).filter(|_| asked) else {
+        let Some(rule) = rule_for(self.params.mode) else {
             return;
         };
         // Raised once while the switch stays on: the devices coming up one by one during
         // the calibration would otherwise raise a new verdict each.
-        if self.mode_refused.is_some() {
+        if self.refusal_raised.is_some() {
             return;
         }
         let verdict = rule.judge(self.safety_facts());
@@ -119,7 +133,9 @@ impl FlightCore {
     }
 
     /// Whether the mode the pilot's switch asks for is refused now (`on_ground`: judged
-    /// afresh each step; in the air a refusal stands until the switch goes off).
+    /// afresh each step; in the air a refusal stands until the switch goes off, whatever
+    /// happens meanwhile: a failsafe hover that ends with the switch still on does not let
+    /// the refused mode in).
     pub(super) fn refuse_mode(
         &mut self,
         on_ground: bool,
@@ -127,33 +143,39 @@ impl FlightCore {
         out: &mut Vec<Action>,
     ) -> bool {
         let mode = self.params.mode;
+        let Some(rule) = rule_for(mode) else {
+            return false;
+        };
+        if self.refused_in_air.is_some() {
+            return true;
+        }
         let entering = matches!(
             self.phase,
             Phase::Manual | Phase::Calibrating | Phase::GroundFailsafe | Phase::BlindDescent
         );
-        let Some(rule) = rule_for(mode).filter(|_| entering) else {
+        // A mode already flown is left by the failsafes, not here; an autonomous take-off
+        // is the pre-flight check's to judge (it waits for the GPS).
+        if !entering || (on_ground && mode == FlightMode::Autonomous) {
             return false;
-        };
-        // An autonomous take-off is the pre-flight check's to judge (it waits for the GPS).
-        if on_ground && mode == FlightMode::Autonomous {
-            return false;
-        }
-        if !on_ground && self.mode_refused.is_some() {
-            return true;
         }
         // Called with an estimate: the calibration is done.
         let verdict = rule.judge(self.safety_facts().with(Condition::Calibrated, true));
         if verdict.allowed {
-            self.mode_refused = None;
             return false;
         }
-        self.raise_refusal(ModeRefusal { mode, verdict }, now_us, out);
+        let refusal = ModeRefusal { mode, verdict };
+        self.raise_refusal(refusal, now_us, out);
+        if !on_ground {
+            self.refused_in_air = Some(refusal);
+        }
         true
     }
 
-    /// The pilot took the auto switch off: a standing refusal is over.
+    /// The pilot took the auto switch off: a standing refusal is over, and the next request
+    /// is judged and raised afresh.
     pub(super) fn clear_refusal(&mut self) {
-        self.mode_refused = None;
+        self.refused_in_air = None;
+        self.refusal_raised = None;
     }
 
     /// The automatic rule's verdict for a take-off (used by the pre-flight check).

@@ -242,3 +242,87 @@ fn with_a_ground_heard_the_same_take_off_goes() {
     assert_eq!(core.safety_facts().get(Condition::Link), Some(true));
     assert_eq!(core.safety_facts().get(Condition::Battery), Some(true));
 }
+
+#[test]
+fn a_refusal_in_the_air_outlasts_a_transmitter_loss_with_the_switch_still_on() {
+    let (mut core, mut out, t) = settled(8.0, uplink(false, false));
+    core.params.mode = RATE;
+    let t = fly_for(
+        &mut core,
+        &mut out,
+        t,
+        200_000,
+        true,
+        Some(uplink(true, false)),
+    );
+    assert!(core.mode_refusal().is_some(), "no satellites: refused");
+    // The transmitter is lost (the failsafe hover), then comes back with the switch on.
+    let t = fly_for(
+        &mut core,
+        &mut out,
+        t,
+        1_000_000,
+        true,
+        Some(uplink(true, true)),
+    );
+    assert!(
+        matches!(core.phase(), Phase::Holding { .. }),
+        "{:?}",
+        core.phase()
+    );
+    out.clear();
+    fly_for(
+        &mut core,
+        &mut out,
+        t,
+        500_000,
+        true,
+        Some(uplink(true, false)),
+    );
+    assert_eq!(
+        core.phase(),
+        Phase::Manual,
+        "the refused mode does not come in"
+    );
+    assert!(
+        refusals(&out).is_empty(),
+        "already raised: {:?}",
+        refusals(&out)
+    );
+}
+
+#[test]
+fn a_condition_that_comes_and_goes_on_the_ground_is_raised_once() {
+    let (mut core, mut out) = core_with_gps(RATE, Some(4), 3);
+    let before = refusals(&out).len();
+    let mut t = 3_000_000;
+    for k in 0..10 {
+        t = fly_for(
+            &mut core,
+            &mut out,
+            t,
+            500_000,
+            true,
+            Some(uplink(true, false)),
+        );
+        // The satellites flicker between 4 and 3: never enough.
+        core.handle(Input::Gps(gps_fix(3 + (k % 2))), t, &mut out);
+    }
+    assert_eq!(core.phase(), Phase::Manual);
+    assert_eq!(refusals(&out).len(), before, "{:?}", refusals(&out));
+    // A new reason is raised: the battery drops below its third.
+    core.handle(Input::Battery { volts: 11.3 }, t, &mut out);
+    fly_for(
+        &mut core,
+        &mut out,
+        t,
+        100_000,
+        true,
+        Some(uplink(true, false)),
+    );
+    let last = refusals(&out).last().copied().unwrap();
+    assert!(
+        last.verdict.wanted_true.contains(Condition::Battery),
+        "{last:?}"
+    );
+}
