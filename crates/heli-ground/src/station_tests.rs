@@ -178,6 +178,15 @@ impl Bench {
         r
     }
 
+    /// A page that took control and connected (its requests 1 and 2).
+    fn connected_operator(&mut self) -> u64 {
+        let op = self.station.join();
+        self.ask(op, r#"{"seq":1,"op":"take"}"#).unwrap();
+        self.ask(op, r#"{"seq":2,"op":"connect"}"#).unwrap();
+        self.run(1.0);
+        op
+    }
+
     fn panel(&self) -> PanelState {
         self.station.view(self.t).panel.state
     }
@@ -283,11 +292,8 @@ fn connect_start_and_stop_follow_section_2_4_and_the_log_is_saved_by_the_final_p
 #[test]
 fn bad_input_from_a_page_is_refused_visibly_and_sends_nothing() {
     let mut b = Bench::new();
-    let op = b.station.join();
+    let op = b.connected_operator();
     let watcher = b.station.join();
-    b.ask(op, r#"{"seq":1,"op":"take"}"#).unwrap();
-    b.ask(op, r#"{"seq":2,"op":"connect"}"#).unwrap();
-    b.run(1.0);
     let sent = b.commands.len();
     let cases = [
         (
@@ -361,10 +367,7 @@ fn bad_input_from_a_page_is_refused_visibly_and_sends_nothing() {
 #[test]
 fn a_failed_start_leaves_only_stop_which_resets_the_display() {
     let mut b = Bench::new();
-    let op = b.station.join();
-    b.ask(op, r#"{"seq":1,"op":"take"}"#).unwrap();
-    b.ask(op, r#"{"seq":2,"op":"connect"}"#).unwrap();
-    b.run(1.0);
+    let op = b.connected_operator();
     b.fail_start = true;
     b.ask(
         op,
@@ -388,10 +391,7 @@ fn a_failed_start_leaves_only_stop_which_resets_the_display() {
 #[test]
 fn a_silent_device_is_stale_and_a_low_battery_is_red_and_each_fails_its_condition() {
     let mut b = Bench::new();
-    let op = b.station.join();
-    b.ask(op, r#"{"seq":1,"op":"take"}"#).unwrap();
-    b.ask(op, r#"{"seq":2,"op":"connect"}"#).unwrap();
-    b.run(1.0);
+    let op = b.connected_operator();
     b.ask(
         op,
         r#"{"seq":3,"op":"start","suffix":"f","controller":"autonomous"}"#,

@@ -23,7 +23,9 @@ use serde::Deserialize;
 /// The mission command for aileron rolls (no standard command exists).
 pub const CMD_ROLLS: MavCmd = MavCmd::MAV_CMD_USER_4;
 
-/// One leg of the plan, as the flight process reports it (the scenario files' form).
+/// One leg of the plan, as the flight process reports it (the scenario files' form). The
+/// link keeps its own copy of the legs' wire form so that a ground station, which links no
+/// flight software, can read it.
 #[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
 #[serde(tag = "leg", rename_all = "lowercase")]
 pub enum PlanLeg {

@@ -20,6 +20,34 @@ fn refusals(out: &[Action]) -> Vec<ModeRefusal> {
         .collect()
 }
 
+/// Flies for `duration_us` with the IMU and the pilot's auto switch `on`; returns the time
+/// reached.
+fn switched(
+    core: &mut FlightCore,
+    out: &mut Vec<Action>,
+    t: u64,
+    duration_us: u64,
+    on: bool,
+) -> u64 {
+    fly_for(core, out, t, duration_us, true, Some(uplink(on, false)))
+}
+
+/// Flies with the auto switch on and a GPS fix of `satellites` every half second until
+/// `until_us`; returns the time reached.
+fn switch_on_with_fixes(
+    core: &mut FlightCore,
+    out: &mut Vec<Action>,
+    mut t: u64,
+    until_us: u64,
+    satellites: u8,
+) -> u64 {
+    while t < until_us {
+        t = switched(core, out, t, 500_000, true);
+        core.handle(Input::Gps(gps_fix(satellites)), t, out);
+    }
+    t
+}
+
 #[test]
 fn the_switch_on_during_calibration_is_refused_once_naming_the_calibration() {
     for mode in [FlightMode::Autonomous, RATE] {
@@ -55,18 +83,7 @@ fn augmented_flight_waits_on_the_ground_for_five_satellites() {
     );
     // On the ground the mode is entered as soon as the rule allows it.
     out.clear();
-    let mut t = 3_000_000;
-    for _ in 0..4 {
-        t = fly_for(
-            &mut core,
-            &mut out,
-            t,
-            500_000,
-            true,
-            Some(uplink(true, false)),
-        );
-        core.handle(Input::Gps(gps_fix(9)), t, &mut out);
-    }
+    switch_on_with_fixes(&mut core, &mut out, 3_000_000, 5_000_000, 9);
     assert_eq!(core.phase(), Phase::Augmented(AugmentedMode::Rate));
 }
 
@@ -77,14 +94,7 @@ fn in_the_air_a_refusal_stands_until_the_switch_goes_off() {
     core_out.0.params.mode = RATE;
     let (mut core, mut out, t) = core_out;
     out.clear();
-    let t = fly_for(
-        &mut core,
-        &mut out,
-        t,
-        200_000,
-        true,
-        Some(uplink(true, false)),
-    );
+    let t = switched(&mut core, &mut out, t, 200_000, true);
     assert_eq!(core.phase(), Phase::Manual);
     let refused = refusals(&out);
     assert_eq!(refused.len(), 1, "{refused:?}");
@@ -93,35 +103,14 @@ fn in_the_air_a_refusal_stands_until_the_switch_goes_off() {
     let mut t = t;
     for _ in 0..3 {
         core.handle(Input::Gps(gps_fix(9)), t, &mut out);
-        t = fly_for(
-            &mut core,
-            &mut out,
-            t,
-            500_000,
-            true,
-            Some(uplink(true, false)),
-        );
+        t = switched(&mut core, &mut out, t, 500_000, true);
     }
     assert_eq!(core.phase(), Phase::Manual);
     // Off, then on again: judged afresh, and allowed.
-    let t = fly_for(
-        &mut core,
-        &mut out,
-        t,
-        100_000,
-        true,
-        Some(uplink(false, false)),
-    );
+    let t = switched(&mut core, &mut out, t, 100_000, false);
     assert!(core.mode_refusal().is_none());
     core.handle(Input::Gps(gps_fix(9)), t, &mut out);
-    fly_for(
-        &mut core,
-        &mut out,
-        t,
-        100_000,
-        true,
-        Some(uplink(true, false)),
-    );
+    switched(&mut core, &mut out, t, 100_000, true);
     assert_eq!(core.phase(), Phase::Augmented(AugmentedMode::Rate));
 }
 
@@ -143,17 +132,7 @@ fn a_battery_down_to_a_third_refuses_augmented_flight_on_board() {
     core.handle(Input::Battery { volts: 11.4 }, 1_000_000, &mut out);
     out.clear();
     let mut t = 1_000_000;
-    for _ in 0..4 {
-        t = fly_for(
-            &mut core,
-            &mut out,
-            t,
-            500_000,
-            true,
-            Some(uplink(true, false)),
-        );
-        core.handle(Input::Gps(gps_fix(8)), t, &mut out);
-    }
+    t = switch_on_with_fixes(&mut core, &mut out, t, t + 4 * 500_000, 8);
     assert_eq!(core.phase(), Phase::Manual);
     let last = refusals(&out).last().copied().unwrap();
     assert!(
@@ -167,14 +146,7 @@ fn a_battery_down_to_a_third_refuses_augmented_flight_on_board() {
     );
     // A charged pack: the mode is entered (on the ground, as soon as the rule allows).
     core.handle(Input::Battery { volts: 12.6 }, t, &mut out);
-    fly_for(
-        &mut core,
-        &mut out,
-        t,
-        100_000,
-        true,
-        Some(uplink(true, false)),
-    );
+    switched(&mut core, &mut out, t, 100_000, true);
     assert_eq!(core.phase(), Phase::Augmented(AugmentedMode::Rate));
 }
 
@@ -184,18 +156,7 @@ fn without_a_ground_heard_the_autonomous_take_off_is_refused_naming_the_link() {
     let mut out = Vec::new();
     core.start(0);
     core.handle(Input::GroundLink { fresh: false }, 0, &mut out);
-    let mut t = 0;
-    while t < 40_000_000 {
-        t = fly_for(
-            &mut core,
-            &mut out,
-            t,
-            500_000,
-            true,
-            Some(uplink(true, false)),
-        );
-        core.handle(Input::Gps(gps_fix(8)), t, &mut out);
-    }
+    switch_on_with_fixes(&mut core, &mut out, 0, 40_000_000, 8);
     assert_eq!(core.phase(), Phase::TakeoffRefused);
     let refused = out.iter().find_map(|a| match a {
         Action::Event(e) => match e.value {
@@ -222,18 +183,7 @@ fn with_a_ground_heard_the_same_take_off_goes() {
     core.start(0);
     core.handle(Input::GroundLink { fresh: true }, 0, &mut out);
     core.handle(Input::Battery { volts: 12.6 }, 0, &mut out);
-    let mut t = 0;
-    while t < 5_000_000 {
-        t = fly_for(
-            &mut core,
-            &mut out,
-            t,
-            500_000,
-            true,
-            Some(uplink(true, false)),
-        );
-        core.handle(Input::Gps(gps_fix(8)), t, &mut out);
-    }
+    switch_on_with_fixes(&mut core, &mut out, 0, 5_000_000, 8);
     assert!(
         matches!(core.phase(), Phase::TakingOff { .. }),
         "{:?}",
@@ -247,14 +197,7 @@ fn with_a_ground_heard_the_same_take_off_goes() {
 fn a_refusal_in_the_air_outlasts_a_transmitter_loss_with_the_switch_still_on() {
     let (mut core, mut out, t) = settled(8.0, uplink(false, false));
     core.params.mode = RATE;
-    let t = fly_for(
-        &mut core,
-        &mut out,
-        t,
-        200_000,
-        true,
-        Some(uplink(true, false)),
-    );
+    let t = switched(&mut core, &mut out, t, 200_000, true);
     assert!(core.mode_refusal().is_some(), "no satellites: refused");
     // The transmitter is lost (the failsafe hover), then comes back with the switch on.
     let t = fly_for(
@@ -271,14 +214,7 @@ fn a_refusal_in_the_air_outlasts_a_transmitter_loss_with_the_switch_still_on() {
         core.phase()
     );
     out.clear();
-    fly_for(
-        &mut core,
-        &mut out,
-        t,
-        500_000,
-        true,
-        Some(uplink(true, false)),
-    );
+    switched(&mut core, &mut out, t, 500_000, true);
     assert_eq!(
         core.phase(),
         Phase::Manual,
@@ -297,14 +233,7 @@ fn a_condition_that_comes_and_goes_on_the_ground_is_raised_once() {
     let before = refusals(&out).len();
     let mut t = 3_000_000;
     for k in 0..10 {
-        t = fly_for(
-            &mut core,
-            &mut out,
-            t,
-            500_000,
-            true,
-            Some(uplink(true, false)),
-        );
+        t = switched(&mut core, &mut out, t, 500_000, true);
         // The satellites flicker between 4 and 3: never enough.
         core.handle(Input::Gps(gps_fix(3 + (k % 2))), t, &mut out);
     }
@@ -312,14 +241,7 @@ fn a_condition_that_comes_and_goes_on_the_ground_is_raised_once() {
     assert_eq!(refusals(&out).len(), before, "{:?}", refusals(&out));
     // A new reason is raised: the battery drops below its third.
     core.handle(Input::Battery { volts: 11.3 }, t, &mut out);
-    fly_for(
-        &mut core,
-        &mut out,
-        t,
-        100_000,
-        true,
-        Some(uplink(true, false)),
-    );
+    switched(&mut core, &mut out, t, 100_000, true);
     let last = refusals(&out).last().copied().unwrap();
     assert!(
         last.verdict.wanted_true.contains(Condition::Battery),
