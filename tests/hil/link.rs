@@ -116,6 +116,31 @@ fn the_ground_flies_a_signed_hover_over_the_link_and_saves_its_log_by_the_final_
     let downloaded = std::fs::read(saved.join("flight_mine.mcap")).unwrap();
     let onboard = std::fs::read(logs.join("flight_linked1.mcap")).unwrap();
     assert!(downloaded == onboard, "the download is not byte-exact");
+    // The flight software heard of the link as the bootstrap did (fresh, lost during the
+    // 12 s of silence, fresh again), once per change, and read the battery: device inputs for the safety rule.
+    let contents = heli_log::read(&onboard);
+    let device: Vec<&serde_json::Value> = contents
+        .messages
+        .iter()
+        .filter(|m| m.topic == "device")
+        .map(|m| &m.value)
+        .collect();
+    let link_states: Vec<bool> = device
+        .iter()
+        .filter(|v| v["kind"] == "ground_link")
+        .filter_map(|v| v["fresh"].as_bool())
+        .collect();
+    // (It may be lost again while the test waits for the HILSim's end before its Stop.)
+    assert!(
+        link_states.starts_with(&[true, false, true])
+            && link_states.windows(2).all(|w| w[0] != w[1]),
+        "ground_link inputs, one per change: {link_states:?}"
+    );
+    let batteries = device.iter().filter(|v| v["kind"] == "battery").count();
+    assert!(
+        batteries > 10,
+        "{batteries} battery readings in the flight's inputs"
+    );
     let replay = heli(&[
         "log",
         "replay",

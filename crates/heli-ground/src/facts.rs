@@ -7,28 +7,23 @@ use mavlink::MessageData;
 use mavlink::dialects::common::*;
 use serde::Serialize;
 
-use crate::checks::{BatteryCurve, battery_meter, gps_ok};
+use crate::checks::gps_ok;
 use crate::rows::{Latest, Rows, sensor_health};
 
 /// The vehicle's heartbeat must be this recent (µs) for the link to be fresh.
 pub const LINK_FRESH_US: u64 = 3_000_000;
 
-/// Every condition's fact from the telemetry, the rows made from it, and the link's age.
+/// Every condition's fact from the telemetry, the rows made from it, the link's age and the
+/// battery meter's colour (green: more than a third of its life left).
 pub fn facts(
     latest: &Latest,
     rows: &Rows,
     heartbeat_age_us: Option<u64>,
-    curve: &BatteryCurve,
+    battery_green: bool,
 ) -> Facts {
     let fresh = |row: &Option<crate::rows::Row>| row.as_ref().is_some_and(|r| !r.stale);
     let satellites = match latest.get(&GPS_RAW_INT_DATA::ID) {
         Some((_, MavMessage::GPS_RAW_INT(g))) => gps_ok(g.satellites_visible) && fresh(&rows.gps),
-        _ => false,
-    };
-    let battery = match latest.get(&SYS_STATUS_DATA::ID) {
-        Some((_, MavMessage::SYS_STATUS(s))) if s.voltage_battery != u16::MAX => {
-            battery_meter(curve, f64::from(s.voltage_battery) / 1000.0).1
-        }
         _ => false,
     };
     let bypass = match latest.get(&RC_CHANNELS_DATA::ID) {
@@ -45,7 +40,7 @@ pub fn facts(
         .with(Condition::Satellites, satellites)
         .with(Condition::Altimeter, fresh(&rows.bar))
         .with(Condition::Compass, fresh(&rows.cmps))
-        .with(Condition::Battery, battery)
+        .with(Condition::Battery, battery_green)
         .with(
             Condition::Link,
             heartbeat_age_us.is_some_and(|a| a < LINK_FRESH_US),

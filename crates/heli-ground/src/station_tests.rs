@@ -123,10 +123,11 @@ impl Bench {
                             let legs = heli_link::mission::parse_plan(PLAN).unwrap();
                             self.vehicle
                                 .set_mission(heli_link::mission::mission_items(&legs));
-                            self.mode = match p.controller {
-                                heli_link::FlightMode::Autonomous => 2,
-                                _ => 1,
-                            };
+                            // The heartbeat's mode code: 1 + the controller's place in the list.
+                            self.mode = heli_link::FlightMode::ALL
+                                .iter()
+                                .position(|m| *m == p.controller)
+                                .map_or(0, |i| i as u8 + 1);
                             self.telemetry = Some(flying_telemetry("calibrating"));
                             Ok("flying".to_string())
                         }
@@ -436,4 +437,36 @@ fn a_silent_device_is_stale_and_a_low_battery_is_red_and_each_fails_its_conditio
     let v = b.station.view(b.t);
     assert!(v.rows.imu.as_ref().unwrap().stale);
     assert!(!v.safety.augmented.allowed);
+}
+
+#[test]
+fn the_uplink_row_is_relabelled_for_the_chosen_augmentation_system() {
+    let mut b = Bench::new();
+    let op = b.connected_operator();
+    assert_eq!(b.station.view(b.t).uplink_labels[3], "Coll");
+    b.ask(
+        op,
+        r#"{"seq":3,"op":"start","suffix":"v","controller":"velocity"}"#,
+    )
+    .unwrap();
+    b.telemetry = Some(flying_telemetry("hold"));
+    b.run(1.0);
+    let v = b.station.view(b.t);
+    assert_eq!(
+        v.uplink_labels,
+        ["Vright", "Vfwd", "YawRate", "Climb", "Thro"]
+    );
+    let labels: Vec<&str> = v
+        .rows
+        .uplink
+        .as_ref()
+        .unwrap()
+        .cells
+        .iter()
+        .map(|c| c.label.as_str())
+        .collect();
+    assert!(
+        labels.contains(&"Climb µs") && labels.contains(&"Vfwd µs"),
+        "{labels:?}"
+    );
 }

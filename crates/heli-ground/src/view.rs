@@ -204,7 +204,6 @@ impl Station {
             .heartbeat
             .as_ref()
             .map(|(t, _)| now_us.saturating_sub(*t));
-        let facts = facts(latest, &rows, heartbeat_age_us, &self.config.curve);
         let state = self.panel.state();
         let (connect, start, stop) = state.buttons();
         let battery = match latest.get(&SYS_STATUS_DATA::ID) {
@@ -219,6 +218,8 @@ impl Station {
             }
             _ => None,
         };
+        let battery_green = battery.as_ref().is_some_and(|b| b.green);
+        let facts = facts(latest, &rows, heartbeat_age_us, battery_green);
         let gps = match latest.get(&GPS_RAW_INT_DATA::ID) {
             Some((_, MavMessage::GPS_RAW_INT(g))) => Some(GpsView {
                 satellites: g.satellites_visible,
