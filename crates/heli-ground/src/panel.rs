@@ -19,8 +19,7 @@ use heli_link::status::BootstrapState;
 use serde::Serialize;
 
 /// What the panel shows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PanelState {
     /// No flight process: Connect.
     Idle,
@@ -39,6 +38,19 @@ pub enum PanelState {
 }
 
 impl PanelState {
+    /// Its name, as the page receives it.
+    pub const fn name(self) -> &'static str {
+        match self {
+            PanelState::Idle => "idle",
+            PanelState::Connecting => "connecting",
+            PanelState::Connected => "connected",
+            PanelState::Starting => "starting",
+            PanelState::Logging => "logging",
+            PanelState::LoggingFailed => "logging-failed",
+            PanelState::Stopping => "stopping",
+        }
+    }
+
     /// The state the vehicle's bootstrap state implies.
     pub fn from_vehicle(state: BootstrapState) -> Self {
         match state {
@@ -118,6 +130,12 @@ impl Panel {
         }
         self.vehicle
             .map_or(PanelState::Idle, PanelState::from_vehicle)
+    }
+}
+
+impl Serialize for PanelState {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
     }
 }
 

@@ -496,9 +496,7 @@ impl Station {
                         Op::Start { .. } => "Start Logging",
                         _ => "Stop",
                     },
-                    serde_json::to_string(&state)
-                        .unwrap_or_default()
-                        .trim_matches('"')
+                    state.name()
                 ));
             }
         };
