@@ -239,8 +239,11 @@ pub struct Navigator {
     ratios: health::TestRatios,
 }
 
+mod covariance;
 mod health;
 mod reset;
+
+use covariance::Transition;
 
 pub use health::FilterHealth;
 
@@ -468,15 +471,12 @@ impl Navigator {
         state.accel_body_mps2 = accel;
 
         // Error-state transition and process noise.
-        let mut phi = Covariance::identity();
-        phi.fixed_view_mut::<3, 3>(ix::ATT, ix::GYRO_BIAS)
-            .copy_from(&(-rot * dt));
-        phi.fixed_view_mut::<3, 3>(ix::VEL, ix::ATT)
-            .copy_from(&(-skew(&f_ned) * dt));
-        phi.fixed_view_mut::<3, 3>(ix::VEL, ix::ACCEL_BIAS)
-            .copy_from(&(-rot * dt));
-        phi.fixed_view_mut::<3, 3>(ix::POS, ix::VEL)
-            .copy_from(&(Matrix3::identity() * dt));
+        let phi = Transition {
+            att_from_gyro_bias: -rot * dt,
+            vel_from_att: -skew(&f_ned) * dt,
+            vel_from_accel_bias: -rot * dt,
+            dt_s: dt,
+        };
         let mut q = ErrState::zeros();
         let noise = [
             (ix::ATT, c.gyro_noise_density),
@@ -487,7 +487,7 @@ impl Navigator {
         for (offset, density) in noise {
             q.fixed_rows_mut::<3>(offset).fill(density * density * dt);
         }
-        self.cov = phi * self.cov * phi.transpose() + Covariance::from_diagonal(&q);
+        self.cov = phi.propagate(&self.cov, &q);
         true
     }
 
@@ -549,9 +549,7 @@ impl Navigator {
         let dx = gain * y;
         self.inject(&dx);
         // Joseph form keeps the covariance positive definite.
-        let i_kh = Covariance::identity() - gain * h;
-        self.cov = i_kh * p * i_kh.transpose()
-            + gain * SMatrix::<f64, M, M>::from_diagonal(r) * gain.transpose();
+        self.cov = covariance::joseph(&p, &gain, h, r);
         self.tidy_covariance();
         true
     }

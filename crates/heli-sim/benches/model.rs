@@ -26,7 +26,7 @@ fn model_step_rk4(bencher: divan::Bencher) {
     let env = still_air();
     bencher
         .with_inputs(|| heli.clone())
-        .bench_local_refs(|h| h.step(0.002, &u, &env));
+        .bench_local_refs(|h| h.step(0.005, &u, &env));
 }
 
 #[divan::bench]

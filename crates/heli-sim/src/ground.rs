@@ -4,7 +4,7 @@
 //! sticks (no creep under the rotor's torque), and when it would leave the cone the skid
 //! slides and the anchor is dragged along.
 
-use nalgebra::{UnitQuaternion, Vector2, Vector3};
+use nalgebra::{Matrix3, UnitQuaternion, Vector2, Vector3};
 
 use crate::params::Airframe;
 
@@ -36,36 +36,32 @@ struct PointContact {
     normal_n: f64,
 }
 
-fn touching_points<'a>(
-    a: &'a Airframe,
-    pos_ned_m: &'a Vector3<f64>,
-    att: &'a UnitQuaternion<f64>,
-    vel_body_mps: &'a Vector3<f64>,
-    rate_body_rps: &'a Vector3<f64>,
-) -> impl Iterator<Item = (usize, PointContact)> + 'a {
-    a.skid_points_m
-        .iter()
-        .enumerate()
-        .filter_map(move |(i, point)| {
-            let r_body = Vector3::new(point[0], point[1], point[2]);
-            let p_ned = pos_ned_m + att * r_body;
-            if p_ned.z <= 0.0 {
-                return None;
-            }
-            let v_ned = att * (vel_body_mps + rate_body_rps.cross(&r_body));
-            let normal_n = (a.ground_stiffness_n_per_m * p_ned.z
-                + a.ground_damping_ns_per_m * v_ned.z)
-                .max(0.0);
-            Some((
-                i,
-                PointContact {
-                    r_body,
-                    p_ned,
-                    v_ned,
-                    normal_n,
-                },
-            ))
-        })
+/// The skid end at `point` (body axes) if it is below the ground: its position, velocity
+/// and the normal force of the ground's spring and damper. `rot` is body to NED.
+fn touching_point(
+    a: &Airframe,
+    point: &[f64; 3],
+    pos_ned_m: &Vector3<f64>,
+    rot: &Matrix3<f64>,
+    vel_body_mps: &Vector3<f64>,
+    rate_body_rps: &Vector3<f64>,
+) -> Option<PointContact> {
+    let r_body = Vector3::new(point[0], point[1], point[2]);
+    // Height first: in the air, one row of the rotation decides.
+    let depth = pos_ned_m.z + rot.row(2).transpose().dot(&r_body);
+    if depth <= 0.0 {
+        return None;
+    }
+    let p_ned = pos_ned_m + rot * r_body;
+    let v_ned = rot * (vel_body_mps + rate_body_rps.cross(&r_body));
+    let normal_n =
+        (a.ground_stiffness_n_per_m * depth + a.ground_damping_ns_per_m * v_ned.z).max(0.0);
+    Some(PointContact {
+        r_body,
+        p_ned,
+        v_ned,
+        normal_n,
+    })
 }
 
 /// Tangential force on a skid end tied to `anchor`, limited to the friction cone.
@@ -81,20 +77,22 @@ fn friction(a: &Airframe, c: &PointContact, anchor: Vector2<f64>) -> Vector2<f64
     }
 }
 
-/// Ground reaction on the four skid points.
+/// Ground reaction on the four skid points; `rot` is the attitude as a body-to-NED matrix.
 pub fn skid_contact(
     a: &Airframe,
     anchors: &Anchors,
     pos_ned_m: &Vector3<f64>,
-    att: &UnitQuaternion<f64>,
+    rot: &Matrix3<f64>,
     vel_body_mps: &Vector3<f64>,
     rate_body_rps: &Vector3<f64>,
 ) -> Contact {
     let mut contact = Contact::default();
-    for (i, c) in touching_points(a, pos_ned_m, att, vel_body_mps, rate_body_rps) {
-        let anchor = anchors[i].unwrap_or_else(|| c.p_ned.xy());
-        let t = friction(a, &c, anchor);
-        let f_body = att.inverse() * Vector3::new(t.x, t.y, -c.normal_n);
+    for (point, anchor) in a.skid_points_m.iter().zip(anchors) {
+        let Some(c) = touching_point(a, point, pos_ned_m, rot, vel_body_mps, rate_body_rps) else {
+            continue;
+        };
+        let t = friction(a, &c, anchor.unwrap_or_else(|| c.p_ned.xy()));
+        let f_body = rot.tr_mul(&Vector3::new(t.x, t.y, -c.normal_n));
         contact.force_body_n += f_body;
         contact.moment_body_nm += c.r_body.cross(&f_body);
         contact.points_touching += 1;
@@ -113,23 +111,21 @@ pub fn update_anchors(
     vel_body_mps: &Vector3<f64>,
     rate_body_rps: &Vector3<f64>,
 ) {
-    let mut touching = [false; 4];
-    for (i, c) in touching_points(a, pos_ned_m, att, vel_body_mps, rate_body_rps) {
-        touching[i] = true;
+    let rot = att.to_rotation_matrix().into_inner();
+    for (point, anchor) in a.skid_points_m.iter().zip(anchors.iter_mut()) {
+        let Some(c) = touching_point(a, point, pos_ned_m, &rot, vel_body_mps, rate_body_rps) else {
+            *anchor = None;
+            continue;
+        };
         let p = c.p_ned.xy();
-        let anchor = anchors[i].unwrap_or(p);
-        let stretch = p - anchor;
+        let tied = anchor.unwrap_or(p);
+        let stretch = p - tied;
         let max_stretch = a.ground_friction * c.normal_n / TANGENTIAL_STIFFNESS_N_PER_M;
         let n = stretch.norm();
-        anchors[i] = Some(if n > max_stretch && n > 0.0 {
+        *anchor = Some(if n > max_stretch && n > 0.0 {
             p - stretch * (max_stretch / n)
         } else {
-            anchor
+            tied
         });
-    }
-    for (anchor, touching) in anchors.iter_mut().zip(touching) {
-        if !touching {
-            *anchor = None;
-        }
     }
 }

@@ -232,7 +232,9 @@ impl Helicopter {
         let w = s.rate_body_rps;
         let (p, q, r) = (w.x, w.y, w.z);
 
-        let wind_body = att.inverse() * env.wind_ned_mps;
+        // Body to NED as a matrix: one conversion, then nine multiply-adds per rotation.
+        let rot = att.to_rotation_matrix().into_inner();
+        let wind_body = rot.tr_mul(&env.wind_ned_mps);
         let va = s.vel_body_mps - wind_body;
         let (ua, v_a, wa) = (va.x, va.y, va.z);
 
@@ -334,12 +336,12 @@ impl Helicopter {
 
         // Ground contact.
         let contact =
-            ground::skid_contact(a, &self.anchors, &s.pos_ned_m, &att, &s.vel_body_mps, &w);
+            ground::skid_contact(a, &self.anchors, &s.pos_ned_m, &rot, &s.vel_body_mps, &w);
 
         // Sums of forces and moments (body axes).
         let f_aero = f_mr + f_fus + f_tail;
         let f_total_nongrav = f_aero + contact.force_body_n;
-        let gravity_body = att.inverse() * Vector3::new(0.0, 0.0, g);
+        let gravity_body = rot.tr_mul(&Vector3::new(0.0, 0.0, g));
         let moments = Vector3::new(l_mr + l_tail, m_mr + m_tail, -engine_torque + n_tail)
             + contact.moment_body_nm;
 
@@ -356,7 +358,7 @@ impl Helicopter {
             / a.rotor_system_inertia_kgm2
             - rate_dot.z;
 
-        let pos_dot = att * s.vel_body_mps;
+        let pos_dot = rot * s.vel_body_mps;
         let qv = att.quaternion();
         let q_dot = qv * Quaternion::new(0.0, p, q, r) * 0.5;
 

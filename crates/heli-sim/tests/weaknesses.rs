@@ -20,17 +20,28 @@ fn a_hover_in_15_mps_of_wind_stays_on_its_point() {
     // used up the 3 m/s² acceleration limit and the heading weathervaned across the wind:
     // 218 m off the point. Now the trim is limited apart, the tilt limit is 30 deg and the
     // hold turns its nose into the wind.
+    // The wind comes up in the take-off's climb: on its skids, idling through the
+    // 80 s calibration in 10 m/s of gusts, it rocks enough to restart the calibration again
+    // and again (the thesis's rule: calibrate only at rest), and 15 m/s with gusts can roll
+    // it over there (docs/robustness.md) — neither is what this flight is about.
     let mut s = scenario::hover();
-    s.wind_ned_mps = [10.0, 0.0, 0.0];
     s.turbulence_sigma_mps = 1.5;
-    s.wind_changes = vec![WindChange {
-        shape: WindShape::Step,
-        start_s: 110.0,
-        end_s: 0.0,
-        wind_ned_mps: [5.0, 0.0, 0.0],
-    }];
+    s.wind_changes = vec![
+        WindChange {
+            shape: WindShape::Ramp,
+            start_s: 87.0,
+            end_s: 92.0,
+            wind_ned_mps: [10.0, 0.0, 0.0],
+        },
+        WindChange {
+            shape: WindShape::Step,
+            start_s: 110.0,
+            end_s: 0.0,
+            wind_ned_mps: [5.0, 0.0, 0.0],
+        },
+    ];
     let summary = run(s).unwrap_or_else(|e| panic!("{e}"));
-    assert!(summary.crash.is_none());
+    assert!(summary.crash.is_none(), "{:?}", summary.crash);
     let off = criterion(&summary, "hold_true_max_m");
     assert!(off < 6.0, "{off} m off the point");
 }
