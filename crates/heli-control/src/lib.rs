@@ -25,6 +25,7 @@
 )]
 
 pub mod augmented;
+pub mod autorotation;
 pub mod heading_lock;
 pub mod hover;
 pub mod manual;

@@ -106,6 +106,9 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
             format!("t={t:.2} s GPS reset: position and velocity set to the GPS after a long coast")
         }
         CoreEvent::ModeRefused(refusal) => format!("t={t:.2} s {}", refusal.text()),
+        CoreEvent::EngineFailure { rotor_rpm } => {
+            format!("t={t:.2} s engine failure: rotor at {rotor_rpm} rpm, autorotation")
+        }
         CoreEvent::TakeoffRefused(why) => {
             format!("t={t:.2} s take-off refused: {}", why.text())
         }

@@ -11,7 +11,7 @@ use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 use crate::params::{Airframe, Atmosphere};
 use crate::rotor::DiskLoad;
-use crate::{empennage, ground};
+use crate::{empennage, ground, rotor};
 
 /// Blade-pitch inputs the physics sees (after the servos), plus the governor set point.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -243,10 +243,17 @@ impl Helicopter {
         let tip = omega * a.mr_radius_m;
         let mu = (ua * ua + v_a * v_a).sqrt() / tip;
         let mu_z = wa / tip;
-        let mr: DiskLoad =
-            self.airframe
-                .main_disk()
-                .solve(rho, omega, mu, mu_z, u.col_rad, self.mr_inflow_guess);
+        // Ground effect from the hub's height above the ground (NED z = 0).
+        let hub_height_m = -(s.pos_ned_m.z - rot.m33 * a.mr_hub_height_m);
+        let mr: DiskLoad = self.airframe.main_disk().solve_in_ground_effect(
+            rho,
+            omega,
+            mu,
+            mu_z,
+            u.col_rad,
+            self.mr_inflow_guess,
+            rotor::ground_effect_factor(a.mr_radius_m, hub_height_m),
+        );
         let thrust = mr.thrust_n;
         let induced_mps = mr.inflow_ratio * tip;
 

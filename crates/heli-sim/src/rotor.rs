@@ -44,6 +44,24 @@ pub struct DiskLoad {
 /// the denominator from zero"; the value is ours: √Λ ≥ 0.005, about a seventh of hover inflow).
 pub const LAMBDA_FLOOR: f64 = 2.5e-5;
 
+/// The smallest ground-effect factor: Cheeseman and Bennett's at a hub height of half a
+/// radius, below which their image-source formula is not meant to be used.
+pub const GROUND_FACTOR_MIN: f64 = 0.75;
+
+/// Ground effect on the induced velocity at a hub height of `height_m` above flat ground
+/// (Cheeseman and Bennett 1955, the form Leishman and Padfield give): `1 − (R / 4z)²`, the
+/// ratio of the induced velocity in ground effect to that out of it at the same thrust (at
+/// constant power, thrust grows by its inverse). 1 far from the ground; 0.94 at one radius;
+/// [`GROUND_FACTOR_MIN`] from half a radius down.
+pub fn ground_effect_factor(radius_m: f64, height_m: f64) -> f64 {
+    if !(height_m.is_finite() && radius_m > 0.0) {
+        return 1.0;
+    }
+    let z = height_m.max(0.5 * radius_m);
+    let ratio = radius_m / (4.0 * z);
+    (1.0 - ratio * ratio).clamp(GROUND_FACTOR_MIN, 1.0)
+}
+
 const MAX_ITERATIONS: u32 = 60;
 const TOLERANCE: f64 = 1e-10;
 /// Closer than this (a Newton step smaller than it), the iteration takes full Newton steps:
@@ -72,7 +90,34 @@ impl Disk {
         pitch_rad: f64,
         lambda_guess: f64,
     ) -> DiskLoad {
-        let eta = self.wake_contraction;
+        self.solve_in_ground_effect(
+            density_kgpm3,
+            omega_rps,
+            mu,
+            mu_z,
+            pitch_rad,
+            lambda_guess,
+            1.0,
+        )
+    }
+
+    /// [`Disk::solve`] with the induced inflow scaled by `ground_factor` (1 out of ground
+    /// effect; [`ground_effect_factor`] near the ground): the ground blocks the wake, so the
+    /// same thrust needs less induced velocity, and the same collective gives more thrust.
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve_in_ground_effect(
+        &self,
+        density_kgpm3: f64,
+        omega_rps: f64,
+        mu: f64,
+        mu_z: f64,
+        pitch_rad: f64,
+        lambda_guess: f64,
+        ground_factor: f64,
+    ) -> DiskLoad {
+        // Eq. 15.4 with the induced velocity scaled: λ0 = k C_T / (2 η √Λ), i.e. a wake
+        // contraction η / k.
+        let eta = self.wake_contraction / ground_factor.clamp(GROUND_FACTOR_MIN, 1.0);
         let a_sigma = self.lift_slope * self.solidity;
         let mut lambda0 = if lambda_guess.is_finite() {
             lambda_guess
@@ -181,6 +226,41 @@ mod tests {
         let descend = disk.solve(1.225, 167.0, 0.0, 1.0 / 129.4, 0.0985, 0.05);
         assert!(climb.thrust_n < hover.thrust_n);
         assert!(descend.thrust_n > hover.thrust_n);
+    }
+
+    #[test]
+    fn near_the_ground_the_same_collective_gives_more_thrust_for_less_torque() {
+        // Cheeseman and Bennett at one radius: T_IGE / T_OGE = 1 / (1 − 1/16) ≈ 1.067 at
+        // constant power. At the hover collective the thrust grows and the induced inflow
+        // falls.
+        let disk = main_rotor();
+        let k = ground_effect_factor(0.775, 0.775);
+        assert!((k - (1.0 - 1.0 / 16.0)).abs() < 1e-12);
+        let free = disk.solve(1.225, 167.0, 0.0, 0.0, 0.0985, 0.05);
+        let near = disk.solve_in_ground_effect(1.225, 167.0, 0.0, 0.0, 0.0985, 0.05, k);
+        assert!(near.thrust_n > free.thrust_n * 1.02, "{near:?} vs {free:?}");
+        assert!(near.inflow_ratio < free.inflow_ratio);
+        let power_ratio = near.torque_nm / near.thrust_n / (free.torque_nm / free.thrust_n);
+        assert!(power_ratio < 1.0, "{power_ratio}");
+        // Far away, none; at the skids, the floor.
+        assert!((ground_effect_factor(0.775, 100.0) - 1.0).abs() < 1e-5);
+        assert_eq!(ground_effect_factor(0.775, 0.1), GROUND_FACTOR_MIN);
+        assert_eq!(ground_effect_factor(0.775, f64::NAN), 1.0);
+    }
+
+    #[test]
+    fn a_descending_rotor_with_low_collective_is_driven_by_the_air() {
+        // The windmill-brake state: in a steady 11 m/s descent at 3 m/s forward, a collective
+        // of −0.056 rad holds the weight with the shaft torque reversed (the air turns the
+        // rotor), the autorotation the engine-failure response flies.
+        let disk = main_rotor();
+        let tip = 167.0 * 0.775;
+        let load = disk.solve(1.225, 167.0, 3.0 / tip, 11.0 / tip, -0.056, 0.0);
+        assert!((load.thrust_n - 8.2 * 9.81).abs() < 4.0, "{load:?}");
+        assert!(load.torque_nm < 0.0, "{load:?}");
+        // Slower, the same collective brakes the rotor.
+        let slow = disk.solve(1.225, 167.0, 3.0 / tip, 6.0 / tip, -0.056, 0.0);
+        assert!(slow.torque_nm > 0.0, "{slow:?}");
     }
 
     #[test]

@@ -31,8 +31,9 @@ impl FlightCore {
             };
             out.push(Action::Event(Stamped::new(now_us, event)));
         }
-        if estimate.is_some() {
+        if let Some(est) = estimate.as_ref() {
             self.watch_aids(now_us, out);
+            self.watch_engine(est, now_us, out);
         }
         if let Some(est) = estimate.as_ref() {
             self.airborne_once |= self.height_above_home(est) > self.config.airborne_height_m;
@@ -93,6 +94,7 @@ impl FlightCore {
                 let airborne = self.height_above_home(&est) > self.config.airborne_height_m;
                 self.hover.update(&est, &target, dt_s, airborne)
             }
+            (Phase::Autorotation { .. }, Some(est)) => self.autorotation_controls(&est, dt_s),
             (Phase::Augmented(mode), Some(est)) => {
                 let airborne = self.height_above_home(&est) > self.config.airborne_height_m;
                 // Once it has flown, a low pass near the ground is flight, not ground idle.

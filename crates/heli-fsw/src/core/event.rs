@@ -121,6 +121,12 @@ pub enum CoreEvent {
     AidAccepted(super::aids::Aid),
     /// The mode the pilot's switch asked for is refused by the safety rule.
     ModeRefused(super::mode_check::ModeRefusal),
+    /// The rotor stayed below the engine watch's fraction of its governed speed in the air:
+    /// the engine has failed (autorotation when the computer flies).
+    EngineFailure {
+        /// The rotor speed when it was judged (rpm).
+        rotor_rpm: u16,
+    },
 }
 
 impl CoreEvent {
@@ -153,7 +159,7 @@ impl CoreEvent {
                 (Device::Imu, HealthState::Silent | HealthState::Failed) => Severity::Fatal,
                 (_, HealthState::Silent | HealthState::Failed) => Severity::WarningHi,
             },
-            CoreEvent::EstimateInvalid => Severity::Fatal,
+            CoreEvent::EstimateInvalid | CoreEvent::EngineFailure { .. } => Severity::Fatal,
         }
     }
 }

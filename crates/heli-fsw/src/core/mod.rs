@@ -14,6 +14,7 @@ pub mod aids;
 mod brake;
 mod degraded;
 mod dispatch;
+pub mod engine;
 mod event;
 pub mod gps;
 mod main_loop;
@@ -89,6 +90,10 @@ pub struct CoreConfig {
     pub airborne_height_m: f64,
     /// The flight battery's discharge curve, for the safety rule's `battery` condition.
     pub battery_curve: heli_control::safety::BatteryCurve,
+    /// When the rotor speed means an engine failure.
+    pub engine: engine::EngineWatch,
+    /// The autorotation that answers it.
+    pub autorotation: heli_control::autorotation::AutorotationGains,
 }
 
 impl Default for CoreConfig {
@@ -106,6 +111,8 @@ impl Default for CoreConfig {
             takeoff_tolerance_m: 0.3,
             airborne_height_m: 0.3,
             battery_curve: heli_control::safety::BatteryCurve::default(),
+            engine: engine::EngineWatch::default(),
+            autorotation: heli_control::autorotation::AutorotationGains::default(),
         }
     }
 }
@@ -247,6 +254,12 @@ pub struct FlightCore {
     calibration_heading: Option<(f64, f64)>,
     /// A refusal standing in the air until the pilot's switch goes off (`mode_check`).
     refused_in_air: Option<ModeRefusal>,
+    /// Since when the rotor has been below the engine watch's threshold in the air.
+    engine_low_since_us: Option<u64>,
+    /// The engine failure was raised: autorotation for the rest of the flight.
+    engine_failed: bool,
+    /// The autorotation under way.
+    autorotation: Option<heli_control::autorotation::Autorotation>,
     /// What was raised while the switch has been on (the failing conditions so far).
     refusal_raised: Option<ModeRefusal>,
     /// The flight battery's life left (fraction), once read.
@@ -290,6 +303,9 @@ impl FlightCore {
             trim: None,
             calibration_heading: None,
             refused_in_air: None,
+            engine_low_since_us: None,
+            engine_failed: false,
+            autorotation: None,
             refusal_raised: None,
             battery_life: None,
             ground_link: None,

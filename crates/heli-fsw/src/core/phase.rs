@@ -61,6 +61,11 @@ pub enum Phase {
         /// Since when the helicopter has stopped following the target down (µs).
         settled_since_us: Option<u64>,
     },
+    /// The engine failed in the air: autorotation to the ground (`core::engine`).
+    Autorotation {
+        /// Since when the helicopter has been down and not sinking (µs).
+        settled_since_us: Option<u64>,
+    },
     /// On the skids after an autonomous landing.
     Landed,
     /// The pilot flies through an augmentation system.
@@ -80,6 +85,7 @@ impl Phase {
             | Phase::Manual
             | Phase::GroundFailsafe
             | Phase::BlindDescent
+            | Phase::Autorotation { .. }
             | Phase::TakeoffRefused
             | Phase::PreflightCheck { .. }
             | Phase::Landed
@@ -101,6 +107,7 @@ impl Phase {
             Phase::Flying { .. } => "fly",
             Phase::Maneuver { stage, .. } => stage.name(),
             Phase::Landing { .. } => "land",
+            Phase::Autorotation { .. } => "autorotation",
             Phase::Landed => "landed",
             Phase::Augmented(AugmentedMode::Rate) => "augmented-rate",
             Phase::Augmented(AugmentedMode::Attitude) => "augmented-attitude",

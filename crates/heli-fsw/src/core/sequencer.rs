@@ -84,6 +84,10 @@ impl FlightCore {
             self.clear_refusal();
             return Phase::Manual;
         }
+        // The engine failed: the computer autorotates whatever it was flying.
+        if let Some(phase) = self.autorotate(est, on_ground, now_us, dt_s, out) {
+            return phase;
+        }
         // The pilot's switch asks for a mode: the safety rule may refuse it (a transmitter
         // loss asks for nothing: its failsafe is never refused).
         if !signal_lost && self.refuse_mode(on_ground, now_us, out) {
@@ -165,6 +169,8 @@ impl FlightCore {
                 }
             }
             Phase::Landed => Phase::Landed,
+            // Only `autorotate` above leaves it (on the ground).
+            Phase::Autorotation { .. } => self.phase,
             Phase::TakingOff { target } => {
                 if (est.pos_ned_m.z - target.pos_ned_m.z).abs() < self.config.takeoff_tolerance_m {
                     self.next_leg(est, now_us, out)

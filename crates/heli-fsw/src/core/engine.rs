@@ -1,0 +1,139 @@
+//! The engine-failure response: the rotor's speed, read by the servo controller board's
+//! tachometer, watched in the air; when it stays below a fraction of the governed speed,
+//! the engine has failed (the governor would hold it otherwise), the event is raised as
+//! fatal, and an autonomous or augmented flight autorotates to the ground
+//! (`heli_control::autorotation`). A roll under way is finished upright first. A pilot
+//! flying by hand (auto switch off, or the bypass) is told and keeps flying: autorotating a
+//! helicopter is what the thesis's safety pilot trained for.
+
+use super::*;
+use heli_control::autorotation::Autorotation;
+
+/// When the rotor speed means the engine has failed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EngineWatch {
+    /// The governor's speed in flight (rpm).
+    pub governed_rpm: f64,
+    /// Below this fraction of it the rotor is failing: the governor holds within a few
+    /// percent, and the deepest droop of the demonstration's rolls is 91 %.
+    pub failure_fraction: f64,
+    /// For at least this long (s).
+    pub confirm_s: f64,
+    /// An autorotation that has sunk to this height above the take-off point (m) ...
+    pub landed_height_m: f64,
+    /// ... and stopped sinking (m/s) for [`EngineWatch::landed_after_s`] is on the ground.
+    pub landed_sink_mps: f64,
+    /// See [`EngineWatch::landed_sink_mps`] (s).
+    pub landed_after_s: f64,
+}
+
+impl Default for EngineWatch {
+    fn default() -> Self {
+        Self {
+            governed_rpm: 1600.0,
+            failure_fraction: 0.85,
+            confirm_s: 0.1,
+            landed_height_m: 0.5,
+            landed_sink_mps: 0.3,
+            landed_after_s: 0.5,
+        }
+    }
+}
+
+impl FlightCore {
+    /// Watches the rotor speed in the air; raises the engine failure once.
+    pub(super) fn watch_engine(&mut self, est: &NavState, now_us: u64, out: &mut Vec<Action>) {
+        let w = self.config.engine;
+        let rpm = match self.pilot {
+            Some(p) if !self.uplink_lost && !self.engine_failed => f64::from(p.rotor_rpm),
+            _ => return,
+        };
+        let airborne =
+            self.airborne_once && self.height_above_home(est) > self.config.airborne_height_m;
+        if !(airborne && rpm < w.governed_rpm * w.failure_fraction) {
+            self.engine_low_since_us = None;
+            return;
+        }
+        let since = *self.engine_low_since_us.get_or_insert(now_us);
+        if seconds_between(since, now_us) >= w.confirm_s {
+            self.engine_failed = true;
+            out.push(Action::Event(Stamped::new(
+                now_us,
+                CoreEvent::EngineFailure {
+                    rotor_rpm: rpm.round().clamp(0.0, f64::from(u16::MAX)) as u16,
+                },
+            )));
+        }
+    }
+
+    /// The phase after an engine failure, when the computer flies: `None` when the engine
+    /// is fine or the helicopter is on the ground (the other rules decide).
+    pub(super) fn autorotate(
+        &mut self,
+        est: &NavState,
+        on_ground: bool,
+        now_us: u64,
+        dt_s: f64,
+        out: &mut Vec<Action>,
+    ) -> Option<Phase> {
+        if !self.engine_failed {
+            return None;
+        }
+        match self.phase {
+            Phase::Autorotation { settled_since_us } => {
+                let w = self.config.engine;
+                let settled = self.height_above_home(est) < w.landed_height_m
+                    && est.vel_ned_mps.z.abs() < w.landed_sink_mps;
+                let since = settled.then(|| settled_since_us.unwrap_or(now_us));
+                if since.is_some_and(|t| seconds_between(t, now_us) >= w.landed_after_s) {
+                    self.autorotation = None;
+                    self.plan_abandoned = true;
+                    return Some(Phase::Landed);
+                }
+                Some(Phase::Autorotation {
+                    settled_since_us: since,
+                })
+            }
+            Phase::Maneuver {
+                target,
+                stage: stage @ RollStage::Rolling { .. },
+                rolls_done,
+            } => {
+                // Finish the roll upright; the autorotation begins on the next step.
+                let next = self.maneuver(est, now_us, dt_s, target, stage, rolls_done, out);
+                Some(match next {
+                    Phase::Maneuver {
+                        stage: RollStage::Rolling { .. },
+                        ..
+                    } => next,
+                    _ => self.begin_autorotation(est),
+                })
+            }
+            Phase::Landed
+            | Phase::GroundFailsafe
+            | Phase::TakeoffRefused
+            | Phase::PreflightCheck { .. }
+            | Phase::Calibrating => None,
+            _ if on_ground => None,
+            _ => Some(self.begin_autorotation(est)),
+        }
+    }
+
+    fn begin_autorotation(&mut self, est: &NavState) -> Phase {
+        self.plan_abandoned = true;
+        self.autorotation = Some(Autorotation::begin(self.config.autorotation, est));
+        Phase::Autorotation {
+            settled_since_us: None,
+        }
+    }
+
+    /// The autorotation's servo commands.
+    pub(super) fn autorotation_controls(&mut self, est: &NavState, dt_s: f64) -> Controls {
+        let height = self.height_above_home(est);
+        let rpm = self.pilot.map_or(f64::NAN, |p| f64::from(p.rotor_rpm));
+        let gains = self.config.autorotation;
+        self.autorotation
+            .get_or_insert_with(|| Autorotation::begin(gains, est))
+            .update(&mut self.hover, est, height, rpm, dt_s)
+    }
+}
