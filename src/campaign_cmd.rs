@@ -226,6 +226,7 @@ fn one_flight(campaign: &Campaign, index: u64, args: &RunArgs) -> Result<ExitCod
         seed: None,
         json: args.json,
         list: false,
+        library: None,
         log: args.log.clone(),
         ui: false,
         http: String::new(),

@@ -1,5 +1,7 @@
 //! `heli hilsim --ptys DIR`: the simulator alone, in real time, with its devices on
-//! pseudo-terminals and IIO-style ADC files for a flight computer outside.
+//! pseudo-terminals and IIO-style ADC files for a flight computer outside; with `--replay
+//! FLIGHT.mcap`, a recorded flight's device inputs instead of the simulator's, and the
+//! computer's servo commands compared with the recorded ones.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -31,13 +33,27 @@ pub struct HilsimArgs {
     /// Seed for every noise source (overrides the scenario's).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Print the truth summary as JSON.
+    /// Print the truth summary (with --replay: the comparison) as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Play this recorded flight's device inputs (a vehicle's or `heli sim --log`'s) instead
+    /// of simulating, and compare the flight computer's servo commands with the recorded
+    /// ones. Exit 0 when they match, 1 when they differ.
+    #[arg(long, value_name = "FLIGHT.mcap", conflicts_with_all = ["scenario", "duration", "seed"])]
+    pub replay: Option<PathBuf>,
+    /// With --replay: the largest pulse-width difference that still matches (µs).
+    #[arg(long, default_value_t = 10)]
+    pub tolerance_us: u16,
+    /// With --replay: how long to wait for the flight computer to start (s).
+    #[arg(long, default_value_t = 300.0)]
+    pub wait_s: f64,
 }
 
 /// Runs the HILSim until its duration, a crash, or SIGINT / SIGTERM.
 pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
+    if let Some(flight) = &args.replay {
+        return crate::hil_replay_cmd::replay(args, flight);
+    }
     let mut scenario = scenario::load(&args.scenario)
         .with_context(|| format!("loading scenario '{}'", args.scenario))?;
     if let Some(seed) = args.seed {
@@ -53,11 +69,7 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
         .flight_software_setup()
         .0
         .compass;
-    let stop = Arc::new(AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(signal, Arc::clone(&stop))
-            .context("installing the signal handler")?;
-    }
+    let stop = stop_on_signals()?;
     let options = HilOptions {
         speed: args.speed,
         duration_s: args.duration,
@@ -70,20 +82,7 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
             eprintln!("heli hilsim: {e:#}");
         }
         println!("hilsim: scenario {name}, {}x real time", args.speed);
-        for (port, link, target) in &devices.ports {
-            println!(
-                "hilsim: {:<5} {} -> {}",
-                port.name(),
-                link.display(),
-                target.display()
-            );
-        }
-        println!(
-            "hilsim: adc   {} (compass x,y,z: in_voltage0-2_raw, battery: in_voltage3_raw)",
-            devices.adc.display()
-        );
-        println!("hilsim: compass calibration {}", cal.display());
-        println!("hilsim: ready");
+        print_devices(devices, &cal);
     })
     .map_err(anyhow::Error::msg)?;
     if args.json {
@@ -96,4 +95,32 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// A flag set by SIGINT or SIGTERM.
+pub(crate) fn stop_on_signals() -> Result<Arc<AtomicBool>> {
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&stop))
+            .context("installing the signal handler")?;
+    }
+    Ok(stop)
+}
+
+/// Where the devices are, and the line a launcher waits for.
+pub(crate) fn print_devices(devices: &hil::HilDevices, compass_cal: &std::path::Path) {
+    for (port, link, target) in &devices.ports {
+        println!(
+            "hilsim: {:<5} {} -> {}",
+            port.name(),
+            link.display(),
+            target.display()
+        );
+    }
+    println!(
+        "hilsim: adc   {} (compass x,y,z: in_voltage0-2_raw, battery: in_voltage3_raw)",
+        devices.adc.display()
+    );
+    println!("hilsim: compass calibration {}", compass_cal.display());
+    println!("hilsim: ready");
 }

@@ -8,7 +8,9 @@ mod bench_link;
 mod campaign_cmd;
 mod driver_cmd;
 mod ground_cmd;
+mod hil_replay_cmd;
 mod hilsim_cmd;
+mod library_cmd;
 mod link_cmd;
 mod replay_cmd;
 mod sim_ui;
@@ -232,6 +234,10 @@ struct SimArgs {
     /// List the built-in scenarios and exit.
     #[arg(long)]
     list: bool,
+    /// Fly every built-in scenario and keep its log in this directory (`NAME.mcap`, and
+    /// `index.txt`): recorded flights for `heli hilsim --replay` to check later software on.
+    #[arg(long, value_name = "DIR")]
+    library: Option<std::path::PathBuf>,
     /// Write the flight log (MCAP: the seven streams and the events) to this file.
     #[arg(long)]
     log: Option<std::path::PathBuf>,
@@ -325,6 +331,9 @@ fn sim(args: SimArgs) -> Result<ExitCode> {
             calibration_s: args.calibration_s,
         });
     }
+    if let Some(dir) = &args.library {
+        return library_cmd::record(dir);
+    }
     if args.list {
         for s in scenario::builtins() {
             println!("{:<16} {}", s.name, s.description);
@@ -357,6 +366,27 @@ fn fly(scenario: scenario::Scenario, args: &SimArgs) -> Result<ExitCode> {
         duration_s: args.duration,
     };
     let show_progress = !args.json && std::io::stderr().is_terminal();
+    let summary = run_flight(scenario, options, args.log.as_deref(), show_progress)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        print_table(&summary);
+    }
+    Ok(if summary.outcome == Outcome::Pass {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// Flies `scenario` in lockstep, logging to `log` when given (with the device inputs, so
+/// that `heli log replay` and `heli hilsim --replay` can play it again).
+pub(crate) fn run_flight(
+    scenario: scenario::Scenario,
+    options: RunOptions,
+    log: Option<&std::path::Path>,
+    show_progress: bool,
+) -> Result<heli_sim::Summary> {
     let bar = show_progress.then(|| {
         let bar = indicatif::ProgressBar::new(1000);
         bar.set_style(
@@ -366,7 +396,7 @@ fn fly(scenario: scenario::Scenario, args: &SimArgs) -> Result<ExitCode> {
         bar
     });
     let name = scenario.name.clone();
-    let mut logger = match &args.log {
+    let mut logger = match log {
         Some(path) => {
             let mut log = FlightLog::create(path)
                 .with_context(|| format!("creating the flight log {}", path.display()))?;
@@ -405,7 +435,7 @@ fn fly(scenario: scenario::Scenario, args: &SimArgs) -> Result<ExitCode> {
             }
         },
     );
-    if let (Some(l), Some(path)) = (logger, &args.log) {
+    if let (Some(l), Some(path)) = (logger, log) {
         match log_error.map_or_else(|| l.finish().map(|_| ()), Err) {
             Ok(()) => summary.log = Some(path.display().to_string()),
             // The flight went on; only its log is lost. Say so, never hide it.
@@ -415,16 +445,7 @@ fn fly(scenario: scenario::Scenario, args: &SimArgs) -> Result<ExitCode> {
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
-    } else {
-        print_table(&summary);
-    }
-    Ok(if summary.outcome == Outcome::Pass {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
+    Ok(summary)
 }
 
 fn model(args: ModelArgs) -> Result<ExitCode> {

@@ -14,7 +14,7 @@ use heli_vehicle::replay::{self, ReplaySetup};
 
 /// How the logged flight's computer was set up, from the log's `flight` metadata: a lockstep
 /// flight records its whole scenario, a vehicle flight its parameters and configuration.
-fn setup_of(contents: &LogContents) -> Result<ReplaySetup> {
+pub(crate) fn setup_of(contents: &LogContents) -> Result<ReplaySetup> {
     let entries = contents
         .metadata
         .iter()

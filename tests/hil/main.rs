@@ -7,6 +7,7 @@
 mod display;
 mod link;
 mod procs;
+mod replay;
 
 use std::time::{Duration, Instant};
 

@@ -112,6 +112,28 @@ impl Hilsim {
         Self { proc, dev }
     }
 
+    /// Starts `heli hilsim --replay FLIGHT` (its comparison printed as JSON at the end), and
+    /// waits until its devices exist.
+    pub fn replay(dir: &Path, flight: &Path) -> Self {
+        let dev = dir.join("dev");
+        let args: Vec<String> = [
+            "hilsim",
+            "--ptys",
+            &dev.display().to_string(),
+            "--replay",
+            &flight.display().to_string(),
+            "--wait-s",
+            "30",
+            "--json",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let proc = Lines::spawn(&args);
+        proc.wait_for("hilsim: ready", Duration::from_secs(10));
+        Self { proc, dev }
+    }
+
     /// Waits for the end of the run and returns its JSON truth summary.
     pub fn wait_json(mut self, timeout: Duration) -> serde_json::Value {
         let end = Instant::now() + timeout;

@@ -79,16 +79,16 @@ pub struct HilOptions {
     pub duration_s: Option<f64>,
 }
 
-struct PtyPort {
-    port: Port,
-    master: TTYPort,
+pub(crate) struct PtyPort {
+    pub(crate) port: Port,
+    pub(crate) master: TTYPort,
     /// Held open so the terminal exists (and reads on the master never fail) while no
     /// flight computer has it open.
     _slave: TTYPort,
 }
 
 /// Creates the pseudo-terminals and the ADC directory under `dir`.
-fn expose(dir: &Path) -> Result<(Vec<PtyPort>, HilDevices), String> {
+pub(crate) fn expose(dir: &Path) -> Result<(Vec<PtyPort>, HilDevices), String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let adc = dir.join("adc");
     std::fs::create_dir_all(&adc).map_err(|e| format!("{}: {e}", adc.display()))?;
@@ -128,7 +128,7 @@ fn expose(dir: &Path) -> Result<(Vec<PtyPort>, HilDevices), String> {
 }
 
 /// Writes an ADC channel file atomically (a temporary file renamed over the old one).
-fn write_adc(dir: &Path, channel: u8, counts: u16) -> std::io::Result<()> {
+pub(crate) fn write_adc(dir: &Path, channel: u8, counts: u16) -> std::io::Result<()> {
     let path = dir.join(format!("in_voltage{channel}_raw"));
     let tmp = dir.join(format!(".in_voltage{channel}_raw.tmp"));
     std::fs::write(&tmp, format!("{counts}\n"))?;
@@ -136,7 +136,7 @@ fn write_adc(dir: &Path, channel: u8, counts: u16) -> std::io::Result<()> {
 }
 
 /// Reads what the flight computer writes on the ports that take commands.
-fn spawn_readers(
+pub(crate) fn spawn_readers(
     ptys: &[PtyPort],
     stop: &Arc<AtomicBool>,
 ) -> Result<Receiver<(Port, Vec<u8>, Instant)>, String> {

@@ -1,0 +1,255 @@
+//! `heli hilsim --replay FLIGHT.mcap --ptys DIR`: a recorded flight played back to a flight
+//! computer, as the thesis's HILSim certification asks ("the system still accepts these
+//! already-tested inputs despite changes to the flight software").
+//!
+//! The recorded device inputs — the bytes each serial port delivered, the compass's and the
+//! battery's ADC readings — go onto the same pseudo-terminals and ADC files as
+//! [`crate::hil`]'s, at their recorded times (times `speed`). Nothing is simulated: the
+//! helicopter does not answer the new commands, so any difference in them comes from the
+//! software. The flight computer's servo commands are read back from the servo board's
+//! terminal and compared with the recorded ones ([`crate::replay_compare`]).
+//!
+//! The playback starts when the computer first writes to a device (its flight process
+//! starting: the altimeter's handshake), lined up with the recorded flight's start.
+//! Inputs the flight computer made itself (its timer ticks, a port failure, the ground
+//! link's state) are not played.
+
+use std::io::Write;
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use heli_fsw::{Port, RecordedInput};
+use heli_log::LogContents;
+use heli_log::inputs::{self, Logged};
+use heli_proto::scb::{Controls, Pulses, ServoFramer, ServoPacket};
+
+use crate::hil::{HilDevices, expose, spawn_readers, write_adc};
+use crate::replay_compare::{Comparison, Tolerance, compare};
+
+/// A recorded flight, as the replay needs it.
+#[derive(Clone, Debug, Default)]
+pub struct Recording {
+    /// When the recorded flight computer started (its clock, µs).
+    pub start_us: u64,
+    /// The device inputs, in time order.
+    pub inputs: Vec<(u64, RecordedInput)>,
+    /// The servo commands it sent, as pulse widths.
+    pub servo: Vec<(u64, Pulses)>,
+}
+
+impl Recording {
+    /// Reads the `device` and `servo` channels of a log. Errors name the message that is
+    /// malformed, or say that the log has no device inputs.
+    pub fn from_log(contents: &LogContents) -> Result<Self, String> {
+        let mut rec = Recording::default();
+        let mut started = None;
+        for m in &contents.messages {
+            if m.topic == inputs::CHANNEL {
+                match inputs::logged_from_json(&m.value)
+                    .map_err(|e| format!("device input at t={:.6} s: {e}", m.t_us as f64 * 1e-6))?
+                {
+                    Logged::Start => {
+                        started.get_or_insert(m.t_us);
+                    }
+                    Logged::Input(input) => rec.inputs.push((m.t_us, input)),
+                }
+            } else if m.topic == "servo" {
+                let field = |name: &str| {
+                    m.value
+                        .get(name)
+                        .and_then(serde_json::Value::as_f64)
+                        .ok_or_else(|| {
+                            format!(
+                                "servo command at t={:.6} s has no number '{name}'",
+                                m.t_us as f64 * 1e-6
+                            )
+                        })
+                };
+                let controls = Controls {
+                    aileron: field("aileron")?,
+                    elevator: field("elevator")?,
+                    rudder: field("rudder")?,
+                    collective: field("collective")?,
+                    throttle: field("throttle")?,
+                };
+                rec.servo.push((m.t_us, Pulses::from_controls(&controls)));
+            }
+        }
+        if rec.inputs.is_empty() {
+            return Err(
+                "the log holds no device inputs (channel 'device'): it cannot be replayed".into(),
+            );
+        }
+        rec.inputs.sort_by_key(|(t, _)| *t);
+        rec.servo.sort_by_key(|(t, _)| *t);
+        rec.start_us = started.unwrap_or_else(|| rec.inputs.first().map_or(0, |(t, _)| *t));
+        Ok(rec)
+    }
+
+    /// Seconds of recorded inputs.
+    pub fn duration_s(&self) -> f64 {
+        self.inputs
+            .last()
+            .map_or(0.0, |(t, _)| t.saturating_sub(self.start_us) as f64 * 1e-6)
+    }
+}
+
+/// How to replay.
+#[derive(Clone, Copy, Debug)]
+pub struct ReplayOptions {
+    /// Recorded seconds per wall-clock second (the flight computer's clock must run as fast).
+    pub speed: f64,
+    /// How long to wait for a flight computer to start (s).
+    pub wait_s: f64,
+    /// What counts as the same command.
+    pub tolerance: Tolerance,
+}
+
+/// What a replay found.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ReplayReport {
+    /// Device inputs played.
+    pub inputs_played: usize,
+    /// Writes that found no reader.
+    pub dropped_writes: u64,
+    /// Seconds of recorded flight played.
+    pub played_s: f64,
+    /// The servo commands compared.
+    pub comparison: Comparison,
+}
+
+/// Plays `rec` on the devices under `dir` to a flight computer, until the inputs end or
+/// `stop` is set; `ready` is called once the devices exist.
+pub fn run(
+    rec: &Recording,
+    dir: &Path,
+    options: ReplayOptions,
+    stop: &Arc<AtomicBool>,
+    ready: impl FnOnce(&HilDevices),
+) -> Result<ReplayReport, String> {
+    if !(options.speed.is_finite() && options.speed > 0.0 && options.speed <= 100.0) {
+        return Err(format!(
+            "--speed {}: must be more than 0 and at most 100",
+            options.speed
+        ));
+    }
+    let (mut ptys, devices) = expose(dir)?;
+    let from_computer = spawn_readers(&ptys, stop)?;
+    for channel in 0..=crate::lockstep::HIL_BATTERY_CHANNEL {
+        write_adc(&devices.adc, channel, 0).map_err(|e| e.to_string())?;
+    }
+    ready(&devices);
+
+    // Wait for the flight computer to start.
+    let waited = Instant::now();
+    let mut framer = ServoFramer::new();
+    let mut replayed = Vec::new();
+    let t0 = loop {
+        if stop.load(Ordering::Acquire) {
+            return Err("stopped before a flight computer started".into());
+        }
+        match from_computer.recv_timeout(Duration::from_millis(50)) {
+            Ok((port, bytes, at)) => {
+                if port == Port::Scb {
+                    // A command this early is compared like any other (at time zero).
+                    for &b in &bytes {
+                        if let Some(packet) =
+                            framer.push(b).and_then(|f| ServoPacket::parse(f).ok())
+                        {
+                            replayed.push((rec.start_us, packet.pulses));
+                        }
+                    }
+                }
+                break at;
+            }
+            Err(_) if waited.elapsed().as_secs_f64() > options.wait_s => {
+                return Err(format!(
+                    "no flight computer wrote to the devices in {} s",
+                    options.wait_s
+                ));
+            }
+            Err(_) => {}
+        }
+    };
+    let recorded_time = |at: Instant| {
+        rec.start_us + (at.saturating_duration_since(t0).as_secs_f64() * options.speed * 1e6) as u64
+    };
+    let wall_of = |t_us: u64| {
+        t0 + Duration::from_secs_f64(
+            t_us.saturating_sub(rec.start_us) as f64 * 1e-6 / options.speed,
+        )
+    };
+    let collect = |framer: &mut ServoFramer, replayed: &mut Vec<(u64, Pulses)>| {
+        while let Ok((port, bytes, at)) = from_computer.try_recv() {
+            if port != Port::Scb {
+                continue;
+            }
+            for &b in &bytes {
+                if let Some(packet) = framer.push(b).and_then(|f| ServoPacket::parse(f).ok()) {
+                    replayed.push((recorded_time(at), packet.pulses));
+                }
+            }
+        }
+    };
+    let mut played = 0usize;
+    let mut dropped = 0u64;
+    let mut last_t = rec.start_us;
+    for (t_us, input) in &rec.inputs {
+        if stop.load(Ordering::Acquire) {
+            break;
+        }
+        if let Some(wait) = wall_of(*t_us).checked_duration_since(Instant::now()) {
+            std::thread::sleep(wait);
+        }
+        collect(&mut framer, &mut replayed);
+        let written = match input {
+            RecordedInput::Bytes(port, bytes) => ptys
+                .iter_mut()
+                .find(|p| p.port == *port)
+                .map(|p| p.master.write_all(bytes).is_ok()),
+            RecordedInput::Compass(adc) => Some(
+                adc.counts
+                    .iter()
+                    .zip(0u8..)
+                    .all(|(counts, channel)| write_adc(&devices.adc, channel, *counts).is_ok()),
+            ),
+            RecordedInput::Battery(adc) => Some(
+                write_adc(
+                    &devices.adc,
+                    crate::lockstep::HIL_BATTERY_CHANNEL,
+                    adc.counts,
+                )
+                .is_ok(),
+            ),
+            RecordedInput::PortFailed(_) | RecordedInput::Tick | RecordedInput::GroundLink(_) => {
+                None
+            }
+        };
+        match written {
+            Some(true) => played += 1,
+            Some(false) => dropped += 1,
+            None => {}
+        }
+        last_t = *t_us;
+    }
+    // The commands answering the last inputs.
+    let tail = Instant::now() + Duration::from_secs_f64(0.2 / options.speed);
+    while Instant::now() < tail {
+        std::thread::sleep(Duration::from_millis(5));
+        collect(&mut framer, &mut replayed);
+    }
+    let window: Vec<(u64, Pulses)> = rec
+        .servo
+        .iter()
+        .copied()
+        .filter(|(t, _)| *t >= rec.start_us && *t <= last_t)
+        .collect();
+    Ok(ReplayReport {
+        inputs_played: played,
+        dropped_writes: dropped,
+        played_s: last_t.saturating_sub(rec.start_us) as f64 * 1e-6,
+        comparison: compare(&window, &replayed, options.tolerance),
+    })
+}

@@ -1,0 +1,60 @@
+//! `heli hilsim --replay`: a flight the vehicle recorded, played back to `heli vehicle` on
+//! pseudo-terminals. The same software gives the same servo commands; a changed gain is
+//! reported as a difference (the thesis's certification of changed flight software on
+//! already-tested inputs).
+
+use std::path::Path;
+use std::time::Duration;
+
+use crate::exclusive;
+use crate::procs::{Hilsim, Vehicle};
+
+/// Replays `flight` to a vehicle whose log directory holds `params` (if any); returns the
+/// replay's JSON report.
+fn replay_to(flight: &Path, params: Option<&str>) -> serde_json::Value {
+    let dir = tempfile::tempdir().unwrap();
+    if let Some(text) = params {
+        std::fs::write(dir.path().join("params"), text).unwrap();
+    }
+    let hil = Hilsim::replay(dir.path(), flight);
+    let vehicle = Vehicle::start(dir.path(), &hil.dev);
+    assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
+    let reply = vehicle.ctl(&["start-logging", "replayed", "autonomous", "hover"]);
+    assert!(reply.starts_with("ok flying"), "{reply}");
+    let report = hil.wait_json(Duration::from_secs(90));
+    vehicle.ctl(&["stop"]);
+    vehicle.quit();
+    report
+}
+
+#[test]
+fn a_recorded_flight_replayed_to_the_vehicle_gives_its_commands_and_a_changed_gain_shows() {
+    let _one = exclusive();
+    // Record: the HILSim's hover against the vehicle, 30 s (calibration, take-off, hold).
+    let dir = tempfile::tempdir().unwrap();
+    let hil = Hilsim::start(dir.path(), "hover", 1.0, 30.0);
+    let vehicle = Vehicle::start(dir.path(), &hil.dev);
+    assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
+    let reply = vehicle.ctl(&["start-logging", "recorded", "autonomous", "hover"]);
+    assert!(reply.starts_with("ok flying"), "{reply}");
+    hil.wait_json(Duration::from_secs(60));
+    vehicle.ctl(&["stop"]);
+    vehicle.quit();
+    let flight = dir.path().join("flight_recorded.mcap");
+
+    let same = replay_to(&flight, None);
+    let c = &same["comparison"];
+    eprintln!("same software: {c:#}");
+    let recorded = c["recorded"].as_u64().unwrap();
+    assert!(recorded > 1000, "{same:#}");
+    assert_eq!(c["paired"], c["recorded"], "{same:#}");
+    assert!(c["first_difference_s"].is_null(), "{same:#}");
+
+    // The yaw-rate gain halved: the tail's commands change from the first correction on.
+    let changed = replay_to(&flight, Some("YAW_RATE_P = 0.15\n"));
+    let c = &changed["comparison"];
+    eprintln!("YAW_RATE_P halved: {c:#}");
+    assert!(c["first_difference_s"].is_number(), "{changed:#}");
+    let rudder = c["channels"][2]["max_us"].as_u64().unwrap();
+    assert!(rudder > 10, "{changed:#}");
+}
