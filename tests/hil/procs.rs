@@ -91,44 +91,37 @@ impl Hilsim {
 
     /// The same; kept apart so a faster-than-real-time run reads as such.
     pub fn start_with(dir: &Path, scenario: &str, speed: f64, duration_s: f64) -> Self {
-        let dev = dir.join("dev");
-        let args: Vec<String> = [
-            "hilsim",
-            "--ptys",
-            &dev.display().to_string(),
-            "--scenario",
-            scenario,
-            "--speed",
-            &speed.to_string(),
-            "--duration",
-            &duration_s.to_string(),
-            "--json",
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-        let proc = Lines::spawn(&args);
-        proc.wait_for("hilsim: ready", Duration::from_secs(10));
-        Self { proc, dev }
+        let (speed, duration) = (speed.to_string(), duration_s.to_string());
+        Self::spawn(
+            dir,
+            &[
+                "--scenario",
+                scenario,
+                "--speed",
+                &speed,
+                "--duration",
+                &duration,
+            ],
+        )
     }
 
     /// Starts `heli hilsim --replay FLIGHT` (its comparison printed as JSON at the end), and
     /// waits until its devices exist.
     pub fn replay(dir: &Path, flight: &Path) -> Self {
+        let flight = flight.display().to_string();
+        Self::spawn(dir, &["--replay", &flight, "--wait-s", "30"])
+    }
+
+    /// `heli hilsim --ptys DIR/dev ARGS --json`, once its devices exist.
+    fn spawn(dir: &Path, extra: &[&str]) -> Self {
         let dev = dir.join("dev");
-        let args: Vec<String> = [
-            "hilsim",
-            "--ptys",
-            &dev.display().to_string(),
-            "--replay",
-            &flight.display().to_string(),
-            "--wait-s",
-            "30",
-            "--json",
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
+        let mut args = vec![
+            "hilsim".to_string(),
+            "--ptys".to_string(),
+            dev.display().to_string(),
+        ];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        args.push("--json".to_string());
         let proc = Lines::spawn(&args);
         proc.wait_for("hilsim: ready", Duration::from_secs(10));
         Self { proc, dev }
