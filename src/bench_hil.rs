@@ -82,9 +82,16 @@ pub fn run(seconds: f64) -> Result<HilBench> {
                 speed: 1.0,
                 duration_s: Some(seconds),
             };
-            hil::run(scenario, &dev, options, &stop, |_| {
-                let _ = ready_tx.send(());
-            })
+            hil::run(
+                scenario,
+                &dev,
+                options,
+                &stop,
+                |_| {
+                    let _ = ready_tx.send(());
+                },
+                |_| {},
+            )
         })
     };
     ready_rx

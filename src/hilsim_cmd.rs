@@ -44,6 +44,11 @@ pub struct HilsimArgs {
     /// With --replay: the largest pulse-width difference that still matches (µs).
     #[arg(long, default_value_t = 10)]
     pub tolerance_us: u16,
+    /// Serve a 3D view of the simulator's truth on this address (`127.0.0.1:0` picks a free
+    /// port; the URL is printed): the helicopter, its rotor disk, the field, the plan, the
+    /// trail, the wind, with a chase and a fixed field camera.
+    #[arg(long, value_name = "ADDR")]
+    pub view: Option<std::net::SocketAddr>,
     /// With --replay: how long to wait for the flight computer to start (s).
     #[arg(long, default_value_t = 300.0)]
     pub wait_s: f64,
@@ -76,14 +81,34 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
     };
     let dir = args.ptys.clone();
     let name = scenario.name.clone();
-    let summary = hil::run(scenario, &dir, options, &stop, |devices| {
-        let cal = devices.dir.join(crate::vehicle_cmd::HIL_COMPASS_CAL);
-        if let Err(e) = crate::vehicle_cmd::write_compass_cal(&cal, &compass) {
-            eprintln!("heli hilsim: {e:#}");
+    let feed = match args.view {
+        Some(addr) => Some(crate::hilsim_view::serve(addr, &scenario)?),
+        None => None,
+    };
+    let mut last_frame: Option<std::time::Instant> = None;
+    let watch = |sim: &Simulation| {
+        if let Some(feed) = &feed
+            && last_frame.is_none_or(|t| t.elapsed() >= crate::hilsim_view::FRAME_EVERY)
+        {
+            last_frame = Some(std::time::Instant::now());
+            crate::hilsim_view::publish(feed, sim);
         }
-        println!("hilsim: scenario {name}, {}x real time", args.speed);
-        print_devices(devices, &cal);
-    })
+    };
+    let summary = hil::run(
+        scenario,
+        &dir,
+        options,
+        &stop,
+        |devices| {
+            let cal = devices.dir.join(crate::vehicle_cmd::HIL_COMPASS_CAL);
+            if let Err(e) = crate::vehicle_cmd::write_compass_cal(&cal, &compass) {
+                eprintln!("heli hilsim: {e:#}");
+            }
+            println!("hilsim: scenario {name}, {}x real time", args.speed);
+            print_devices(devices, &cal);
+        },
+        watch,
+    )
     .map_err(anyhow::Error::msg)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);

@@ -10,6 +10,7 @@ mod driver_cmd;
 mod ground_cmd;
 mod hil_replay_cmd;
 mod hilsim_cmd;
+mod hilsim_view;
 mod library_cmd;
 mod link_cmd;
 mod replay_cmd;

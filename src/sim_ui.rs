@@ -183,7 +183,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
     let link = format!("udp:127.0.0.1:{}", free_udp_port()?);
     let dev = format!("{dir_s}/dev");
     let mut procs: Vec<Proc> = Vec::new();
-    let started = (|| -> Result<String> {
+    let started = (|| -> Result<(String, String)> {
         let mut hil = Proc::spawn(
             "hilsim",
             &dir,
@@ -195,8 +195,11 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
                 &options.scenario,
                 "--duration",
                 "86400",
+                "--view",
+                "127.0.0.1:0",
             ]),
         )?;
+        let view = hil.wait_for("hilsim: view", Duration::from_secs(20), &stop)?;
         hil.wait_for("hilsim: ready", Duration::from_secs(20), &stop)?;
         procs.push(hil);
         let calibration = options.calibration_s.to_string();
@@ -238,14 +241,19 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
         )?;
         let line = ground.wait_for("ground: display at", Duration::from_secs(20), &stop)?;
         procs.push(ground);
-        Ok(line
-            .split_whitespace()
-            .find(|w| w.starts_with("http://"))
-            .unwrap_or("(see ground.log)")
-            .to_string())
+        let url_in = |line: &str, log: &str| {
+            line.split_whitespace()
+                .find(|w| w.starts_with("http://"))
+                .unwrap_or(log)
+                .to_string()
+        };
+        Ok((
+            url_in(&line, "(see ground.log)"),
+            url_in(&view, "(see hilsim.log)"),
+        ))
     })();
-    let url = match started {
-        Ok(url) => url,
+    let (url, view_url) = match started {
+        Ok(urls) => urls,
         Err(e) => {
             shut_down(&mut procs, &dir_s);
             return Err(e);
@@ -261,6 +269,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
         "  HILSim scenario {}; vehicle link {link} (key {key_s})",
         options.scenario
     );
+    println!("  the simulator's truth in 3D (not the estimate) is at {view_url}");
     println!("  processes' output, logs and saved flights in {dir_s}");
     println!("  Ctrl-C stops everything");
     let _ = std::io::stdout().flush();

@@ -12,10 +12,10 @@ use std::process::Command;
 use super::exclusive;
 use crate::procs::{Display, Hilsim, Vehicle, free_udp_port, heli};
 
-const CHROMIUM: &str = "/usr/bin/chromium";
+pub(crate) const CHROMIUM: &str = "/usr/bin/chromium";
 
 /// Whether the browser test can run here; panics when it must and cannot.
-fn browser_ready(ui: &Path) -> bool {
+pub(crate) fn browser_ready(ui: &Path) -> bool {
     let missing: Vec<String> = [
         (Path::new(CHROMIUM).to_path_buf(), "Debian's chromium"),
         (

@@ -8,6 +8,7 @@ mod display;
 mod link;
 mod procs;
 mod replay;
+mod view;
 
 use std::time::{Duration, Instant};
 

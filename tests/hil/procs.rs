@@ -17,8 +17,13 @@ pub fn heli(args: &[&str]) -> Output {
         .unwrap_or_else(|e| panic!("cannot run heli: {e}"))
 }
 
-/// A process whose standard output is collected line by line.
-struct Lines {
+/// `heli ARGS` as a process whose output is collected.
+pub fn heli_process(args: &[&str]) -> Lines {
+    Lines::spawn(&args.iter().map(|s| s.to_string()).collect::<Vec<_>>())
+}
+
+/// A process whose standard output is collected line by line (killed when dropped).
+pub struct Lines {
     child: Child,
     lines: Arc<Mutex<Vec<String>>>,
 }
@@ -43,7 +48,8 @@ impl Lines {
         Self { child, lines }
     }
 
-    fn wait_for(&self, needle: &str, timeout: Duration) -> String {
+    /// The first line containing `needle`, waiting up to `timeout` for it.
+    pub fn wait_for(&self, needle: &str, timeout: Duration) -> String {
         let end = Instant::now() + timeout;
         while Instant::now() < end {
             if let Some(l) = self

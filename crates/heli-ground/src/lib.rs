@@ -36,4 +36,5 @@ pub mod station;
 #[cfg(test)]
 mod station_tests;
 pub mod transfer;
+pub mod truth_view;
 pub mod view;

@@ -246,7 +246,7 @@ fn save(path: &Path, bytes: &[u8]) -> Result<PathBuf, String> {
     Err("99 logs of that name already: choose another suffix".into())
 }
 
-async fn asset(uri: Uri) -> Response {
+pub(crate) async fn asset(uri: Uri) -> Response {
     let path = uri.path().trim_start_matches('/');
     let path = if path.is_empty() { "index.html" } else { path };
     let Some(file) = WEB.get_file(path) else {

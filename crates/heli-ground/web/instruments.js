@@ -140,13 +140,25 @@
   }
   const mul = (m, v) => m.map((r) => r[0] * v[0] + r[1] * v[1] + r[2] * v[2]);
 
-  // 3D view: a chase camera behind and above the helicopter, the field's grid, home, the
-  // trail, and the helicopter as lines (fuselage, tail boom, rotor disk).
-  function view3d(inst, history, plan) {
-    const g = ctx("view3d");
-    if (!g) return;
+  const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+  const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+  const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+  const unit = (a) => { const n = Math.hypot(a[0], a[1], a[2]) || 1; return [a[0] / n, a[1] / n, a[2] / n]; };
+
+  // 3D view of a helicopter state `inst` (pos_ned_m, euler_rad, and flap_rad if known): the
+  // field's grid, home, the flight plan, the trail, the helicopter as lines (fuselage, tail
+  // boom, skids, and the rotor disk, tilted by the flapping when it is known). Options:
+  // canvas (id), camera ("chase": 9 m behind along the heading and 4 m above; "field": fixed
+  // 25 m south and 25 m west of home, 6 m up, zooming with the range), label, home ([n, e, d]), flapScale (the disk's tilt is
+  // drawn this many times its size). Returns what was drawn, for tests.
+  function view3d(inst, history, plan, opts) {
+    opts = opts || {};
+    const g = ctx(opts.canvas || "view3d");
+    // What is on the canvas (heliPx: the rotor's radius in pixels).
+    const stats = { heliOnScreen: false, heliXY: null, heliPx: 0, gridLines: 0, trailSegments: 0 };
+    if (!g) return stats;
     const w = g.canvas.width, h = g.canvas.height;
-    if (!inst || !inst.pos_ned_m) return clear(g, "NOTHING YET");
+    if (!inst || !inst.pos_ned_m) { clear(g, "NOTHING YET"); return stats; }
     const gradient = g.createLinearGradient(0, 0, 0, h);
     gradient.addColorStop(0, "#1d3550");
     gradient.addColorStop(1, "#0b0e12");
@@ -154,67 +166,90 @@
     g.fillRect(0, 0, w, h);
     const pos = inst.pos_ned_m;
     const yaw = inst.euler_rad[2];
-    // Camera: 9 m behind along the heading, 4 m above; looking at the helicopter.
-    const cam = [pos[0] - 9 * Math.cos(yaw), pos[1] - 9 * Math.sin(yaw), pos[2] - 4];
-    const fwd = [Math.cos(yaw), Math.sin(yaw), 0];
-    const right = [-Math.sin(yaw), Math.cos(yaw), 0];
-    const tilt = Math.atan2(4, 9);
-    const f = w * 0.9;
+    const home = opts.home || [0, 0, 0];
+    const ground = home[2];
+    const field = opts.camera === "field";
+    const cam = field
+      ? [home[0] - 25, home[1] - 25, ground - 6]
+      : [pos[0] - 9 * Math.cos(yaw), pos[1] - 9 * Math.sin(yaw), pos[2] - 4];
+    // The field camera frames the helicopter and the ground below it, zooming as a camera
+    // operator would to keep the helicopter's size while both stay in view.
+    const height = Math.max(0, ground - pos[2]);
+    const target = field ? [pos[0], pos[1], pos[2] + 0.4 * height] : pos;
+    const fwd = unit(sub(target, cam));
+    const right = unit(cross([0, 0, 1], fwd));
+    const down = cross(fwd, right);
+    const range = Math.hypot(...sub(pos, cam));
+    const f = field
+      ? Math.min(w * 0.9 * Math.max(1, range / 20), (0.7 * h * range) / Math.max(height, 1))
+      : w * 0.9;
     const project = (p) => {
-      const d = [p[0] - cam[0], p[1] - cam[1], p[2] - cam[2]];
-      const x = d[0] * right[0] + d[1] * right[1];
-      const along = d[0] * fwd[0] + d[1] * fwd[1];
-      const down = d[2];
-      const z = along * Math.cos(tilt) + down * Math.sin(tilt);
-      const y = -along * Math.sin(tilt) + down * Math.cos(tilt);
+      const d = sub(p, cam);
+      const z = dot(d, fwd);
       if (z < 0.5) return null;
-      return [w / 2 + (f * x) / z, h / 2 + (f * y) / z];
+      return [w / 2 + (f * dot(d, right)) / z, h / 2 + (f * dot(d, down)) / z];
     };
+    // Draws a segment; true when some of it is on the canvas.
     const line = (a, b, color, width) => {
       const pa = project(a), pb = project(b);
-      if (!pa || !pb) return;
+      if (!pa || !pb) return false;
       g.strokeStyle = color;
       g.lineWidth = width || 1;
       g.beginPath(); g.moveTo(pa[0], pa[1]); g.lineTo(pb[0], pb[1]); g.stroke();
+      return Math.max(pa[0], pb[0]) >= 0 && Math.min(pa[0], pb[0]) <= w &&
+        Math.max(pa[1], pb[1]) >= 0 && Math.min(pa[1], pb[1]) <= h;
     };
-    // Field grid, 5 m, around the helicopter.
+    // Field grid, 5 m, around the point below the helicopter.
     const gx = Math.round(pos[0] / 5) * 5, gy = Math.round(pos[1] / 5) * 5;
     for (let k = -40; k <= 40; k += 5) {
-      line([gx + k, gy - 40, 0], [gx + k, gy + 40, 0], "#27452f");
-      line([gx - 40, gy + k, 0], [gx + 40, gy + k, 0], "#27452f");
+      if (line([gx + k, gy - 40, ground], [gx + k, gy + 40, ground], "#27452f")) stats.gridLines++;
+      if (line([gx - 40, gy + k, ground], [gx + 40, gy + k, ground], "#27452f")) stats.gridLines++;
     }
-    // Home.
-    line([-1, 0, 0], [1, 0, 0], "#e0a21b", 2);
-    line([0, -1, 0], [0, 1, 0], "#e0a21b", 2);
-    // The flight plan (heights up, so z = −height).
-    const planNed = plan.map((q) => [q.point[0], q.point[1], -q.point[2]]);
+    // Home, the take-off point.
+    line([home[0] - 1, home[1], ground], [home[0] + 1, home[1], ground], "#e0a21b", 2);
+    line([home[0], home[1] - 1, ground], [home[0], home[1] + 1, ground], "#e0a21b", 2);
+    // The flight plan (heights up from home).
+    const planNed = (plan || []).map((q) => [home[0] + q.point[0], home[1] + q.point[1], ground - q.point[2]]);
     g.setLineDash([5, 4]);
     for (let i = 1; i < planNed.length; i++) line(planNed[i - 1], planNed[i], "#c792ea", 1.5);
     g.setLineDash([]);
     // Trail.
     const pts = history.filter((s) => s.pos_ned_m).map((s) => s.pos_ned_m);
-    for (let i = 1; i < pts.length; i++) line(pts[i - 1], pts[i], "#4a90d9", 1.5);
+    for (let i = 1; i < pts.length; i++) if (line(pts[i - 1], pts[i], "#4a90d9", 1.5)) stats.trailSegments++;
     // Shadow straight below.
-    line([pos[0], pos[1], 0], [pos[0], pos[1], pos[2]], "#55606e");
+    line([pos[0], pos[1], ground], [pos[0], pos[1], pos[2]], "#55606e");
     // The helicopter, in the body frame (x forward, y right, z down), metres.
     const R = dcm(inst.euler_rad);
     const at = (b) => { const n = mul(R, b); return [pos[0] + n[0], pos[1] + n[1], pos[2] + n[2]]; };
     line(at([0.6, 0, 0]), at([-0.4, 0, 0]), "#ffd24a", 4);
     line(at([-0.4, 0, 0]), at([-1.4, 0, -0.1]), "#ffd24a", 2);
     line(at([-1.4, 0, -0.1]), at([-1.4, 0, -0.35]), "#ffd24a", 2);
-    line(at([0.2, 0, 0.25]), at([0.2, 0.25, 0.3]), "#c9ced6");
-    line(at([0.2, 0, 0.25]), at([0.2, -0.25, 0.3]), "#c9ced6");
+    line(at([0.3, 0.22, 0.35]), at([-0.3, 0.22, 0.35]), "#c9ced6", 2);
+    line(at([0.3, -0.22, 0.35]), at([-0.3, -0.22, 0.35]), "#c9ced6", 2);
+    line(at([0.2, 0, 0.25]), at([0.2, 0.22, 0.35]), "#c9ced6");
+    line(at([0.2, 0, 0.25]), at([0.2, -0.22, 0.35]), "#c9ced6");
     line(at([0, 0, 0]), at([0, 0, -0.3]), "#c9ced6", 2);
-    // Rotor disk.
+    // Rotor disk: tilted back by a1 and right by b1 (its plane spanned by (1, 0, −a1) and
+    // (0, 1, b1) in the body frame).
+    const k = opts.flapScale || 1;
+    const [a1, b1] = inst.flap_rad ? [inst.flap_rad[0] * k, inst.flap_rad[1] * k] : [0, 0];
     const disk = [];
     for (let a = 0; a <= 24; a++) {
       const t = (a / 24) * 2 * Math.PI;
-      disk.push(at([0.77 * Math.cos(t), 0.77 * Math.sin(t), -0.3]));
+      const c = 0.77 * Math.cos(t), s = 0.77 * Math.sin(t);
+      disk.push(at([c, s, -0.3 - a1 * c + b1 * s]));
     }
     for (let i = 1; i < disk.length; i++) line(disk[i - 1], disk[i], "#e6e9ee", 1.5);
+    const hp = project(pos);
+    stats.heliPx = hp ? (f * 0.77) / Math.max(0.5, dot(sub(pos, cam), fwd)) : 0;
+    if (hp && hp[0] >= 0 && hp[0] <= w && hp[1] >= 0 && hp[1] <= h) {
+      stats.heliOnScreen = true;
+      stats.heliXY = hp;
+    }
     g.fillStyle = "#e6e9ee";
     g.font = "12px system-ui";
-    g.fillText("estimated (telemetry), chase camera", 8, 16);
+    g.fillText(opts.label || "estimated (telemetry), chase camera", 8, 16);
+    return stats;
   }
 
   // A strip chart of `series` ([name, color, pick]) over the last 30 s.
@@ -254,6 +289,7 @@
   }
 
   window.heliInstruments = {
+    view3d,
     draw(inst, history, plan) {
       attitude(inst);
       track(inst, history, plan || []);

@@ -15,6 +15,7 @@ mod inject;
 mod metrics;
 mod power;
 mod transmitter;
+mod truth;
 mod wires;
 
 use hil::Hil;
@@ -24,6 +25,7 @@ use metrics::Metrics;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 use std::time::{Duration, Instant};
+pub use truth::TruthFrame;
 
 use heli_fsw::computer::{DeviceInput, FlightComputer, Port, RecordedInput};
 use heli_fsw::core::{Action, CoreConfig, CoreEvent, FlightCore, FlightMode, FlightParams, Phase};

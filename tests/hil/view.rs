@@ -1,0 +1,77 @@
+//! The HILSim's 3D view of the truth (`heli hilsim --view`), opened in headless Chromium
+//! while the vehicle flies the rolls against the simulator in real time: screenshots before
+//! and during a roll, each checked to show the helicopter, the field and the trail in both
+//! cameras (`tests/ui/view.mjs`). Screenshots are saved under the test's target directory.
+
+use std::path::Path;
+use std::process::Command;
+
+use super::exclusive;
+use crate::display::{CHROMIUM, browser_ready};
+use crate::procs::{Vehicle, heli_process};
+
+#[test]
+fn the_truth_view_shows_the_helicopter_the_field_and_the_trail_before_and_during_a_roll() {
+    let ui = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ui");
+    if !browser_ready(&ui) {
+        return;
+    }
+    let _one = exclusive();
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let dev_s = dev.display().to_string();
+    let hil = heli_process(&[
+        "hilsim",
+        "--ptys",
+        &dev_s,
+        "--scenario",
+        "rolls",
+        "--duration",
+        "90",
+        "--view",
+        "127.0.0.1:0",
+    ]);
+    let view_line = hil.wait_for("hilsim: view", std::time::Duration::from_secs(10));
+    hil.wait_for("hilsim: ready", std::time::Duration::from_secs(10));
+    let url = view_line
+        .split_whitespace()
+        .find(|w| w.starts_with("http://"))
+        .unwrap_or_else(|| panic!("no URL in {view_line}"))
+        .to_string();
+    let vehicle = Vehicle::start(dir.path(), &dev);
+    assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
+    let reply = vehicle.ctl(&["start-logging", "view", "autonomous", "rolls"]);
+    assert!(reply.starts_with("ok flying"), "{reply}");
+    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/view");
+    let _ = std::fs::remove_dir_all(&shots);
+    let run = Command::new("node")
+        .arg(ui.join("view.mjs"))
+        .env("HELI_VIEW_URL", &url)
+        .env("HELI_UI_OUT", &shots)
+        .env("HELI_CHROMIUM", CHROMIUM)
+        .output()
+        .expect("node");
+    let said =
+        String::from_utf8_lossy(&run.stdout).to_string() + &String::from_utf8_lossy(&run.stderr);
+    eprintln!("{said}\nscreenshots in {}", shots.display());
+    vehicle.ctl(&["stop"]);
+    vehicle.quit();
+    drop(hil);
+    assert!(run.status.success(), "the view test failed:\n{said}");
+    for shot in ["01-before-roll", "02-during-roll"] {
+        assert!(
+            shots.join(format!("{shot}.png")).exists(),
+            "no screenshot {shot}"
+        );
+    }
+    // The page's own account of the roll: past 90 degrees, the truth's.
+    let during: serde_json::Value = said
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .find(|v: &serde_json::Value| v["step"] == "during-roll")
+        .unwrap_or_else(|| panic!("no during-roll line in\n{said}"));
+    assert!(
+        during["roll_deg"].as_f64().unwrap().abs() > 90.0,
+        "{during}"
+    );
+}
