@@ -12,7 +12,7 @@ use std::process::Command;
 use super::exclusive;
 use crate::procs::{Display, Hilsim, Vehicle, free_udp_port, heli};
 
-pub(crate) const CHROMIUM: &str = "/usr/bin/chromium";
+const CHROMIUM: &str = "/usr/bin/chromium";
 
 /// Whether the browser test can run here; panics when it must and cannot.
 pub(crate) fn browser_ready(ui: &Path) -> bool {
@@ -58,24 +58,13 @@ fn the_operator_flies_a_hover_from_the_display_in_headless_chromium() {
     let vehicle = Vehicle::start_linked(&logs, &hil.dev, &link, Some(&key));
     let saved = dir.path().join("saved");
     let display = Display::start(&link, Some(&key), &saved);
-    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/display");
-    let _ = std::fs::remove_dir_all(&shots);
-    let run = Command::new("node")
-        .arg(ui.join("display.mjs"))
-        .env("HELI_UI_URL", &display.url)
-        .env("HELI_UI_OUT", &shots)
-        .env("HELI_CHROMIUM", CHROMIUM)
-        .output()
-        .expect("node");
-    let said =
-        String::from_utf8_lossy(&run.stdout).to_string() + &String::from_utf8_lossy(&run.stderr);
-    eprintln!("{said}\nscreenshots in {}", shots.display());
+    let (run, said, shots) = run_page_script(&ui, "display", "HELI_UI_URL", &display.url);
     let stopped = display.stop();
     let vehicle_said = vehicle.output();
     vehicle.quit();
     drop(hil);
     assert!(
-        run.status.success(),
+        run.success(),
         "the browser test failed:\n{said}\nthe vehicle said:\n{vehicle_said}"
     );
     assert!(stopped, "heli ground did not stop cleanly on SIGTERM");
@@ -96,6 +85,30 @@ fn the_operator_flies_a_hover_from_the_display_in_headless_chromium() {
     let downloaded = std::fs::read(saved.join("ui/flight_mine.mcap")).unwrap();
     let onboard = std::fs::read(logs.join("flight_ui1.mcap")).unwrap();
     assert!(downloaded == onboard, "the saved log is not the vehicle's");
+}
+
+/// Runs `tests/ui/NAME.mjs` with the page's URL in `url_var`; its screenshots go under the
+/// test's target directory. Returns its exit status, what it said, and where the
+/// screenshots are.
+pub(crate) fn run_page_script(
+    ui: &Path,
+    name: &str,
+    url_var: &str,
+    url: &str,
+) -> (std::process::ExitStatus, String, std::path::PathBuf) {
+    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("ui-artifacts/{name}"));
+    let _ = std::fs::remove_dir_all(&shots);
+    let run = Command::new("node")
+        .arg(ui.join(format!("{name}.mjs")))
+        .env(url_var, url)
+        .env("HELI_UI_OUT", &shots)
+        .env("HELI_CHROMIUM", CHROMIUM)
+        .output()
+        .expect("node");
+    let said =
+        String::from_utf8_lossy(&run.stdout).to_string() + &String::from_utf8_lossy(&run.stderr);
+    eprintln!("{said}\nscreenshots in {}", shots.display());
+    (run.status, said, shots)
 }
 
 /// Every process whose command line mentions `needle`.

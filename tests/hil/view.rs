@@ -3,12 +3,10 @@
 //! and during a roll, each checked to show the helicopter, the field and the trail in both
 //! cameras (`tests/ui/view.mjs`). Screenshots are saved under the test's target directory.
 
-use std::path::Path;
-use std::process::Command;
-
 use super::exclusive;
-use crate::display::{CHROMIUM, browser_ready};
+use crate::display::{browser_ready, run_page_script};
 use crate::procs::{Vehicle, heli_process};
+use std::path::Path;
 
 #[test]
 fn the_truth_view_shows_the_helicopter_the_field_and_the_trail_before_and_during_a_roll() {
@@ -42,22 +40,11 @@ fn the_truth_view_shows_the_helicopter_the_field_and_the_trail_before_and_during
     assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
     let reply = vehicle.ctl(&["start-logging", "view", "autonomous", "rolls"]);
     assert!(reply.starts_with("ok flying"), "{reply}");
-    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/view");
-    let _ = std::fs::remove_dir_all(&shots);
-    let run = Command::new("node")
-        .arg(ui.join("view.mjs"))
-        .env("HELI_VIEW_URL", &url)
-        .env("HELI_UI_OUT", &shots)
-        .env("HELI_CHROMIUM", CHROMIUM)
-        .output()
-        .expect("node");
-    let said =
-        String::from_utf8_lossy(&run.stdout).to_string() + &String::from_utf8_lossy(&run.stderr);
-    eprintln!("{said}\nscreenshots in {}", shots.display());
+    let (run, said, shots) = run_page_script(&ui, "view", "HELI_VIEW_URL", &url);
     vehicle.ctl(&["stop"]);
     vehicle.quit();
     drop(hil);
-    assert!(run.status.success(), "the view test failed:\n{said}");
+    assert!(run.success(), "the view test failed:\n{said}");
     for shot in ["01-before-roll", "02-during-roll"] {
         assert!(
             shots.join(format!("{shot}.png")).exists(),
