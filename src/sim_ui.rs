@@ -31,6 +31,8 @@ struct Proc {
     child: Child,
     /// Its output lines until it is ready (then dropped: the log file keeps them).
     lines: Option<Receiver<String>>,
+    /// The lines read until it was ready.
+    seen: Vec<String>,
     log: PathBuf,
 }
 
@@ -74,6 +76,7 @@ impl Proc {
             name,
             child,
             lines: Some(lines),
+            seen: Vec::new(),
             log,
         })
     }
@@ -91,7 +94,7 @@ impl Proc {
             }
             match lines.recv_timeout(Duration::from_millis(100)) {
                 Ok(line) if line.contains(needle) => return Ok(line),
-                Ok(_) => {}
+                Ok(line) => self.seen.push(line),
                 Err(_) => {
                     if let Some(status) = self.child.try_wait()? {
                         bail!(
@@ -199,8 +202,14 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
                 "127.0.0.1:0",
             ]),
         )?;
-        let view = hil.wait_for("hilsim: view", Duration::from_secs(20), &stop)?;
         hil.wait_for("hilsim: ready", Duration::from_secs(20), &stop)?;
+        // Printed before "ready".
+        let view = hil
+            .seen
+            .iter()
+            .find(|l| l.contains("hilsim: view"))
+            .cloned()
+            .unwrap_or_default();
         procs.push(hil);
         let calibration = options.calibration_s.to_string();
         let mut vehicle = Proc::spawn(

@@ -167,20 +167,31 @@ fn heli_sim_ui_brings_up_the_whole_system_and_ctrl_c_stops_it() {
     let link = word_after("vehicle link ");
     let key = word_after("(key ");
     let dir = word_after("saved flights in ");
-    // The display answers.
-    let addr = url.trim_start_matches("http://").trim_end_matches('/');
-    let mut http = std::net::TcpStream::connect(addr).unwrap();
-    write!(
-        http,
-        "GET / HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
-    )
-    .unwrap();
-    let mut page = String::new();
-    http.read_to_string(&mut page).unwrap();
+    let view = word_after("(not the estimate) is at ");
+    let get = |url: &str| {
+        let addr = url.trim_start_matches("http://").trim_end_matches('/');
+        let mut http = std::net::TcpStream::connect(addr).unwrap();
+        write!(
+            http,
+            "GET / HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
+        )
+        .unwrap();
+        let mut page = String::new();
+        http.read_to_string(&mut page).unwrap();
+        page
+    };
+    // The display answers, and the simulator's view of the truth.
+    let page = get(&url);
     assert!(
         page.starts_with("HTTP/1.1 200") && page.contains("heli ground station"),
         "{page}"
     );
+    let page = get(&view);
+    assert!(
+        page.starts_with("HTTP/1.1 200") && page.contains("TRUTH (simulator)"),
+        "{page}"
+    );
+    let addr = url.trim_start_matches("http://").trim_end_matches('/');
     // A WebSocket opened by another site's page is refused.
     let mut ws = std::net::TcpStream::connect(addr).unwrap();
     write!(
