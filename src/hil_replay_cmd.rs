@@ -42,6 +42,7 @@ pub fn replay(args: &crate::hilsim_cmd::HilsimArgs, flight: &Path) -> Result<Exi
         wait_s: args.wait_s,
         tolerance: Tolerance {
             pulse_us: args.tolerance_us,
+            share: args.tolerance_share,
             ..Tolerance::default()
         },
     };
@@ -89,19 +90,26 @@ pub fn replay(args: &crate::hilsim_cmd::HilsimArgs, flight: &Path) -> Result<Exi
                 ch.max_us, ch.at_s, ch.rms_us
             );
         }
-        match c.first_difference_s {
-            None if c.matches() => println!(
-                "outcome     MATCH: every command within {} us and {} ms of the recorded flight",
-                c.tolerance.pulse_us,
-                c.tolerance.window_us / 1000
-            ),
-            Some(t) => println!(
-                "outcome     DIFFERENT: first at t={t:.2} s (tolerance {} us, {} ms)",
-                c.tolerance.pulse_us,
-                c.tolerance.window_us / 1000
-            ),
-            None => println!("outcome     NOTHING COMPARED: the log has no servo commands"),
-        }
+        println!(
+            "tolerance   {} us and {} ms; {} commands out of it ({:.2} %, {:.1} % allowed), first at {}",
+            c.tolerance.pulse_us,
+            c.tolerance.window_us / 1000,
+            c.out_of_tolerance,
+            100.0 * c.out_of_tolerance as f64 / (c.recorded.max(1)) as f64,
+            100.0 * c.tolerance.share,
+            c.first_difference_s
+                .map_or("none".to_string(), |t| format!("t={t:.2} s"))
+        );
+        println!(
+            "outcome     {}",
+            if c.matches() {
+                "MATCH: the flight software gives the recorded commands"
+            } else if c.recorded == 0 {
+                "NOTHING COMPARED: the log has no servo commands"
+            } else {
+                "DIFFERENT"
+            }
+        );
     }
     Ok(if c.matches() {
         ExitCode::SUCCESS

@@ -49,6 +49,9 @@ pub struct HilsimArgs {
     /// trail, the wind, with a chase and a fixed field camera.
     #[arg(long, value_name = "ADDR")]
     pub view: Option<std::net::SocketAddr>,
+    /// With --replay: the share of commands that may be out of tolerance (0-1).
+    #[arg(long, default_value_t = 0.01)]
+    pub tolerance_share: f64,
     /// With --replay: how long to wait for the flight computer to start (s).
     #[arg(long, default_value_t = 300.0)]
     pub wait_s: f64,

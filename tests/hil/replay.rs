@@ -48,13 +48,15 @@ fn a_recorded_flight_replayed_to_the_vehicle_gives_its_commands_and_a_changed_ga
     let recorded = c["recorded"].as_u64().unwrap();
     assert!(recorded > 1000, "{same:#}");
     assert_eq!(c["paired"], c["recorded"], "{same:#}");
-    assert!(c["first_difference_s"].is_null(), "{same:#}");
+    let stray = c["out_of_tolerance"].as_u64().unwrap();
+    assert!(stray * 100 <= recorded, "{same:#}");
 
-    // The yaw-rate gain halved: the tail's commands change from the first correction on.
+    // The yaw-rate gain halved: the tail's commands change from the take-off on.
     let changed = replay_to(&flight, Some("YAW_RATE_P = 0.15\n"));
     let c = &changed["comparison"];
     eprintln!("YAW_RATE_P halved: {c:#}");
-    assert!(c["first_difference_s"].is_number(), "{changed:#}");
+    let stray = c["out_of_tolerance"].as_u64().unwrap();
+    assert!(stray * 100 > recorded, "{changed:#}");
     let rudder = c["channels"][2]["max_us"].as_u64().unwrap();
     assert!(rudder > 10, "{changed:#}");
 }

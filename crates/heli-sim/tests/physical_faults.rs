@@ -66,8 +66,8 @@ fn an_engine_failure_stops_the_governor_holding_the_rotor() {
 
 #[test]
 fn an_engine_failure_in_the_air_is_raised_and_answered_by_an_autorotation() {
-    // The rotor falls below 85 % of its governed speed about 0.4 s after the engine quits;
-    // a tenth of a second later the flight software raises the failure and autorotates.
+    // The rotor falls through 95 % of its governed speed at about 800 rpm/s some 0.1 s
+    // after the engine quits: the flight software raises the failure and autorotates.
     // (From this 10 m hover it does not yet land softly: docs/autorotation.md.)
     let mut s = scenario::hover();
     s.faults.engine = vec![EngineFault {
@@ -90,7 +90,7 @@ fn an_engine_failure_in_the_air_is_raised_and_answered_by_an_autorotation() {
             })
     };
     let failure = at("engine failure: rotor at").unwrap_or_else(|| panic!("{:?}", summary.events));
-    assert!((110.2..111.0).contains(&failure), "raised at {failure} s");
+    assert!((110.0..110.3).contains(&failure), "raised at {failure} s");
     let phase = at("phase autorotation").unwrap_or_else(|| panic!("{:?}", summary.events));
     assert!((failure..failure + 0.05).contains(&phase), "{phase} s");
 }

@@ -1,6 +1,6 @@
 //! The engine-failure response: the rotor's speed, read by the servo controller board's
-//! tachometer, watched in the air; when it stays below a fraction of the governed speed,
-//! the engine has failed (the governor would hold it otherwise), the event is raised as
+//! tachometer, watched in the air; when it falls fast below a fraction of the governed
+//! speed, or stays below a lower one, the engine has failed (the governor would hold it otherwise), the event is raised as
 //! fatal, and an autonomous or augmented flight autorotates to the ground
 //! (`heli_control::autorotation`). A roll under way is finished upright first. A pilot
 //! flying by hand (auto switch off, or the bypass) is told and keeps flying: autorotating a
@@ -9,11 +9,21 @@
 use super::*;
 use heli_control::autorotation::Autorotation;
 
-/// When the rotor speed means the engine has failed.
+/// When the rotor speed means the engine has failed: falling fast below a first fraction
+/// of the governed speed (the engine's power gone, the rotor spends its energy at hover
+/// collective at about 800 rpm/s), or held below a second fraction (a slower loss).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EngineWatch {
     /// The governor's speed in flight (rpm).
     pub governed_rpm: f64,
+    /// Below this fraction of it ...
+    pub falling_fraction: f64,
+    /// ... a rotor falling faster than this over [`EngineWatch::falling_over_s`] (rpm/s)
+    /// has lost its engine. The steepest fall of the demonstration's rolls below 95 % is
+    /// 410 rpm/s; an engine failure in the hover, 820.
+    pub falling_rpm_per_s: f64,
+    /// See [`EngineWatch::falling_rpm_per_s`] (s).
+    pub falling_over_s: f64,
     /// Below this fraction of it the rotor is failing: the governor holds within a few
     /// percent, and the deepest droop of the demonstration's rolls is 91 %.
     pub failure_fraction: f64,
@@ -31,6 +41,9 @@ impl Default for EngineWatch {
     fn default() -> Self {
         Self {
             governed_rpm: 1600.0,
+            falling_fraction: 0.95,
+            falling_rpm_per_s: 600.0,
+            falling_over_s: 0.1,
             failure_fraction: 0.85,
             confirm_s: 0.1,
             landed_height_m: 0.5,
@@ -50,12 +63,31 @@ impl FlightCore {
         };
         let airborne =
             self.airborne_once && self.height_above_home(est) > self.config.airborne_height_m;
-        if !(airborne && rpm < w.governed_rpm * w.failure_fraction) {
+        // The rotor speed over the last `falling_over_s` (a few control steps).
+        let history = &mut self.rotor_history;
+        while history.len() > 1
+            && history
+                .get(1)
+                .is_some_and(|(t, _)| seconds_between(*t, now_us) >= w.falling_over_s)
+        {
+            history.pop_front();
+        }
+        let fall_rpm_per_s = history
+            .front()
+            .filter(|(t, _)| seconds_between(*t, now_us) >= w.falling_over_s)
+            .map(|(t, then)| (then - rpm) / seconds_between(*t, now_us).max(1e-3));
+        if history.len() < 16 {
+            history.push_back((now_us, rpm));
+        }
+        let falling = rpm < w.governed_rpm * w.falling_fraction
+            && fall_rpm_per_s.is_some_and(|f| f > w.falling_rpm_per_s);
+        let low = rpm < w.governed_rpm * w.failure_fraction;
+        if !(airborne && (falling || low)) {
             self.engine_low_since_us = None;
             return;
         }
         let since = *self.engine_low_since_us.get_or_insert(now_us);
-        if seconds_between(since, now_us) >= w.confirm_s {
+        if falling || seconds_between(since, now_us) >= w.confirm_s {
             self.engine_failed = true;
             out.push(Action::Event(Stamped::new(
                 now_us,

@@ -256,6 +256,8 @@ pub struct FlightCore {
     refused_in_air: Option<ModeRefusal>,
     /// Since when the rotor has been below the engine watch's threshold in the air.
     engine_low_since_us: Option<u64>,
+    /// The rotor speeds of the last control steps (µs, rpm), oldest first.
+    rotor_history: std::collections::VecDeque<(u64, f64)>,
     /// The engine failure was raised: autorotation for the rest of the flight.
     engine_failed: bool,
     /// The autorotation under way.
@@ -304,6 +306,7 @@ impl FlightCore {
             calibration_heading: None,
             refused_in_air: None,
             engine_low_since_us: None,
+            rotor_history: std::collections::VecDeque::with_capacity(16),
             engine_failed: false,
             autorotation: None,
             refusal_raised: None,
