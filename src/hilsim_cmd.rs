@@ -42,7 +42,7 @@ pub struct HilsimArgs {
     #[arg(long, value_name = "FLIGHT.mcap", conflicts_with_all = ["scenario", "duration", "seed"])]
     pub replay: Option<PathBuf>,
     /// With --replay: the largest pulse-width difference that still matches (µs).
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 50)]
     pub tolerance_us: u16,
     /// Serve a 3D view of the simulator's truth on this address (`127.0.0.1:0` picks a free
     /// port; the URL is printed): the helicopter, its rotor disk, the field, the plan, the

@@ -51,12 +51,13 @@ fn a_recorded_flight_replayed_to_the_vehicle_gives_its_commands_and_a_changed_ga
     let stray = c["out_of_tolerance"].as_u64().unwrap();
     assert!(stray * 100 <= recorded, "{same:#}");
 
-    // The yaw-rate gain halved: the tail's commands change from the take-off on.
-    let changed = replay_to(&flight, Some("YAW_RATE_P = 0.15\n"));
+    // The climb rate limited to a third: the collective of the take-off and everything
+    // after it change.
+    let changed = replay_to(&flight, Some("HOV_MAX_CLIMB = 0.5\n"));
     let c = &changed["comparison"];
-    eprintln!("YAW_RATE_P halved: {c:#}");
+    eprintln!("HOV_MAX_CLIMB 1.5 -> 0.5: {c:#}");
     let stray = c["out_of_tolerance"].as_u64().unwrap();
     assert!(stray * 100 > recorded, "{changed:#}");
-    let rudder = c["channels"][2]["max_us"].as_u64().unwrap();
-    assert!(rudder > 10, "{changed:#}");
+    let collective = c["channels"][3]["max_us"].as_u64().unwrap();
+    assert!(collective > 50, "{changed:#}");
 }

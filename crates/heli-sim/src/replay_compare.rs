@@ -23,7 +23,10 @@ pub struct Tolerance {
     /// Largest time between a recorded command and a replayed one it may be compared with
     /// (µs).
     pub window_us: u64,
-    /// Largest difference of a pulse width (µs; 1000 µs is full travel).
+    /// Largest difference of a pulse width (µs; 1000 µs is full travel). A phase that
+    /// begins one control step later (its target taken 20 ms later: the end of the
+    /// calibration is a time on the computer's own clock) moves the commands that follow by
+    /// up to 32 µs, measured; the default, 50 µs, is 5 % of full travel.
     pub pulse_us: u16,
     /// Share of the recorded commands that may be out of tolerance (0–1): an IMU packet
     /// late on one side of the 12 ms watchdog and not on the other gives the estimator a
@@ -36,7 +39,7 @@ impl Default for Tolerance {
     fn default() -> Self {
         Self {
             window_us: 22_000,
-            pulse_us: 10,
+            pulse_us: 50,
             share: 0.01,
         }
     }
@@ -205,10 +208,10 @@ mod tests {
     #[test]
     fn a_command_out_of_tolerance_is_the_first_difference() {
         let recorded = steps(100, 0, |_| 1500);
-        let replayed = steps(100, 0, |k| if k >= 60 { 1540 } else { 1500 });
+        let replayed = steps(100, 0, |k| if k >= 60 { 1570 } else { 1500 });
         let c = compare(&recorded, &replayed, Tolerance::default());
         assert!(!c.matches());
-        assert_eq!(c.channels[0].max_us, 40);
+        assert_eq!(c.channels[0].max_us, 70);
         // The recorded command at the change may be the replay's one step early; the one
         // after it cannot.
         assert!((c.first_difference_s.unwrap() - 2.22).abs() < 1e-9, "{c:?}");
@@ -241,7 +244,7 @@ mod tests {
         let run_of = |n: u64| {
             steps(400, 0, move |k| {
                 if (50..50 + n).contains(&k) {
-                    1530
+                    1560
                 } else {
                     1500
                 }
