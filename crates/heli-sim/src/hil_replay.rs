@@ -120,6 +120,25 @@ pub struct ReplayReport {
     pub comparison: Comparison,
 }
 
+/// The whole servo packets in `bytes` the computer wrote on `port` (only the servo board's
+/// carries them), each at `t_us`.
+fn servo_commands(
+    framer: &mut ServoFramer,
+    port: Port,
+    bytes: &[u8],
+    t_us: u64,
+    out: &mut Vec<(u64, Pulses)>,
+) {
+    if port != Port::Scb {
+        return;
+    }
+    for &b in bytes {
+        if let Some(packet) = framer.push(b).and_then(|f| ServoPacket::parse(f).ok()) {
+            out.push((t_us, packet.pulses));
+        }
+    }
+}
+
 /// Plays `rec` on the devices under `dir` to a flight computer, until the inputs end or
 /// `stop` is set; `ready` is called once the devices exist.
 pub fn run(
@@ -152,16 +171,8 @@ pub fn run(
         }
         match from_computer.recv_timeout(Duration::from_millis(50)) {
             Ok((port, bytes, at)) => {
-                if port == Port::Scb {
-                    // A command this early is compared like any other (at time zero).
-                    for &b in &bytes {
-                        if let Some(packet) =
-                            framer.push(b).and_then(|f| ServoPacket::parse(f).ok())
-                        {
-                            replayed.push((rec.start_us, packet.pulses));
-                        }
-                    }
-                }
+                // A command this early is compared like any other (at time zero).
+                servo_commands(&mut framer, port, &bytes, rec.start_us, &mut replayed);
                 break at;
             }
             Err(_) if waited.elapsed().as_secs_f64() > options.wait_s => {
@@ -183,14 +194,7 @@ pub fn run(
     };
     let collect = |framer: &mut ServoFramer, replayed: &mut Vec<(u64, Pulses)>| {
         while let Ok((port, bytes, at)) = from_computer.try_recv() {
-            if port != Port::Scb {
-                continue;
-            }
-            for &b in &bytes {
-                if let Some(packet) = framer.push(b).and_then(|f| ServoPacket::parse(f).ok()) {
-                    replayed.push((recorded_time(at), packet.pulses));
-                }
-            }
+            servo_commands(framer, port, &bytes, recorded_time(at), replayed);
         }
     };
     let mut played = 0usize;

@@ -96,6 +96,37 @@ fn an_engine_failure_in_the_air_is_raised_and_answered_by_an_autorotation() {
 }
 
 #[test]
+fn an_engine_losing_part_of_its_power_is_found_when_the_rotor_stays_low() {
+    // At 40 % of full power the engine gives 800 W against the hover's 1100: the rotor
+    // slows too gently for the falling rule, and is found once below 85 % for 0.1 s.
+    let mut s = scenario::hover();
+    s.faults.engine = vec![EngineFault {
+        start_s: 110.0,
+        end_s: 1000.0,
+        power: 0.4,
+    }];
+    let summary = heli_sim::run(s).unwrap_or_else(|e| panic!("{e}"));
+    let failure = summary
+        .events
+        .iter()
+        .find(|e| e.contains("engine failure: rotor at"))
+        .unwrap_or_else(|| panic!("{:?}", summary.events));
+    let t: f64 = failure
+        .trim_start_matches("t=")
+        .split(' ')
+        .next()
+        .and_then(|t| t.parse().ok())
+        .unwrap_or(f64::NAN);
+    assert!((110.4..115.0).contains(&t), "{failure}");
+    let rpm: f64 = failure
+        .split("rotor at ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next()?.parse().ok())
+        .unwrap_or(f64::NAN);
+    assert!(rpm < 0.85 * 1600.0, "{failure}");
+}
+
+#[test]
 fn the_rotor_droop_of_the_rolls_is_no_engine_failure() {
     // The rolls pump the collective and the governor lets the rotor droop to about 91 %.
     let summary = heli_sim::run(scenario::demo()).unwrap_or_else(|e| panic!("{e}"));
