@@ -45,12 +45,25 @@ pub struct AutorotationGains {
     pub min_collective: f64,
     /// Forward ground speed of the glide (m/s).
     pub glide_speed_mps: f64,
+    /// Largest tilt in the glide (rad): enough to hold the glide's speed, not the dive a
+    /// powered flight's speed loop would ask for (nose down, the air no longer drives the
+    /// rotor).
+    pub glide_max_tilt_rad: f64,
+    /// How far below its target the rotor may be (rpm) before the glide's nose-down tilt is
+    /// cut back, to none at this far below.
+    pub glide_rotor_band_rpm: f64,
+    /// Nose-up pitch (rad) held while the rotor is a whole band below its target and the
+    /// helicopter has forward speed to spend.
+    pub entry_pitch_rad: f64,
     /// Height above the take-off point where the flare begins (m).
     pub flare_height_m: f64,
     /// Height below which the attitude is held level (m).
     pub level_height_m: f64,
     /// Largest tilt in the flare and the cushion (rad).
     pub flare_max_tilt_rad: f64,
+    /// The flare's deceleration per m/s of ground speed left (1/s): the nose comes up in
+    /// proportion to the speed, and down as it is taken off.
+    pub flare_decel_per_mps: f64,
     /// Deceleration of the cushion's sink-rate profile (m/s²).
     pub cushion_decel_mps2: f64,
     /// Sink rate the profile reaches at the ground (m/s).
@@ -69,14 +82,18 @@ impl Default for AutorotationGains {
             rotor_to_collective: 0.004,
             rotor_integral: 0.002,
             min_collective: -0.4,
-            glide_speed_mps: 6.0,
-            flare_height_m: 6.0,
-            level_height_m: 1.0,
+            glide_speed_mps: 22.0,
+            glide_max_tilt_rad: 0.35,
+            glide_rotor_band_rpm: 600.0,
+            entry_pitch_rad: 0.3,
+            flare_height_m: 10.0,
+            level_height_m: 1.5,
             flare_max_tilt_rad: 0.35,
-            cushion_decel_mps2: 4.0,
-            touchdown_sink_mps: 0.5,
-            sink_to_collective: 0.25,
-            cushion_collective: 0.54,
+            flare_decel_per_mps: 0.3,
+            cushion_decel_mps2: 8.0,
+            touchdown_sink_mps: 0.3,
+            sink_to_collective: 0.8,
+            cushion_collective: 0.8,
         }
     }
 }
@@ -137,7 +154,7 @@ impl Autorotation {
         Self {
             gains,
             glide_dir,
-            glide_speed_mps: vel.norm().min(gains.glide_speed_mps),
+            glide_speed_mps: gains.glide_speed_mps,
             heading_rad: yaw,
             rotor_integral: 0.0,
             stage: AutorotationStage::Glide,
@@ -211,13 +228,31 @@ impl Autorotation {
         let (roll_cmd, pitch_cmd) = match self.stage {
             AutorotationStage::Glide => {
                 let vel_cmd = self.glide_dir * self.glide_speed_mps;
-                hover.velocity_to_attitude(est, &vel_cmd, dt, true)
+                let (roll, pitch) = hover.velocity_to_attitude(est, &vel_cmd, dt, true);
+                // The nose goes down for speed only as the rotor has its speed back: a
+                // dive unloads the disk, and the rotor would go on slowing.
+                let band = g.glide_rotor_band_rpm.max(1.0);
+                let ready = ((rotor_err + band) / band).clamp(0.0, 1.0);
+                // With speed to spend and the rotor slow, the nose comes up: the air then
+                // comes up through the disk and drives the rotor (a pilot's entry flare).
+                let along = est.vel_ned_mps.dot(&self.glide_dir);
+                let speed_share = (along / 5.0).clamp(0.0, 1.0);
+                let floor =
+                    -g.glide_max_tilt_rad * ready + g.entry_pitch_rad * speed_share * (1.0 - ready);
+                (
+                    limit(roll, g.glide_max_tilt_rad),
+                    pitch.max(floor).min(g.glide_max_tilt_rad.max(floor)),
+                )
             }
             AutorotationStage::Flare | AutorotationStage::Cushion => {
-                let span = (g.flare_height_m - g.level_height_m).max(1e-3);
-                let fraction = ((height_m - g.level_height_m) / span).clamp(0.0, 1.0);
-                let vel_cmd = self.glide_dir * (self.glide_speed_mps * fraction);
-                let (roll, pitch) = hover.velocity_to_attitude(est, &vel_cmd, dt, false);
+                // Decelerate along the glide in proportion to the speed left; take any
+                // sideways speed off with the hover's gain.
+                let vel = Vector3::new(est.vel_ned_mps.x, est.vel_ned_mps.y, 0.0);
+                let along = vel.dot(&self.glide_dir);
+                let cross = vel - self.glide_dir * along;
+                let accel = -self.glide_dir * (g.flare_decel_per_mps * along)
+                    - cross * hover.gains.vel_to_accel;
+                let (roll, pitch) = accel_to_attitude(est, &accel);
                 (
                     limit(roll, g.flare_max_tilt_rad),
                     limit(pitch, g.flare_max_tilt_rad),
@@ -241,5 +276,93 @@ impl Autorotation {
             collective,
             throttle: GOVERNED_THROTTLE,
         }
+    }
+}
+
+/// The roll and pitch (rad) that tilt the thrust to give the horizontal acceleration
+/// `accel_ned` (m/s², NED) at the estimate's heading.
+fn accel_to_attitude(est: &NavState, accel_ned: &Vector3<f64>) -> (f64, f64) {
+    let (_, _, yaw) = est.euler_rad();
+    let (s, c) = yaw.sin_cos();
+    let fwd = c * accel_ned.x + s * accel_ned.y;
+    let right = -s * accel_ned.x + c * accel_ned.y;
+    let gravity = heli_nav::GRAVITY_MPS2;
+    (((right / gravity).atan()), (-(fwd / gravity).atan()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hover::HoverGains;
+    use nalgebra::UnitQuaternion;
+
+    /// Level, heading north, moving at `vel` (NED).
+    fn est(vel: Vector3<f64>) -> NavState {
+        NavState {
+            t_us: 0,
+            att: UnitQuaternion::identity(),
+            vel_ned_mps: vel,
+            pos_ned_m: Vector3::zeros(),
+            rate_body_rps: Vector3::zeros(),
+            accel_body_mps2: Vector3::zeros(),
+            gyro_bias_rps: Vector3::zeros(),
+            accel_bias_mps2: Vector3::zeros(),
+        }
+    }
+
+    fn step(ar: &mut Autorotation, e: &NavState, height_m: f64, rpm: f64) -> Controls {
+        let mut hover = HoverController::new(HoverGains::default());
+        ar.update(&mut hover, e, height_m, rpm, 0.02)
+    }
+
+    #[test]
+    fn with_the_rotor_slow_and_speed_to_spend_the_nose_comes_up() {
+        let e = est(Vector3::new(10.0, 0.0, 2.0));
+        let mut ar = Autorotation::begin(AutorotationGains::default(), &e);
+        // Level now: a nose-up command is aft cyclic (positive elevator pitches up).
+        let slow = step(&mut ar, &e, 50.0, 1100.0);
+        let mut ar = Autorotation::begin(AutorotationGains::default(), &e);
+        let at_speed = step(&mut ar, &e, 50.0, 1500.0);
+        assert_eq!(ar.stage(), AutorotationStage::Glide);
+        assert!(slow.elevator > 0.0, "{slow:?}");
+        assert!(at_speed.elevator < slow.elevator, "{at_speed:?} {slow:?}");
+    }
+
+    #[test]
+    fn the_collective_holds_the_rotor_speed_in_the_glide() {
+        let e = est(Vector3::new(10.0, 0.0, 8.0));
+        let g = AutorotationGains::default();
+        let mut ar = Autorotation::begin(g, &e);
+        let slow = step(&mut ar, &e, 50.0, 1400.0).collective;
+        let mut ar = Autorotation::begin(g, &e);
+        let fast = step(&mut ar, &e, 50.0, 1650.0).collective;
+        assert!(slow < g.glide_collective && fast > g.glide_collective);
+        assert!(slow >= g.min_collective);
+    }
+
+    #[test]
+    fn near_the_ground_the_flare_takes_the_speed_off_and_the_cushion_the_sink() {
+        let g = AutorotationGains::default();
+        // In the flare, sinking slower than the profile: nose up, collective still on the
+        // rotor.
+        let e = est(Vector3::new(12.0, 0.0, 3.0));
+        let mut ar = Autorotation::begin(g, &e);
+        let flare = step(&mut ar, &e, g.flare_height_m - 1.0, 1500.0);
+        assert_eq!(ar.stage(), AutorotationStage::Flare);
+        assert!(flare.elevator > 0.0, "{flare:?}");
+        assert!(flare.collective < 0.0, "{flare:?}");
+        // Sinking faster than the profile allows: the collective comes up, and stays up.
+        let h = 5.0;
+        let fast = est(Vector3::new(6.0, 0.0, ar.sink_profile_mps(h) + 2.0));
+        let cushion = step(&mut ar, &fast, h, 1500.0);
+        assert_eq!(ar.stage(), AutorotationStage::Cushion);
+        assert!(cushion.collective > g.cushion_collective, "{cushion:?}");
+        let slow = est(Vector3::new(6.0, 0.0, 0.5));
+        step(&mut ar, &slow, h - 0.5, 1500.0);
+        assert_eq!(ar.stage(), AutorotationStage::Cushion);
+        // The last metre: level.
+        let level = step(&mut ar, &slow, g.level_height_m - 0.1, 1400.0);
+        assert_eq!(ar.stage(), AutorotationStage::Level);
+        assert!(level.elevator.abs() < 0.2, "{level:?}");
     }
 }
