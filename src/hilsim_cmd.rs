@@ -49,6 +49,11 @@ pub struct HilsimArgs {
     /// trail, the wind, with a chase and a fixed field camera.
     #[arg(long, value_name = "ADDR")]
     pub view: Option<std::net::SocketAddr>,
+    /// With --view: a person flies from the view's page — a gamepad or RC transmitter
+    /// through the browser's Gamepad API, or the keyboard — through the simulated receiver
+    /// and servo controller board, and the page's trainer panel triggers failures.
+    #[arg(long, requires = "view")]
+    pub pilot: bool,
     /// With --replay: the share of commands that may be out of tolerance (0-1).
     #[arg(long, default_value_t = 0.01)]
     pub tolerance_share: f64,
@@ -84,17 +89,23 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
     };
     let dir = args.ptys.clone();
     let name = scenario.name.clone();
-    let feed = match args.view {
-        Some(addr) => Some(crate::hilsim_view::serve(addr, &scenario)?),
-        None => None,
+    let (feed, mut cockpit) = match args.view {
+        Some(addr) => {
+            let (feed, cockpit) = crate::hilsim_view::serve(addr, &scenario, args.pilot)?;
+            (Some(feed), cockpit)
+        }
+        None => (None, None),
     };
     let mut last_frame: Option<std::time::Instant> = None;
-    let watch = |sim: &Simulation| {
+    let watch = |sim: &mut Simulation| {
+        if let Some(c) = &mut cockpit {
+            c.apply(sim);
+        }
         if let Some(feed) = &feed
             && last_frame.is_none_or(|t| t.elapsed() >= crate::hilsim_view::FRAME_EVERY)
         {
             last_frame = Some(std::time::Instant::now());
-            crate::hilsim_view::publish(feed, sim);
+            crate::hilsim_view::publish(feed, sim, cockpit.as_ref());
         }
     };
     let summary = hil::run(

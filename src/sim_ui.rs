@@ -200,6 +200,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
                 "86400",
                 "--view",
                 "127.0.0.1:0",
+                "--pilot",
             ]),
         )?;
         hil.wait_for("hilsim: ready", Duration::from_secs(20), &stop)?;
@@ -279,6 +280,9 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
         options.scenario
     );
     println!("  the simulator's truth in 3D (not the estimate) is at {view_url}");
+    println!(
+        "    (fly it yourself there: 'take the transmitter', gamepad or keyboard; trainer's failures)"
+    );
     println!("  processes' output, logs and saved flights in {dir_s}");
     println!("  Ctrl-C stops everything");
     let _ = std::io::stdout().flush();

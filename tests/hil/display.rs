@@ -98,8 +98,31 @@ pub(crate) fn run_page_script(
 ) -> (std::process::ExitStatus, String, std::path::PathBuf) {
     let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("ui-artifacts/{name}"));
     let _ = std::fs::remove_dir_all(&shots);
+    run_page_script_env(ui, name, url_var, url, &[])
+}
+
+/// Runs the view's page script `name` on `url` with `env` set as well; the screenshots of
+/// earlier runs stay (a test's phases share the directory).
+pub(crate) fn run_page_script_with(
+    ui: &Path,
+    name: &str,
+    url: &str,
+    env: &[(&str, &str)],
+) -> (std::process::ExitStatus, String, std::path::PathBuf) {
+    run_page_script_env(ui, name, "HELI_VIEW_URL", url, env)
+}
+
+fn run_page_script_env(
+    ui: &Path,
+    name: &str,
+    url_var: &str,
+    url: &str,
+    env: &[(&str, &str)],
+) -> (std::process::ExitStatus, String, std::path::PathBuf) {
+    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("ui-artifacts/{name}"));
     let run = Command::new("node")
         .arg(ui.join(format!("{name}.mjs")))
+        .envs(env.iter().copied())
         .env(url_var, url)
         .env("HELI_UI_OUT", &shots)
         .env("HELI_CHROMIUM", CHROMIUM)

@@ -6,6 +6,7 @@
 
 mod display;
 mod link;
+mod pilot;
 mod procs;
 mod replay;
 mod view;

@@ -5,7 +5,7 @@
 
 use super::exclusive;
 use crate::display::{browser_ready, run_page_script};
-use crate::procs::{Vehicle, heli_process};
+use crate::procs::{Lines, Vehicle, heli_process};
 use std::path::Path;
 
 #[test]
@@ -18,24 +18,7 @@ fn the_truth_view_shows_the_helicopter_the_field_and_the_trail_before_and_during
     let dir = tempfile::tempdir().unwrap();
     let dev = dir.path().join("dev");
     let dev_s = dev.display().to_string();
-    let hil = heli_process(&[
-        "hilsim",
-        "--ptys",
-        &dev_s,
-        "--scenario",
-        "rolls",
-        "--duration",
-        "90",
-        "--view",
-        "127.0.0.1:0",
-    ]);
-    let view_line = hil.wait_for("hilsim: view", std::time::Duration::from_secs(10));
-    hil.wait_for("hilsim: ready", std::time::Duration::from_secs(10));
-    let url = view_line
-        .split_whitespace()
-        .find(|w| w.starts_with("http://"))
-        .unwrap_or_else(|| panic!("no URL in {view_line}"))
-        .to_string();
+    let (hil, url) = hilsim_with_view(&dev_s, "rolls", "90", &[]);
     let vehicle = Vehicle::start(dir.path(), &dev);
     assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
     let reply = vehicle.ctl(&["start-logging", "view", "autonomous", "rolls"]);
@@ -61,4 +44,35 @@ fn the_truth_view_shows_the_helicopter_the_field_and_the_trail_before_and_during
         during["roll_deg"].as_f64().unwrap().abs() > 90.0,
         "{during}"
     );
+}
+
+/// Starts `heli hilsim` on the devices `dev` with the view on a free port (and `extra`
+/// arguments); returns the process once ready, and the view's URL.
+pub(crate) fn hilsim_with_view(
+    dev: &str,
+    scenario: &str,
+    duration_s: &str,
+    extra: &[&str],
+) -> (Lines, String) {
+    let mut args = vec![
+        "hilsim",
+        "--ptys",
+        dev,
+        "--scenario",
+        scenario,
+        "--duration",
+        duration_s,
+        "--view",
+        "127.0.0.1:0",
+    ];
+    args.extend_from_slice(extra);
+    let hil = heli_process(&args);
+    let view_line = hil.wait_for("hilsim: view", std::time::Duration::from_secs(10));
+    hil.wait_for("hilsim: ready", std::time::Duration::from_secs(10));
+    let url = view_line
+        .split_whitespace()
+        .find(|w| w.starts_with("http://"))
+        .unwrap_or_else(|| panic!("no URL in {view_line}"))
+        .to_string();
+    (hil, url)
 }

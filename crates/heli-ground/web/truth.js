@@ -10,12 +10,23 @@
 
   function connect() {
     const ws = new WebSocket(`ws://${location.host}/ws`);
+    // The pilot's panel (pilot.js) sends through this socket.
+    window.heliViewSend = (msg) => {
+      if (ws.readyState !== WebSocket.OPEN) return false;
+      ws.send(JSON.stringify(msg));
+      return true;
+    };
+    const hooks = () => window.heliPilotHooks || {};
     ws.onmessage = (e) => {
       const m = JSON.parse(e.data);
-      if (m.type === "setup") {
+      if (m.type === "error") {
+        if (hooks().error) hooks().error(m);
+      } else if (m.type === "setup") {
+        if (hooks().setup) hooks().setup(m);
         state.setup = m;
         document.getElementById("scenario").textContent = `scenario ${m.scenario}`;
       } else if (m.type === "truth") {
+        if (hooks().frame) hooks().frame(m);
         if (!state.home) state.home = [m.pos_ned_m[0], m.pos_ned_m[1], 0];
         // A new run (time went back): start the trail again.
         if (state.frame && m.t_s < state.frame.t_s) state.history = [];

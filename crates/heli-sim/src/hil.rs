@@ -177,14 +177,15 @@ pub(crate) fn spawn_readers(
 
 /// Runs the scenario's helicopter against a flight computer on the devices under `dir`,
 /// until the duration is reached, it crashes, or `stop` is set. `ready` is called once the
-/// devices exist, `watch` after every step of the simulation (a view of the truth).
+/// devices exist, `watch` after every step of the simulation (a view of the truth, and the
+/// place a live pilot's sticks and a trainer's failures come in).
 pub fn run(
     scenario: Scenario,
     dir: &Path,
     options: HilOptions,
     stop: &Arc<AtomicBool>,
     ready: impl FnOnce(&HilDevices),
-    mut watch: impl FnMut(&Simulation),
+    mut watch: impl FnMut(&mut Simulation),
 ) -> Result<Summary, String> {
     if !(options.speed.is_finite() && options.speed > 0.0 && options.speed <= 100.0) {
         return Err(format!(
@@ -218,7 +219,7 @@ pub fn run(
         if !sim.advance(end_us) {
             break;
         }
-        watch(&sim);
+        watch(&mut sim);
         let wall_of =
             |t_us: u64| wall_start + Duration::from_secs_f64(t_us as f64 * 1e-6 / options.speed);
         // Each transmission leaves when its last byte would have reached the computer.

@@ -31,6 +31,7 @@ pub mod replay_compare;
 pub mod rotor;
 pub mod scenario;
 pub mod summary;
+pub mod trainer;
 pub mod turbulence;
 pub mod validate;
 

@@ -173,6 +173,8 @@ pub struct Simulation {
     actuators: Actuators,
     hands: HoveringPilot,
     hand_sticks: Option<Controls>,
+    /// A live transmitter (a person at `heli hilsim --pilot`): replaces the scripted pilot.
+    live_pilot: Option<PilotCommand>,
     core_setup: (CoreConfig, FlightParams),
     recorded: Option<Recording>,
     step_times: Option<Vec<Duration>>,
@@ -258,6 +260,7 @@ impl Simulation {
             actuators,
             hands: HoveringPilot::default(),
             hand_sticks: None,
+            live_pilot: None,
             turbulence: Turbulence::new(scenario.turbulence_sigma_mps, Noise::new(seed, 6)),
             gust_ned_mps: Vector3::zeros(),
             rotor_azimuth_rad: 0.0,

@@ -12,6 +12,12 @@ impl Simulation {
             .transmitter_lost
             .iter()
             .any(|[start, end]| t_s >= *start && t_s < *end);
+        if let Some(live) = self.live_pilot {
+            return PilotCommand {
+                signal_lost: live.signal_lost || lost,
+                ..live
+            };
+        }
         let p = &self.scenario.pilot;
         let scripted = p.scripted(t_s);
         let sticks = match self.hand_sticks {
@@ -32,6 +38,30 @@ impl Simulation {
             bypass: p.bypass_at(t_s),
             signal_lost: lost,
         }
+    }
+
+    /// Hands the transmitter to a person (`Some`: their sticks and switches, as their
+    /// transmitter sends them), or back to the scenario's scripted pilot (`None`). The
+    /// receiver's faults (a frozen channel, a flickering switch, a lost signal) still act on
+    /// it, and the servo controller board turns it into uplink bytes as it would a
+    /// receiver's.
+    pub fn set_live_pilot(&mut self, pilot: Option<PilotCommand>) {
+        self.live_pilot = pilot;
+    }
+
+    /// What the transmitter sends now (the live pilot's or the scripted one's).
+    pub fn transmitter(&self) -> PilotCommand {
+        self.pilot()
+    }
+
+    /// Triggers a failure of the fault catalog from now on (the trainer's panel); returns
+    /// what was done, or why it was refused.
+    pub fn trigger_fault(
+        &mut self,
+        fault: &crate::trainer::TrainerFault,
+    ) -> Result<String, String> {
+        let now_s = self.t_s();
+        fault.apply(&mut self.scenario, now_s)
     }
 
     pub(super) fn pilot_of(scenario: &Scenario) -> PilotCommand {

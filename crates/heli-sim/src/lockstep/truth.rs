@@ -26,6 +26,22 @@ pub struct TruthFrame {
     pub wind_ned_mps: [f64; 3],
     /// Skid ends touching the ground.
     pub contact_points: u32,
+    /// What the pilot's transmitter sends: aileron, elevator, rudder, collective, throttle.
+    pub sticks: [f64; 5],
+    /// The transmitter's auto switch.
+    pub auto_switch: bool,
+    /// The emergency bypass switch.
+    pub bypass_switch: bool,
+    /// The transmitter's signal is lost.
+    pub signal_lost: bool,
+    /// A person holds the transmitter (`heli hilsim --pilot`), not the scenario's script.
+    pub live_pilot: bool,
+    /// Where the servos are: aileron, elevator, rudder, collective, throttle.
+    pub servos: [f64; 5],
+}
+
+fn channels(c: &heli_proto::scb::Controls) -> [f64; 5] {
+    [c.aileron, c.elevator, c.rudder, c.collective, c.throttle]
 }
 
 impl Simulation {
@@ -35,6 +51,7 @@ impl Simulation {
         let (roll, pitch, yaw) = s.att.euler_angles();
         let v = s.vel_ned_mps();
         let w = self.env.wind_ned_mps;
+        let tx = self.pilot();
         TruthFrame {
             t_s: self.now_us as f64 * 1e-6,
             pos_ned_m: [s.pos_ned_m.x, s.pos_ned_m.y, s.pos_ned_m.z],
@@ -44,6 +61,12 @@ impl Simulation {
             rotor_rpm: s.rotor_rps * 30.0 / std::f64::consts::PI,
             wind_ned_mps: [w.x, w.y, w.z],
             contact_points: self.heli.outputs.contact_points,
+            sticks: channels(&tx.sticks),
+            auto_switch: tx.auto_mode,
+            bypass_switch: tx.bypass,
+            signal_lost: tx.signal_lost,
+            live_pilot: self.live_pilot.is_some(),
+            servos: channels(&self.servo_positions()),
         }
     }
 }

@@ -1,0 +1,133 @@
+//! Pilot in the loop (`heli hilsim --view --pilot`): a person's sticks and switches from the
+//! view's page reach the simulated receiver and servo controller board, and the vehicle's
+//! flight software flies on them. Driven in headless Chromium (`tests/ui/pilot.mjs`): in
+//! manual with a synthetic gamepad (lift-off on the collective, a roll to the right on the
+//! right cyclic), then in the augmented velocity mode with the keyboard (a climb, forward
+//! flight), the bypass switch handing the servos to the sticks and back, the trainer's
+//! panel, the stick settings kept across a reload. Both flights are logged by the vehicle.
+
+use super::exclusive;
+use crate::display::{browser_ready, run_page_script_with};
+use crate::procs::Vehicle;
+use crate::view::hilsim_with_view;
+use std::path::Path;
+use std::time::Duration;
+
+fn steps(said: &str) -> Vec<serde_json::Value> {
+    said.lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect()
+}
+
+fn step<'a>(all: &'a [serde_json::Value], name: &str, said: &str) -> &'a serde_json::Value {
+    all.iter()
+        .find(|v| v["step"] == name)
+        .unwrap_or_else(|| panic!("no {name} step in\n{said}"))
+}
+
+#[test]
+fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and_bypass() {
+    let ui = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ui");
+    if !browser_ready(&ui) {
+        return;
+    }
+    let _one = exclusive();
+    let _ =
+        std::fs::remove_dir_all(Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/pilot"));
+    let dir = tempfile::tempdir().unwrap();
+    let dev = dir.path().join("dev");
+    let dev_s = dev.display().to_string();
+    let (hil, url) = hilsim_with_view(&dev_s, "hover", "400", &["--pilot"]);
+    let vehicle = Vehicle::start(dir.path(), &dev);
+    assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
+
+    let reply = vehicle.ctl(&["start-logging", "pilot-manual", "manual", "hover"]);
+    assert!(reply.starts_with("ok flying"), "{reply}");
+    // The flight software flies manual (not the board passing the receiver through while
+    // the flight process starts).
+    vehicle.wait_for_line("phase manual", Duration::from_secs(30));
+    let (run, said, _) =
+        run_page_script_with(&ui, "pilot", &url, &[("HELI_PILOT_PHASE", "manual")]);
+    assert!(run.success(), "the manual phase failed:\n{said}");
+    let manual = steps(&said);
+    assert!(
+        step(&manual, "manual-holding", &said)["source"]
+            .as_str()
+            .unwrap()
+            .starts_with("gamepad")
+    );
+    let roll = &step(&manual, "manual-roll-right", &said)["roll_change_deg"];
+    assert!(roll.as_f64().unwrap() > 5.0, "{roll}");
+    vehicle.ctl(&["stop"]);
+
+    assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
+    let reply = vehicle.ctl(&["start-logging", "pilot-velocity", "velocity", "hover"]);
+    assert!(reply.starts_with("ok flying"), "{reply}");
+    // The transmitter is the page's, and no page holds it now: once calibrated, the flight
+    // waits on the ground with the signal lost until the page takes it. (Before the flight
+    // process flies, the board passes the sticks straight through: no collective then.)
+    let end = std::time::Instant::now() + Duration::from_secs(30);
+    while !vehicle
+        .output()
+        .rsplit("flight_pilot-velocity")
+        .next()
+        .unwrap_or_default()
+        .contains("phase ground-failsafe")
+    {
+        assert!(std::time::Instant::now() < end, "{}", vehicle.output());
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let (run, said, shots) =
+        run_page_script_with(&ui, "pilot", &url, &[("HELI_PILOT_PHASE", "augmented")]);
+    std::thread::sleep(Duration::from_millis(500));
+    let flown = vehicle.output();
+    vehicle.ctl(&["stop"]);
+    vehicle.quit();
+    drop(hil);
+    assert!(run.success(), "the augmented phase failed:\n{said}");
+    // The flight software flew the augmented mode, and the bypass made it stand aside.
+    let velocity_flight = flown
+        .rsplit("flight_pilot-velocity")
+        .next()
+        .unwrap_or_default();
+    let augmented = velocity_flight
+        .find("phase augmented-velocity")
+        .unwrap_or_else(|| panic!("no augmented flight in\n{flown}"));
+    assert!(
+        velocity_flight[augmented..].contains("phase manual"),
+        "the bypass did not show in\n{velocity_flight}"
+    );
+    let aug = steps(&said);
+    assert_eq!(step(&aug, "augmented-holding", &said)["source"], "keyboard");
+    assert!(
+        step(&aug, "augmented-forward", &said)["forward_mps"]
+            .as_f64()
+            .unwrap()
+            > 1.0
+    );
+    let direct = step(&aug, "bypass-direct", &said);
+    let (stick, servo) = (
+        direct["aileron_stick"].as_f64().unwrap(),
+        direct["aileron_servo"].as_f64().unwrap(),
+    );
+    assert!(stick > 0.4 && (stick - servo).abs() < 0.02, "{direct}");
+    let trainer = step(&aug, "trainer", &said)["trainer"].to_string();
+    assert!(trainer.contains("GPS outage for 15 s"), "{trainer}");
+    assert!(trainer.contains("refused: seconds -3"), "{trainer}");
+    for shot in ["02-augmented-forward", "03-bypass"] {
+        assert!(shots.join(format!("{shot}.png")).exists(), "no {shot}");
+    }
+    // Both flights were logged like any other.
+    let logs: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .filter(|n| n.ends_with(".mcap"))
+        .collect();
+    for suffix in ["pilot-manual", "pilot-velocity"] {
+        assert!(
+            logs.iter().any(|n| n.contains(suffix)),
+            "no log of {suffix} in {logs:?}"
+        );
+    }
+}
