@@ -114,6 +114,10 @@ fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and
     let trainer = step(&aug, "trainer", &said)["trainer"].to_string();
     assert!(trainer.contains("GPS outage for 15 s"), "{trainer}");
     assert!(trainer.contains("refused: seconds -3"), "{trainer}");
+    // The first page closed holding the transmitter: the signal was lost, and came back
+    // with the second.
+    assert!(trainer.contains("transmitter signal lost"), "{trainer}");
+    assert!(trainer.contains("transmitter signal back"), "{trainer}");
     for shot in ["02-augmented-forward", "03-bypass"] {
         assert!(shots.join(format!("{shot}.png")).exists(), "no {shot}");
     }

@@ -14,25 +14,26 @@ use heli_fsw::core::CoreConfig;
 use heli_sim::lockstep::Simulation;
 use heli_sim::scenario::Scenario;
 
-fn set(g: &mut AutorotationGains, key: &str, v: f64) {
+/// The gain named `key`.
+fn slot<'a>(g: &'a mut AutorotationGains, key: &str) -> &'a mut f64 {
     match key {
-        "rotor_target_rpm" => g.rotor_target_rpm = v,
-        "glide_collective" => g.glide_collective = v,
-        "rotor_to_collective" => g.rotor_to_collective = v,
-        "rotor_integral" => g.rotor_integral = v,
-        "min_collective" => g.min_collective = v,
-        "glide_speed_mps" => g.glide_speed_mps = v,
-        "flare_height_m" => g.flare_height_m = v,
-        "entry_pitch_rad" => g.entry_pitch_rad = v,
-        "glide_rotor_band_rpm" => g.glide_rotor_band_rpm = v,
-        "glide_max_tilt_rad" => g.glide_max_tilt_rad = v,
-        "level_height_m" => g.level_height_m = v,
-        "flare_max_tilt_rad" => g.flare_max_tilt_rad = v,
-        "flare_decel_per_mps" => g.flare_decel_per_mps = v,
-        "cushion_decel_mps2" => g.cushion_decel_mps2 = v,
-        "touchdown_sink_mps" => g.touchdown_sink_mps = v,
-        "sink_to_collective" => g.sink_to_collective = v,
-        "cushion_collective" => g.cushion_collective = v,
+        "rotor_target_rpm" => &mut g.rotor_target_rpm,
+        "glide_collective" => &mut g.glide_collective,
+        "rotor_to_collective" => &mut g.rotor_to_collective,
+        "rotor_integral" => &mut g.rotor_integral,
+        "min_collective" => &mut g.min_collective,
+        "glide_speed_mps" => &mut g.glide_speed_mps,
+        "glide_max_tilt_rad" => &mut g.glide_max_tilt_rad,
+        "glide_rotor_band_rpm" => &mut g.glide_rotor_band_rpm,
+        "entry_pitch_rad" => &mut g.entry_pitch_rad,
+        "flare_height_m" => &mut g.flare_height_m,
+        "level_height_m" => &mut g.level_height_m,
+        "flare_max_tilt_rad" => &mut g.flare_max_tilt_rad,
+        "flare_decel_per_mps" => &mut g.flare_decel_per_mps,
+        "cushion_decel_mps2" => &mut g.cushion_decel_mps2,
+        "touchdown_sink_mps" => &mut g.touchdown_sink_mps,
+        "sink_to_collective" => &mut g.sink_to_collective,
+        "cushion_collective" => &mut g.cushion_collective,
         other => panic!("unknown gain {other}"),
     }
 }
@@ -156,7 +157,7 @@ fn main() {
             .flat_map(|g| {
                 vals.iter().map(move |v| {
                     let mut g = *g;
-                    set(&mut g, k, *v);
+                    *slot(&mut g, k) = *v;
                     g
                 })
             })
@@ -169,11 +170,7 @@ fn main() {
             let o = fly(&s, *g, trace);
             let label: Vec<String> = pairs
                 .iter()
-                .map(|(k, _)| {
-                    let mut probe = *g;
-                    let _ = &mut probe;
-                    format!("{k}={}", field(g, k))
-                })
+                .map(|(k, _)| format!("{k}={}", *slot(&mut g.clone(), k)))
                 .collect();
             let line = format!(
                 "sink {:5.2} speed {:5.2} tilt {:5.1} min_rpm {:5.0} {} | {}",
@@ -199,28 +196,5 @@ fn main() {
         .unwrap_or(25);
     for (_, line) in results.iter().take(top) {
         println!("{line}");
-    }
-}
-
-fn field(g: &AutorotationGains, key: &str) -> f64 {
-    match key {
-        "rotor_target_rpm" => g.rotor_target_rpm,
-        "glide_collective" => g.glide_collective,
-        "rotor_to_collective" => g.rotor_to_collective,
-        "rotor_integral" => g.rotor_integral,
-        "min_collective" => g.min_collective,
-        "glide_speed_mps" => g.glide_speed_mps,
-        "flare_height_m" => g.flare_height_m,
-        "entry_pitch_rad" => g.entry_pitch_rad,
-        "glide_rotor_band_rpm" => g.glide_rotor_band_rpm,
-        "glide_max_tilt_rad" => g.glide_max_tilt_rad,
-        "level_height_m" => g.level_height_m,
-        "flare_max_tilt_rad" => g.flare_max_tilt_rad,
-        "flare_decel_per_mps" => g.flare_decel_per_mps,
-        "cushion_decel_mps2" => g.cushion_decel_mps2,
-        "touchdown_sink_mps" => g.touchdown_sink_mps,
-        "sink_to_collective" => g.sink_to_collective,
-        "cushion_collective" => g.cushion_collective,
-        _ => f64::NAN,
     }
 }

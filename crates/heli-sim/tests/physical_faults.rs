@@ -235,3 +235,54 @@ fn a_gust_pushes_the_hovering_helicopter() {
     let (calm, gusty) = (drift(false), drift(true));
     assert!(gusty > calm + 0.3, "pushed east {gusty} m against {calm} m");
 }
+
+#[test]
+fn a_live_transmitter_reaches_the_computer_through_the_receiver_and_its_faults() {
+    use heli_proto::scb::Controls;
+    use heli_sim::devices::scb::PilotCommand;
+    // A person's sticks (heli hilsim --pilot) replace the scenario's, in the uplink bytes;
+    // a lost transmitter fault still takes the signal away. (On the ground, collective
+    // down: the computer is still calibrating.)
+    let mut s = scenario::hover();
+    s.faults.transmitter_lost = vec![[20.0, 21.0]];
+    let mut sim = Simulation::new(s).unwrap_or_else(|e| panic!("{e}"));
+    sim.record_flight_software();
+    sim.set_live_pilot(Some(PilotCommand {
+        sticks: Controls {
+            aileron: 0.5,
+            elevator: -0.25,
+            rudder: 0.0,
+            collective: -0.5,
+            throttle: 0.8,
+        },
+        auto_mode: false,
+        bypass: false,
+        signal_lost: false,
+    }));
+    while sim.advance(22_000_000) {}
+    let live = uplinks(&sim, 10.0, 19.9);
+    assert!(
+        live.len() > 50,
+        "{} uplinks, {} in all",
+        live.len(),
+        uplinks(&sim, 0.0, 100.0).len()
+    );
+    for p in &live {
+        let sticks = p.sticks().unwrap_or_else(|| panic!("{p:?}"));
+        assert!((sticks.aileron - 0.5).abs() < 0.01, "{sticks:?}");
+        assert!((sticks.elevator + 0.25).abs() < 0.01, "{sticks:?}");
+        assert!(!p.auto_mode && !p.bypass, "{p:?}");
+    }
+    assert!(
+        uplinks(&sim, 20.1, 20.9)
+            .iter()
+            .all(|p| p.sticks().is_none()),
+        "the signal is lost from 20 to 21 s"
+    );
+    sim.set_live_pilot(None);
+    while sim.advance(24_000_000) {}
+    assert!(
+        uplinks(&sim, 22.1, 23.9).iter().all(|p| p.auto_mode),
+        "the script's again"
+    );
+}

@@ -49,11 +49,6 @@ impl Simulation {
         self.live_pilot = pilot;
     }
 
-    /// What the transmitter sends now (the live pilot's or the scripted one's).
-    pub fn transmitter(&self) -> PilotCommand {
-        self.pilot()
-    }
-
     /// Triggers a failure of the fault catalog from now on (the trainer's panel); returns
     /// what was done, or why it was refused.
     pub fn trigger_fault(
