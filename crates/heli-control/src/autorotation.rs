@@ -2,9 +2,13 @@
 //!
 //! With the engine gone, the rotor keeps its speed only from the air flowing up through it
 //! as the helicopter descends; its inertia is the only reserve for the landing. The
-//! controller does what a pilot is taught, in four stages chosen from the height above the
-//! take-off point and the sink rate:
+//! controller does what a pilot is taught, in stages chosen from the attitude, the height
+//! above the take-off point and the sink rate:
 //!
+//! 0. **Upset**: tilted beyond [`AutorotationGains::upset_tilt_rad`] (the engine failed in
+//!    a roll), the helicopter is turned upright by the shortest way, by body rates from the
+//!    attitude quaternion (Euler angles mislead upside down), at a collective that pulls no
+//!    thrust and so spends the least of the rotor's speed.
 //! 1. **Glide**: the collective holds the rotor at its target speed (lower it when the
 //!    rotor slows, raise it when the rotor overspeeds), starting from the collective of a
 //!    steady autorotation; the cyclic flies a forward glide at [`AutorotationGains::glide_speed_mps`],
@@ -12,8 +16,9 @@
 //! 2. **Flare**: below [`AutorotationGains::flare_height_m`] the glide speed is taken off
 //!    toward zero, the tilt limited, turning forward speed into rotor speed and less sink.
 //! 3. **Cushion**: the sink rate is held under a profile that falls to
-//!    [`AutorotationGains::touchdown_sink_mps`] at the ground (a constant deceleration of
-//!    [`AutorotationGains::cushion_decel_mps2`]): when the helicopter sinks faster than the
+//!    [`AutorotationGains::touchdown_sink_mps`] at [`AutorotationGains::touchdown_height_m`]
+//!    and holds it to the ground (a constant deceleration of
+//!    [`AutorotationGains::cushion_decel_mps2`] above): when the helicopter sinks faster than the
 //!    profile, the collective rises on the error, spending the rotor's energy.
 //! 4. **Level**: below [`AutorotationGains::level_height_m`] the attitude is held level
 //!    whatever the speed left, so the skids meet the ground flat.
@@ -66,18 +71,33 @@ pub struct AutorotationGains {
     pub flare_decel_per_mps: f64,
     /// Deceleration of the cushion's sink-rate profile (m/s²).
     pub cushion_decel_mps2: f64,
-    /// Sink rate the profile reaches at the ground (m/s).
+    /// Sink rate the profile reaches at [`AutorotationGains::touchdown_height_m`] and holds
+    /// to the ground (m/s).
     pub touchdown_sink_mps: f64,
+    /// Height above the ground where the profile's deceleration ends (m): the last of the
+    /// descent is flown at the touchdown sink, so the rotor's energy is not all spent in the
+    /// last instant before contact.
+    pub touchdown_height_m: f64,
     /// Collective per m/s of sink above the profile (normalised s/m).
     pub sink_to_collective: f64,
     /// Collective around which the cushion's correction acts (normalised): the hover's.
     pub cushion_collective: f64,
+    /// Collective while upset (normalised): about no blade pitch, no thrust, the least
+    /// torque on the rotor. Finishing a roll on the roll's own collective (±0.75, inverted)
+    /// took the rotor from 1700 to 940 rpm before the helicopter was upright.
+    pub upset_collective: f64,
+    /// Tilt beyond which the helicopter is upset (rad): righted first, level, at
+    /// [`AutorotationGains::upset_collective`].
+    pub upset_tilt_rad: f64,
+    /// Largest righting rate when upset (rad/s): the full cyclic, for the rotor is slow
+    /// and the tail and stabiliser turn a falling helicopter nose-down into the air.
+    pub upset_rate_rps: f64,
 }
 
 impl Default for AutorotationGains {
     fn default() -> Self {
         Self {
-            rotor_target_rpm: 1500.0,
+            rotor_target_rpm: 1400.0,
             glide_collective: -0.3,
             rotor_to_collective: 0.004,
             rotor_integral: 0.002,
@@ -85,15 +105,19 @@ impl Default for AutorotationGains {
             glide_speed_mps: 22.0,
             glide_max_tilt_rad: 0.35,
             glide_rotor_band_rpm: 600.0,
-            entry_pitch_rad: 0.3,
+            entry_pitch_rad: 0.45,
             flare_height_m: 10.0,
             level_height_m: 1.5,
             flare_max_tilt_rad: 0.35,
             flare_decel_per_mps: 0.3,
-            cushion_decel_mps2: 8.0,
-            touchdown_sink_mps: 0.3,
+            cushion_decel_mps2: 9.0,
+            touchdown_sink_mps: 0.6,
+            touchdown_height_m: 0.3,
             sink_to_collective: 0.8,
             cushion_collective: 0.8,
+            upset_collective: 0.0,
+            upset_tilt_rad: 1.2,
+            upset_rate_rps: 5.0,
         }
     }
 }
@@ -101,6 +125,9 @@ impl Default for AutorotationGains {
 /// Where in the autorotation the helicopter is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AutorotationStage {
+    /// Tilted beyond [`AutorotationGains::upset_tilt_rad`] (the engine failed in a roll):
+    /// righted by the shortest way, no thrust pulled.
+    Upset,
     /// Rotor speed on the collective, forward glide on the cyclic.
     Glide,
     /// Speed taken off near the ground.
@@ -115,6 +142,7 @@ impl AutorotationStage {
     /// Lower-case name for messages and logs.
     pub fn name(self) -> &'static str {
         match self {
+            AutorotationStage::Upset => "upset",
             AutorotationStage::Glide => "glide",
             AutorotationStage::Flare => "flare",
             AutorotationStage::Cushion => "cushion",
@@ -171,7 +199,8 @@ impl Autorotation {
     pub fn sink_profile_mps(&self, height_m: f64) -> f64 {
         let g = self.gains;
         let td = g.touchdown_sink_mps;
-        (td * td + 2.0 * g.cushion_decel_mps2 * height_m.max(0.0)).sqrt()
+        let above = (height_m - g.touchdown_height_m).max(0.0);
+        (td * td + 2.0 * g.cushion_decel_mps2 * above).sqrt()
     }
 
     /// One control step: servo commands from the estimate, the height above the take-off
@@ -191,7 +220,10 @@ impl Autorotation {
         let profile = self.sink_profile_mps(height_m);
         // Once begun, the cushion goes on to the ground.
         self.cushioning |= sink > profile;
-        self.stage = if height_m < g.level_height_m {
+        let upset = tilt_rad(est) > g.upset_tilt_rad;
+        self.stage = if upset {
+            AutorotationStage::Upset
+        } else if height_m < g.level_height_m {
             AutorotationStage::Level
         } else if self.cushioning {
             AutorotationStage::Cushion
@@ -222,7 +254,11 @@ impl Autorotation {
         } else {
             f64::NEG_INFINITY
         };
-        let collective = limit(for_rotor.max(for_sink), 1.0);
+        let collective = if upset {
+            g.upset_collective
+        } else {
+            limit(for_rotor.max(for_sink), 1.0)
+        };
 
         // Cyclic: the glide's speed, taken off in the flare, level at the end.
         let (roll_cmd, pitch_cmd) = match self.stage {
@@ -258,9 +294,14 @@ impl Autorotation {
                     limit(pitch, g.flare_max_tilt_rad),
                 )
             }
-            AutorotationStage::Level => (0.0, 0.0),
+            AutorotationStage::Level | AutorotationStage::Upset => (0.0, 0.0),
         };
-        let (aileron, elevator) = hover.attitude_to_cyclic(est, roll_cmd, pitch_cmd);
+        let (aileron, elevator) = if upset {
+            let (p, q) = righting_rates(est, hover.gains.att_to_rate, g.upset_rate_rps);
+            hover.rates_to_cyclic(est, p, q)
+        } else {
+            hover.attitude_to_cyclic(est, roll_cmd, pitch_cmd)
+        };
         let (_, _, yaw) = est.euler_rad();
         let yaw_err = heli_nav::navigator::wrap_pi(self.heading_rad - yaw);
         let r_cmd = limit(
@@ -277,6 +318,30 @@ impl Autorotation {
             throttle: GOVERNED_THROTTLE,
         }
     }
+}
+
+/// The shaft's angle from the vertical (rad): 0 level, π upside down.
+fn tilt_rad(est: &NavState) -> f64 {
+    let world_up = est.att.inverse() * Vector3::new(0.0, 0.0, -1.0);
+    (-world_up.z).clamp(-1.0, 1.0).acos()
+}
+
+/// Body roll and pitch rates (rad/s) that turn the shaft toward the vertical by the
+/// shortest way, at `gain` per radian of tilt, at most `max_rps`: the way up from any
+/// attitude (upside down, on its nose), where Euler angles are no guide (inverted, a pitch
+/// rate moves the Euler pitch the other way). Exactly inverted, it rolls.
+fn righting_rates(est: &NavState, gain: f64, max_rps: f64) -> (f64, f64) {
+    let shaft_up = Vector3::new(0.0, 0.0, -1.0);
+    let world_up = est.att.inverse() * shaft_up;
+    let axis = shaft_up.cross(&world_up);
+    let tilt = tilt_rad(est);
+    let dir = if axis.norm() > 1e-3 {
+        axis / axis.norm()
+    } else {
+        Vector3::x()
+    };
+    let rate = dir * (gain * tilt).min(max_rps);
+    (rate.x, rate.y)
 }
 
 /// The roll and pitch (rad) that tilt the thrust to give the horizontal acceleration
@@ -333,7 +398,7 @@ mod tests {
         let e = est(Vector3::new(10.0, 0.0, 8.0));
         let g = AutorotationGains::default();
         let mut ar = Autorotation::begin(g, &e);
-        let slow = step(&mut ar, &e, 50.0, 1400.0).collective;
+        let slow = step(&mut ar, &e, 50.0, 1250.0).collective;
         let mut ar = Autorotation::begin(g, &e);
         let fast = step(&mut ar, &e, 50.0, 1650.0).collective;
         assert!(slow < g.glide_collective && fast > g.glide_collective);
@@ -347,7 +412,7 @@ mod tests {
         // rotor.
         let e = est(Vector3::new(12.0, 0.0, 3.0));
         let mut ar = Autorotation::begin(g, &e);
-        let flare = step(&mut ar, &e, g.flare_height_m - 1.0, 1500.0);
+        let flare = step(&mut ar, &e, g.flare_height_m - 1.0, g.rotor_target_rpm);
         assert_eq!(ar.stage(), AutorotationStage::Flare);
         assert!(flare.elevator > 0.0, "{flare:?}");
         assert!(flare.collective < 0.0, "{flare:?}");
@@ -364,5 +429,51 @@ mod tests {
         let level = step(&mut ar, &slow, g.level_height_m - 0.1, 1400.0);
         assert_eq!(ar.stage(), AutorotationStage::Level);
         assert!(level.elevator.abs() < 0.2, "{level:?}");
+    }
+
+    #[test]
+    fn upset_it_is_righted_by_the_shortest_way_without_thrust() {
+        let g = AutorotationGains::default();
+        let mut e = est(Vector3::new(5.0, 0.0, 2.0));
+        let mut ar = Autorotation::begin(g, &e);
+        // Rolled 150 degrees right: back left is the short way (the Euler roll error says
+        // the same here; upside down, a pitch error does not).
+        e.att = UnitQuaternion::from_euler_angles(150f64.to_radians(), 0.0, 0.0);
+        let rolled = step(&mut ar, &e, 60.0, 1300.0);
+        assert_eq!(ar.stage(), AutorotationStage::Upset);
+        assert_eq!(rolled.collective, g.upset_collective);
+        assert!(rolled.aileron < -0.5, "{rolled:?}");
+        // Upside down and nose down 40 degrees in the body's own sense: the way up is
+        // nose further round, which an Euler pitch loop gets backwards.
+        e.att = UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0)
+            * UnitQuaternion::from_euler_angles(0.0, -40f64.to_radians(), 0.0);
+        let inverted = step(&mut ar, &e, 60.0, 1300.0);
+        let (p, q) = righting_rates(&e, 4.0, 5.0);
+        let shaft = e.att * Vector3::new(0.0, 0.0, -1.0);
+        // Turning at (p, q) must bring the shaft's up toward the world's up.
+        let turned = e.att * UnitQuaternion::from_scaled_axis(Vector3::new(p, q, 0.0) * 0.01);
+        let after = turned * Vector3::new(0.0, 0.0, -1.0);
+        assert!(-after.z > -shaft.z, "{shaft:?} -> {after:?}");
+        assert!(inverted.collective == g.upset_collective);
+        // Exactly upside down there is no shortest way: it rolls.
+        e.att = UnitQuaternion::from_euler_angles(std::f64::consts::PI, 0.0, 0.0);
+        let (p, q) = righting_rates(&e, 4.0, 5.0);
+        assert!(p.abs() > 4.0 && q.abs() < 1e-9, "{p} {q}");
+        // Level again: the autorotation's own stages.
+        e.att = UnitQuaternion::identity();
+        step(&mut ar, &e, 60.0, 1300.0);
+        assert_eq!(ar.stage(), AutorotationStage::Glide);
+    }
+
+    #[test]
+    fn the_sink_profile_reaches_the_touchdown_sink_above_the_ground_and_holds_it() {
+        let g = AutorotationGains::default();
+        let ar = Autorotation::begin(g, &est(Vector3::zeros()));
+        let td = g.touchdown_sink_mps;
+        assert!((ar.sink_profile_mps(g.touchdown_height_m) - td).abs() < 1e-12);
+        assert!((ar.sink_profile_mps(0.0) - td).abs() < 1e-12);
+        let h = g.touchdown_height_m + 5.0;
+        let expect = (td * td + 2.0 * g.cushion_decel_mps2 * 5.0).sqrt();
+        assert!((ar.sink_profile_mps(h) - expect).abs() < 1e-12);
     }
 }

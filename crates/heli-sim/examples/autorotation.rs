@@ -32,8 +32,12 @@ fn slot<'a>(g: &'a mut AutorotationGains, key: &str) -> &'a mut f64 {
         "flare_decel_per_mps" => &mut g.flare_decel_per_mps,
         "cushion_decel_mps2" => &mut g.cushion_decel_mps2,
         "touchdown_sink_mps" => &mut g.touchdown_sink_mps,
+        "touchdown_height_m" => &mut g.touchdown_height_m,
         "sink_to_collective" => &mut g.sink_to_collective,
         "cushion_collective" => &mut g.cushion_collective,
+        "upset_collective" => &mut g.upset_collective,
+        "upset_tilt_rad" => &mut g.upset_tilt_rad,
+        "upset_rate_rps" => &mut g.upset_rate_rps,
         other => panic!("unknown gain {other}"),
     }
 }
@@ -133,6 +137,42 @@ fn fly(s: &Scenario, gains: AutorotationGains, trace: bool) -> Outcome {
     out
 }
 
+/// Lower is better: the touchdown sink, a crash counted as 10 m/s more.
+fn score(o: &Outcome) -> f64 {
+    if o.sink_mps.is_nan() {
+        99.0
+    } else {
+        o.sink_mps + if o.crash.is_some() { 10.0 } else { 0.0 }
+    }
+}
+
+/// Flies seeds 1..=n with one gain set: crashes, soft landings (at most 1.5 m/s), the
+/// sinks' median, 90th percentile and worst, the lowest rotor speed.
+fn over_seeds(s: &Scenario, g: AutorotationGains, n: u64, label: &str) -> (f64, String) {
+    let mut outs: Vec<Outcome> = (1..=n)
+        .map(|seed| {
+            let mut s = s.clone();
+            s.seed = seed;
+            fly(&s, g, false)
+        })
+        .collect();
+    let crashes = outs.iter().filter(|o| o.crash.is_some()).count();
+    let soft = outs
+        .iter()
+        .filter(|o| o.crash.is_none() && o.sink_mps <= 1.5)
+        .count();
+    outs.sort_by(|a, b| score(a).total_cmp(&score(b)));
+    let at = |q: f64| score(&outs[((outs.len() - 1) as f64 * q).round() as usize]);
+    let min_rpm = outs.iter().map(|o| o.min_rpm).fold(f64::INFINITY, f64::min);
+    let line = format!(
+        "soft {soft:3}/{n} crash {crashes:3} sink p50 {:5.2} p90 {:5.2} max {:5.2} min_rpm {min_rpm:5.0} | {label}",
+        at(0.5),
+        at(0.9),
+        at(1.0)
+    );
+    (at(0.9) + (n as usize - soft) as f64 * 0.01, line)
+}
+
 fn main() {
     let mut args = std::env::args().skip(1);
     let cmd = args.next().unwrap_or_else(|| "trace".into());
@@ -164,14 +204,22 @@ fn main() {
             .collect();
     }
     let trace = cmd == "trace";
+    // SEEDS=N flies each gain set with seeds 1..=N and scores it on the worst touchdowns.
+    let seeds: u64 = std::env::var("SEEDS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0);
     let mut results: Vec<(f64, String)> = grid
         .iter()
         .map(|g| {
-            let o = fly(&s, *g, trace);
             let label: Vec<String> = pairs
                 .iter()
                 .map(|(k, _)| format!("{k}={}", *slot(&mut g.clone(), k)))
                 .collect();
+            if seeds > 0 {
+                return over_seeds(&s, *g, seeds, &label.join(" "));
+            }
+            let o = fly(&s, *g, trace);
             let line = format!(
                 "sink {:5.2} speed {:5.2} tilt {:5.1} min_rpm {:5.0} {} | {}",
                 o.sink_mps,
@@ -181,12 +229,7 @@ fn main() {
                 o.crash.as_deref().unwrap_or(""),
                 label.join(" ")
             );
-            let score = if o.sink_mps.is_nan() {
-                99.0
-            } else {
-                o.sink_mps + if o.crash.is_some() { 10.0 } else { 0.0 }
-            };
-            (score, line)
+            (score(&o), line)
         })
         .collect();
     results.sort_by(|a, b| a.0.total_cmp(&b.0));

@@ -18,6 +18,7 @@ pub mod campaign;
 pub mod device_faults;
 pub mod devices;
 pub mod empennage;
+pub mod engine_failures;
 pub mod faults;
 pub mod ground;
 pub mod hil;

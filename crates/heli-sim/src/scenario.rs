@@ -100,6 +100,11 @@ pub struct Limits {
     pub touchdown_sink_max_mps: Option<f64>,
     /// Largest horizontal ground speed at touchdown (m/s).
     pub touchdown_speed_max_mps: Option<f64>,
+    /// Largest tilt from level (deg) when the skids first touch after a flight.
+    pub touchdown_tilt_max_deg: Option<f64>,
+    /// After an engine failure: least rotor speed (rpm) before the touchdown while more
+    /// than 3 m above the start (the cushion near the ground spends it on purpose).
+    pub rotor_min_rpm: Option<f64>,
     /// Time to hover (s): from the start of the first position hold until the true ground
     /// speed has stayed under 0.5 m/s for a second.
     pub hover_within_s: Option<f64>,
@@ -473,6 +478,9 @@ pub fn builtins() -> Vec<Scenario> {
         crate::device_faults::roll_rc_loss(),
         crate::device_faults::brownout(),
         crate::device_faults::gps_lost(),
+        crate::engine_failures::engine_failure_hover(),
+        crate::engine_failures::engine_failure_forward(),
+        crate::engine_failures::engine_failure_roll(),
     ]
 }
 

@@ -2,7 +2,9 @@
 //! tachometer, watched in the air; when it falls fast below a fraction of the governed
 //! speed, or stays below a lower one, the engine has failed (the governor would hold it otherwise), the event is raised as
 //! fatal, and an autonomous or augmented flight autorotates to the ground
-//! (`heli_control::autorotation`). A roll under way is finished upright first. A pilot
+//! (`heli_control::autorotation`), at once, from whatever attitude: a roll under way is
+//! not finished (its collective would spend the rotor's speed), the autorotation rights
+//! the helicopter by the shortest way first. A pilot
 //! flying by hand (auto switch off, or the bypass) is told and keeps flying: autorotating a
 //! helicopter is what the thesis's safety pilot trained for.
 
@@ -105,8 +107,6 @@ impl FlightCore {
         est: &NavState,
         on_ground: bool,
         now_us: u64,
-        dt_s: f64,
-        out: &mut Vec<Action>,
     ) -> Option<Phase> {
         if !self.engine_failed {
             return None;
@@ -124,21 +124,6 @@ impl FlightCore {
                 }
                 Some(Phase::Autorotation {
                     settled_since_us: since,
-                })
-            }
-            Phase::Maneuver {
-                target,
-                stage: stage @ RollStage::Rolling { .. },
-                rolls_done,
-            } => {
-                // Finish the roll upright; the autorotation begins on the next step.
-                let next = self.maneuver(est, now_us, dt_s, target, stage, rolls_done, out);
-                Some(match next {
-                    Phase::Maneuver {
-                        stage: RollStage::Rolling { .. },
-                        ..
-                    } => next,
-                    _ => self.begin_autorotation(est),
                 })
             }
             Phase::Landed

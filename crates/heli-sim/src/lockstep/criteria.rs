@@ -116,6 +116,11 @@ impl Simulation {
             touchdown.map(|td| td.speed_mps),
             limits.touchdown_speed_max_mps,
         );
+        at_most(
+            "touchdown_tilt_deg",
+            touchdown.map(|td| td.tilt_deg),
+            limits.touchdown_tilt_max_deg,
+        );
         at_most("hover_after_s", t.hover_after_s, limits.hover_within_s);
         at_most("ground_max_m", Some(m.max_alt_m), limits.ground_max_m);
         let mut at_least = |name: &str, value: Option<f64>, limit: Option<f64>| {
@@ -124,6 +129,7 @@ impl Simulation {
             }
         };
         at_least("height_min_m", t.height_min_m, limits.height_min_m);
+        at_least("rotor_min_rpm", t.rotor_min_rpm, limits.rotor_min_rpm);
         at_least(
             "sweep_roll_rate_rms_dps",
             m.sweep_roll_rate.measured_rms(),

@@ -82,7 +82,16 @@ pub(super) struct TruthMetrics {
     pub(super) slow_since_us: Option<u64>,
     /// Whether the flight software has begun to land.
     pub(super) landing: bool,
+    /// Least rotor speed (rpm) after an engine failure, until the touchdown, while more
+    /// than [`ROTOR_WATCH_HEIGHT_M`] above the start.
+    pub(super) rotor_min_rpm: Option<f64>,
 }
+
+/// Below this height (m) the rotor's speed is the cushion's to spend.
+const ROTOR_WATCH_HEIGHT_M: f64 = 3.0;
+/// The touchdown's sink is the largest over this long after the skids first touch (µs):
+/// a skid that touches first and the other that slams down after it are one landing.
+const TOUCHDOWN_WINDOW_US: u64 = 500_000;
 
 /// A touchdown after a flight.
 #[derive(Clone, Copy, Debug, Default)]
@@ -90,6 +99,10 @@ pub(super) struct Touchdown {
     pub(super) distance_m: Option<f64>,
     pub(super) sink_mps: f64,
     pub(super) speed_mps: f64,
+    /// Tilt from level when the skids first touched (deg).
+    pub(super) tilt_deg: f64,
+    /// When the skids first touched (µs).
+    pub(super) at_us: u64,
 }
 
 impl Simulation {
@@ -181,12 +194,27 @@ impl Simulation {
             self.metrics.last_phase,
             Some(Phase::Landing { .. } | Phase::Landed)
         );
+        // When the engine failed (its power first cut), if it has.
+        let failed_at_us = self
+            .scenario
+            .faults
+            .engine
+            .iter()
+            .filter(|f| f.power < 1.0)
+            .map(|f| (f.start_s * 1e6) as u64)
+            .min()
+            .unwrap_or(u64::MAX);
         let t = &mut self.metrics.truth;
         t.landing |= landing;
         let on_ground = out.contact_points > 0;
+        let up = s.att * Vector3::new(0.0, 0.0, -1.0);
+        let tilt = (-up.z).clamp(-1.0, 1.0).acos().to_degrees();
+        let before_touchdown = t.touchdown.is_none_or(|td| td.at_us < failed_at_us);
+        if now >= failed_at_us && before_touchdown && height > ROTOR_WATCH_HEIGHT_M {
+            let rpm = s.rotor_rps * 30.0 / std::f64::consts::PI;
+            t.rotor_min_rpm = Some(t.rotor_min_rpm.map_or(rpm, |m| m.min(rpm)));
+        }
         if !on_ground {
-            let up = s.att * Vector3::new(0.0, 0.0, -1.0);
-            let tilt = (-up.z).clamp(-1.0, 1.0).acos().to_degrees();
             t.tilt_max_deg = Some(t.tilt_max_deg.map_or(tilt, |m| m.max(tilt)));
             if !t.airborne {
                 t.flew_since_us = Some(now);
@@ -218,7 +246,14 @@ impl Simulation {
                 distance_m,
                 sink_mps: out.contact_sink_mps,
                 speed_mps: s.vel_ned_mps().xy().norm(),
+                tilt_deg: tilt,
+                at_us: now,
             });
+        } else if on_ground
+            && let Some(td) = self.metrics.truth.touchdown.as_mut()
+            && now < td.at_us + TOUCHDOWN_WINDOW_US
+        {
+            td.sink_mps = td.sink_mps.max(out.contact_sink_mps);
         }
         let t = &mut self.metrics.truth;
         t.airborne = !on_ground;

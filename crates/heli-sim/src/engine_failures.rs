@@ -1,0 +1,101 @@
+//! Built-in engine-failure scenarios: the engine quits in a hover, in forward flight and in
+//! the middle of an aileron roll, and the flight software must autorotate to a soft,
+//! upright touchdown with the rotor kept in its speed range (docs/autorotation.md).
+//!
+//! The heights are above the model's height–velocity curve: from lower down there is not
+//! the time to build the forward speed the flare turns into lift (the measured curve is in
+//! docs/autorotation.md). Campaigns over 100 seeds: `campaigns/autorotation/`.
+
+use crate::faults::EngineFault;
+use crate::scenario::{LegSpec, Limits, Scenario, hover, rolls};
+
+/// What every engine-failure scenario judges: a touchdown at most 1.5 m/s down, near level
+/// (no rollover), the rotor above 60 % of its governed speed until the cushion.
+fn autorotation_limits() -> Limits {
+    Limits {
+        touchdown_sink_max_mps: Some(1.5),
+        touchdown_tilt_max_deg: Some(15.0),
+        rotor_min_rpm: Some(960.0),
+        ..Limits::default()
+    }
+}
+
+/// The engine's power gone at `start_s`, for good.
+fn engine_off(start_s: f64) -> Vec<EngineFault> {
+    vec![EngineFault {
+        start_s,
+        end_s: 1.0e4,
+        power: 0.0,
+    }]
+}
+
+/// The failure is raised, and the phase follows.
+fn expected() -> Vec<String> {
+    vec!["engine failure".into(), "phase autorotation".into()]
+}
+
+/// `engine-failure-hover`: the engine quits in a hover at 80 m.
+pub fn engine_failure_hover() -> Scenario {
+    let mut s = hover();
+    s.name = "engine-failure-hover".into();
+    s.description =
+        "the engine quits in a hover at 80 m: autorotation, a dive for speed, flare, soft touchdown"
+            .into();
+    s.duration_s = 220.0;
+    s.plan = vec![
+        LegSpec::Takeoff { alt_m: 80.0 },
+        LegSpec::Hold { seconds: 60.0 },
+    ];
+    s.faults.engine = engine_off(165.0);
+    s.limits = autorotation_limits();
+    s.expect_events = expected();
+    s
+}
+
+/// `engine-failure-forward`: the engine quits at 10 m/s, 60 m up.
+pub fn engine_failure_forward() -> Scenario {
+    let mut s = hover();
+    s.name = "engine-failure-forward".into();
+    s.description =
+        "the engine quits flying north at 10 m/s, 60 m up: autorotation, glide, flare, soft touchdown"
+            .into();
+    s.duration_s = 200.0;
+    s.plan = vec![
+        LegSpec::Takeoff { alt_m: 60.0 },
+        LegSpec::Fly {
+            north_m: 400.0,
+            east_m: 0.0,
+            alt_m: 60.0,
+            speed_mps: 10.0,
+        },
+        LegSpec::Hold { seconds: 10.0 },
+    ];
+    s.faults.engine = engine_off(150.0);
+    s.limits = autorotation_limits();
+    s.expect_events = expected();
+    s
+}
+
+/// `engine-failure-roll`: the engine quits 1 s into the first of three rolls at 80 m, rolled
+/// about 140 degrees; the helicopter is righted, then autorotates.
+pub fn engine_failure_roll() -> Scenario {
+    let mut s = rolls();
+    s.name = "engine-failure-roll".into();
+    s.description =
+        "the engine quits in the first aileron roll at 80 m: righted, autorotation, soft touchdown"
+            .into();
+    s.duration_s = 220.0;
+    s.plan = vec![
+        LegSpec::Takeoff { alt_m: 80.0 },
+        LegSpec::Hold { seconds: 5.0 },
+        LegSpec::Rolls {
+            count: 3,
+            speed_mps: 8.0,
+        },
+        LegSpec::Hold { seconds: 10.0 },
+    ];
+    s.faults.engine = engine_off(155.6);
+    s.limits = autorotation_limits();
+    s.expect_events = expected();
+    s
+}

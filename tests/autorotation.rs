@@ -1,0 +1,34 @@
+//! The autorotation suite (campaigns/autorotation, docs/autorotation.md): the engine quits
+//! in a hover at 80 m, at 10 m/s 60 m up, and at any moment of a roll at 80 m, 100 seeds
+//! each. What the requirement asks: at least 95 % of each land at most 1.5 m/s down, near
+//! level, the rotor kept, and none crashes. About 300 flights, 20 s of two cores.
+
+use std::path::Path;
+use std::process::Command;
+
+#[test]
+fn every_engine_failure_campaign_lands_softly_on_95_percent_of_100_seeds() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("campaigns/autorotation");
+    for name in ["hover", "forward", "roll"] {
+        let file = dir.join(format!("{name}.toml"));
+        let out = Command::new(env!("CARGO_BIN_EXE_heli"))
+            .args(["campaign", &file.display().to_string(), "--json"])
+            .output()
+            .unwrap_or_else(|e| panic!("cannot run heli: {e}"));
+        let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+            panic!(
+                "{name}: no report ({e}): {}",
+                String::from_utf8_lossy(&out.stderr)
+            )
+        });
+        let totals = &report["totals"];
+        assert_eq!(totals["flights"], 100, "{name}: {totals}");
+        assert_eq!(
+            totals["crash"], 0,
+            "{name}: {totals}\n{:#}",
+            report["worst"]
+        );
+        let pass = totals["pass"].as_u64().unwrap_or(0);
+        assert!(pass >= 95, "{name}: {totals}\n{:#}", report["worst"]);
+    }
+}
