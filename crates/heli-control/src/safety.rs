@@ -31,7 +31,8 @@ pub enum Condition {
     Altimeter,
     /// The compass is updating at its rate.
     Compass,
-    /// The flight battery has more than a third of its life left (thesis §2.4).
+    /// Every battery read has more than its warning level left (a third of its life, the
+    /// thesis's red meter, §2.4).
     Battery,
     /// The ground link is fresh: the vehicle's heartbeat heard recently.
     Link,
@@ -80,7 +81,7 @@ impl Condition {
             Condition::Satellites => "at least 5 satellites",
             Condition::Altimeter => "altimeter updating",
             Condition::Compass => "compass updating",
-            Condition::Battery => "battery above a third of its life",
+            Condition::Battery => "every battery above a third of its life",
             Condition::Link => "ground link fresh",
             Condition::Bypass => "emergency bypass switch on",
         }
@@ -96,7 +97,7 @@ impl Condition {
             Condition::Satellites => "fewer than 5 satellites",
             Condition::Altimeter => "altimeter not updating",
             Condition::Compass => "compass not updating",
-            Condition::Battery => "battery down to a third of its life",
+            Condition::Battery => "a battery down to a third of its life",
             Condition::Link => "ground link not fresh",
             Condition::Bypass => "emergency bypass switch off",
         }

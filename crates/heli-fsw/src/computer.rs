@@ -85,6 +85,12 @@ pub enum DeviceInput<'a> {
         /// A ground heard in the last few seconds.
         fresh: bool,
     },
+    /// The hot-swap's digital input was read: high when the flight batteries power the
+    /// avionics, low on the ground battery.
+    PowerLine {
+        /// The line's level.
+        high: bool,
+    },
 }
 
 /// An owned [`DeviceInput`], for recordings and flight logs.
@@ -102,6 +108,8 @@ pub enum RecordedInput {
     Battery(BatteryAdc),
     /// Whether a ground station is heard.
     GroundLink(bool),
+    /// The hot-swap's digital input.
+    PowerLine(bool),
 }
 
 impl RecordedInput {
@@ -114,6 +122,7 @@ impl RecordedInput {
             RecordedInput::Tick => DeviceInput::Tick,
             RecordedInput::Battery(adc) => DeviceInput::Battery(*adc),
             RecordedInput::GroundLink(fresh) => DeviceInput::GroundLink { fresh: *fresh },
+            RecordedInput::PowerLine(high) => DeviceInput::PowerLine { high: *high },
         }
     }
 }
@@ -127,6 +136,7 @@ impl From<DeviceInput<'_>> for RecordedInput {
             DeviceInput::Tick => RecordedInput::Tick,
             DeviceInput::Battery(adc) => RecordedInput::Battery(adc),
             DeviceInput::GroundLink { fresh } => RecordedInput::GroundLink(fresh),
+            DeviceInput::PowerLine { high } => RecordedInput::PowerLine(high),
         }
     }
 }
@@ -219,6 +229,9 @@ impl FlightComputer {
             DeviceInput::Compass(adc) => samples.push(Input::Compass(adc)),
             DeviceInput::Battery(adc) => samples.push(Input::Battery { volts: adc.volts() }),
             DeviceInput::GroundLink { fresh } => samples.push(Input::GroundLink { fresh }),
+            DeviceInput::PowerLine { high } => {
+                samples.push(Input::PowerSource(heli_power::PowerSource::from_line(high)))
+            }
             DeviceInput::PortFailed(port) => samples.push(Input::DeviceFailed(port.device())),
             DeviceInput::Tick => {
                 self.drivers

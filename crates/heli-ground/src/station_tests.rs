@@ -429,7 +429,7 @@ fn a_silent_device_is_stale_and_a_low_battery_is_red_and_each_fails_its_conditio
     // are not known, and the battery is low.
     assert_eq!(
         v.safety.augmented.failing,
-        "fewer than 5 satellites, battery down to a third of its life"
+        "fewer than 5 satellites, a battery down to a third of its life"
     );
     // Telemetry that stops coming altogether ages into stale.
     b.telemetry = None;

@@ -109,6 +109,35 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
         CoreEvent::EngineFailure { rotor_rpm } => {
             format!("t={t:.2} s engine failure: rotor at {rotor_rpm} rpm, autorotation")
         }
+        CoreEvent::BatteryLevel {
+            battery,
+            level,
+            percent,
+            minutes_left,
+        } => {
+            let action = match level {
+                heli_power::Level::Good => "",
+                heli_power::Level::Warning => ": return and land",
+                heli_power::Level::Critical => ": land now",
+            };
+            format!(
+                "t={t:.2} s {} {}: {percent} % left, {minutes_left} min at this drain{action}",
+                battery.name(),
+                level.name()
+            )
+        }
+        CoreEvent::BatteryDrainingAbnormally { battery } => format!(
+            "t={t:.2} s {} draining abnormally: end the flight test",
+            battery.name()
+        ),
+        CoreEvent::PowerSource {
+            source,
+            flight_s,
+            ground_s,
+        } => format!(
+            "t={t:.2} s power from the {} battery ({flight_s:.0} s on flight, {ground_s:.0} s on ground)",
+            source.name()
+        ),
         CoreEvent::TakeoffRefused(why) => {
             format!("t={t:.2} s take-off refused: {}", why.text())
         }
@@ -169,6 +198,9 @@ fn events_without_numbers() -> Vec<CoreEvent> {
         CoreEvent::AidAccepted(heli_fsw::core::Aid::Altimeter),
         CoreEvent::AidAccepted(heli_fsw::core::Aid::Compass),
     ];
+    for battery in heli_fsw::core::power::Battery::ALL {
+        events.push(CoreEvent::BatteryDrainingAbnormally { battery });
+    }
     for device in Device::ALL {
         for state in [
             HealthState::Waiting,
@@ -229,6 +261,15 @@ pub fn parse_event_text(text: &str) -> Option<(u64, EventLevel)> {
             }),
         ),
         ("roll ", CoreEvent::RollCompleted(1)),
+        ("engine failure", CoreEvent::EngineFailure { rotor_rpm: 0 }),
+        (
+            "power from the",
+            CoreEvent::PowerSource {
+                source: heli_power::PowerSource::Flight,
+                flight_s: 0.0,
+                ground_s: 0.0,
+            },
+        ),
         (
             "altimeter refused",
             CoreEvent::AidRefused {
@@ -244,6 +285,26 @@ pub fn parse_event_text(text: &str) -> Option<(u64, EventLevel)> {
             },
         ),
     ];
+    // A battery's level: "<battery> <level>: ...".
+    let battery_level = heli_fsw::core::power::Battery::ALL.iter().find_map(|b| {
+        let rest = what.strip_prefix(b.name())?.strip_prefix(' ')?;
+        let level = [
+            heli_power::Level::Good,
+            heli_power::Level::Warning,
+            heli_power::Level::Critical,
+        ]
+        .into_iter()
+        .find(|l| rest.starts_with(&format!("{}:", l.name())))?;
+        Some(CoreEvent::BatteryLevel {
+            battery: *b,
+            level,
+            percent: 0,
+            minutes_left: 0,
+        })
+    });
+    if let Some(e) = battery_level {
+        return Some((t_us, event_level(&e)));
+    }
     let level = events_without_numbers()
         .iter()
         .find(|e| event_text(0, e).strip_prefix("t=0.00 s ") == Some(what))
@@ -293,7 +354,23 @@ mod tests {
             CoreEvent::PhaseChanged(Phase::Manual),
             CoreEvent::PhaseChanged(Phase::Landed),
             CoreEvent::RollCompleted(2),
+            CoreEvent::EngineFailure { rotor_rpm: 1290 },
+            CoreEvent::PowerSource {
+                source: heli_power::PowerSource::Ground,
+                flight_s: 12.0,
+                ground_s: 300.0,
+            },
         ];
+        for battery in heli_fsw::core::power::Battery::ALL {
+            for level in [heli_power::Level::Warning, heli_power::Level::Critical] {
+                events.push(CoreEvent::BatteryLevel {
+                    battery,
+                    level,
+                    percent: 30,
+                    minutes_left: 12,
+                });
+            }
+        }
         events.extend(events_without_numbers());
         events
     }

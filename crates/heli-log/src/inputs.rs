@@ -47,6 +47,7 @@ pub fn input_json(input: &RecordedInput) -> Value {
         RecordedInput::Tick => json!({"kind": "tick"}),
         RecordedInput::Battery(adc) => json!({"kind": "battery", "adc": adc.counts}),
         RecordedInput::GroundLink(fresh) => json!({"kind": "ground_link", "fresh": fresh}),
+        RecordedInput::PowerLine(high) => json!({"kind": "power_line", "high": high}),
     }
 }
 
@@ -94,6 +95,11 @@ pub fn input_from_json(value: &Value) -> Result<RecordedInput, String> {
             .and_then(Value::as_bool)
             .map(RecordedInput::GroundLink)
             .ok_or_else(|| "ground_link without 'fresh'".to_string()),
+        Some("power_line") => value
+            .get("high")
+            .and_then(Value::as_bool)
+            .map(RecordedInput::PowerLine)
+            .ok_or_else(|| "power_line without 'high'".to_string()),
         Some(other) => Err(format!("unknown input kind '{other}'")),
         None => Err("input without 'kind'".into()),
     }
@@ -150,6 +156,7 @@ mod tests {
             RecordedInput::Tick,
             RecordedInput::Battery(BatteryAdc { counts: 3012 }),
             RecordedInput::GroundLink(false),
+            RecordedInput::PowerLine(true),
         ];
         for i in &inputs {
             assert_eq!(input_from_json(&input_json(i)).as_ref(), Ok(i));

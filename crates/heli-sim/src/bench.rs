@@ -96,8 +96,8 @@ pub fn run() -> BenchReport {
         }),
         auto_mode: true,
         bypass: false,
-        receiver_batt_v: 4.8,
-        servo_batt_v: 4.8,
+        receiver_batt_v: 5.1,
+        servo_batt_v: 5.1,
     };
     let gps = GpsNav {
         tow_ms: 1000,

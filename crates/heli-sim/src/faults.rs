@@ -43,6 +43,8 @@ pub struct Faults {
     pub servos: Vec<ServoFault>,
     /// Engine faults: the power it can give falls to a fraction (0: the engine quits).
     pub engine: Vec<EngineFault>,
+    /// Extra drains on a battery.
+    pub battery_drains: Vec<BatteryDrain>,
     /// Brown-outs of the flight computer: no power from start to end, then it boots again
     /// and the flight process restarts in the air.
     pub brownouts: Vec<[f64; 2]>,
@@ -102,28 +104,124 @@ impl Faults {
     }
 }
 
-/// The flight battery (the pack feeding the computer and sensors): how big, how full, how
-/// loaded. Its voltage reaches the battery ADC channel.
+/// One battery pack of a scenario: how big, how full, how loaded, how warm, how worn. The
+/// flight pack's voltage reaches the battery ADC channel; the receiver and servo packs'
+/// reach the servo board's uplink (RTXB, Sbat).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Battery {
-    /// Capacity (A h).
+    /// Capacity of its type, new, at 20 °C (A h).
     pub capacity_ah: f64,
     /// Charge at power-on, fraction of the capacity (0..1).
     pub charge: f64,
-    /// Current the avionics draw (A).
+    /// Current drawn from it (A).
     pub load_a: f64,
+    /// Its temperature (°C).
+    pub temperature_c: f64,
+    /// Charge cycles it has had (its capacity fades with them).
+    pub cycles: f64,
+    /// Its capacity against what its type says (1; a weak pack less).
+    pub health: f64,
 }
 
 impl Default for Battery {
+    /// The flight pack: 1.7 A h, full, 1.8 A.
     fn default() -> Self {
-        let d = crate::devices::battery::BatteryDevice::default();
+        Self::of(heli_power::PackType::FLIGHT, 1.8)
+    }
+}
+
+impl Battery {
+    /// A new, full pack of `pack`'s capacity carrying `load_a` at 15 °C.
+    pub fn of(pack: heli_power::PackType, load_a: f64) -> Self {
         Self {
-            capacity_ah: d.capacity_ah,
-            charge: d.initial_charge,
-            load_a: d.load_a,
+            capacity_ah: pack.capacity_ah,
+            charge: 1.0,
+            load_a,
+            temperature_c: 15.0,
+            cycles: 0.0,
+            health: 1.0,
         }
     }
+
+    /// The receiver pack: 0.6 A h, 0.25 A.
+    pub fn receiver() -> Self {
+        Self::of(heli_power::PackType::RECEIVER, 0.25)
+    }
+
+    /// The servo pack: 1.1 A h, 0.8 A.
+    pub fn servo() -> Self {
+        Self::of(heli_power::PackType::SERVO, 0.8)
+    }
+
+    /// The simulated pack of type `pack` (its capacity replaced by this one's).
+    pub fn device(&self, pack: heli_power::PackType) -> crate::devices::battery::BatteryDevice {
+        let mut d = crate::devices::battery::BatteryDevice::new(
+            heli_power::PackType {
+                capacity_ah: self.capacity_ah,
+                ..pack
+            },
+            self.charge,
+            self.temperature_c,
+        );
+        d.cycles = self.cycles;
+        d.health = self.health;
+        d
+    }
+}
+
+/// The servo board's two packs and the hot-swap.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Power {
+    /// The hot-swap: the ground battery powers the avionics until this time (s), then the
+    /// flight batteries (0: on the flight batteries from the start).
+    pub ground_until_s: f64,
+    /// The servo board's logic and receiver pack (RTXB).
+    pub receiver: Battery,
+    /// The servo pack (Sbat).
+    pub servo: Battery,
+    /// The temperature the operator tells the flight software (°C); unset: the flight
+    /// pack's, as if measured.
+    pub told_temperature_c: Option<f64>,
+}
+
+impl Default for Power {
+    fn default() -> Self {
+        Self {
+            ground_until_s: 0.0,
+            receiver: Battery::receiver(),
+            servo: Battery::servo(),
+            told_temperature_c: None,
+        }
+    }
+}
+
+/// Which pack a drain acts on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PackName {
+    /// The flight pack.
+    Flight,
+    /// The receiver pack.
+    Receiver,
+    /// The servo pack.
+    Servo,
+}
+
+/// A drain no one planned (a short, a heater left on, a stalled servo): `extra_a` more
+/// from `start_s` to `end_s`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BatteryDrain {
+    /// Which pack.
+    pub battery: PackName,
+    /// Start (s).
+    pub start_s: f64,
+    /// End (s).
+    pub end_s: f64,
+    /// The extra current (A).
+    pub extra_a: f64,
 }
 
 /// A device a fault can act on.

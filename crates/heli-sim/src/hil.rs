@@ -68,6 +68,9 @@ pub struct HilDevices {
     pub ports: Vec<(Port, PathBuf, PathBuf)>,
     /// The IIO-style ADC directory.
     pub adc: PathBuf,
+    /// The hot-swap's digital input, as a GPIO line's value file (`1` on the flight
+    /// batteries, `0` on the ground battery): `heli vehicle --hotswap PATH` reads it.
+    pub hotswap: PathBuf,
 }
 
 /// How to run.
@@ -123,8 +126,16 @@ pub(crate) fn expose(dir: &Path) -> Result<(Vec<PtyPort>, HilDevices), String> {
             dir: dir.to_path_buf(),
             ports: listed,
             adc,
+            hotswap: dir.join("hotswap"),
         },
     ))
+}
+
+/// Writes the hot-swap line's value file atomically.
+pub(crate) fn write_line(path: &Path, high: bool) -> std::io::Result<()> {
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, if high { "1\n" } else { "0\n" })?;
+    std::fs::rename(&tmp, path)
 }
 
 /// Writes an ADC channel file atomically (a temporary file renamed over the old one).
@@ -239,6 +250,9 @@ pub fn run(
                 }
                 HilOut::Adc { channel, counts } => {
                     let _ = write_adc(&devices.adc, channel, counts);
+                }
+                HilOut::PowerLine(high) => {
+                    let _ = write_line(&devices.hotswap, high);
                 }
             }
         }

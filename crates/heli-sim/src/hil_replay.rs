@@ -227,6 +227,9 @@ pub fn run(
                 )
                 .is_ok(),
             ),
+            RecordedInput::PowerLine(high) => {
+                Some(crate::hil::write_line(&devices.hotswap, *high).is_ok())
+            }
             RecordedInput::PortFailed(_) | RecordedInput::Tick | RecordedInput::GroundLink(_) => {
                 None
             }

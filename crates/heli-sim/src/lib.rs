@@ -28,6 +28,7 @@ pub mod logging;
 pub mod model;
 pub mod params;
 pub mod pilot;
+pub mod power_scenarios;
 pub mod replay_compare;
 pub mod rotor;
 pub mod scenario;

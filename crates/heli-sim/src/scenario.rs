@@ -105,6 +105,12 @@ pub struct Limits {
     /// After an engine failure: least rotor speed (rpm) before the touchdown while more
     /// than 3 m above the start (the cushion near the ground spends it on purpose).
     pub rotor_min_rpm: Option<f64>,
+    /// Least true charge of the flight pack over the run (fraction): the avionics still
+    /// powered.
+    pub flight_battery_soc_min: Option<f64>,
+    /// Largest error of the flight software's time left on the flight pack against the
+    /// truth (%), once its gauge has had two minutes and while five are left.
+    pub battery_time_left_err_max_pct: Option<f64>,
     /// Time to hover (s): from the start of the first position hold until the true ground
     /// speed has stayed under 0.5 m/s for a second.
     pub hover_within_s: Option<f64>,
@@ -197,8 +203,10 @@ pub struct Scenario {
     pub atmosphere: Atmosphere,
     /// The helicopter's parameters (default: the MIT X-Cell 60 SE).
     pub airframe: Airframe,
-    /// The flight battery: capacity, charge at power-on, load.
+    /// The flight battery: capacity, charge at power-on, load, temperature, wear.
     pub battery: crate::faults::Battery,
+    /// The servo board's packs and the hot-swap.
+    pub power: crate::faults::Power,
     /// Control system.
     #[serde(with = "flight_mode_name")]
     pub mode: FlightMode,
@@ -246,6 +254,7 @@ fn base(name: &str, description: &str, plan: Vec<LegSpec>, duration_s: f64) -> S
         atmosphere: Atmosphere::default(),
         airframe: Airframe::default(),
         battery: crate::faults::Battery::default(),
+        power: crate::faults::Power::default(),
         mode: FlightMode::Autonomous,
         plan,
         pilot: Pilot::default(),
@@ -481,6 +490,9 @@ pub fn builtins() -> Vec<Scenario> {
         crate::engine_failures::engine_failure_hover(),
         crate::engine_failures::engine_failure_forward(),
         crate::engine_failures::engine_failure_roll(),
+        crate::power_scenarios::battery_swap(),
+        crate::power_scenarios::weak_battery(),
+        crate::power_scenarios::battery_drain(),
     ]
 }
 

@@ -196,9 +196,40 @@ pub struct Summary {
     pub events: Vec<String>,
     /// Flight log written, if any.
     pub log: Option<String>,
+    /// The batteries: the truth against the flight software's gauges, the hot-swap.
+    pub power: PowerSummary,
     /// Hardware in the loop only: what the HILSim measured of the flight computer.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hil: Option<HilSummary>,
+}
+
+/// The batteries at the end of a run.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PowerSummary {
+    /// The flight pack's true charge at the end (fraction).
+    pub flight_soc_end: f64,
+    /// Its least true charge (fraction).
+    pub flight_soc_min: Option<f64>,
+    /// The flight software's gauge of it at the end (fraction).
+    pub gauge_soc_end: Option<f64>,
+    /// The gauge's time left at the end (s).
+    pub gauge_time_left_s: Option<f64>,
+    /// The true time left at the end, at the load then (s).
+    pub true_time_left_s: f64,
+    /// Largest error of the gauge's time left against the truth, once the gauge has had
+    /// two minutes and while the truth has five minutes left (%).
+    pub time_left_err_max_pct: Option<f64>,
+    /// The last such error (%).
+    pub time_left_err_end_pct: Option<f64>,
+    /// The receiver and servo packs' true charge at the end (fraction).
+    pub receiver_soc_end: f64,
+    /// See [`PowerSummary::receiver_soc_end`].
+    pub servo_soc_end: f64,
+    /// Time on the flight batteries and on the ground battery, as the flight software
+    /// logged them from the hot-swap's input (s).
+    pub flight_s: f64,
+    /// See [`PowerSummary::flight_s`].
+    pub ground_s: f64,
 }
 
 /// What a HIL run measured of the flight computer outside.

@@ -49,6 +49,11 @@ fn range_of(path: &str, name: &str) -> Option<(f64, f64)> {
         "capacity_ah" => (0.01, 100.0),
         "charge" => (0.0, 1.0),
         "load_a" => (0.0, 100.0),
+        "cycles" => (0.0, 10_000.0),
+        "health" => (0.01, 1.5),
+        "extra_a" => (0.0, 100.0),
+        "ground_until_s" => (0.0, MAX_DURATION_S),
+        "told_temperature_c" => (-60.0, 60.0),
         "factor" => (0.0, 1.0),
         "end_s" => (0.0, MAX_DURATION_S),
         // Limits: non-negative, finite.
@@ -118,6 +123,11 @@ pub fn scenario(s: &Scenario) -> Result<(), String> {
             f.engine
                 .iter()
                 .map(|g| ("faults.engine", g.start_s, g.end_s)),
+        )
+        .chain(
+            f.battery_drains
+                .iter()
+                .map(|g| ("faults.battery_drains", g.start_s, g.end_s)),
         )
         .chain(
             f.rc_frozen
@@ -223,6 +233,12 @@ fn device_faults(faults: &[crate::faults::DeviceFault], errors: &mut Vec<String>
     }
 }
 
+/// Keys left unset on purpose: the temperature told to the flight software (then the
+/// flight pack's).
+fn unset_allowed(path: &str) -> bool {
+    path == "power.told_temperature_c"
+}
+
 /// Walks a value: every number must be finite and within its key's range.
 fn walk(path: &str, name: &str, v: &Value, errors: &mut Vec<String>) {
     match v {
@@ -236,7 +252,11 @@ fn walk(path: &str, name: &str, v: &Value, errors: &mut Vec<String>) {
             }
         }
         // serde_json writes a non-finite f64 as null: a NaN or an infinity in the file.
-        Value::Null if !path.starts_with("limits.") && !path.ends_with("target") => {
+        Value::Null
+            if !path.starts_with("limits.")
+                && !path.ends_with("target")
+                && !unset_allowed(path) =>
+        {
             errors.push(format!("{path}: must be a finite number"));
         }
         Value::Array(items) => {

@@ -334,18 +334,21 @@ fn the_avionics_field_spoils_the_compass_until_it_is_calibrated() {
 
 #[test]
 fn battery_sags_with_time_and_more_in_the_cold() {
-    let warm = BatteryDevice {
-        temperature_c: 20.0,
-        ..BatteryDevice::default()
-    };
-    let cold = BatteryDevice {
-        temperature_c: 0.0,
-        ..BatteryDevice::default()
-    };
-    assert!(warm.volts(0.0) > warm.volts(1200.0) + 0.2);
-    assert!(warm.volts(600.0) - cold.volts(600.0) > 0.2);
+    let pack = heli_power::PackType::FLIGHT;
+    let mut warm = BatteryDevice::new(pack, 1.0, 20.0);
+    let mut cold = BatteryDevice::new(pack, 1.0, 0.0);
+    let fresh = warm.volts(1.8);
+    warm.advance(600.0, 1.8);
+    cold.advance(600.0, 1.8);
+    let after_600 = warm.volts(1.8);
+    assert!(warm.volts(1.8) - cold.volts(1.8) > 0.2);
+    // The cold pack holds less: it has drawn the same charge from a smaller capacity.
+    assert!(cold.soc() < warm.soc());
+    warm.advance(1200.0, 1.8);
+    assert!(fresh > warm.volts(1.8) + 0.2);
+    assert!(after_600 > warm.volts(1.8));
     assert!(
-        (warm.read(600.0).volts() - warm.volts(600.0)).abs() < 0.01,
+        (warm.read(1.8).volts() - warm.volts(1.8)).abs() < 0.01,
         "through the ADC"
     );
 }

@@ -127,6 +127,32 @@ pub enum CoreEvent {
         /// The rotor speed when it was judged (rpm).
         rotor_rpm: u16,
     },
+    /// A battery reached a worse level (`core::power`).
+    BatteryLevel {
+        /// Which battery.
+        battery: super::power::Battery,
+        /// The level reached.
+        level: heli_power::Level,
+        /// Its charge left (%).
+        percent: u8,
+        /// Its time left at the present drain (minutes).
+        minutes_left: u16,
+    },
+    /// A battery drains faster than the flight so far explains: the field rule says to end
+    /// the flight test.
+    BatteryDrainingAbnormally {
+        /// Which battery.
+        battery: super::power::Battery,
+    },
+    /// The hot-swap changed what powers the avionics.
+    PowerSource {
+        /// The source now.
+        source: heli_power::PowerSource,
+        /// Time on the flight batteries so far (s).
+        flight_s: f64,
+        /// Time on the ground battery so far (s).
+        ground_s: f64,
+    },
 }
 
 impl CoreEvent {
@@ -139,7 +165,13 @@ impl CoreEvent {
             | CoreEvent::AidAccepted(_) => Severity::ActivityLo,
             CoreEvent::CalibrationDone { .. }
             | CoreEvent::PlanComplete
+            | CoreEvent::PowerSource { .. }
             | CoreEvent::AlignedInAir { .. } => Severity::ActivityHi,
+            CoreEvent::BatteryLevel { level, .. } => match level {
+                heli_power::Level::Good => Severity::ActivityLo,
+                heli_power::Level::Warning => Severity::WarningHi,
+                heli_power::Level::Critical => Severity::Fatal,
+            },
             CoreEvent::WatchdogFired
             | CoreEvent::RollAbandoned
             | CoreEvent::GpsImplausible(_)
@@ -152,7 +184,8 @@ impl CoreEvent {
             | CoreEvent::EstimateDegraded { .. }
             | CoreEvent::AidRefused { .. }
             | CoreEvent::TakeoffRefused(_)
-            | CoreEvent::ModeRefused(_) => Severity::WarningHi,
+            | CoreEvent::ModeRefused(_)
+            | CoreEvent::BatteryDrainingAbnormally { .. } => Severity::WarningHi,
             CoreEvent::DeviceHealth { device, state } => match (device, state) {
                 (_, HealthState::Ok | HealthState::Waiting) => Severity::ActivityLo,
                 (_, HealthState::Late) => Severity::WarningLo,

@@ -21,6 +21,7 @@ mod main_loop;
 pub mod mission;
 pub mod mode_check;
 mod phase;
+pub mod power;
 pub mod preflight;
 pub mod restart;
 mod roll;
@@ -88,8 +89,8 @@ pub struct CoreConfig {
     pub takeoff_tolerance_m: f64,
     /// Height above the take-off point at which the helicopter counts as airborne (m).
     pub airborne_height_m: f64,
-    /// The flight battery's discharge curve, for the safety rule's `battery` condition.
-    pub battery_curve: heli_control::safety::BatteryCurve,
+    /// The batteries' gauges and the battery failsafe (`core::power`).
+    pub power: power::PowerConfig,
     /// When the rotor speed means an engine failure.
     pub engine: engine::EngineWatch,
     /// The autorotation that answers it.
@@ -110,7 +111,7 @@ impl Default for CoreConfig {
             compass: CompassCalibration::default(),
             takeoff_tolerance_m: 0.3,
             airborne_height_m: 0.3,
-            battery_curve: heli_control::safety::BatteryCurve::default(),
+            power: power::PowerConfig::default(),
             engine: engine::EngineWatch::default(),
             autorotation: heli_control::autorotation::AutorotationGains::default(),
         }
@@ -159,6 +160,9 @@ pub enum Input {
         /// Terminal voltage (V).
         volts: f64,
     },
+    /// The hot-swap's digital input: what powers the avionics (sent on each change, and
+    /// once at start).
+    PowerSource(heli_power::PowerSource),
     /// Whether the bootstrap hears a ground station (a vehicle without a link sends none).
     GroundLink {
         /// A ground heard in the last few seconds.
@@ -264,8 +268,8 @@ pub struct FlightCore {
     autorotation: Option<heli_control::autorotation::Autorotation>,
     /// What was raised while the switch has been on (the failing conditions so far).
     refusal_raised: Option<ModeRefusal>,
-    /// The flight battery's life left (fraction), once read.
-    battery_life: Option<f64>,
+    /// The batteries' gauges and the hot-swap's log.
+    power: power::Power,
     /// Whether the bootstrap hears a ground, on a vehicle with a link.
     ground_link: Option<bool>,
     stats: CoreStats,
@@ -310,7 +314,7 @@ impl FlightCore {
             engine_failed: false,
             autorotation: None,
             refusal_raised: None,
-            battery_life: None,
+            power: power::Power::new(&config.power),
             ground_link: None,
             stats: CoreStats::default(),
         }
@@ -356,6 +360,11 @@ impl FlightCore {
     /// True once the last leg of the flight plan is done.
     pub fn plan_complete(&self) -> bool {
         self.plan_done
+    }
+
+    /// The batteries' gauges and the hot-swap's log.
+    pub fn power(&self) -> &power::Power {
+        &self.power
     }
 
     /// The navigation filter (estimate and aiding statistics).
@@ -463,6 +472,13 @@ impl FlightCore {
                     )));
                 }
                 self.pilot = Some(uplink);
+                self.read_battery(
+                    power::Battery::Receiver,
+                    uplink.receiver_batt_v,
+                    now_us,
+                    out,
+                );
+                self.read_battery(power::Battery::Servo, uplink.servo_batt_v, now_us, out);
                 out.push(Action::Publish(Record::Uplink(Stamped::new(
                     now_us, uplink,
                 ))));
@@ -527,8 +543,9 @@ impl FlightCore {
                 ))));
             }
             Input::Battery { volts } => {
-                self.battery_life = Some(self.config.battery_curve.life_left(volts));
+                self.read_battery(power::Battery::Flight, volts, now_us, out);
             }
+            Input::PowerSource(source) => self.read_power_source(source, now_us, out),
             Input::GroundLink { fresh } => self.ground_link = Some(fresh),
         }
     }
@@ -550,9 +567,11 @@ fn input_is_finite(input: &Input) -> bool {
         }
         Input::Uplink(u) => u.receiver_batt_v.is_finite() && u.servo_batt_v.is_finite(),
         Input::Battery { volts } => volts.is_finite(),
-        Input::Compass(_) | Input::DeviceFailed(_) | Input::Timer | Input::GroundLink { .. } => {
-            true
-        }
+        Input::Compass(_)
+        | Input::DeviceFailed(_)
+        | Input::Timer
+        | Input::GroundLink { .. }
+        | Input::PowerSource(_) => true,
     }
 }
 

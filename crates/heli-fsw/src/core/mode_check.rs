@@ -63,12 +63,14 @@ impl FlightCore {
             .with(Condition::Altimeter, ok(Device::Baro))
             .with(Condition::Compass, ok(Device::Compass))
             .with(Condition::Bypass, self.pilot.is_some_and(|p| p.bypass));
-        let facts = match self.battery_life {
-            Some(life) => facts.with(
+        // Judged once a battery has been read: every battery read above its warning level.
+        let facts = if self.power.any_read() {
+            facts.with(
                 Condition::Battery,
-                heli_control::safety::battery_green(life),
-            ),
-            None => facts,
+                self.power.worst() == heli_power::Level::Good,
+            )
+        } else {
+            facts
         };
         match self.ground_link {
             Some(fresh) => facts.with(Condition::Link, fresh),

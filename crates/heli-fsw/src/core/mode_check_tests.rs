@@ -5,6 +5,7 @@ use heli_control::safety::Condition;
 
 use super::tests::{core_with_gps, fly_for, gps_fix, settled, uplink};
 use super::*;
+use heli_power::PowerSource;
 
 const RATE: FlightMode = FlightMode::Augmented(AugmentedMode::Rate);
 
@@ -115,10 +116,13 @@ fn in_the_air_a_refusal_stands_until_the_switch_goes_off() {
 }
 
 #[test]
-fn the_battery_and_the_link_are_not_judged_until_they_are_heard_of() {
+fn the_link_is_not_judged_until_heard_of_and_the_batteries_once_one_is_read() {
+    let core = super::tests::core_with(FlightMode::Autonomous);
+    assert_eq!(core.safety_facts().get(Condition::Battery), None);
+    // The servo board's packs come with its uplink.
     let (core, _) = core_with_gps(FlightMode::Autonomous, Some(8), 3);
     let facts = core.safety_facts();
-    assert_eq!(facts.get(Condition::Battery), None);
+    assert_eq!(facts.get(Condition::Battery), Some(true));
     assert_eq!(facts.get(Condition::Link), None);
     assert_eq!(facts.get(Condition::Imu), Some(true));
     assert_eq!(facts.get(Condition::Satellites), Some(true));
@@ -144,9 +148,17 @@ fn a_battery_down_to_a_third_refuses_augmented_flight_on_board() {
         "{}",
         last.text()
     );
-    // A charged pack: the mode is entered (on the ground, as soon as the rule allows).
+    // A reading that bounces back does not withdraw the warning.
     core.handle(Input::Battery { volts: 12.6 }, t, &mut out);
-    switched(&mut core, &mut out, t, 100_000, true);
+    let t = switched(&mut core, &mut out, t, 100_000, false);
+    let t = switched(&mut core, &mut out, t, 100_000, true);
+    assert_eq!(core.phase(), Phase::Manual);
+    // A charged pack swapped in through the hot-swap: gauged afresh, the mode is entered.
+    let t = switched(&mut core, &mut out, t, 100_000, false);
+    core.handle(Input::PowerSource(PowerSource::Ground), t, &mut out);
+    core.handle(Input::PowerSource(PowerSource::Flight), t, &mut out);
+    core.handle(Input::Battery { volts: 12.6 }, t, &mut out);
+    switch_on_with_fixes(&mut core, &mut out, t, t + 4 * 500_000, 8);
     assert_eq!(core.phase(), Phase::Augmented(AugmentedMode::Rate));
 }
 

@@ -127,6 +127,9 @@ impl FlightCore {
         if let Some(landing) = self.land_if_degraded(est, now_us, out) {
             return landing;
         }
+        if let Some(back) = self.battery_failsafe(est, now_us, out) {
+            return back;
+        }
         match self.phase {
             // Refused stays refused until the pilot takes the auto switch off (above).
             Phase::TakeoffRefused => Phase::TakeoffRefused,

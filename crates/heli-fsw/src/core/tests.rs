@@ -84,8 +84,8 @@ fn calibration_then_auto_switch_starts_a_takeoff() {
         }),
         auto_mode: true,
         bypass: false,
-        receiver_batt_v: 4.8,
-        servo_batt_v: 4.8,
+        receiver_batt_v: 5.1,
+        servo_batt_v: 5.1,
     };
     core.handle(Input::Uplink(pilot), 0, &mut out);
     // Calibrated at 1.1 s; it waits on the skids for its first fused GPS fix, then goes.
@@ -119,8 +119,8 @@ pub(super) fn uplink(auto_mode: bool, lost: bool) -> PilotUplink {
         },
         auto_mode,
         bypass: false,
-        receiver_batt_v: 4.8,
-        servo_batt_v: 4.8,
+        receiver_batt_v: 5.1,
+        servo_batt_v: 5.1,
     }
 }
 

@@ -1,76 +1,88 @@
-//! Simulated flight battery on the battery ADC channel: a 10-cell NiMH pack feeding the
-//! computer and sensors. The terminal voltage follows the charge left (open-circuit curve)
-//! minus the drop across the internal resistance, which grows in the cold — so, as the
-//! thesis found in the field, voltage is only weakly tied to time left, and temperature
-//! matters a great deal.
+//! A simulated battery pack: the truth a fuel gauge is judged against. It follows the same
+//! characterization as the gauge on board ([`heli_power::PackType`]: open-circuit curve,
+//! resistance that grows in the cold, capacity that shrinks in the cold and with charge
+//! cycles), and a pack of its own may be weaker than its type says (`health`). So, as the
+//! thesis found in the field, the voltage is only weakly tied to the time left, and the
+//! temperature matters a great deal.
 
+use heli_power::PackType;
 use heli_proto::battery::BatteryAdc;
 
-/// The simulated flight battery.
+/// One simulated pack.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BatteryDevice {
-    /// Capacity (A h).
-    pub capacity_ah: f64,
-    /// Current drawn by the avionics (A).
-    pub load_a: f64,
-    /// Internal resistance at 20 °C (Ω).
-    pub resistance_ohm: f64,
-    /// Relative increase of the resistance per °C below 20 °C.
-    pub resistance_cold_per_c: f64,
-    /// Charge at power-on, fraction of capacity.
-    pub initial_charge: f64,
-    /// Ambient temperature (°C).
+    /// The pack's type.
+    pub pack: PackType,
+    /// Charge cycles it has had.
+    pub cycles: f64,
+    /// Its capacity relative to what its type, temperature and cycles say (1: as the type
+    /// says; a weak or damaged pack less).
+    pub health: f64,
+    /// Its temperature (°C).
     pub temperature_c: f64,
+    /// Charge left (fraction of its capacity).
+    soc: f64,
+    /// Time of the last advance (s).
+    t_s: f64,
 }
 
 impl Default for BatteryDevice {
+    /// The flight pack, full, at 15 °C.
     fn default() -> Self {
-        Self {
-            capacity_ah: 1.7,
-            load_a: 1.8,
-            resistance_ohm: 0.25,
-            resistance_cold_per_c: 0.03,
-            initial_charge: 1.0,
-            temperature_c: 15.0,
-        }
+        Self::new(PackType::FLIGHT, 1.0, 15.0)
     }
-}
-
-/// Open-circuit voltage of ten NiMH cells against charge left (fraction).
-fn open_circuit_v(charge: f64) -> f64 {
-    const CURVE: [(f64, f64); 6] = [
-        (0.0, 10.0),
-        (0.05, 11.5),
-        (0.2, 12.1),
-        (0.6, 12.5),
-        (0.9, 12.9),
-        (1.0, 13.4),
-    ];
-    let c = charge.clamp(0.0, 1.0);
-    CURVE
-        .windows(2)
-        .find_map(|w| {
-            let ((c0, v0), (c1, v1)) = (w[0], w[1]);
-            (c <= c1).then(|| v0 + (v1 - v0) * (c - c0) / (c1 - c0))
-        })
-        .unwrap_or(13.4)
 }
 
 impl BatteryDevice {
-    /// Charge left after `t_s` seconds of load (fraction).
-    pub fn charge(&self, t_s: f64) -> f64 {
-        (self.initial_charge - self.load_a * t_s / 3600.0 / self.capacity_ah).max(0.0)
+    /// A new pack of type `pack` charged to `charge` (fraction) at `temperature_c`.
+    pub fn new(pack: PackType, charge: f64, temperature_c: f64) -> Self {
+        Self {
+            pack,
+            cycles: 0.0,
+            health: 1.0,
+            temperature_c,
+            soc: charge.clamp(0.0, 1.0),
+            t_s: 0.0,
+        }
     }
 
-    /// Terminal voltage after `t_s` seconds.
-    pub fn volts(&self, t_s: f64) -> f64 {
-        let cold = (20.0 - self.temperature_c).max(0.0);
-        let resistance = self.resistance_ohm * (1.0 + self.resistance_cold_per_c * cold);
-        open_circuit_v(self.charge(t_s)) - self.load_a * resistance
+    /// Its true capacity now (A h).
+    pub fn capacity_ah(&self) -> f64 {
+        self.pack.capacity_at(self.temperature_c, self.cycles) * self.health.clamp(0.01, 2.0)
     }
 
-    /// The ADC reading after `t_s` seconds.
-    pub fn read(&self, t_s: f64) -> BatteryAdc {
-        BatteryAdc::from_volts(self.volts(t_s))
+    /// Charge left (fraction).
+    pub fn soc(&self) -> f64 {
+        self.soc
+    }
+
+    /// Draws `current_a` from the last advance until `t_s`.
+    pub fn advance(&mut self, t_s: f64, current_a: f64) {
+        if t_s > self.t_s {
+            let drawn_ah = current_a.max(0.0) * (t_s - self.t_s) / 3600.0;
+            self.soc = (self.soc - drawn_ah / self.capacity_ah()).max(0.0);
+            self.t_s = t_s;
+        }
+    }
+
+    /// Terminal voltage with `current_a` drawn.
+    pub fn volts(&self, current_a: f64) -> f64 {
+        self.pack
+            .terminal_v(self.soc, current_a, self.temperature_c)
+            .max(0.0)
+    }
+
+    /// The ADC reading of the terminal voltage.
+    pub fn read(&self, current_a: f64) -> BatteryAdc {
+        BatteryAdc::from_volts(self.volts(current_a))
+    }
+
+    /// The true time until empty at `current_a` (s).
+    pub fn time_left_s(&self, current_a: f64) -> f64 {
+        if current_a > 0.0 {
+            self.soc * self.capacity_ah() * 3600.0 / current_a
+        } else {
+            f64::INFINITY
+        }
     }
 }

@@ -117,6 +117,11 @@ impl Simulation {
             limits.touchdown_speed_max_mps,
         );
         at_most(
+            "battery_time_left_err_pct",
+            m.power.time_left_err_max_pct,
+            limits.battery_time_left_err_max_pct,
+        );
+        at_most(
             "touchdown_tilt_deg",
             touchdown.map(|td| td.tilt_deg),
             limits.touchdown_tilt_max_deg,
@@ -130,6 +135,11 @@ impl Simulation {
         };
         at_least("height_min_m", t.height_min_m, limits.height_min_m);
         at_least("rotor_min_rpm", t.rotor_min_rpm, limits.rotor_min_rpm);
+        at_least(
+            "flight_battery_soc_min",
+            m.power.flight_soc_min,
+            limits.flight_battery_soc_min,
+        );
         at_least(
             "sweep_roll_rate_rms_dps",
             m.sweep_roll_rate.measured_rms(),
@@ -240,6 +250,7 @@ impl Simulation {
             },
             events: m.events.clone(),
             log: None,
+            power: self.power_summary(),
             hil: None,
         }
     }

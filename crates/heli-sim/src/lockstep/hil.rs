@@ -28,6 +28,8 @@ pub enum HilOut {
         /// Counts.
         counts: u16,
     },
+    /// The hot-swap's digital input changed: high on the flight batteries.
+    PowerLine(bool),
 }
 
 /// The HIL side of a simulation.

@@ -58,6 +58,8 @@ pub(super) struct Metrics {
     pub(super) target_offset: Vector3<f64>,
     pub(super) step_time_max: Duration,
     pub(super) battery_min_v: f64,
+    /// The batteries against the flight software's gauges.
+    pub(super) power: super::batteries::PowerMetrics,
     pub(super) events: Vec<String>,
     /// The truth at the physics rate: tilt, height, touchdowns.
     pub(super) truth: TruthMetrics,

@@ -9,6 +9,7 @@
 //! Events are ordered by (time, class, sequence), so a run is a pure function of the scenario
 //! and seed: same inputs, same outputs, bit for bit.
 
+mod batteries;
 mod criteria;
 mod hil;
 mod inject;
@@ -40,7 +41,6 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::actuators::{Actuators, ServoParams, control_inputs};
 use crate::devices::baro::{BaroDevice, BaroErrors, ground_effect_mbar};
-use crate::devices::battery::BatteryDevice;
 use crate::devices::compass::{CompassDevice, CompassErrors};
 use crate::devices::gps::{GpsDevice, GpsErrors};
 use crate::devices::imu::{ImuDevice, ImuErrors, RotorPhase};
@@ -187,7 +187,7 @@ pub struct Simulation {
     gps: GpsDevice,
     baro: BaroDevice,
     compass: CompassDevice,
-    battery: BatteryDevice,
+    power: batteries::SimPower,
     drop_noise: Noise,
     /// Random byte loss (a stream of its own, so other noise is unchanged by it).
     loss_noise: Noise,
@@ -252,8 +252,20 @@ impl Simulation {
         // The lab calibrated the compass before the flight; the flight software keeps the
         // result in its configuration (the thesis: stored in flash).
         let compass_calibration = calibrate_compass(compass_errors, Noise::new(seed, 7));
+        // The operator tells the flight software the day's temperature (its gauges need
+        // it: a cold pack sags more).
+        let told_c = scenario
+            .power
+            .told_temperature_c
+            .unwrap_or(scenario.battery.temperature_c);
+        // The pack log tells it each pack's charge cycles.
+        let mut power = config.power.at_temperature(told_c);
+        power.flight.cycles = scenario.battery.cycles;
+        power.receiver.cycles = scenario.power.receiver.cycles;
+        power.servo.cycles = scenario.power.servo.cycles;
         let core_config = CoreConfig {
             compass: compass_calibration,
+            power,
             ..config
         };
         let mut sim = Self {
@@ -273,13 +285,7 @@ impl Simulation {
                 compass_errors,
                 Noise::new(seed, 4),
             ),
-            battery: BatteryDevice {
-                temperature_c: scenario.atmosphere.temperature_c,
-                capacity_ah: scenario.battery.capacity_ah,
-                initial_charge: scenario.battery.charge,
-                load_a: scenario.battery.load_a,
-                ..BatteryDevice::default()
-            },
+            power: batteries::SimPower::new(&scenario),
             drop_noise: Noise::new(seed, 5),
             loss_noise: Noise::new(seed, 8),
             last_imu_bytes: None,

@@ -114,6 +114,7 @@ impl Simulation {
             }
             Kind::UplinkSample => {
                 self.move_hands();
+                self.uplink_packs();
                 let bytes = self.uplink_packet();
                 if !self.fault(|f| &f.uplink_silent) {
                     self.send_to_computer(Port::Scb, bytes, now);
@@ -191,10 +192,7 @@ impl Simulation {
                 self.schedule(now + COMPASS_PERIOD_US, Kind::CompassRead);
             }
             Kind::BatteryRead => {
-                let volts = self.battery.volts(now as f64 * 1e-6);
-                if let Some(battery) = self.faulted_battery(volts) {
-                    self.read_battery(battery);
-                }
+                self.read_power();
                 self.schedule(now + BATTERY_PERIOD_US, Kind::BatteryRead);
             }
             Kind::ToDevice(port, bytes) => self.reach_device(port, bytes),

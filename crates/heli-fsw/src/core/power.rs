@@ -1,0 +1,300 @@
+//! The batteries, watched by the main control process (thesis §2.2.3: "power loss ... is
+//! perhaps the most damaging threat to the system"): the flight battery on its analog
+//! channel, the servo board's receiver battery (RTXB) and the servo battery (Sbat) from the
+//! uplink, each through a fuel gauge ([`heli_power`]), and the hot-swap's digital input
+//! that says whether the avionics run on the flight batteries or the ground battery.
+//!
+//! What is raised: a level reached (warning, then critical) with the charge and time left;
+//! an abnormal drain (the field rule: "end the flight test", which the ground acts on); a
+//! change of power source with the time spent on each.
+//!
+//! What is done, in autonomous flight (as ArduPilot's battery failsafe and PX4's do): at
+//! the warning level, return to the take-off point at the present height and land there; at
+//! the critical level, land where it is. A roll under way is finished first. A pilot flying
+//! (manual, augmented) is told and decides. On the ground battery the flight battery's
+//! channel is not judged (the flight pack is off the bus).
+
+use super::*;
+use heli_power::{FuelGauge, GaugeConfig, GaugeState, Level, PowerSource, Reading, SwapLog};
+
+/// One of the batteries the computer watches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Battery {
+    /// The flight battery: the computer, IMU, GPS, altimeter and compass.
+    Flight,
+    /// The servo board's logic and receiver battery (the uplink's RTXB).
+    Receiver,
+    /// The servo battery (the uplink's Sbat).
+    Servo,
+}
+
+impl Battery {
+    /// Every battery, in the display's order.
+    pub const ALL: [Battery; 3] = [Battery::Flight, Battery::Receiver, Battery::Servo];
+
+    /// Name for messages and displays.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Battery::Flight => "flight battery",
+            Battery::Receiver => "receiver battery",
+            Battery::Servo => "servo battery",
+        }
+    }
+
+    const fn index(self) -> usize {
+        match self {
+            Battery::Flight => 0,
+            Battery::Receiver => 1,
+            Battery::Servo => 2,
+        }
+    }
+}
+
+/// What the computer knows of its batteries.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PowerConfig {
+    /// The flight battery's gauge.
+    pub flight: GaugeConfig,
+    /// The receiver battery's gauge.
+    pub receiver: GaugeConfig,
+    /// The servo battery's gauge.
+    pub servo: GaugeConfig,
+    /// Speed of the return to the take-off point at the warning level (m/s).
+    pub return_speed_mps: f64,
+}
+
+impl Default for PowerConfig {
+    fn default() -> Self {
+        Self {
+            flight: GaugeConfig::flight(),
+            receiver: GaugeConfig::receiver(),
+            servo: GaugeConfig::servo(),
+            return_speed_mps: 3.0,
+        }
+    }
+}
+
+impl PowerConfig {
+    /// Every gauge told the day's temperature (°C), as the operator gives it.
+    pub fn at_temperature(mut self, temperature_c: f64) -> Self {
+        for g in [&mut self.flight, &mut self.receiver, &mut self.servo] {
+            g.temperature_c = temperature_c;
+        }
+        self
+    }
+}
+
+/// The batteries' watch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Power {
+    gauges: [FuelGauge; 3],
+    /// The level last raised for each battery.
+    raised: [Level; 3],
+    /// The abnormal drain raised for each battery.
+    drain_raised: [bool; 3],
+    /// The failsafe already taken (the worst level acted on).
+    acted: Level,
+    swap: SwapLog,
+}
+
+impl Power {
+    /// A watch with no reading yet.
+    pub fn new(config: &PowerConfig) -> Self {
+        Self {
+            gauges: [
+                FuelGauge::new(config.flight),
+                FuelGauge::new(config.receiver),
+                FuelGauge::new(config.servo),
+            ],
+            raised: [Level::Good; 3],
+            drain_raised: [false; 3],
+            acted: Level::Good,
+            swap: SwapLog::default(),
+        }
+    }
+
+    /// A battery's gauge state (`None` before its first reading).
+    pub fn state(&self, battery: Battery) -> Option<GaugeState> {
+        self.gauges.get(battery.index()).and_then(FuelGauge::state)
+    }
+
+    /// The power source now (`None` before the hot-swap's input was read).
+    pub fn source(&self) -> Option<PowerSource> {
+        self.swap.source()
+    }
+
+    /// Time on the flight batteries and on the ground battery up to `now_us` (s).
+    pub fn times(&self, now_us: u64) -> (f64, f64) {
+        self.swap.times(now_us as f64 * 1e-6)
+    }
+
+    /// Whether any battery has been read.
+    pub fn any_read(&self) -> bool {
+        self.gauges.iter().any(|g| g.state().is_some())
+    }
+
+    /// The worst level of any battery.
+    pub fn worst(&self) -> Level {
+        self.gauges
+            .iter()
+            .filter_map(|g| g.state().map(|s| s.level))
+            .max()
+            .unwrap_or(Level::Good)
+    }
+}
+
+impl FlightCore {
+    /// A reading of `battery`'s voltage at `now_us`: gauged, and a new level or an abnormal
+    /// drain raised.
+    pub(super) fn read_battery(
+        &mut self,
+        battery: Battery,
+        volts: f64,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) {
+        // On the ground battery the flight pack is off the bus: nothing to judge.
+        if battery == Battery::Flight && self.power.source() == Some(PowerSource::Ground) {
+            return;
+        }
+        let i = battery.index();
+        let Some(gauge) = self.power.gauges.get_mut(i) else {
+            return;
+        };
+        let reading = Reading {
+            t_s: now_us as f64 * 1e-6,
+            volts,
+            current_a: None,
+            temp_c: None,
+        };
+        // A reading that is not one was refused at the input (`input_is_finite`); one out
+        // of order changes nothing.
+        let Ok(state) = gauge.update(reading) else {
+            return;
+        };
+        if let Some(raised) = self.power.raised.get_mut(i)
+            && state.level > *raised
+        {
+            *raised = state.level;
+            out.push(Action::Event(Stamped::new(
+                now_us,
+                CoreEvent::BatteryLevel {
+                    battery,
+                    level: state.level,
+                    percent: (state.soc * 100.0).round().clamp(0.0, 100.0) as u8,
+                    minutes_left: (state.time_left_s / 60.0).round().clamp(0.0, 9999.0) as u16,
+                },
+            )));
+        }
+        if let Some(drain) = self.power.drain_raised.get_mut(i)
+            && state.draining_abnormally
+            && !*drain
+        {
+            *drain = true;
+            out.push(Action::Event(Stamped::new(
+                now_us,
+                CoreEvent::BatteryDrainingAbnormally { battery },
+            )));
+        }
+    }
+
+    /// The hot-swap's input at `now_us`: a change of source raised with the times.
+    pub(super) fn read_power_source(
+        &mut self,
+        source: PowerSource,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) {
+        let before = self.power.source();
+        if self
+            .power
+            .swap
+            .update(now_us as f64 * 1e-6, source)
+            .is_none()
+        {
+            return;
+        }
+        if source == PowerSource::Flight && before == Some(PowerSource::Ground) {
+            // The flight pack is on the bus again: its gauge starts from its voltage.
+            if let Some(g) = self.power.gauges.get_mut(Battery::Flight.index()) {
+                g.restart();
+            }
+        }
+        let (flight_s, ground_s) = self.power.times(now_us);
+        out.push(Action::Event(Stamped::new(
+            now_us,
+            CoreEvent::PowerSource {
+                source,
+                flight_s,
+                ground_s,
+            },
+        )));
+    }
+
+    /// The battery failsafe, once per level, in autonomous flight in the air: return and
+    /// land at the warning level, land here at the critical one.
+    pub(super) fn battery_failsafe(
+        &mut self,
+        est: &NavState,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) -> Option<Phase> {
+        let worst = self.power.worst();
+        let rolling = matches!(
+            self.phase,
+            Phase::Maneuver {
+                stage: RollStage::Rolling { .. },
+                ..
+            }
+        );
+        if worst <= self.power.acted
+            || rolling
+            || !self.airborne_once
+            || !matches!(
+                self.phase,
+                Phase::TakingOff { .. }
+                    | Phase::Holding { .. }
+                    | Phase::Flying { .. }
+                    | Phase::Maneuver { .. }
+                    | Phase::Landing { .. }
+            )
+        {
+            return None;
+        }
+        self.power.acted = worst;
+        self.plan_abandoned = true;
+        self.braking = None;
+        let (_, _, yaw) = est.euler_rad();
+        let land_here = Phase::Landing {
+            settled_since_us: None,
+            target: Target {
+                pos_ned_m: est.pos_ned_m,
+                vel_ned_mps: Vector3::new(0.0, 0.0, 0.5),
+                yaw_rad: yaw,
+            },
+        };
+        let home = self.home_ned_m?;
+        if worst == Level::Critical || matches!(self.phase, Phase::Landing { .. }) {
+            return Some(land_here);
+        }
+        // Warning: back to the take-off point at this height, then down.
+        let height_m = home.z - est.pos_ned_m.z;
+        let back = [
+            mission::Leg::Fly {
+                north_m: 0.0,
+                east_m: 0.0,
+                alt_m: height_m.max(2.0),
+                speed_mps: self.config.power.return_speed_mps,
+            },
+            mission::Leg::Land,
+        ];
+        match mission::Plan::new(&back) {
+            Ok(plan) => {
+                self.params.plan = plan;
+                self.leg = 0;
+                Some(self.start_leg(est, now_us, out))
+            }
+            Err(_) => Some(land_here),
+        }
+    }
+}
