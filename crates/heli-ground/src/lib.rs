@@ -30,6 +30,7 @@ pub mod display;
 pub mod facts;
 pub mod operators;
 pub mod panel;
+pub mod power_view;
 pub mod rows;
 pub mod server;
 pub mod station;

@@ -84,6 +84,9 @@ pub enum Op {
         #[serde(default)]
         plan: Option<String>,
     },
+    /// Acknowledge the field rule's message (a pack drained abnormally: the flight test is
+    /// over), which blocks Start Logging until then.
+    Acknowledge,
     /// Stop, with the final parameters (both absent: no log transfer).
     Stop {
         /// Base directory, below the station's save root.
@@ -127,6 +130,8 @@ pub struct Station {
     answered_us: u64,
     /// A flight was seen under way since the station started or since the last Stop.
     flight_seen: bool,
+    /// The field rule's message, until acknowledged.
+    pub(crate) field_rule: crate::power_view::FieldRule,
 }
 
 impl Station {
@@ -147,6 +152,7 @@ impl Station {
             outbox: Vec::new(),
             answered_us: 0,
             flight_seen: false,
+            field_rule: crate::power_view::FieldRule::default(),
         }
     }
 
@@ -181,6 +187,7 @@ impl Station {
             .collect();
         self.texts_seen = self.link.texts.len();
         for (severity, text) in new {
+            self.field_rule.see(&text);
             self.next_message = self.next_message.saturating_add(1);
             self.messages.push_back(Message {
                 seq: self.next_message,
@@ -421,6 +428,18 @@ impl Station {
                 self.operators.release(client);
                 Ok("control released".into())
             }
+            Op::Acknowledge => {
+                self.operators
+                    .may_command(client)
+                    .map_err(|e| e.to_string())?;
+                match self.field_rule.acknowledge() {
+                    Some(text) => {
+                        self.note("info", format!("acknowledged: {text}"));
+                        Ok("acknowledged: Start Logging is allowed again".into())
+                    }
+                    None => Err("nothing to acknowledge".into()),
+                }
+            }
             op => {
                 self.operators
                     .may_command(client)
@@ -448,6 +467,9 @@ impl Station {
                 controller,
                 plan,
             } if start => {
+                if let Some(why) = self.field_rule.blocks_start() {
+                    return Err(why);
+                }
                 let mut p = StartParameters::new(suffix.trim(), controller.trim())
                     .map_err(|e| e.to_string())?;
                 let plan = plan.filter(|p| !p.trim().is_empty());
@@ -494,6 +516,7 @@ impl Station {
                     match other {
                         Op::Connect => "Connect",
                         Op::Start { .. } => "Start Logging",
+                        Op::Acknowledge => "Acknowledge",
                         _ => "Stop",
                     },
                     state.name()

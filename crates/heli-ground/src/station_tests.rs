@@ -470,3 +470,108 @@ fn the_uplink_row_is_relabelled_for_the_chosen_augmentation_system() {
         "{labels:?}"
     );
 }
+
+#[test]
+fn every_pack_shows_its_gauge_and_the_hot_swap_its_times() {
+    let mut b = Bench::new();
+    let op = b.connected_operator();
+    b.ask(
+        op,
+        r#"{"seq":3,"op":"start","suffix":"f","controller":"autonomous"}"#,
+    )
+    .unwrap();
+    let mut t = flying_telemetry("hold");
+    let pack = |name: &str, volts: f64, percent: f64, minutes_left: f64| {
+        heli_link::telemetry::BatteryRow {
+            name: name.into(),
+            volts,
+            percent,
+            minutes_left,
+            level: "good".into(),
+            draining_abnormally: false,
+        }
+    };
+    t.battery_remaining = Some(0.25);
+    t.power = Some(heli_link::telemetry::PowerRow {
+        batteries: vec![
+            pack("flight", 12.4, 25.0, 7.0),
+            pack("receiver", 4.8, 90.0, 120.0),
+            pack("servo", 4.9, 60.0, 50.0),
+        ],
+        source: Some("flight".into()),
+        flight_s: 200.0,
+        ground_s: 60.0,
+    });
+    b.telemetry = Some(t);
+    b.run(2.0);
+    let v = b.station.view(b.t);
+    // The meter follows the gauge (25 %), not the voltage (12.4 V would read 90 %).
+    let meter = v.battery.as_ref().unwrap();
+    assert_eq!(
+        (meter.percent, meter.green, meter.from),
+        (25.0, false, "gauge")
+    );
+    let p = &v.power;
+    let names: Vec<_> = p.packs.iter().map(|k| (k.name, k.state)).collect();
+    assert_eq!(
+        names,
+        [
+            ("flight battery", "warning"),
+            ("receiver battery (RTXB)", "good"),
+            ("servo battery (Sbat)", "good")
+        ]
+    );
+    assert_eq!(p.packs[0].minutes_left, Some(7.0));
+    assert_eq!(p.source, Some("flight"));
+    assert!((p.flight_s.unwrap() - 200.0).abs() < 1.0 && (p.ground_s.unwrap() - 60.0).abs() < 1.0);
+    assert!(
+        v.safety
+            .automatic
+            .failing
+            .contains("a battery down to a third")
+    );
+}
+
+#[test]
+fn the_field_rule_blocks_start_logging_until_acknowledged() {
+    let mut b = Bench::new();
+    let op = b.connected_operator();
+    b.ask(
+        op,
+        r#"{"seq":3,"op":"start","suffix":"f","controller":"autonomous"}"#,
+    )
+    .unwrap();
+    b.run(1.0);
+    b.vehicle.status_text(
+        mavlink::dialects::common::MavSeverity::MAV_SEVERITY_ERROR,
+        "t=241.00 s flight battery draining abnormally: end the flight test",
+        b.t,
+    );
+    b.run(2.0);
+    assert!(b.station.view(b.t).power.field_rule.is_some());
+    b.ask(op, r#"{"seq":4,"op":"stop"}"#).unwrap();
+    b.run(1.0);
+    b.ask(op, r#"{"seq":5,"op":"connect"}"#).unwrap();
+    b.run(1.0);
+    let refused = b
+        .ask(
+            op,
+            r#"{"seq":6,"op":"start","suffix":"g","controller":"autonomous"}"#,
+        )
+        .unwrap_err();
+    assert!(
+        refused.contains("field rule") && refused.contains("acknowledge"),
+        "{refused}"
+    );
+    // Only the operator in control acknowledges.
+    let watcher = b.station.join();
+    assert!(b.ask(watcher, r#"{"seq":1,"op":"acknowledge"}"#).is_err());
+    b.ask(op, r#"{"seq":7,"op":"acknowledge"}"#).unwrap();
+    assert!(b.station.view(b.t).power.field_rule.is_none());
+    assert!(b.ask(op, r#"{"seq":8,"op":"acknowledge"}"#).is_err());
+    b.ask(
+        op,
+        r#"{"seq":9,"op":"start","suffix":"g","controller":"autonomous"}"#,
+    )
+    .unwrap();
+}

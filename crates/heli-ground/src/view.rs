@@ -83,6 +83,9 @@ pub struct BatteryView {
     pub percent: f64,
     /// Green: more than a third of its life left.
     pub green: bool,
+    /// Where the percent comes from: `gauge` (the vehicle's fuel gauge) or `voltage` (the
+    /// discharge curve, from a vehicle that sends no gauge).
+    pub from: &'static str,
 }
 
 /// The GPS indicator.
@@ -172,6 +175,8 @@ pub struct View {
     pub rows: Rows,
     /// The battery meter, once a voltage came.
     pub battery: Option<BatteryView>,
+    /// Every pack, the hot-swap's times and the field rule.
+    pub power: crate::power_view::PowerView,
     /// The GPS indicator, once a fix came.
     pub gps: Option<GpsView>,
     /// The safety checks.
@@ -209,16 +214,30 @@ impl Station {
         let battery = match latest.get(&SYS_STATUS_DATA::ID) {
             Some((_, MavMessage::SYS_STATUS(s))) if s.voltage_battery != u16::MAX => {
                 let volts = f64::from(s.voltage_battery) / 1000.0;
-                let (percent, green) = battery_meter(&self.config.curve, volts);
+                // The vehicle's gauge when it sends one; bare voltage only otherwise.
+                let (percent, green, from) = if s.battery_remaining >= 0 {
+                    let p = f64::from(s.battery_remaining);
+                    (p, p > 100.0 / 3.0, "gauge")
+                } else {
+                    let (p, g) = battery_meter(&self.config.curve, volts);
+                    (p, g, "voltage")
+                };
                 Some(BatteryView {
                     volts,
                     percent,
                     green,
+                    from,
                 })
             }
             _ => None,
         };
-        let battery_green = battery.as_ref().is_some_and(|b| b.green);
+        let power = crate::power_view::power_view(&self.link, &self.field_rule);
+        // The safety rule's `battery`: the meter green and no pack at its warning level.
+        let battery_green = battery.as_ref().is_some_and(|b| b.green)
+            && power
+                .packs
+                .iter()
+                .all(|p| matches!(p.state, "good" | "unknown"));
         let facts = facts(latest, &rows, heartbeat_age_us, battery_green);
         let gps = match latest.get(&GPS_RAW_INT_DATA::ID) {
             Some((_, MavMessage::GPS_RAW_INT(g))) => Some(GpsView {
@@ -278,6 +297,7 @@ impl Station {
             uplink_labels: labels,
             rows,
             battery,
+            power,
             gps,
             safety: safety_view(facts),
             instruments,

@@ -172,6 +172,37 @@ function renderPower(view) {
   const g = view.gps;
   $("gps-indicator").className = "lamp " + (g && g.ok ? "green" : "red");
   $("gps-sats").textContent = g ? `${g.satellites} satellites` : "no fix";
+  renderPacks(view.power);
+}
+
+function minutes(m) {
+  return m == null ? "" : `${m.toFixed(0)} min`;
+}
+
+function seconds(s) {
+  if (s == null) return "–";
+  const m = Math.floor(s / 60);
+  return `${m}:${String(Math.floor(s - 60 * m)).padStart(2, "0")}`;
+}
+
+// Every pack as the vehicle's gauge reports it, the hot-swap's times, the field rule.
+function renderPacks(p) {
+  const flight = p.packs.find((k) => k.name === "flight battery");
+  $("battery-min").textContent = flight ? minutes(flight.minutes_left) : "";
+  let html = "";
+  for (const k of p.packs) {
+    const pct = k.percent == null ? "–" : `${k.percent.toFixed(0)} %`;
+    html += `<li class="pack ${k.state}" data-name="${esc(k.name)}"><span class="pack-name">${esc(k.name)}</span> ` +
+      `${k.volts.toFixed(2)} V ${pct} ${minutes(k.minutes_left)}</li>`;
+  }
+  if ($("packs").innerHTML !== html) $("packs").innerHTML = html;
+  $("power-source").textContent = p.source ? `on the ${p.source} battery` : "hot-swap not read";
+  $("power-times").textContent = p.source
+    ? `flight ${seconds(p.flight_s)}, ground ${seconds(p.ground_s)}`
+    : "";
+  const fr = $("field-rule");
+  fr.hidden = !p.field_rule;
+  $("field-rule-text").textContent = p.field_rule || "";
 }
 
 function renderSafety(s) {
@@ -214,6 +245,7 @@ function wire() {
   $("take-control").onclick = () => send("take");
   $("release-control").onclick = () => send("release");
   $("connect").onclick = () => send("connect");
+  $("acknowledge").onclick = () => send("acknowledge");
   $("start").onclick = () => send("start", {
     suffix: $("suffix").value,
     controller: $("controller").value,

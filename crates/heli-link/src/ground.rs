@@ -141,6 +141,9 @@ pub struct GroundLink {
     /// The newest `BATTERY_STATUS` of each battery id (the flight battery and the servo
     /// board's two), with the time it came.
     pub batteries: BTreeMap<u8, (u64, BATTERY_STATUS_DATA)>,
+    /// The newest `NAMED_VALUE_FLOAT` of each name (the power values,
+    /// [`crate::telemetry::power_values`]), with the time it came.
+    pub named: BTreeMap<String, (u64, f32)>,
     /// Frames that were not valid, or refused by the signing check.
     pub bad_frames: u64,
     /// The start of a status text continued in the next one: severity, text, when it came.
@@ -168,6 +171,7 @@ impl GroundLink {
             download: None,
             params: BTreeMap::new(),
             batteries: BTreeMap::new(),
+            named: BTreeMap::new(),
             bad_frames: 0,
             partial_text: None,
             mission: crate::mission::MissionClient::default(),
@@ -245,6 +249,12 @@ impl GroundLink {
                 }
                 MavMessage::LOG_ENTRY(e) => {
                     self.log_entries.insert(e.id, e.clone());
+                }
+                MavMessage::NAMED_VALUE_FLOAT(v) => {
+                    let name = v.name.to_str().unwrap_or("").to_string();
+                    if !name.is_empty() {
+                        self.named.insert(name, (now_us, v.value));
+                    }
                 }
                 MavMessage::PARAM_VALUE(p) => {
                     self.params.insert(

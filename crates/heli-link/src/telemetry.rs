@@ -105,6 +105,36 @@ pub struct DeviceHealth {
     pub state: String,
 }
 
+/// One battery as the flight software's gauge sees it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct BatteryRow {
+    /// `flight`, `receiver` or `servo`.
+    pub name: String,
+    /// Terminal voltage (V).
+    pub volts: f64,
+    /// Charge left (%).
+    pub percent: f64,
+    /// Time left at the present drain (minutes).
+    pub minutes_left: f64,
+    /// `good`, `warning` or `critical`.
+    pub level: String,
+    /// The field rule: draining abnormally.
+    pub draining_abnormally: bool,
+}
+
+/// The batteries and the hot-swap.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PowerRow {
+    /// Each battery read so far.
+    pub batteries: Vec<BatteryRow>,
+    /// What powers the avionics (`flight`, `ground`), if the hot-swap's line is read.
+    pub source: Option<String>,
+    /// Time on the flight batteries this flight (s).
+    pub flight_s: f64,
+    /// Time on the ground battery this flight (s).
+    pub ground_s: f64,
+}
+
 /// The freshest value of each stream (`None`: nothing yet), at `t_us` of the flight clock.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Telemetry {
@@ -130,6 +160,9 @@ pub struct Telemetry {
     pub battery_remaining: Option<f64>,
     /// Device health.
     pub health: Vec<DeviceHealth>,
+    /// The batteries' gauges and the hot-swap.
+    #[serde(default)]
+    pub power: Option<PowerRow>,
 }
 
 /// The messages of the telemetry, in the order they are offered, by message id.
@@ -376,13 +409,71 @@ pub fn board_batteries(t: &Telemetry) -> Vec<MavMessage> {
         return Vec::new();
     };
     [
-        (RECEIVER_BATTERY_ID, u.receiver_batt_v),
-        (SERVO_BATTERY_ID, u.servo_batt_v),
+        (RECEIVER_BATTERY_ID, u.receiver_batt_v, "receiver"),
+        (SERVO_BATTERY_ID, u.servo_batt_v, "servo"),
     ]
     .into_iter()
-    .filter(|(_, v)| v.is_finite() && *v > 0.0)
-    .map(|(id, v)| battery_status(id, v, MavBatteryFunction::MAV_BATTERY_FUNCTION_UNKNOWN, -1))
+    .filter(|(_, v, _)| v.is_finite() && *v > 0.0)
+    .map(|(id, v, name)| {
+        let remaining = remaining_percent(gauge(t, name).map(|b| b.percent / 100.0));
+        battery_status(
+            id,
+            v,
+            MavBatteryFunction::MAV_BATTERY_FUNCTION_UNKNOWN,
+            remaining,
+        )
+    })
     .collect()
+}
+
+/// The gauge of battery `name`, if the telemetry has it.
+fn gauge<'a>(t: &'a Telemetry, name: &str) -> Option<&'a BatteryRow> {
+    t.power.as_ref()?.batteries.iter().find(|b| b.name == name)
+}
+
+/// Names of the power values sent as `NAMED_VALUE_FLOAT` with the batteries (ten
+/// characters at most): minutes left on the flight, receiver and servo packs, the hot-swap's
+/// source (1 flight, 0 ground) and the seconds on each.
+pub const POWER_VALUES: [&str; 6] = [
+    "FLT_MIN",
+    "RTXB_MIN",
+    "SBAT_MIN",
+    "PWR_FLIGHT",
+    "PWR_FLT_S",
+    "PWR_GND_S",
+];
+
+/// The power values as `NAMED_VALUE_FLOAT`s ([`POWER_VALUES`]), sent with the batteries: what
+/// `BATTERY_STATUS` of this dialect version has no field for.
+pub fn power_values(t: &Telemetry, time_boot_ms: u32) -> Vec<MavMessage> {
+    let Some(p) = t.power.as_ref() else {
+        return Vec::new();
+    };
+    let minutes = |name: &str| gauge(t, name).map(|b| b.minutes_left);
+    let source = p
+        .source
+        .as_deref()
+        .map(|s| if s == "flight" { 1.0 } else { 0.0 });
+    let values = [
+        minutes("flight"),
+        minutes("receiver"),
+        minutes("servo"),
+        source,
+        source.map(|_| p.flight_s),
+        source.map(|_| p.ground_s),
+    ];
+    POWER_VALUES
+        .iter()
+        .zip(values)
+        .filter_map(|(name, v)| {
+            let v = v.filter(|v| v.is_finite())?;
+            Some(MavMessage::NAMED_VALUE_FLOAT(NAMED_VALUE_FLOAT_DATA {
+                time_boot_ms,
+                value: v as f32,
+                name: mavlink::types::CharArray::from(*name),
+            }))
+        })
+        .collect()
 }
 
 /// A pack's voltage (V) as millivolts, `u16::MAX` when not known.
@@ -463,6 +554,7 @@ mod tests {
             }),
             battery_v: Some(12.3),
             battery_remaining: None,
+            power: None,
             health: vec![
                 DeviceHealth {
                     device: "imu".into(),
@@ -530,5 +622,53 @@ mod tests {
     fn telemetry_round_trips_as_json() {
         let text = serde_json::to_string(&full()).unwrap();
         assert_eq!(serde_json::from_str::<Telemetry>(&text).unwrap(), full());
+    }
+
+    #[test]
+    fn the_gauges_go_out_as_battery_remaining_and_named_values() {
+        let mut t = full();
+        assert!(power_values(&t, 5).is_empty(), "no gauge, no values");
+        let row = |name: &str, percent: f64, minutes_left: f64| BatteryRow {
+            name: name.into(),
+            volts: 5.0,
+            percent,
+            minutes_left,
+            level: "good".into(),
+            draining_abnormally: false,
+        };
+        t.power = Some(PowerRow {
+            batteries: vec![row("receiver", 80.4, 100.0), row("servo", 55.0, 40.0)],
+            source: Some("ground".into()),
+            flight_s: 0.0,
+            ground_s: 90.0,
+        });
+        let remaining: Vec<i8> = board_batteries(&t)
+            .iter()
+            .filter_map(|m| match m {
+                MavMessage::BATTERY_STATUS(b) => Some(b.battery_remaining),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(remaining, [80, 55]);
+        let values: Vec<(String, f32)> = power_values(&t, 5)
+            .iter()
+            .filter_map(|m| match m {
+                MavMessage::NAMED_VALUE_FLOAT(v) => {
+                    Some((v.name.to_str().unwrap_or("").to_string(), v.value))
+                }
+                _ => None,
+            })
+            .collect();
+        // No flight pack read: its minutes are left out, not sent as a made-up number.
+        assert_eq!(
+            values,
+            [
+                ("RTXB_MIN".to_string(), 100.0),
+                ("SBAT_MIN".to_string(), 40.0),
+                ("PWR_FLIGHT".to_string(), 0.0),
+                ("PWR_FLT_S".to_string(), 0.0),
+                ("PWR_GND_S".to_string(), 90.0),
+            ]
+        );
     }
 }

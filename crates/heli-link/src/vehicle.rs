@@ -541,10 +541,14 @@ impl VehicleLink {
                 }
                 self.send(&msg, now_us);
                 if id == BATTERY_STATUS_DATA::ID {
-                    for board in telemetry
-                        .map(telemetry::board_batteries)
-                        .unwrap_or_default()
-                    {
+                    let with = telemetry
+                        .map(|t| {
+                            let mut m = telemetry::board_batteries(t);
+                            m.extend(telemetry::power_values(t, boot_ms));
+                            m
+                        })
+                        .unwrap_or_default();
+                    for board in with {
                         self.send(&board, now_us);
                     }
                 }

@@ -14,10 +14,13 @@
 //! dir = "/sys/bus/iio/devices/iio:device0"
 //! compass = [0, 1, 2]   # in_voltageN_raw channels of the compass x, y, z
 //! battery = 3
+//!
+//! [gpio]                # optional: the hot-swap's line (high on the flight batteries)
+//! hotswap = "gpiochip0:17"   # a GPIO character-device line, or a value file's path
 //! ```
 //!
 //! or made for the HILSim's directory (`--hilsim DIR`): `DIR/imu`, `DIR/scb`, `DIR/gps`,
-//! `DIR/baro` and `DIR/adc` with the same channel numbers.
+//! `DIR/baro`, `DIR/adc` with the same channel numbers, and `DIR/hotswap`.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -56,6 +59,15 @@ pub struct Adc {
     pub battery: u8,
 }
 
+/// The digital inputs.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Gpio {
+    /// The hot-swap's line (`gpiochipN:OFFSET`, or a value file): which battery powers the
+    /// avionics. Unset: not wired, the time on each battery is not logged.
+    pub hotswap: Option<String>,
+}
+
 /// Every device of the flight computer.
 #[derive(Clone, Debug, PartialEq, Eq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -64,6 +76,9 @@ pub struct Devices {
     pub ports: Ports,
     /// Analog channels.
     pub adc: Adc,
+    /// Digital inputs.
+    #[serde(default)]
+    pub gpio: Gpio,
 }
 
 /// A devices file that could not be used.
@@ -100,6 +115,9 @@ impl Devices {
     /// Parses a devices description.
     pub fn from_toml(text: &str) -> Result<Self, String> {
         let devices: Devices = toml::from_str(text).map_err(|e| e.to_string())?;
+        if let Some(line) = &devices.gpio.hotswap {
+            crate::hotswap::HotSwapLine::parse(line).map_err(|e| format!("gpio: {e}"))?;
+        }
         let mut channels: Vec<u8> = devices.adc.compass.to_vec();
         channels.push(devices.adc.battery);
         channels.sort_unstable();
@@ -125,6 +143,9 @@ impl Devices {
                 dir: dir.join("adc"),
                 compass: HIL_COMPASS_CHANNELS,
                 battery: HIL_BATTERY_CHANNEL,
+            },
+            gpio: Gpio {
+                hotswap: Some(dir.join("hotswap").display().to_string()),
             },
         }
     }

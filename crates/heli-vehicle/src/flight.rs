@@ -132,6 +132,13 @@ pub fn run(
         threads::spawn_compass(&setup.devices, clock, tx.clone(), Arc::clone(&stop))
             .map_err(|e| spawn_error("compass", e))?,
     );
+    if let Some(line) = &setup.devices.gpio.hotswap {
+        let line = crate::hotswap::HotSwapLine::parse(line)?;
+        helpers.push(
+            crate::hotswap::spawn_hotswap(line, clock, tx.clone(), Arc::clone(&stop))
+                .map_err(|e| spawn_error("hotswap", e))?,
+        );
+    }
     let (battery, battery_thread) = telemetry::spawn_battery_server(
         setup.devices.adc.dir.clone(),
         setup.devices.adc.battery,
@@ -284,6 +291,15 @@ fn control_loop(
             }
         }
         streams.health.publish(*computer.core().health());
+        if matches!(
+            input,
+            RecordedInput::Battery(_) | RecordedInput::PowerLine(_)
+        ) || inputs.is_multiple_of(50)
+        {
+            streams
+                .power
+                .publish(crate::telemetry::power_row(computer.core(), t_us));
+        }
         if let Some(k) = keeper.as_mut() {
             k.offer(t_us, computer.core().warm_start());
         }

@@ -34,6 +34,7 @@ pub mod bootstrap;
 pub mod ctl;
 pub mod devices;
 pub mod flight;
+pub mod hotswap;
 pub mod link;
 pub mod logger;
 pub mod params;

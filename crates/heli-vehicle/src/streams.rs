@@ -70,6 +70,9 @@ pub struct LiveStreams {
     pub battery_v: Latest<Stamped<f64>>,
     /// Device watchdogs, written by the loop after every input.
     pub health: Latest<Health>,
+    /// The batteries' gauges and the hot-swap, written by the loop after every input that
+    /// changed them.
+    pub power: Latest<heli_link::telemetry::PowerRow>,
 }
 
 impl LiveStreams {

@@ -162,6 +162,7 @@ pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u6
                 .collect()
         })
         .unwrap_or_default();
+    let power = streams.power.latest().map(|p| (*p).clone());
     let telemetry = t::Telemetry {
         t_us: now_us,
         imu,
@@ -172,8 +173,14 @@ pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u6
         baro,
         compass,
         battery_v: battery.map(|b| b.value),
-        battery_remaining: None,
+        battery_remaining: power.as_ref().and_then(|p| {
+            p.batteries
+                .iter()
+                .find(|b| b.name == "flight")
+                .map(|b| b.percent / 100.0)
+        }),
         health,
+        power,
     };
     let mut value = serde_json::to_value(&telemetry).unwrap_or(Value::Null);
     if let Some(map) = value.as_object_mut() {
@@ -191,6 +198,38 @@ pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u6
         );
     }
     value
+}
+
+/// The batteries' gauges and the hot-swap's times as the telemetry's power row, at `now_us`.
+pub fn power_row(core: &heli_fsw::core::FlightCore, now_us: u64) -> heli_link::telemetry::PowerRow {
+    use heli_fsw::core::power::Battery;
+    let power = core.power();
+    let batteries = Battery::ALL
+        .iter()
+        .filter_map(|b| {
+            let s = power.state(*b)?;
+            Some(heli_link::telemetry::BatteryRow {
+                name: match b {
+                    Battery::Flight => "flight",
+                    Battery::Receiver => "receiver",
+                    Battery::Servo => "servo",
+                }
+                .to_string(),
+                volts: s.volts,
+                percent: 100.0 * s.soc,
+                minutes_left: s.time_left_s / 60.0,
+                level: s.level.name().to_string(),
+                draining_abnormally: s.draining_abnormally,
+            })
+        })
+        .collect();
+    let (flight_s, ground_s) = power.times(now_us);
+    heli_link::telemetry::PowerRow {
+        batteries,
+        source: power.source().map(|s| s.name().to_string()),
+        flight_s,
+        ground_s,
+    }
 }
 
 /// Starts the telemetry server: every [`TELEMETRY_PERIOD`] it takes a [`snapshot`] and hands

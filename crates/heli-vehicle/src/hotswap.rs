@@ -1,0 +1,232 @@
+//! The hot-swap's digital input (thesis §4.2.2): which battery powers the avionics, read
+//! every [`HOTSWAP_PERIOD`] and handed to the control loop when it changes (and once at
+//! start), so the flight core logs the time on the flight and ground batteries.
+//!
+//! Two kinds of line:
+//! - a GPIO line through the Linux character device (`gpiochip0:17` or
+//!   `/dev/gpiochip0:17`), requested as an input with the `gpiocdev` crate;
+//! - a value file holding `0` or `1` (a sysfs `gpioN/value`, or the HILSim's `DIR/hotswap`).
+//!
+//! High (1) is the flight batteries, low (0) the ground battery.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Sender;
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use heli_fsw::RecordedInput;
+
+use crate::threads::{Clock, LoopMsg, sleep_unless_stopped};
+
+/// How often the line is read.
+pub const HOTSWAP_PERIOD: Duration = Duration::from_millis(100);
+
+/// Where the hot-swap's line is.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum HotSwapLine {
+    /// A GPIO character device and the line's offset on it.
+    Chip {
+        /// The chip (`/dev/gpiochipN`).
+        chip: PathBuf,
+        /// The line's offset.
+        offset: u32,
+    },
+    /// A file holding the line's value, `0` or `1`.
+    ValueFile(PathBuf),
+}
+
+impl HotSwapLine {
+    /// `gpiochipN:OFFSET` or `/dev/gpiochipN:OFFSET` is a character-device line; anything
+    /// else is a value file's path.
+    pub fn parse(spec: &str) -> Result<Self, String> {
+        let spec = spec.trim();
+        if spec.is_empty() {
+            return Err("hotswap: an empty line name".into());
+        }
+        let chip_part = spec.rsplit_once(':').filter(|(chip, _)| {
+            Path::new(chip)
+                .file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("gpiochip"))
+        });
+        match chip_part {
+            Some((chip, offset)) => {
+                let offset: u32 = offset.parse().map_err(|_| {
+                    format!("hotswap '{spec}': the line offset '{offset}' is not a number")
+                })?;
+                let chip = if chip.contains('/') {
+                    PathBuf::from(chip)
+                } else {
+                    Path::new("/dev").join(chip)
+                };
+                Ok(HotSwapLine::Chip { chip, offset })
+            }
+            None => Ok(HotSwapLine::ValueFile(PathBuf::from(spec))),
+        }
+    }
+
+    /// Reads the line once: `true` when high.
+    pub fn read(&self) -> Result<bool, String> {
+        LineReader::new(self.clone()).read()
+    }
+}
+
+/// A line being read: a character-device line stays requested between reads.
+pub struct LineReader {
+    line: HotSwapLine,
+    request: Option<gpiocdev::Request>,
+}
+
+impl LineReader {
+    /// A reader of `line` (nothing is opened until the first read).
+    pub fn new(line: HotSwapLine) -> Self {
+        Self {
+            line,
+            request: None,
+        }
+    }
+
+    /// Reads the line: `true` when high. A failed read gives the request up, to be made
+    /// again next time.
+    pub fn read(&mut self) -> Result<bool, String> {
+        match &self.line {
+            HotSwapLine::ValueFile(path) => {
+                let text = std::fs::read_to_string(path)
+                    .map_err(|e| format!("hotswap {}: {e}", path.display()))?;
+                parse_value(&text).ok_or_else(|| {
+                    format!(
+                        "hotswap {}: '{}' is not 0 or 1",
+                        path.display(),
+                        text.trim()
+                    )
+                })
+            }
+            HotSwapLine::Chip { chip, offset } => {
+                let named =
+                    |e: gpiocdev::Error| format!("hotswap {}:{offset}: {e}", chip.display());
+                let request = match self.request.take() {
+                    Some(r) => r,
+                    None => gpiocdev::Request::builder()
+                        .on_chip(chip)
+                        .with_consumer("heli-hotswap")
+                        .with_line(*offset)
+                        .as_input()
+                        .request()
+                        .map_err(named)?,
+                };
+                let value = request.value(*offset).map_err(named)?;
+                self.request = Some(request);
+                Ok(value == gpiocdev::line::Value::Active)
+            }
+        }
+    }
+}
+
+/// A value file's text as a level.
+pub fn parse_value(text: &str) -> Option<bool> {
+    match text.trim() {
+        "1" => Some(true),
+        "0" => Some(false),
+        _ => None,
+    }
+}
+
+/// Starts the hot-swap's reader: the level at start and each change go to the loop; a line
+/// that cannot be read is noted once per failing spell (the flight goes on, its source
+/// unknown).
+pub fn spawn_hotswap(
+    line: HotSwapLine,
+    clock: Clock,
+    tx: Sender<LoopMsg>,
+    stop: Arc<AtomicBool>,
+) -> std::io::Result<JoinHandle<()>> {
+    std::thread::Builder::new()
+        .name("drv-hotswap".into())
+        .spawn(move || {
+            let mut reader = LineReader::new(line);
+            let mut last: Option<bool> = None;
+            let mut failing = false;
+            while !stop.load(Ordering::Acquire) {
+                match reader.read() {
+                    Ok(high) => {
+                        failing = false;
+                        if last != Some(high) {
+                            last = Some(high);
+                            let input =
+                                LoopMsg::Input(clock.now_us(), RecordedInput::PowerLine(high));
+                            if tx.send(input).is_err() {
+                                return;
+                            }
+                        }
+                    }
+                    Err(e) => {
+                        if !failing {
+                            failing = true;
+                            let _ = tx.send(LoopMsg::Note(e));
+                        }
+                    }
+                }
+                sleep_unless_stopped(HOTSWAP_PERIOD, &stop);
+            }
+        })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_line_is_named_by_chip_and_offset_or_by_its_value_file() {
+        assert_eq!(
+            HotSwapLine::parse("gpiochip0:17"),
+            Ok(HotSwapLine::Chip {
+                chip: "/dev/gpiochip0".into(),
+                offset: 17
+            })
+        );
+        assert_eq!(
+            HotSwapLine::parse("/dev/gpiochip2:5"),
+            Ok(HotSwapLine::Chip {
+                chip: "/dev/gpiochip2".into(),
+                offset: 5
+            })
+        );
+        assert_eq!(
+            HotSwapLine::parse("/sys/class/gpio/gpio17/value"),
+            Ok(HotSwapLine::ValueFile(
+                "/sys/class/gpio/gpio17/value".into()
+            ))
+        );
+        assert!(
+            HotSwapLine::parse("gpiochip0:x")
+                .unwrap_err()
+                .contains("'x'")
+        );
+        assert!(HotSwapLine::parse(" ").is_err());
+    }
+
+    #[test]
+    fn a_value_file_reads_high_low_and_refuses_anything_else() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("hotswap");
+        let line = HotSwapLine::ValueFile(path.clone());
+        assert!(line.read().unwrap_err().contains("hotswap"));
+        std::fs::write(&path, "1\n").unwrap();
+        assert_eq!(line.read(), Ok(true));
+        std::fs::write(&path, "0").unwrap();
+        assert_eq!(line.read(), Ok(false));
+        std::fs::write(&path, "maybe").unwrap();
+        assert!(line.read().unwrap_err().contains("not 0 or 1"));
+    }
+
+    #[test]
+    fn a_chip_that_is_not_there_is_a_named_error() {
+        let line = HotSwapLine::Chip {
+            chip: "/dev/gpiochip-not-here".into(),
+            offset: 3,
+        };
+        assert!(line.read().unwrap_err().contains("gpiochip-not-here:3"));
+    }
+}
