@@ -40,6 +40,10 @@ pub struct GroundArgs {
     /// saved only below it.
     #[arg(long, default_value = "flights")]
     save_root: PathBuf,
+    /// With --http: the battery packs' file (docs/power.md): their names, roles and charge
+    /// cycles; the time each powered the avionics is added up in FILE.times.json.
+    #[arg(long)]
+    packs: Option<PathBuf>,
     #[command(subcommand)]
     action: Option<GroundAction>,
 }
@@ -499,6 +503,22 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
 
 /// `heli ground --http ADDR`: the operator's display in a browser.
 fn display(args: &GroundArgs, http: SocketAddr) -> Result<ExitCode> {
+    let (packs, packs_totals) = match &args.packs {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("packs file {}", path.display()))?;
+            let totals_path = path.with_extension("times.json");
+            let totals = match std::fs::read_to_string(&totals_path) {
+                Ok(t) => Some(t),
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+                Err(e) => bail!("{}: {e}", totals_path.display()),
+            };
+            let log = heli_ground::pack_log::PackLog::parse(&text, totals.as_deref())
+                .map_err(|e| anyhow::anyhow!("packs file {}: {e}", path.display()))?;
+            (log, Some(totals_path))
+        }
+        None => (heli_ground::pack_log::PackLog::default(), None),
+    };
     let config = heli_ground::server::ServerConfig {
         vehicle: parse_link(&args.link)?,
         http,
@@ -506,6 +526,8 @@ fn display(args: &GroundArgs, http: SocketAddr) -> Result<ExitCode> {
             save_root: args.save_root.clone(),
             curve: heli_ground::checks::BatteryCurve::default(),
             key: load_key(args.key.as_deref())?,
+            packs,
+            packs_totals,
         },
     };
     let link = args.link.clone();

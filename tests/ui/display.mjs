@@ -167,6 +167,24 @@ try {
   await waitFor("the red battery meter", async () =>
     (await page.locator("#battery").getAttribute("class")).includes("red"), 40000);
   log("battery:", await text(page, "#battery-pct"), await text(page, "#battery-v"));
+  // Every pack with its state, the hot-swap's source and times (docs/power.md).
+  await waitFor("three packs listed", async () => (await page.locator("#packs li").count()) === 3);
+  const packs = await page.locator("#packs li").allTextContents();
+  log("packs:", packs.join(" | "));
+  if (!packs[0].includes("flight battery") || !packs[1].includes("RTXB") || !packs[2].includes("Sbat")) {
+    throw new Error(`packs: ${packs.join(" | ")}`);
+  }
+  if (!(await text(page, "#power-source")).includes("on the flight battery")) {
+    throw new Error(`power source: ${await text(page, "#power-source")}`);
+  }
+  if (!/flight \d+:\d\d, ground 0:00/.test(await text(page, "#power-times"))) {
+    throw new Error(`power times: ${await text(page, "#power-times")}`);
+  }
+  // The small pack drains faster than a flight pack should: the field rule's banner.
+  await waitFor("the field rule's banner", async () => !(await page.locator("#field-rule").isHidden()), 40000);
+  if (!(await text(page, "#field-rule-text")).includes("end the flight test")) {
+    throw new Error(`field rule: ${await text(page, "#field-rule-text")}`);
+  }
   await shot(page, "08-battery-red");
 
   // Stop: the final parameters are asked for; the buttons return to their first state and
@@ -181,6 +199,13 @@ try {
   await waitFor("the transfer's progress", async () => (await messages(page)).includes("log transfer:"), 20000);
   await waitFor("the log saved", async () => (await messages(page)).includes("log saved:"), 60000);
   await shot(page, "09-stopped-log-saved");
+  // The flight test is over: the banner stays until the operator acknowledges it (the
+  // refused Start Logging is the station's unit test, the_field_rule_blocks_...).
+  if (await page.locator("#field-rule").isHidden()) throw new Error("the banner left unacknowledged");
+  await page.click("#acknowledge");
+  await waitFor("the acknowledgement", async () => (await messages(page)).includes("acknowledged:"));
+  await waitFor("the banner gone", async () => await page.locator("#field-rule").isHidden());
+  await shot(page, "10-field-rule-acknowledged");
   log("done");
 } catch (e) {
   failed = e;

@@ -29,6 +29,7 @@ pub mod checks;
 pub mod display;
 pub mod facts;
 pub mod operators;
+pub mod pack_log;
 pub mod panel;
 pub mod power_view;
 pub mod rows;

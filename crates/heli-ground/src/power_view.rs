@@ -36,6 +36,8 @@ pub struct PowerView {
     pub ground_s: Option<f64>,
     /// The field rule's message waiting for the operator's acknowledgement.
     pub field_rule: Option<String>,
+    /// The packs' logbook: each named pack's time over every flight.
+    pub logbook: Vec<crate::pack_log::PackTotalsView>,
 }
 
 /// The state word of a charge (%), at the vehicle's default levels.
@@ -49,7 +51,11 @@ pub fn state_of(percent: Option<f64>) -> &'static str {
 }
 
 /// The packs and the hot-swap from what the link has heard.
-pub fn power_view(link: &GroundLink, field_rule: &FieldRule) -> PowerView {
+pub fn power_view(
+    link: &GroundLink,
+    field_rule: &FieldRule,
+    logbook: &crate::pack_log::PackLog,
+) -> PowerView {
     let named = |name: &str| link.named.get(name).map(|(_, v)| f64::from(*v));
     let packs = [
         (FLIGHT_BATTERY_ID, "flight battery", "FLT_MIN"),
@@ -77,6 +83,7 @@ pub fn power_view(link: &GroundLink, field_rule: &FieldRule) -> PowerView {
         flight_s: named("PWR_FLT_S"),
         ground_s: named("PWR_GND_S"),
         field_rule: field_rule.pending().map(str::to_string),
+        logbook: logbook.view(),
     }
 }
 

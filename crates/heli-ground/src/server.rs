@@ -187,6 +187,11 @@ async fn step(frames: Frames, station: Shared, views: broadcast::Sender<Arc<str>
                         let _ = frames.send(frame);
                     }
                     Output::Save(path, bytes) => saves.push((path, bytes)),
+                    Output::Write(path, bytes) => {
+                        if let Err(e) = std::fs::write(&path, &bytes) {
+                            s.note("error", format!("{}: {e}", path.display()));
+                        }
+                    }
                 }
             }
             n = n.wrapping_add(1);

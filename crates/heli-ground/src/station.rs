@@ -43,6 +43,10 @@ pub struct StationConfig {
     pub curve: BatteryCurve,
     /// The link's signing key.
     pub key: Option<Key>,
+    /// The packs' logbook (`--packs FILE`; empty without one).
+    pub packs: crate::pack_log::PackLog,
+    /// Where the packs' totals are saved.
+    pub packs_totals: Option<PathBuf>,
 }
 
 /// What the station wants done.
@@ -52,6 +56,8 @@ pub enum Output {
     Send(Vec<u8>),
     /// Save these bytes at this path (then call [`Station::saved`]).
     Save(PathBuf, Vec<u8>),
+    /// Write these bytes over the file at this path (the packs' totals).
+    Write(PathBuf, Vec<u8>),
 }
 
 /// An operator's request, as the page sends it (JSON).
@@ -83,6 +89,9 @@ pub enum Op {
         /// The flight plan's name (empty or absent: the vehicle's default).
         #[serde(default)]
         plan: Option<String>,
+        /// The flight pack installed, as the packs file names it (absent: not said).
+        #[serde(default)]
+        pack: Option<String>,
     },
     /// Acknowledge the field rule's message (a pack drained abnormally: the flight test is
     /// over), which blocks Start Logging until then.
@@ -132,6 +141,10 @@ pub struct Station {
     flight_seen: bool,
     /// The field rule's message, until acknowledged.
     pub(crate) field_rule: crate::power_view::FieldRule,
+    /// The packs' logbook.
+    pub(crate) packs: crate::pack_log::PackLog,
+    /// Files to write at the next tick.
+    pub(crate) writes: Vec<(PathBuf, Vec<u8>)>,
 }
 
 impl Station {
@@ -139,6 +152,8 @@ impl Station {
     pub fn new(config: StationConfig) -> Self {
         Self {
             link: GroundLink::new(config.key.clone()),
+            packs: config.packs.clone(),
+            writes: Vec::new(),
             config,
             panel: Panel::default(),
             operators: Operators::default(),
@@ -211,7 +226,11 @@ impl Station {
 
     /// One step: the heartbeat, the command under way, the log transfer.
     pub fn tick(&mut self, now_us: u64) -> Vec<Output> {
-        let mut out = Vec::new();
+        let mut out: Vec<Output> = self
+            .writes
+            .drain(..)
+            .map(|(p, b)| Output::Write(p, b))
+            .collect();
         if self
             .heartbeat_sent_us
             .is_none_or(|t| now_us.saturating_sub(t) >= HEARTBEAT_US)
@@ -466,10 +485,12 @@ impl Station {
                 suffix,
                 controller,
                 plan,
+                pack,
             } if start => {
                 if let Some(why) = self.field_rule.blocks_start() {
                     return Err(why);
                 }
+                self.packs_begin(pack.as_deref())?;
                 let mut p = StartParameters::new(suffix.trim(), controller.trim())
                     .map_err(|e| e.to_string())?;
                 let plan = plan.filter(|p| !p.trim().is_empty());
@@ -508,6 +529,7 @@ impl Station {
                     return Ok("display reset".into());
                 }
                 self.panel.reset();
+                self.packs_end();
                 (GroundCommand::Stop, "stop", PanelState::Stopping, dest)
             }
             other => {

@@ -87,6 +87,12 @@ impl Bench {
                 save_root: PathBuf::from("/ground"),
                 curve: BatteryCurve::default(),
                 key: None,
+                packs: crate::pack_log::PackLog::parse(
+                    "[[pack]]\nname = \"F1\"\nrole = \"flight\"\n[[pack]]\nname = \"G\"\nrole = \"ground\"\n",
+                    None,
+                )
+                .unwrap(),
+                packs_totals: Some(PathBuf::from("/ground/packs.times.json")),
             }),
             state: BootstrapState::Idle,
             mode: 0,
@@ -166,6 +172,7 @@ impl Bench {
                         self.station.saved(&p, Ok(p.clone()));
                         self.saved.push((p, bytes));
                     }
+                    Output::Write(p, bytes) => self.saved.push((p, bytes)),
                 }
             }
             self.deliver_up(up);
@@ -574,4 +581,54 @@ fn the_field_rule_blocks_start_logging_until_acknowledged() {
         r#"{"seq":9,"op":"start","suffix":"g","controller":"autonomous"}"#,
     )
     .unwrap();
+}
+
+#[test]
+fn the_flight_pack_named_at_start_logging_gets_the_flights_time() {
+    let mut b = Bench::new();
+    let op = b.connected_operator();
+    let refused = b
+        .ask(
+            op,
+            r#"{"seq":3,"op":"start","suffix":"f","controller":"autonomous","pack":"F9"}"#,
+        )
+        .unwrap_err();
+    assert!(
+        refused.contains("unknown flight pack 'F9'") && refused.contains("F1"),
+        "{refused}"
+    );
+    b.ask(
+        op,
+        r#"{"seq":4,"op":"start","suffix":"f","controller":"autonomous","pack":"F1"}"#,
+    )
+    .unwrap();
+    b.run(1.0);
+    let mut t = flying_telemetry("hold");
+    t.power = Some(heli_link::telemetry::PowerRow {
+        batteries: Vec::new(),
+        source: Some("flight".into()),
+        flight_s: 420.0,
+        ground_s: 75.0,
+    });
+    b.telemetry = Some(t);
+    b.run(2.0);
+    assert!(b.station.view(b.t).power.logbook[0].in_use);
+    b.ask(op, r#"{"seq":5,"op":"stop"}"#).unwrap();
+    b.run(1.0);
+    assert!(
+        b.messages().contains("pack times: F1 +420 s, G +75 s"),
+        "{}",
+        b.messages()
+    );
+    let (path, bytes) = b
+        .saved
+        .iter()
+        .find(|(p, _)| p.ends_with("packs.times.json"))
+        .unwrap();
+    assert_eq!(path, &PathBuf::from("/ground/packs.times.json"));
+    let totals: serde_json::Value = serde_json::from_slice(bytes).unwrap();
+    assert_eq!(totals["F1"]["flights"], 1);
+    assert_eq!(totals["G"]["seconds"], 75.0);
+    let logbook = b.station.view(b.t).power.logbook;
+    assert!(!logbook[0].in_use && (logbook[0].hours - 420.0 / 3600.0).abs() < 1e-3);
 }

@@ -231,7 +231,7 @@ impl Station {
             }
             _ => None,
         };
-        let power = crate::power_view::power_view(&self.link, &self.field_rule);
+        let power = crate::power_view::power_view(&self.link, &self.field_rule, &self.packs);
         // The safety rule's `battery`: the meter green and no pack at its warning level.
         let battery_green = battery.as_ref().is_some_and(|b| b.green)
             && power

@@ -200,6 +200,21 @@ function renderPacks(p) {
   $("power-times").textContent = p.source
     ? `flight ${seconds(p.flight_s)}, ground ${seconds(p.ground_s)}`
     : "";
+  let book = "";
+  for (const k of p.logbook) {
+    book += `<li class="${k.in_use ? "in-use" : ""}">${esc(k.name)} (${k.role}): ${k.hours.toFixed(2)} h, ` +
+      `${k.flights} flights, ${k.cycles} cycles</li>`;
+  }
+  if ($("logbook").innerHTML !== book) $("logbook").innerHTML = book;
+  const choices = p.logbook.filter((k) => k.role === "flight").map((k) => k.name);
+  const sel = $("pack");
+  const have = Array.from(sel.options).slice(1).map((o) => o.value);
+  if (have.join() !== choices.join()) {
+    const keep = sel.value;
+    sel.innerHTML = '<option value="">–</option>' +
+      choices.map((n) => `<option value="${esc(n)}">${esc(n)}</option>`).join("");
+    sel.value = choices.includes(keep) ? keep : "";
+  }
   const fr = $("field-rule");
   fr.hidden = !p.field_rule;
   $("field-rule-text").textContent = p.field_rule || "";
@@ -250,6 +265,7 @@ function wire() {
     suffix: $("suffix").value,
     controller: $("controller").value,
     plan: $("plan").value,
+    pack: $("pack").value,
   });
   $("stop").onclick = () => {
     $("final-suffix").value = $("suffix").value;
