@@ -118,3 +118,40 @@ fn on_a_good_pack_the_gauge_tells_the_truth() {
     );
     assert!(p.time_left_err_max_pct.unwrap_or(100.0) < 1.0, "{p:?}");
 }
+
+#[test]
+fn at_the_critical_level_it_lands_where_it_is() {
+    // The weak pack with no warning level: the first it hears is the critical level, out
+    // at the end of its path, and it comes down there instead of flying home.
+    let mut s = weak_battery();
+    s.expect_events.clear();
+    s.limits = Default::default();
+    let mut config = heli_fsw::CoreConfig::default();
+    config.power.flight.levels = heli_power::Levels {
+        warning: -1.0,
+        critical: 0.3,
+    };
+    let mut sim =
+        heli_sim::Simulation::with_flight_software(s, config).unwrap_or_else(|e| panic!("{e}"));
+    while sim.advance(700_000_000) {}
+    let summary = sim.finish(1.0);
+    let critical = event_time_s(&summary, "flight battery critical");
+    let landing = event_time_s(&summary, "phase land");
+    assert!(
+        summary
+            .events
+            .iter()
+            .any(|e| e.contains("critical") && e.contains("land now")),
+        "{:#?}",
+        summary.events
+    );
+    assert!(landing - critical < 0.5, "{critical} {landing}");
+    assert!(!summary.events.iter().any(|e| e.contains("phase fly") && {
+        let t: f64 = e
+            .strip_prefix("t=")
+            .and_then(|r| r.split(' ').next())
+            .and_then(|x| x.parse().ok())
+            .unwrap_or(0.0);
+        t > critical
+    }));
+}

@@ -39,14 +39,19 @@ impl FlightCore {
             now_us,
             CoreEvent::EstimateDegraded { since_gps_s },
         )));
-        let (_, _, yaw) = est.euler_rad();
-        Some(Phase::Landing {
-            settled_since_us: None,
-            target: Target {
-                pos_ned_m: est.pos_ned_m,
-                vel_ned_mps: Vector3::new(0.0, 0.0, 0.5),
-                yaw_rad: yaw,
-            },
-        })
+        Some(land_where_it_is(est))
+    }
+}
+
+/// A slow landing (0.5 m/s) where the helicopter is, on its heading.
+pub(super) fn land_where_it_is(est: &NavState) -> Phase {
+    let (_, _, yaw) = est.euler_rad();
+    Phase::Landing {
+        settled_since_us: None,
+        target: Target {
+            pos_ned_m: est.pos_ned_m,
+            vel_ned_mps: Vector3::new(0.0, 0.0, 0.5),
+            yaw_rad: yaw,
+        },
     }
 }

@@ -262,21 +262,20 @@ impl FlightCore {
             return None;
         }
         self.power.acted = worst;
+        // Already landing: it goes on where it meant to.
+        if matches!(self.phase, Phase::Landing { .. }) {
+            return None;
+        }
         self.plan_abandoned = true;
         self.braking = None;
-        let (_, _, yaw) = est.euler_rad();
-        let land_here = Phase::Landing {
-            settled_since_us: None,
-            target: Target {
-                pos_ned_m: est.pos_ned_m,
-                vel_ned_mps: Vector3::new(0.0, 0.0, 0.5),
-                yaw_rad: yaw,
-            },
-        };
-        let home = self.home_ned_m?;
-        if worst == Level::Critical || matches!(self.phase, Phase::Landing { .. }) {
+        let land_here = super::degraded::land_where_it_is(est);
+        if worst == Level::Critical {
             return Some(land_here);
         }
+        // No take-off point known to go back to: down here.
+        let Some(home) = self.home_ned_m else {
+            return Some(land_here);
+        };
         // Warning: back to the take-off point at this height, then down.
         let height_m = home.z - est.pos_ned_m.z;
         let back = [
