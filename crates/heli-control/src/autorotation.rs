@@ -31,7 +31,7 @@ use heli_nav::navigator::NavState;
 use heli_proto::scb::Controls;
 use nalgebra::Vector3;
 
-use crate::hover::{HoverController, sanitize_dt};
+use crate::hover::{HoverController, accel_to_attitude, sanitize_dt};
 use crate::{GOVERNED_THROTTLE, limit};
 
 /// Gains and limits of the autorotation.
@@ -288,7 +288,8 @@ impl Autorotation {
                 let cross = vel - self.glide_dir * along;
                 let accel = -self.glide_dir * (g.flare_decel_per_mps * along)
                     - cross * hover.gains.vel_to_accel;
-                let (roll, pitch) = accel_to_attitude(est, &accel);
+                let (_, _, yaw) = est.euler_rad();
+                let (roll, pitch) = accel_to_attitude(yaw, &accel);
                 (
                     limit(roll, g.flare_max_tilt_rad),
                     limit(pitch, g.flare_max_tilt_rad),
@@ -342,17 +343,6 @@ fn righting_rates(est: &NavState, gain: f64, max_rps: f64) -> (f64, f64) {
     };
     let rate = dir * (gain * tilt).min(max_rps);
     (rate.x, rate.y)
-}
-
-/// The roll and pitch (rad) that tilt the thrust to give the horizontal acceleration
-/// `accel_ned` (m/s², NED) at the estimate's heading.
-fn accel_to_attitude(est: &NavState, accel_ned: &Vector3<f64>) -> (f64, f64) {
-    let (_, _, yaw) = est.euler_rad();
-    let (s, c) = yaw.sin_cos();
-    let fwd = c * accel_ned.x + s * accel_ned.y;
-    let right = -s * accel_ned.x + c * accel_ned.y;
-    let gravity = heli_nav::GRAVITY_MPS2;
-    (((right / gravity).atan()), (-(fwd / gravity).atan()))
 }
 
 #[cfg(test)]

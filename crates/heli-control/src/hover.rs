@@ -135,6 +135,17 @@ pub fn sanitize_dt(dt_s: f64) -> f64 {
     }
 }
 
+/// The roll and pitch (rad) that tilt the rotor's thrust to give a horizontal acceleration
+/// `accel_ned` (m/s², NED) at heading `yaw_rad`: into the heading frame, nose down to go
+/// forward, right roll to go right.
+pub fn accel_to_attitude(yaw_rad: f64, accel_ned: &Vector3<f64>) -> (f64, f64) {
+    let (s, c) = yaw_rad.sin_cos();
+    let fwd = c * accel_ned.x + s * accel_ned.y;
+    let right = -s * accel_ned.x + c * accel_ned.y;
+    let gravity = heli_nav::GRAVITY_MPS2;
+    ((right / gravity).atan(), -(fwd / gravity).atan())
+}
+
 /// The hover controller with its integrator states.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct HoverController {
@@ -246,13 +257,11 @@ impl HoverController {
             correction *= g.max_accel_mps2 / a;
         }
         let accel_cmd = correction + self.vel_integral * g.vel_integral;
-        let (s, c) = yaw.sin_cos();
-        let accel_fwd = c * accel_cmd.x + s * accel_cmd.y;
-        let accel_right = -s * accel_cmd.x + c * accel_cmd.y;
-        let gravity = heli_nav::GRAVITY_MPS2;
-        let pitch_cmd = limit(-(accel_fwd / gravity).atan(), g.max_tilt_rad);
-        let roll_cmd = limit((accel_right / gravity).atan(), g.max_tilt_rad);
-        (roll_cmd, pitch_cmd)
+        let (roll_cmd, pitch_cmd) = accel_to_attitude(yaw, &accel_cmd);
+        (
+            limit(roll_cmd, g.max_tilt_rad),
+            limit(pitch_cmd, g.max_tilt_rad),
+        )
     }
 
     /// Roll and pitch commands -> rate commands -> lateral and longitudinal cyclic.

@@ -333,61 +333,6 @@ impl fmt::Display for Verdict {
     }
 }
 
-/// A battery discharge curve: terminal voltage against the fraction of life remaining,
-/// measured by bench tests as the thesis describes ("extensive battery tests comparing
-/// voltage to battery life"). Both judges use it: the ground's meter and the vehicle's
-/// `battery` condition.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BatteryCurve {
-    /// (volts, fraction of life left) points, volts increasing.
-    pub points: [(f64, f64); 6],
-}
-
-impl Default for BatteryCurve {
-    /// A 10-cell NiMH flight pack (12 V nominal).
-    fn default() -> Self {
-        Self {
-            points: [
-                (10.0, 0.0),
-                (11.0, 0.1),
-                (11.6, 0.33),
-                (12.0, 0.6),
-                (12.4, 0.9),
-                (12.8, 1.0),
-            ],
-        }
-    }
-}
-
-impl BatteryCurve {
-    /// Fraction of life left at `volts`, interpolated, 0..1 (0 for a reading that is not a
-    /// number).
-    pub fn life_left(&self, volts: f64) -> f64 {
-        let [first, .., last] = self.points;
-        if !volts.is_finite() || volts <= first.0 {
-            return first.1;
-        }
-        if volts >= last.0 {
-            return last.1;
-        }
-        self.points
-            .windows(2)
-            .find_map(|w| match w {
-                [a, b] if volts <= b.0 && b.0 > a.0 => {
-                    Some(a.1 + (b.1 - a.1) * (volts - a.0) / (b.0 - a.0))
-                }
-                _ => None,
-            })
-            .unwrap_or(last.1)
-    }
-}
-
-/// The `battery` condition: more than a third of the battery's life left (the thesis's
-/// meter turns red at a third).
-pub fn battery_green(life_left: f64) -> bool {
-    life_left > 1.0 / 3.0
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -17,6 +17,7 @@ use heli_proto::compass::CompassAdc;
 use crate::core::{Action, CoreConfig, FlightCore, FlightParams, Input};
 use crate::drivers::{self, BaroLinkState, Drivers};
 use crate::health::Device;
+use crate::invariants::{InvariantReport, Invariants};
 
 /// A serial port of the flight computer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -149,6 +150,8 @@ pub struct FlightComputer {
     /// Samples the drivers completed, waiting for the core (kept to avoid allocating).
     scratch: Vec<Input>,
     baro_failed_reported: bool,
+    /// The invariants' checker and what it found, when asked for.
+    invariants: Option<Box<(Invariants, InvariantReport)>>,
 }
 
 impl FlightComputer {
@@ -160,6 +163,7 @@ impl FlightComputer {
             core: FlightCore::new(config, params),
             scratch: Vec::with_capacity(8),
             baro_failed_reported: false,
+            invariants: None,
         }
     }
 
@@ -246,7 +250,13 @@ impl FlightComputer {
         }
         let first_new = out.len();
         for sample in samples.drain(..) {
+            let before = out.len();
             self.core.handle(sample, now_us, out);
+            if let Some(watch) = self.invariants.as_deref_mut() {
+                let (checker, report) = watch;
+                let verdict = checker.check(&self.core, now_us, out.get(before..).unwrap_or(&[]));
+                report.record(now_us, verdict);
+            }
         }
         self.scratch = samples;
         for action in out.iter().skip(first_new) {
@@ -254,6 +264,19 @@ impl FlightComputer {
                 tx(Port::Scb, &drivers::servo_packet(&cmd.value));
             }
         }
+    }
+
+    /// Checks the core's invariants ([`crate::invariants`]) after every input from now on:
+    /// what a simulated or replayed flight runs with, to find defects. The report
+    /// ([`FlightComputer::invariant_report`]) counts what was broken; nothing is acted on.
+    pub fn watch_invariants(&mut self) {
+        let checker = Invariants::new(&self.core, self.core.config().watchdog_us);
+        self.invariants = Some(Box::new((checker, InvariantReport::default())));
+    }
+
+    /// What the invariants' checker found, if it was asked for.
+    pub fn invariant_report(&self) -> Option<&InvariantReport> {
+        self.invariants.as_deref().map(|(_, report)| report)
     }
 
     /// The main control process.
@@ -356,5 +379,73 @@ mod tests {
         assert_eq!(sent.len(), 1);
         assert_eq!(sent[0].0, Port::Scb);
         assert_eq!(sent[0].1.len(), heli_proto::scb::SERVO_LEN);
+    }
+
+    fn imu_frame() -> Vec<u8> {
+        let imu = heli_proto::imu::ImuRepr {
+            rate_rps: [0.0; 3],
+            accel_mps2: [0.0, 0.0, -9.81],
+            temp_c: 25.0,
+        };
+        let mut frame = [0u8; heli_proto::imu::FRAME_LEN];
+        let n = imu.emit(&mut frame).unwrap_or(0);
+        frame[..n].to_vec()
+    }
+
+    #[test]
+    fn the_invariants_are_checked_only_when_asked_for_after_every_input() {
+        let frame = imu_frame();
+        let mut fc = FlightComputer::new(CoreConfig::default(), FlightParams::default(), 5);
+        assert!(fc.invariant_report().is_none());
+        fc.watch_invariants();
+        fc.start(0, &mut |_, _| {});
+        let mut out = Vec::new();
+        for k in 1..=20u64 {
+            fc.receive(
+                k * 10_000,
+                DeviceInput::Bytes {
+                    port: Port::Imu,
+                    bytes: &frame,
+                },
+                &mut |_, _| {},
+                &mut out,
+            );
+        }
+        let report = fc.invariant_report().copied().unwrap();
+        assert_eq!(report.checked, 20);
+        assert_eq!(report.violations, 0);
+        assert_eq!(report.first, None);
+    }
+
+    #[test]
+    fn a_computer_restarted_in_the_air_aligns_instead_of_calibrating() {
+        let warm = crate::core::WarmStart {
+            gyro_bias_rps: [0.001, 0.0, 0.0],
+            origin: None,
+            home_ned_m: Some([0.0, 0.0, 0.0]),
+            airborne: true,
+            trim: None,
+        };
+        let fc = FlightComputer::restarted(CoreConfig::default(), FlightParams::default(), 5, warm);
+        assert_eq!(fc.core().phase(), crate::core::Phase::BlindDescent);
+        let cold = FlightComputer::restarted(
+            CoreConfig::default(),
+            FlightParams::default(),
+            5,
+            crate::core::WarmStart {
+                airborne: false,
+                ..warm
+            },
+        );
+        assert_eq!(cold.core().phase(), crate::core::Phase::Calibrating);
+    }
+
+    #[test]
+    fn ports_are_named_and_found_by_name() {
+        for port in [Port::Imu, Port::Scb, Port::Gps, Port::Baro] {
+            assert_eq!(Port::from_name(port.name()), Some(port));
+        }
+        assert_eq!(Port::Imu.name(), "imu");
+        assert_eq!(Port::from_name("modem"), None);
     }
 }

@@ -388,4 +388,98 @@ mod tests {
         let back = parsed.unwrap_or_default();
         assert!((back.aileron - 0.25).abs() < 0.002 && (back.collective - 0.54).abs() < 0.002);
     }
+
+    #[test]
+    fn each_port_delivers_its_samples_and_counts_its_frames() {
+        let mut d = Drivers::new(5);
+        let mut inputs = Vec::new();
+        let uplink = heli_proto::scb::PilotUplink {
+            rotor_rpm: 1580,
+            pulses: heli_proto::scb::Pulses::from_controls(&Controls::default()),
+            auto_mode: true,
+            bypass: false,
+            receiver_batt_v: 5.0,
+            servo_batt_v: 4.8,
+        };
+        let mut buf = [0u8; 64];
+        let n = uplink.emit(&mut buf).unwrap_or(0);
+        d.uplink_bytes(&buf[..n], |i| inputs.push(i));
+        let fix = heli_proto::gps::GpsNav {
+            tow_ms: 1000,
+            lat_deg: 42.36,
+            lon_deg: -71.09,
+            alt_m: 10.0,
+            vel_ned_mps: [0.0; 3],
+            satellites: 8,
+            fix: heli_proto::gps::FixType::Fix3D,
+        };
+        let n = fix.emit(&mut buf).unwrap_or(0);
+        d.gps_bytes(&buf[..n], |i| inputs.push(i));
+        assert!(matches!(inputs[0], Input::Uplink(u) if u.rotor_rpm == 1580 && u.auto_mode));
+        assert!(matches!(inputs[1], Input::Gps(f) if f.satellites == 8));
+        assert_eq!(d.uplink.stats().framer.frames, 1);
+        assert_eq!(d.gps.stats().framer.frames, 1);
+        // The altimeter's readings, once it streams.
+        let mut sent = 0;
+        d.baro.start(0, &mut |_: &[u8]| sent += 1);
+        for (t, r) in [
+            (1, BaroReply::ResetDone),
+            (2, BaroReply::RateSet(5)),
+            (
+                3,
+                BaroReply::Pressure {
+                    pressure_mbar: 990.0,
+                },
+            ),
+        ] {
+            d.baro_bytes(&reply(r), t, &mut |_: &[u8]| sent += 1, |i| inputs.push(i));
+        }
+        assert_eq!(sent, 3);
+        assert!(matches!(inputs[2], Input::Baro { pressure_mbar } if pressure_mbar == 990.0));
+    }
+
+    #[test]
+    fn the_altimeter_must_confirm_the_rate_asked_for_and_garbage_is_counted() {
+        let mut d = BaroDriver::new(5);
+        let mut sent = Vec::new();
+        d.start(0, &mut |b: &[u8]| sent.push(b.to_vec()));
+        let mut none = |_: f64| {};
+        d.receive(
+            &reply(BaroReply::ResetDone),
+            10,
+            &mut |b: &[u8]| sent.push(b.to_vec()),
+            &mut none,
+        );
+        d.receive(
+            &reply(BaroReply::RateSet(4)),
+            20,
+            &mut |b: &[u8]| sent.push(b.to_vec()),
+            &mut none,
+        );
+        assert!(
+            matches!(d.state(), BaroLinkState::AwaitRate { .. }),
+            "another rate is not this one"
+        );
+        assert_eq!(d.errors(), (1, 0));
+        d.receive(
+            b"?garbage\r\n",
+            30,
+            &mut |b: &[u8]| sent.push(b.to_vec()),
+            &mut none,
+        );
+        assert_eq!(d.errors(), (1, 1));
+        // The reply timeout is counted from the last step of the handshake.
+        let at = d.poll_at().unwrap_or(0);
+        assert_eq!(at, 10 + BARO_REPLY_TIMEOUT_US);
+        d.poll(at - 1, &mut |b: &[u8]| sent.push(b.to_vec()));
+        assert!(
+            matches!(d.state(), BaroLinkState::AwaitRate { .. }),
+            "not yet due"
+        );
+        d.poll(at, &mut |b: &[u8]| sent.push(b.to_vec()));
+        assert!(matches!(
+            d.state(),
+            BaroLinkState::AwaitReset { attempt: 2, .. }
+        ));
+    }
 }

@@ -291,6 +291,21 @@ mod tests {
     use super::*;
 
     #[test]
+    fn devices_and_states_have_the_names_the_ground_shows() {
+        let names: Vec<_> = Device::ALL.iter().map(|d| d.name()).collect();
+        assert_eq!(names, ["imu", "uplink", "gps", "baro", "compass"]);
+        let states = [
+            HealthState::Waiting,
+            HealthState::Ok,
+            HealthState::Late,
+            HealthState::Silent,
+            HealthState::Failed,
+        ];
+        let names: Vec<_> = states.iter().map(|s| s.name()).collect();
+        assert_eq!(names, ["waiting", "ok", "late", "silent", "failed"]);
+    }
+
+    #[test]
     fn late_then_silent_then_back_with_counts() {
         let mut m = DeviceMonitor::new(Device::Baro);
         assert_eq!(m.check(10_000_000), None, "never armed, never judged");

@@ -7,6 +7,8 @@
 //!   bias calibration, the 50 Hz estimation and control step and the flight phases.
 //! - [`drivers`]: the device drivers' protocol halves, also sans-I/O — bytes in, samples out,
 //!   and for the altimeter the reset / rate / continuous handshake with its timeouts.
+//! - [`invariants`]: what the core relies on, stated and checked after every input by
+//!   property tests and by every simulated flight.
 //! - [`streams`]: the seven single-writer buffers (IMU, state, servo, uplink, GPS, altimeter,
 //!   compass) with a freshest value for telemetry and a history for the logger.
 //!
@@ -17,6 +19,9 @@
 #![cfg_attr(
     test,
     allow(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        clippy::cast_possible_wrap,
         clippy::unwrap_used,
         clippy::expect_used,
         clippy::panic,
@@ -30,6 +35,7 @@ pub mod computer;
 pub mod core;
 pub mod drivers;
 pub mod health;
+pub mod invariants;
 pub mod streams;
 
 pub use crate::computer::{DeviceInput, FlightComputer, Port, RecordedInput};

@@ -181,6 +181,11 @@ pub struct Streams {
 
 impl Streams {
     /// Streams that keep `seconds` of history at each device's nominal rate.
+    #[expect(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+    )]
     pub fn with_history_s(seconds: f64) -> Self {
         let n = |hz: f64| (seconds * hz).ceil().max(1.0) as usize;
         Self {
@@ -211,6 +216,40 @@ impl Streams {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use heli_proto::imu::ImuRepr;
+
+    fn imu(t_us: u64) -> Record {
+        Record::Imu(Stamped::new(
+            t_us,
+            ImuRecord {
+                imu: ImuRepr {
+                    rate_rps: [0.0; 3],
+                    accel_mps2: [0.0, 0.0, -9.81],
+                    temp_c: 20.0,
+                },
+                repeated: false,
+            },
+        ))
+    }
+
+    #[test]
+    fn history_is_kept_for_the_seconds_asked_at_each_rate() {
+        let mut streams = Streams::with_history_s(2.0);
+        for k in 0..500 {
+            streams.publish(imu(k * 10_000));
+        }
+        assert_eq!(streams.imu.published(), 500);
+        // 2 s at 100 Hz.
+        let (kept, cursor, missed) = streams.imu.read_since(0);
+        assert_eq!(kept.len(), 200);
+        assert_eq!((cursor, missed), (500, 300));
+        assert_eq!(kept.first().map(|r| r.t_us), Some(300 * 10_000));
+        assert_eq!(streams.gps.published(), 0);
+        let mut tiny = Streams::with_history_s(0.0);
+        tiny.publish(imu(1));
+        tiny.publish(imu(2));
+        assert_eq!(tiny.imu.read_since(0).0.len(), 1, "never less than one");
+    }
 
     #[test]
     fn observer_reads_in_order_and_counts_what_it_missed() {

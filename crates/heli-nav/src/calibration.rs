@@ -223,6 +223,11 @@ impl BiasCalibration {
 }
 
 /// Seconds to whole microseconds, saturating (negative and NaN give 0).
+#[expect(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+)]
 pub fn seconds_to_us(s: f64) -> u64 {
     (s * 1e6).round() as u64
 }

@@ -13,6 +13,9 @@
 #![cfg_attr(
     test,
     allow(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        clippy::cast_possible_wrap,
         clippy::unwrap_used,
         clippy::expect_used,
         clippy::panic,

@@ -286,6 +286,11 @@ impl Navigator {
             ..config
         };
         // Propagations at 50 Hz, altimeter at 5 Hz, compass at 20 Hz.
+        #[expect(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "history_s is clamped to a few seconds above"
+        )]
         let history_len = (config.history_s * 75.0).ceil() as usize;
         Self {
             config,

@@ -20,6 +20,11 @@ pub fn counts_to_volts(counts: u16) -> f64 {
 
 /// ADC reading of an input voltage: rounded to the nearest count and clamped
 /// to `0..=4095` (NaN gives 0).
+#[expect(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+)]
 pub fn volts_to_counts(volts: f64) -> u16 {
     let counts = libm::round(volts / ADC_LSB_V);
     if counts.is_nan() || counts <= 0.0 {

@@ -107,23 +107,41 @@ pub(crate) fn span(bytes: &[u8], start: usize, end: usize) -> &[u8] {
 
 /// Nearest integer count of `value / lsb`, saturating at the `i16` limits
 /// (NaN gives 0).
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+)]
 pub(crate) fn to_i16(value: f64, lsb: f64) -> i16 {
     libm::round(value / lsb) as i16
 }
 
 /// Nearest integer count of `value / lsb`, saturating at the `i32` limits
 /// (NaN gives 0).
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+)]
 pub(crate) fn to_i32(value: f64, lsb: f64) -> i32 {
     libm::round(value / lsb) as i32
 }
 
 /// Nearest integer count of `value / lsb`, saturating at the `u8` limits
 /// (NaN gives 0).
+#[expect(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+)]
 pub(crate) fn to_u8(value: f64, lsb: f64) -> u8 {
     libm::round(value / lsb) as u8
 }
 
 /// Nearest integer of `value`, saturating at the `u16` limits (NaN gives 0).
+#[expect(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+)]
 pub(crate) fn round_u16(value: f64) -> u16 {
     libm::round(value) as u16
 }

@@ -170,6 +170,10 @@ impl GpsNav {
     ///
     /// Values are rounded to the nearest count and saturate at the field's
     /// integer limits (NaN gives 0).
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "NAV_PAYLOAD_LEN is the constant 24"
+    )]
     pub fn emit(&self, buf: &mut [u8]) -> Result<usize, Error> {
         let out = buf.get_mut(..FRAME_LEN).ok_or(Error::BufferTooSmall)?;
         bytes::put_u8(out, field::SOH, SOH);

@@ -198,9 +198,22 @@ pub struct Summary {
     pub log: Option<String>,
     /// The batteries: the truth against the flight software's gauges, the hot-swap.
     pub power: PowerSummary,
+    /// The flight core's invariants, checked after every input.
+    pub invariants: InvariantSummary,
     /// Hardware in the loop only: what the HILSim measured of the flight computer.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hil: Option<HilSummary>,
+}
+
+/// What the invariants' checker found (`heli_fsw::invariants`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct InvariantSummary {
+    /// Inputs checked.
+    pub checked: u64,
+    /// Inputs after which an invariant was broken.
+    pub violations: u64,
+    /// The first broken, with its time ("t=12.34 s: ...").
+    pub first: Option<String>,
 }
 
 /// The batteries at the end of a run.

@@ -150,6 +150,11 @@ pub fn apply(table: &ParamTable, config: &mut CoreConfig) {
 }
 
 /// The altimeter rate of `table` (readings per second).
+#[expect(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+)]
 pub fn baro_rate_hz(table: &ParamTable) -> Option<u8> {
     table
         .get("BARO_RATE_HZ")

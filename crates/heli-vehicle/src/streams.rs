@@ -5,11 +5,46 @@
 //! The lock-free part is `arc-swap`: the writer swaps in a new `Arc` with one atomic
 //! operation, readers load the current one with another; neither waits for the other. The
 //! history a logger needs travels separately, through the logger's bounded channel.
+//!
+//! Under `--cfg loom` (the model checker, `tests/loom_streams.rs`) the cell is a loom mutex
+//! with the same meaning (a linearizable load and store of an `Arc`; loom cannot look inside
+//! arc-swap) and the counter is loom's atomic, so that every interleaving of the writer's
+//! store-then-count with a reader's count-then-load is explored.
 
 use std::sync::Arc;
+
+#[cfg(loom)]
+use loom::sync::atomic::{AtomicU64, Ordering};
+#[cfg(not(loom))]
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use arc_swap::ArcSwapOption;
+#[cfg(not(loom))]
+type Cell<T> = arc_swap::ArcSwapOption<T>;
+
+/// The model checker's stand-in for arc-swap's cell.
+#[cfg(loom)]
+struct Cell<T>(loom::sync::Mutex<Option<Arc<T>>>);
+
+#[cfg(loom)]
+impl<T> Cell<T> {
+    fn empty() -> Self {
+        Self(loom::sync::Mutex::new(None))
+    }
+
+    fn store(&self, value: Option<Arc<T>>) {
+        *self
+            .0
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = value;
+    }
+
+    fn load_full(&self) -> Option<Arc<T>> {
+        self.0
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone()
+    }
+}
 use heli_fsw::Stamped;
 use heli_fsw::health::Health;
 use heli_fsw::streams::{BaroRecord, CompassRecord, ImuRecord, Record, ServoRecord, StateRecord};
@@ -18,21 +53,22 @@ use heli_proto::scb::PilotUplink;
 
 /// One stream's freshest value.
 pub struct Latest<T> {
-    cell: ArcSwapOption<T>,
+    cell: Cell<T>,
     published: AtomicU64,
 }
 
 impl<T> Default for Latest<T> {
     fn default() -> Self {
         Self {
-            cell: ArcSwapOption::empty(),
+            cell: Cell::empty(),
             published: AtomicU64::new(0),
         }
     }
 }
 
 impl<T> Latest<T> {
-    /// Replaces the freshest value (the one writer).
+    /// Replaces the freshest value (the one writer). The value is stored before it is
+    /// counted, so a reader that sees the count `n` sees the `n`-th value or a later one.
     pub fn publish(&self, value: T) {
         self.cell.store(Some(Arc::new(value)));
         self.published.fetch_add(1, Ordering::Release);
@@ -90,7 +126,7 @@ impl LiveStreams {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, not(loom)))]
 mod tests {
     use super::*;
 

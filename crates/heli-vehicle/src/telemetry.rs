@@ -251,3 +251,208 @@ pub fn spawn_telemetry(
             }
         })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use heli_fsw::core::{CoreConfig, FlightCore, FlightParams, Input, Phase};
+    use heli_fsw::streams::{BaroRecord, CompassRecord, ImuRecord, ServoRecord, StateRecord};
+    use heli_proto::compass::{CompassAdc, MagField};
+    use heli_proto::gps::{FixType, GpsNav};
+    use heli_proto::imu::ImuRepr;
+    use heli_proto::scb::{Controls, PilotUplink, Pulses};
+    use nalgebra::{UnitQuaternion, Vector3};
+
+    fn close(v: &Value, expected: f64) {
+        let x = v.as_f64().unwrap_or(f64::NAN);
+        assert!((x - expected).abs() < 1e-9, "{v} != {expected}");
+    }
+
+    #[test]
+    fn a_snapshot_carries_the_freshest_value_of_every_stream() {
+        let streams = LiveStreams::default();
+        let empty = snapshot(&streams, None, 5);
+        assert_eq!(empty["t_us"], 5);
+        assert!(empty["state"].is_null() && empty["gps"].is_null());
+        streams.imu.publish(Stamped::new(
+            1,
+            ImuRecord {
+                imu: ImuRepr {
+                    rate_rps: [0.1, 0.2, 0.3],
+                    accel_mps2: [0.0, 0.5, -9.8],
+                    temp_c: 20.0,
+                },
+                repeated: false,
+            },
+        ));
+        let nav = heli_nav::NavState {
+            t_us: 2,
+            att: UnitQuaternion::from_euler_angles(0.1, -0.2, 0.3),
+            vel_ned_mps: Vector3::new(1.0, 2.0, 3.0),
+            pos_ned_m: Vector3::new(4.0, 5.0, -6.0),
+            rate_body_rps: Vector3::new(0.01, 0.02, 0.03),
+            accel_body_mps2: Vector3::zeros(),
+            gyro_bias_rps: Vector3::zeros(),
+            accel_bias_mps2: Vector3::zeros(),
+        };
+        streams.state.publish(Stamped::new(
+            2,
+            StateRecord {
+                nav,
+                phase: Phase::Landed,
+                target: None,
+            },
+        ));
+        streams.servo.publish(Stamped::new(
+            3,
+            ServoRecord {
+                controls: Controls {
+                    aileron: 0.1,
+                    elevator: 0.2,
+                    rudder: 0.3,
+                    collective: 0.4,
+                    throttle: 0.8,
+                },
+                rotor_rpm: 1600,
+            },
+        ));
+        let pulses = Pulses::from_controls(&Controls::default());
+        streams.uplink.publish(Stamped::new(
+            4,
+            PilotUplink {
+                rotor_rpm: 1590,
+                pulses,
+                auto_mode: true,
+                bypass: false,
+                receiver_batt_v: 5.1,
+                servo_batt_v: 4.9,
+            },
+        ));
+        streams.gps.publish(Stamped::new(
+            5,
+            GpsNav {
+                tow_ms: 0,
+                lat_deg: 42.3,
+                lon_deg: -71.1,
+                alt_m: 12.0,
+                vel_ned_mps: [0.5, 0.0, 0.0],
+                satellites: 7,
+                fix: FixType::Fix3D,
+            },
+        ));
+        streams.baro.publish(Stamped::new(
+            6,
+            BaroRecord {
+                pressure_mbar: 1001.5,
+                alt_m: Some(3.5),
+            },
+        ));
+        streams.compass.publish(Stamped::new(
+            7,
+            CompassRecord {
+                adc: CompassAdc { counts: [1, 2, 3] },
+                field: MagField {
+                    field_gauss: [0.2, 0.0, 0.4],
+                },
+                heading_rad: Some(1.2),
+            },
+        ));
+        let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
+        let mut out = Vec::new();
+        core.handle(Input::Battery { volts: 12.2 }, 1_000_000, &mut out);
+        streams.power.publish(power_row(&core, 1_000_000));
+        streams.health.publish(*core.health());
+        let v = snapshot(&streams, Some(Stamped::new(8, 12.2)), 9);
+        assert_eq!(v["imu"]["rate_rps"][2], 0.3);
+        assert_eq!(v["imu"]["accel_mps2"][1], 0.5);
+        assert_eq!(v["state"]["phase"], "landed");
+        close(&v["state"]["euler_rad"][0], 0.1);
+        close(&v["state"]["euler_rad"][1], -0.2);
+        close(&v["state"]["euler_rad"][2], 0.3);
+        assert_eq!(v["state"]["rate_rps"], json!([0.01, 0.02, 0.03]));
+        assert_eq!(v["state"]["pos_ned_m"], json!([4.0, 5.0, -6.0]));
+        assert_eq!(v["state"]["vel_ned_mps"], json!([1.0, 2.0, 3.0]));
+        assert_eq!(v["servo"]["commands"], json!([0.1, 0.2, 0.3, 0.4, 0.8]));
+        assert_eq!(v["uplink"]["rotor_rpm"], 1590);
+        assert_eq!(v["uplink"]["auto_mode"], true);
+        assert_eq!(v["uplink"]["bypass"], false);
+        assert_eq!(v["uplink"]["receiver_batt_v"], 5.1);
+        assert_eq!(v["uplink"]["servo_batt_v"], 4.9);
+        assert_eq!(
+            v["uplink"]["pulses_us"],
+            json!([
+                pulses.aileron_us,
+                pulses.elevator_us,
+                pulses.rudder_us,
+                pulses.collective_us,
+                pulses.throttle_us
+            ])
+        );
+        assert_eq!(v["gps"]["satellites"], 7);
+        assert_eq!(v["gps"]["fix_3d"], true);
+        assert_eq!(v["gps"]["alt_m"], 12.0);
+        assert_eq!(v["gps"]["lat_deg"], 42.3);
+        assert_eq!(v["gps"]["lon_deg"], -71.1);
+        assert_eq!(v["baro"]["pressure_mbar"], 1001.5);
+        assert_eq!(v["baro"]["alt_m"], 3.5);
+        assert_eq!(v["compass"]["heading_rad"], 1.2);
+        assert_eq!(v["compass"]["field_gauss"], json!([0.2, 0.0, 0.4]));
+        assert_eq!(v["battery_v"], 12.2);
+        let flight = &v["power"]["batteries"][0];
+        assert_eq!(flight["name"], "flight");
+        close(
+            &v["battery_remaining"],
+            flight["percent"].as_f64().unwrap_or(0.0) / 100.0,
+        );
+        assert_eq!(v["health"][0]["device"], "imu");
+        assert_eq!(v["health"][0]["state"], "waiting");
+        assert_eq!(
+            v["published"],
+            json!({"imu": 1, "state": 1, "servo": 1, "uplink": 1, "gps": 1, "baro": 1, "compass": 1})
+        );
+    }
+
+    #[test]
+    fn the_power_row_lists_each_pack_read_and_the_hot_swaps_times() {
+        let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
+        let mut out = Vec::new();
+        let row = power_row(&core, 0);
+        assert!(row.batteries.is_empty() && row.source.is_none());
+        core.handle(
+            Input::PowerSource(heli_power::PowerSource::Ground),
+            0,
+            &mut out,
+        );
+        core.handle(
+            Input::PowerSource(heli_power::PowerSource::Flight),
+            30_000_000,
+            &mut out,
+        );
+        core.handle(Input::Battery { volts: 12.0 }, 31_000_000, &mut out);
+        let mut pilot = PilotUplink {
+            rotor_rpm: 0,
+            pulses: Pulses::from_controls(&Controls::default()),
+            auto_mode: false,
+            bypass: false,
+            receiver_batt_v: 5.0,
+            servo_batt_v: 4.9,
+        };
+        core.handle(Input::Uplink(pilot), 31_000_000, &mut out);
+        pilot.servo_batt_v = 4.8;
+        core.handle(Input::Uplink(pilot), 31_100_000, &mut out);
+        let row = power_row(&core, 90_000_000);
+        let names: Vec<_> = row.batteries.iter().map(|b| b.name.as_str()).collect();
+        assert_eq!(names, ["flight", "receiver", "servo"]);
+        let state = core
+            .power()
+            .state(heli_fsw::core::power::Battery::Flight)
+            .unwrap_or_else(|| panic!("read"));
+        let flight = &row.batteries[0];
+        assert_eq!(flight.volts, 12.0);
+        assert!((flight.percent - 100.0 * state.soc).abs() < 1e-9);
+        assert!((flight.minutes_left - state.time_left_s / 60.0).abs() < 1e-9);
+        assert_eq!(flight.level, state.level.name());
+        assert_eq!(row.source.as_deref(), Some("flight"));
+        assert!((row.flight_s - 60.0).abs() < 1e-9 && (row.ground_s - 30.0).abs() < 1e-9);
+    }
+}

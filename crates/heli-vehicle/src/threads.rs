@@ -58,6 +58,11 @@ impl Clock {
     }
 
     /// Microseconds since the start.
+    #[expect(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+    )]
     pub fn now_us(&self) -> u64 {
         let us = self.start.elapsed().as_secs_f64() * 1e6 * self.speed;
         if us.is_finite() && us >= 0.0 {

@@ -4,6 +4,9 @@
 //! warm-start record of a flying helicopter resumes the flight at power-on.
 
 #![allow(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
     clippy::unwrap_used,
     clippy::expect_used,
     clippy::panic,

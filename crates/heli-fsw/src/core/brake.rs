@@ -132,4 +132,49 @@ mod tests {
         assert_eq!(half.yaw_rad, 0.3);
         assert_eq!(at(4.0), None, "stopped");
     }
+
+    #[test]
+    fn a_helicopter_that_ran_past_the_stop_is_held_where_it_stopped() {
+        let brake = Brake::begin(0, &moving(Vector3::new(0.0, 6.0, 0.0)))
+            .unwrap_or_else(|| panic!("moving at 6 m/s"));
+        // 6 m/s east at 2 m/s²: 9 m east of (10, 0).
+        let end = Vector3::new(10.0, 9.0, -20.0);
+        assert!((brake.stopping_point() - end).norm() < 1e-9);
+        // Short of the end, or off to the side: the end.
+        assert!((brake.stop_for(&Vector3::new(10.0, 5.0, -20.0)) - end).norm() < 1e-9);
+        assert!((brake.stop_for(&Vector3::new(13.0, 9.0, -20.0)) - end).norm() < 1e-9);
+        // 3 m past it along the way: there.
+        let past = brake.stop_for(&Vector3::new(10.0, 12.0, -20.0));
+        assert!(
+            (past - Vector3::new(10.0, 12.0, -20.0)).norm() < 1e-9,
+            "{past:?}"
+        );
+        // Just above the braking speed it brakes; at it, it does not.
+        assert!(Brake::begin(0, &moving(Vector3::new(0.0, BRAKE_ABOVE_MPS, 0.0))).is_none());
+        assert!(Brake::begin(0, &moving(Vector3::new(0.0, BRAKE_ABOVE_MPS + 0.01, 0.0))).is_some());
+    }
+
+    #[test]
+    fn at_the_end_of_the_stop_the_hold_moves_to_where_it_stopped_and_stays_once_still() {
+        let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
+        let est = moving(Vector3::new(0.0, 6.0, 0.0));
+        core.braking = Brake::begin(0, &est);
+        let hold = Target::hold(Vector3::new(0.0, 0.0, -25.0), 0.3);
+        // Under way: on the profile.
+        let on_the_way = core.braking_target(hold, 1_000_000, &est);
+        assert!((on_the_way.pos_ned_m.y - (6.0 - 1.0)).abs() < 1e-9);
+        // Over (3 s): at the stop, at the hold's height; still moving, so still braking.
+        let mut moving_on = est;
+        moving_on.pos_ned_m = Vector3::new(10.0, 12.0, -20.0);
+        moving_on.vel_ned_mps = Vector3::new(0.0, 0.5, 0.0);
+        let t = core.braking_target(hold, 3_000_000, &moving_on);
+        assert_eq!(t, Target::hold(Vector3::new(10.0, 12.0, -25.0), 0.3));
+        assert!(core.braking.is_some());
+        // Stopped (under 0.3 m/s): the stop is over.
+        let mut still = moving_on;
+        still.vel_ned_mps = Vector3::new(0.0, 0.29, 0.0);
+        core.braking_target(hold, 3_100_000, &still);
+        assert!(core.braking.is_none());
+        assert_eq!(core.braking_target(hold, 3_200_000, &still), hold);
+    }
 }

@@ -63,6 +63,38 @@ impl FlightCore {
             )));
         }
 
+        let controls = self.phase_controls(estimate, &current, dt_s);
+        if self.averages_trim() {
+            self.average_trim(&controls, dt_s);
+        }
+        let rotor_rpm = self.pilot.map_or(0, |p| p.rotor_rpm);
+        out.push(Action::Servo(Stamped::new(now_us, controls)));
+        out.push(Action::Publish(Record::Servo(Stamped::new(
+            now_us,
+            ServoRecord {
+                controls,
+                rotor_rpm,
+            },
+        ))));
+        if let Some(nav) = estimate {
+            out.push(Action::Publish(Record::State(Stamped::new(
+                now_us,
+                StateRecord {
+                    nav,
+                    phase: self.phase,
+                    target: self.phase.target(),
+                },
+            ))));
+        }
+    }
+
+    /// The servo command the phase calls for: the dispatch from phase to controller.
+    pub(super) fn phase_controls(
+        &mut self,
+        estimate: Option<NavState>,
+        current: &ImuRepr,
+        dt_s: f64,
+    ) -> Controls {
         // A silent uplink's last sticks are stale: they count as no sticks at all.
         let pilot_sticks = self
             .pilot
@@ -75,7 +107,7 @@ impl FlightCore {
             (None, true) => current.rate_rps[2],
             (None, false) => 0.0,
         };
-        let controls = match (self.phase, estimate) {
+        match (self.phase, estimate) {
             (
                 Phase::Maneuver {
                     stage: RollStage::Rolling { angle_rad, .. },
@@ -136,34 +168,17 @@ impl FlightCore {
                 ..Controls::default()
             },
             _ => manual_with_yaw_damping(&pilot_sticks, yaw_rate, &self.config.yaw_damper),
-        };
-        if self.airborne_once
+        }
+    }
+
+    /// Whether this step's command goes into the trim a restarted process aligns on: in
+    /// autonomous flight that holds or flies a target, once the helicopter has been up.
+    pub(super) fn averages_trim(&self) -> bool {
+        self.airborne_once
             && matches!(
                 self.phase,
                 Phase::Holding { .. } | Phase::Flying { .. } | Phase::TakingOff { .. }
             )
-        {
-            self.average_trim(&controls, dt_s);
-        }
-        let rotor_rpm = self.pilot.map_or(0, |p| p.rotor_rpm);
-        out.push(Action::Servo(Stamped::new(now_us, controls)));
-        out.push(Action::Publish(Record::Servo(Stamped::new(
-            now_us,
-            ServoRecord {
-                controls,
-                rotor_rpm,
-            },
-        ))));
-        if let Some(nav) = estimate {
-            out.push(Action::Publish(Record::State(Stamped::new(
-                now_us,
-                StateRecord {
-                    nav,
-                    phase: self.phase,
-                    target: self.phase.target(),
-                },
-            ))));
-        }
     }
 
     pub(super) fn height_above_home(&self, est: &NavState) -> f64 {

@@ -57,6 +57,11 @@ impl Default for EngineWatch {
 
 impl FlightCore {
     /// Watches the rotor speed in the air; raises the engine failure once.
+    #[expect(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+    )]
     pub(super) fn watch_engine(&mut self, est: &NavState, now_us: u64, out: &mut Vec<Action>) {
         let w = self.config.engine;
         let rpm = match self.pilot {
@@ -101,11 +106,13 @@ impl FlightCore {
     }
 
     /// The phase after an engine failure, when the computer flies: `None` when the engine
-    /// is fine or the helicopter is on the ground (the other rules decide).
+    /// is fine (the other rules decide); after a failure, an autorotation in the air and
+    /// an unpowered phase on the ground.
     pub(super) fn autorotate(
         &mut self,
         est: &NavState,
         on_ground: bool,
+        signal_lost: bool,
         now_us: u64,
     ) -> Option<Phase> {
         if !self.engine_failed {
@@ -126,12 +133,14 @@ impl FlightCore {
                     settled_since_us: since,
                 })
             }
-            Phase::Landed
-            | Phase::GroundFailsafe
-            | Phase::TakeoffRefused
-            | Phase::PreflightCheck { .. }
-            | Phase::Calibrating => None,
-            _ if on_ground => None,
+            // On the ground the engine is never flown on again: no pre-flight check, no
+            // take-off, no hold a lost transmitter would ask for. The idle phases stay, a
+            // lost transmitter idles, anything else is landed.
+            Phase::GroundFailsafe | Phase::TakeoffRefused if on_ground => Some(self.phase),
+            _ if on_ground && signal_lost => Some(Phase::GroundFailsafe),
+            _ if on_ground => Some(Phase::Landed),
+            // In the air, from whatever the phase (a landed helicopter the estimate sees
+            // climbing again included): autorotate.
             _ => Some(self.begin_autorotation(est)),
         }
     }

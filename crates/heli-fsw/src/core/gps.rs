@@ -94,4 +94,66 @@ mod tests {
         // The same kilometre after a 20 s outage: possible, accepted.
         assert_eq!(implausible(&c, Some((0, a)), 20_000_000), None);
     }
+
+    #[test]
+    fn a_jump_is_measured_in_every_direction() {
+        let a = fix(42.3581, -71.0966);
+        let north = |m: f64| fix(42.3581 + m / 111_000.0, -71.0966);
+        let east = |m: f64| {
+            fix(
+                42.3581,
+                -71.0966 + m / (111_000.0 * 42.3581f64.to_radians().cos()),
+            )
+        };
+        let up = |m: f64| GpsNav {
+            alt_m: 10.0 + m,
+            ..a
+        };
+        // At the same instant, 20 m is the receiver's slack.
+        for (moved, name) in [
+            (north(15.0), "north"),
+            (east(15.0), "east"),
+            (up(15.0), "up"),
+        ] {
+            assert_eq!(implausible(&moved, Some((0, a)), 0), None, "{name}");
+        }
+        for (moved, name) in [
+            (north(25.0), "north"),
+            (east(25.0), "east"),
+            (up(25.0), "up"),
+        ] {
+            match implausible(&moved, Some((0, a)), 0) {
+                Some(Implausible::Jump { distance_m }) => {
+                    assert!((distance_m - 25.0).abs() < 0.5, "{name}: {distance_m}")
+                }
+                other => panic!("{name}: {other:?}"),
+            }
+        }
+        // 12 m north, 12 m east and 12 m up: 20.8 m together.
+        let diagonal = GpsNav {
+            alt_m: 22.0,
+            ..fix(42.3581 + 12.0 / 111_000.0, east(12.0).lon_deg)
+        };
+        assert!(implausible(&diagonal, Some((0, a)), 0).is_some());
+        // Each second allows 100 m more: 115 m after one second is fine, 125 m is not.
+        assert_eq!(implausible(&north(115.0), Some((0, a)), 1_000_000), None);
+        assert!(implausible(&north(125.0), Some((0, a)), 1_000_000).is_some());
+        // A height outside the globe's range.
+        assert_eq!(
+            implausible(&up(20_000.0), None, 0),
+            Some(Implausible::OffTheGlobe)
+        );
+        assert_eq!(
+            implausible(&up(-600.0), None, 0),
+            Some(Implausible::OffTheGlobe)
+        );
+        assert_eq!(
+            implausible(&fix(-91.0, 0.0), None, 0),
+            Some(Implausible::OffTheGlobe)
+        );
+        assert_eq!(
+            implausible(&fix(0.0, -181.0), None, 0),
+            Some(Implausible::OffTheGlobe)
+        );
+    }
 }

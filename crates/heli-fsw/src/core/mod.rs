@@ -334,6 +334,11 @@ impl FlightCore {
         }
     }
 
+    /// The configuration it runs with.
+    pub fn config(&self) -> &CoreConfig {
+        &self.config
+    }
+
     /// Every device's watchdog.
     pub fn health(&self) -> &Health {
         &self.health
@@ -370,6 +375,12 @@ impl FlightCore {
     /// The navigation filter (estimate and aiding statistics).
     pub fn navigator(&self) -> &Navigator {
         &self.nav
+    }
+
+    /// The loop watchdog's deadline (µs): one period after the last IMU packet or fire, or
+    /// `None` before it is armed.
+    pub fn watchdog_deadline_us(&self) -> Option<u64> {
+        self.watchdog.deadline_us()
     }
 
     /// When the caller must deliver [`Input::Timer`] next: the loop watchdog's deadline or
@@ -576,6 +587,20 @@ fn input_is_finite(input: &Input) -> bool {
 }
 
 #[cfg(test)]
+mod dispatch_tests;
+#[cfg(test)]
+mod engine_tests;
+#[cfg(test)]
 mod mode_check_tests;
+#[cfg(test)]
+mod parts_tests;
+#[cfg(test)]
+mod power_tests;
+#[cfg(test)]
+mod restart_tests;
+#[cfg(test)]
+mod roll_tests;
+#[cfg(test)]
+mod sequencer_tests;
 #[cfg(test)]
 mod tests;

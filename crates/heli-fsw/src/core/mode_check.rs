@@ -85,7 +85,12 @@ impl FlightCore {
 
     /// Raises `refusal` unless what fails was already raised while the switch has been on:
     /// a condition that comes and goes raises one event, a new reason raises another.
-    fn raise_refusal(&mut self, refusal: ModeRefusal, now_us: u64, out: &mut Vec<Action>) {
+    pub(super) fn raise_refusal(
+        &mut self,
+        refusal: ModeRefusal,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) {
         let v = refusal.verdict;
         let known = self.refusal_raised.is_some_and(|r| {
             r.mode == refusal.mode

@@ -146,6 +146,11 @@ impl Power {
 impl FlightCore {
     /// A reading of `battery`'s voltage at `now_us`: gauged, and a new level or an abnormal
     /// drain raised.
+    #[expect(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+    )]
     pub(super) fn read_battery(
         &mut self,
         battery: Battery,

@@ -85,7 +85,7 @@ impl FlightCore {
             return Phase::Manual;
         }
         // The engine failed: the computer autorotates whatever it was flying.
-        if let Some(phase) = self.autorotate(est, on_ground, now_us) {
+        if let Some(phase) = self.autorotate(est, on_ground, signal_lost, now_us) {
             return phase;
         }
         // The pilot's switch asks for a mode: the safety rule may refuse it (a transmitter

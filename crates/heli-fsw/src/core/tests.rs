@@ -762,3 +762,15 @@ fn a_compass_heading_creeping_in_the_calibration_window_restarts_it() {
         "{restarts:?}"
     );
 }
+
+#[test]
+fn the_core_runs_with_the_configuration_it_was_given() {
+    let core = core_with(FlightMode::Autonomous);
+    assert_eq!(core.config().calibration_s, 1.0);
+    assert_eq!(core.config().imu_warm_up_s, 0.1);
+    assert_eq!(
+        core.watchdog_deadline_us(),
+        None,
+        "armed at start, not before"
+    );
+}

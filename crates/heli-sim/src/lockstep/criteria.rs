@@ -172,9 +172,20 @@ impl Simulation {
         if let Some(hil) = self.hil_criteria() {
             criteria = hil;
         }
-        // A run judged on nothing has not passed: say so as a criterion of its own.
+        // A run judged on nothing has not passed: say so as a criterion of its own. The
+        // invariants below judge every run alike, so they do not count as the scenario's.
         if criteria.is_empty() {
             criteria.push(Criterion::at_least("criteria_defined", Some(0.0), 1.0));
+        }
+        // Every run is judged on the flight core's invariants too: a broken one is a defect
+        // whatever the flight looked like.
+        let invariants = self.invariant_summary();
+        if invariants.checked > 0 {
+            criteria.push(Criterion::at_most(
+                "invariant_violations",
+                Some(invariants.violations as f64),
+                0.0,
+            ));
         }
         let outcome = if self.crash.is_some() {
             Outcome::Crash
@@ -251,7 +262,23 @@ impl Simulation {
             events: m.events.clone(),
             log: None,
             power: self.power_summary(),
+            invariants,
             hil: None,
+        }
+    }
+
+    /// The invariants' checks of every flight process of the run.
+    fn invariant_summary(&self) -> InvariantSummary {
+        let mut report = self.metrics.invariants_past;
+        if let Some(now) = self.computer.invariant_report() {
+            report.merge(now);
+        }
+        InvariantSummary {
+            checked: report.checked,
+            violations: report.violations,
+            first: report
+                .first
+                .map(|(t_us, v)| format!("t={:.2} s: {v}", t_us as f64 * 1e-6)),
         }
     }
 }

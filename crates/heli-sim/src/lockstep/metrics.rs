@@ -5,6 +5,8 @@ use super::*;
 
 #[derive(Clone, Default)]
 pub(super) struct Metrics {
+    /// The invariants' checks of flight processes that a brown-out ended.
+    pub(super) invariants_past: heli_fsw::invariants::InvariantReport,
     /// Serial bytes the scenario's byte loss took.
     pub(super) bytes_lost: u64,
     /// Transmissions and readings a device fault kept from the computer (off, slow).

@@ -50,8 +50,8 @@ use crate::model::{Environment, Helicopter};
 use crate::pilot::{HoveringPilot, seen_by_pilot};
 use crate::scenario::{Scenario, ScenarioError};
 use crate::summary::{
-    Criterion, DeviceSummary, EstimatorSummary, HoldSummary, LinkSummary, LoopSummary,
-    ManeuverSummary, Outcome, Rms, Summary,
+    Criterion, DeviceSummary, EstimatorSummary, HoldSummary, InvariantSummary, LinkSummary,
+    LoopSummary, ManeuverSummary, Outcome, Rms, Summary,
 };
 use crate::turbulence::Turbulence;
 use heli_control::AugmentedMode;

@@ -10,6 +10,8 @@ impl Simulation {
     pub(super) fn start_flight_computer(&mut self) {
         let now = self.now_us;
         let mut sent = Vec::new();
+        // Every simulated flight checks the flight core's invariants after every input.
+        self.computer.watch_invariants();
         self.computer.start(now, &mut |port, b: &[u8]| {
             sent.push((port, Bytes::from_slice(b)))
         });
@@ -43,6 +45,9 @@ impl Simulation {
                 self.browned_out = None;
                 let (config, params) = self.core_setup;
                 let rate = heli_proto::baro::DEFAULT_RATE_HZ;
+                if let Some(report) = self.computer.invariant_report() {
+                    self.metrics.invariants_past.merge(report);
+                }
                 self.computer = match warm {
                     Some(warm) => FlightComputer::restarted(config, params, rate, warm),
                     None => FlightComputer::new(config, params, rate),

@@ -1,0 +1,159 @@
+//! Component tests of the restart in the air (`restart.rs`): the record left for a
+//! successor, the trim it keeps, what a restarted process flies while it aligns, and when the
+//! alignment ends.
+
+use super::tests::{gps_fix, raised, still};
+use super::*;
+use heli_proto::scb::Controls;
+
+const S: u64 = 1_000_000;
+
+fn warm(trim: Option<Controls>) -> WarmStart {
+    WarmStart {
+        gyro_bias_rps: [0.001, 0.0, -0.002],
+        origin: None,
+        home_ned_m: Some([1.0, 2.0, 3.0]),
+        airborne: true,
+        trim,
+    }
+}
+
+fn trim() -> Controls {
+    Controls {
+        aileron: 0.02,
+        elevator: -0.03,
+        rudder: 0.41,
+        collective: 0.55,
+        throttle: heli_control::GOVERNED_THROTTLE,
+    }
+}
+
+#[test]
+fn the_trim_is_a_two_second_average_of_the_commands() {
+    let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
+    let first = trim();
+    core.average_trim(&first, 0.02);
+    assert_eq!(core.trim, Some(first), "the first command is the average");
+    let next = Controls {
+        aileron: 0.12,
+        elevator: 0.07,
+        rudder: 0.21,
+        collective: 0.35,
+        throttle: 0.9,
+    };
+    core.average_trim(&next, 0.5);
+    let k = 0.5 / restart::TRIM_AVERAGE_S;
+    let t = core.trim.unwrap();
+    let close = |a: f64, b: f64| assert!((a - b).abs() < 1e-12, "{a} {b}");
+    close(t.aileron, 0.02 + k * 0.1);
+    close(t.elevator, -0.03 + k * 0.1);
+    close(t.rudder, 0.41 - k * 0.2);
+    close(t.collective, 0.55 - k * 0.2);
+    // The throttle is the governor's, not averaged.
+    close(t.throttle, 0.9);
+    // A step longer than the window replaces it.
+    core.average_trim(&first, 5.0);
+    assert_eq!(core.trim, Some(first));
+}
+
+#[test]
+fn the_record_left_for_a_successor() {
+    let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
+    assert_eq!(
+        core.warm_start(),
+        None,
+        "nothing before the estimate starts"
+    );
+    core.nav.initialise(
+        0,
+        &heli_nav::ImuBiases {
+            gyro_rps: Vector3::new(0.001, 0.002, -0.003),
+            mean_accel_mps2: Vector3::new(0.0, 0.0, -9.81),
+            samples: 100,
+        },
+    );
+    core.home_ned_m = Some(Vector3::new(1.0, 2.0, 3.0));
+    core.airborne_once = true;
+    core.trim = Some(trim());
+    let w = core.warm_start().unwrap();
+    assert_eq!(w.gyro_bias_rps, [0.001, 0.002, -0.003]);
+    assert_eq!(w.home_ned_m, Some([1.0, 2.0, 3.0]));
+    assert!(w.airborne);
+    assert_eq!(w.trim, Some(trim()));
+}
+
+#[test]
+fn while_aligning_it_flies_the_trim_with_the_tail_damping_the_true_yaw_rate() {
+    let core = FlightCore::restarted(
+        CoreConfig::default(),
+        FlightParams::default(),
+        warm(Some(trim())),
+    );
+    let damper = core.config.yaw_damper;
+    // The gyro reads 0.3 rad/s; 0.302 of it is rate, the bias being −0.002.
+    let u = core.aligning_controls(0.3).unwrap();
+    assert_eq!(
+        u,
+        Controls {
+            rudder: 0.41 - damper.gain * 0.302,
+            ..trim()
+        }
+        .clamped()
+    );
+    // Without a trim: the blind failsafe's collective, with the damped tail on its trim.
+    let core = FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm(None));
+    let g = core.config;
+    assert_eq!(
+        core.aligning_controls(0.3).unwrap(),
+        Controls {
+            collective: g.hover.hover_collective - BLIND_DESCENT_COLLECTIVE_MARGIN,
+            rudder: damper.trim - damper.gain * 0.302,
+            throttle: heli_control::GOVERNED_THROTTLE,
+            ..Controls::default()
+        }
+        .clamped()
+    );
+    // Not aligning: nothing.
+    let core = FlightCore::new(CoreConfig::default(), FlightParams::default());
+    assert_eq!(core.aligning_controls(0.3), None);
+}
+
+#[test]
+fn the_alignment_waits_for_a_gps_fix_up_to_its_limit() {
+    // With a fix: one second.
+    let mut core =
+        FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm(None));
+    let mut out = Vec::new();
+    core.handle(Input::Gps(gps_fix(8)), 0, &mut out);
+    assert!(core.nav.origin().is_some() && core.last_good_fix.is_some());
+    let mut t = 0;
+    while core.aligning() && t < 5 * S {
+        t += 10_000;
+        core.handle(Input::Imu(still()), t, &mut out);
+        if t.is_multiple_of(200_000) {
+            core.handle(Input::Gps(gps_fix(8)), t, &mut out);
+        }
+    }
+    let aligned_after = t;
+    assert!(raised(&out, CoreEvent::RestartedInAir));
+    let with_gps = raised(&out, CoreEvent::AlignedInAir { gps: true });
+    // Without one: three seconds.
+    let mut core =
+        FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm(None));
+    let mut out = Vec::new();
+    let mut t = 0;
+    while core.aligning() && t < 5 * S {
+        t += 10_000;
+        core.handle(Input::Imu(still()), t, &mut out);
+    }
+    assert!(raised(&out, CoreEvent::AlignedInAir { gps: false }));
+    // The first sample opens the window at 10 ms.
+    assert_eq!(t, 10_000 + (restart::ALIGN_GPS_WAIT_S * 1e6) as u64);
+    assert!(with_gps, "aligned with the GPS's velocity");
+    assert_eq!(aligned_after, 10_000 + (restart::ALIGN_S * 1e6) as u64);
+    // The estimate starts level from the samples' mean specific force, with the bias kept.
+    let state = core.navigator().state().unwrap();
+    let (roll, pitch, _) = state.euler_rad();
+    assert!(roll.abs() < 0.01 && pitch.abs() < 0.01, "{roll} {pitch}");
+    assert!((state.gyro_bias_rps.z + 0.002).abs() < 1e-9);
+}

@@ -1,0 +1,260 @@
+//! Component tests of the roll maneuver's stage machine (`roll.rs`): the machine is driven
+//! directly, a step at a time, from a constructed estimate, and judged on the phase and the
+//! events it emits.
+
+use super::*;
+use nalgebra::UnitQuaternion;
+
+const S: u64 = 1_000_000;
+
+/// A core flying leg 1 of take-off, two rolls at 5 m/s, hold, land.
+fn rolling_core() -> FlightCore {
+    let plan = Plan::new(&[
+        Leg::Takeoff { alt_m: 20.0 },
+        Leg::Rolls {
+            count: 2,
+            speed_mps: 5.0,
+        },
+        Leg::Hold { seconds: 5.0 },
+        Leg::Land,
+    ])
+    .unwrap();
+    let mut core = FlightCore::new(
+        CoreConfig::default(),
+        FlightParams {
+            mode: FlightMode::Autonomous,
+            plan,
+        },
+    );
+    core.leg = 1;
+    core
+}
+
+/// Level, heading north, at `vel` (m/s NED), rolling at `p_rps`.
+fn est(vel: Vector3<f64>, p_rps: f64) -> NavState {
+    NavState {
+        t_us: 0,
+        att: UnitQuaternion::identity(),
+        vel_ned_mps: vel,
+        pos_ned_m: Vector3::new(10.0, 5.0, -20.0),
+        rate_body_rps: Vector3::new(p_rps, 0.0, 0.0),
+        accel_body_mps2: Vector3::zeros(),
+        gyro_bias_rps: Vector3::zeros(),
+        accel_bias_mps2: Vector3::zeros(),
+    }
+}
+
+fn target() -> Target {
+    Target {
+        pos_ned_m: Vector3::new(1.0, 2.0, -20.0),
+        vel_ned_mps: Vector3::new(4.0, 0.0, 0.0),
+        yaw_rad: 0.0,
+    }
+}
+
+fn step(
+    core: &mut FlightCore,
+    e: &NavState,
+    now_us: u64,
+    stage: RollStage,
+    done: u32,
+) -> (Phase, Vec<Action>) {
+    let mut out = Vec::new();
+    let phase = core.maneuver(e, now_us, 0.02, target(), stage, done, &mut out);
+    (phase, out)
+}
+
+fn stage_of(phase: Phase) -> RollStage {
+    match phase {
+        Phase::Maneuver { stage, .. } => stage,
+        other => panic!("not a maneuver: {other:?}"),
+    }
+}
+
+#[test]
+fn it_accelerates_until_settled_on_the_trim_speed_for_six_seconds() {
+    let mut core = rolling_core();
+    let trim = est(Vector3::new(5.0, 0.0, 0.0), 0.0);
+    let accelerate = RollStage::Accelerate { since_us: 0 };
+    let (phase, _) = step(&mut core, &trim, 6 * S, accelerate, 0);
+    assert_eq!(
+        stage_of(phase),
+        accelerate,
+        "six seconds is not more than six"
+    );
+    let (phase, _) = step(&mut core, &trim, 6 * S + 1, accelerate, 0);
+    assert_eq!(
+        stage_of(phase),
+        RollStage::PullUp {
+            since_us: 6 * S + 1
+        }
+    );
+    // 0.9 m/s off the trim is settled; 1.0 is not.
+    let near = est(Vector3::new(5.0, 0.9, 0.0), 0.0);
+    assert!(matches!(
+        stage_of(step(&mut core, &near, 7 * S, accelerate, 0).0),
+        RollStage::PullUp { .. }
+    ));
+    let off = est(Vector3::new(5.0, 1.0, 0.0), 0.0);
+    assert_eq!(
+        stage_of(step(&mut core, &off, 7 * S, accelerate, 0).0),
+        accelerate
+    );
+    // While accelerating the trajectory is carried along at its velocity, toward the trim.
+    let (phase, _) = step(&mut core, &off, 7 * S, accelerate, 0);
+    let Phase::Maneuver { target: t, .. } = phase else {
+        unreachable!()
+    };
+    assert!((t.pos_ned_m - Vector3::new(1.0 + 4.0 * 0.02, 2.0, -20.0)).norm() < 1e-12);
+    assert_eq!(t.vel_ned_mps, Vector3::new(5.0, 0.0, 0.0));
+}
+
+#[test]
+fn never_settled_it_gives_up_the_rolls_after_the_timeout() {
+    let mut core = rolling_core();
+    let off = est(Vector3::new(2.0, 0.0, 0.0), 0.0);
+    let accelerate = RollStage::Accelerate { since_us: 0 };
+    let at = (ACCELERATE_TIMEOUT_S * 1e6) as u64;
+    assert_eq!(
+        stage_of(step(&mut core, &off, at, accelerate, 0).0),
+        accelerate
+    );
+    let (phase, _) = step(&mut core, &off, at + 1, accelerate, 0);
+    assert!(matches!(phase, Phase::Holding { .. }), "{phase:?}");
+    assert_eq!(core.leg, 2);
+}
+
+#[test]
+fn the_pull_up_climbs_for_its_time_then_the_roll_begins() {
+    let mut core = rolling_core();
+    let g = core.config.roll;
+    let trim = est(Vector3::new(5.0, 0.0, 0.0), 0.0);
+    let pull_up = RollStage::PullUp { since_us: S };
+    let before = S + (g.pull_up_s * 1e6) as u64 - 1;
+    let (phase, _) = step(&mut core, &trim, before, pull_up, 0);
+    let Phase::Maneuver {
+        target: t, stage, ..
+    } = phase
+    else {
+        unreachable!()
+    };
+    assert_eq!(stage, pull_up);
+    assert_eq!(t.vel_ned_mps, Vector3::new(5.0, 0.0, -g.pull_up_climb_mps));
+    let (phase, _) = step(&mut core, &trim, before + 1, pull_up, 0);
+    assert_eq!(
+        stage_of(phase),
+        RollStage::Rolling {
+            angle_rad: 0.0,
+            since_us: before + 1
+        }
+    );
+}
+
+#[test]
+fn the_roll_counts_its_angle_and_ends_at_the_exit_lead() {
+    let mut core = rolling_core();
+    let g = core.config.roll;
+    let e = est(Vector3::new(5.0, 0.0, 0.0), 3.0);
+    let exit = 2.0 * core::f64::consts::PI - g.exit_lead_rad;
+    // 3 rad/s for 0.02 s: 0.06 rad more.
+    let rolling = RollStage::Rolling {
+        angle_rad: 1.0,
+        since_us: S,
+    };
+    let (phase, out) = step(&mut core, &e, 2 * S, rolling, 0);
+    let Phase::Maneuver {
+        target: t, stage, ..
+    } = phase
+    else {
+        unreachable!()
+    };
+    match stage {
+        RollStage::Rolling {
+            angle_rad,
+            since_us,
+        } => {
+            assert!((angle_rad - 1.06).abs() < 1e-12, "{angle_rad}");
+            assert_eq!(since_us, S);
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(out.is_empty());
+    // While rolling the trajectory keeps up with the helicopter.
+    assert_eq!(t.pos_ned_m, e.pos_ned_m);
+    // Reaching the exit angle completes it: counted, raised, recovering at this height.
+    let last = RollStage::Rolling {
+        angle_rad: exit - 0.06,
+        since_us: S,
+    };
+    let (phase, out) = step(&mut core, &e, 2 * S, last, 0);
+    match phase {
+        Phase::Maneuver {
+            target: t,
+            stage: RollStage::Recover { since_us },
+            rolls_done: 1,
+        } => {
+            assert_eq!(since_us, 2 * S);
+            assert_eq!(t.pos_ned_m, e.pos_ned_m);
+            assert_eq!(t.vel_ned_mps, Vector3::new(5.0, 0.0, 0.0));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(core.stats().rolls_completed, 1);
+    assert!(
+        out.iter()
+            .any(|a| matches!(a, Action::Event(e) if e.value == CoreEvent::RollCompleted(1)))
+    );
+    // Just short of it, still rolling.
+    let short = RollStage::Rolling {
+        angle_rad: exit - 0.07,
+        since_us: S,
+    };
+    assert!(matches!(
+        stage_of(step(&mut core, &e, 2 * S, short, 0).0),
+        RollStage::Rolling { .. }
+    ));
+}
+
+#[test]
+fn a_roll_taking_twice_its_time_is_abandoned() {
+    let mut core = rolling_core();
+    let g = core.config.roll;
+    let e = est(Vector3::new(5.0, 0.0, 0.0), 0.0);
+    let nominal_s = 2.0 * core::f64::consts::PI / g.rate_cmd_rps;
+    let rolling = RollStage::Rolling {
+        angle_rad: 1.0,
+        since_us: 0,
+    };
+    let limit_us = (2.0 * nominal_s * 1e6) as u64;
+    assert!(matches!(
+        stage_of(step(&mut core, &e, limit_us - 1000, rolling, 0).0),
+        RollStage::Rolling { .. }
+    ));
+    let (phase, out) = step(&mut core, &e, limit_us + 1000, rolling, 0);
+    assert!(matches!(stage_of(phase), RollStage::Recover { .. }));
+    assert!(
+        out.iter()
+            .any(|a| matches!(a, Action::Event(e) if e.value == CoreEvent::RollAbandoned))
+    );
+    assert_eq!(core.stats().rolls_completed, 0);
+}
+
+#[test]
+fn after_recovering_it_rolls_again_until_the_count_then_flies_the_next_leg() {
+    let mut core = rolling_core();
+    let g = core.config.roll;
+    let e = est(Vector3::new(5.0, 0.0, 0.0), 0.0);
+    let recover = RollStage::Recover { since_us: 0 };
+    let end = (g.recover_s * 1e6) as u64;
+    assert_eq!(
+        stage_of(step(&mut core, &e, end - 1, recover, 1).0),
+        recover
+    );
+    assert_eq!(
+        stage_of(step(&mut core, &e, end, recover, 1).0),
+        RollStage::PullUp { since_us: end }
+    );
+    let (phase, _) = step(&mut core, &e, end, recover, 2);
+    assert!(matches!(phase, Phase::Holding { .. }), "{phase:?}");
+    assert_eq!(core.leg, 2);
+}
