@@ -68,6 +68,42 @@ pub struct Motion {
     pub turn_rad: f64,
 }
 
+/// The whole seconds of the window so far, which each new second is compared with.
+#[derive(Clone, Copy, Debug, Default)]
+struct Reference {
+    /// Sum of the seconds' mean rates (rad/s).
+    gyro_sum: Vector3<f64>,
+    /// Sum of the seconds' specific forces (its direction is the mean direction of gravity).
+    accel_sum: Vector3<f64>,
+    seconds: u32,
+}
+
+impl Reference {
+    fn add(&mut self, gyro: &Vector3<f64>, accel: &Vector3<f64>) {
+        self.gyro_sum += gyro;
+        self.accel_sum += accel;
+        self.seconds = self.seconds.saturating_add(1);
+    }
+
+    /// The motion of a second of mean rate `gyro` and specific force along `accel`, if it
+    /// moved.
+    fn motion(&self, gyro: &Vector3<f64>, accel: &Vector3<f64>) -> Option<Motion> {
+        let rate_rps = (gyro - self.gyro_sum / f64::from(self.seconds)).norm();
+        let tilt_rad = accel.angle(&self.accel_sum);
+        (beyond(rate_rps, MOTION_RATE_RPS) || beyond(tilt_rad, MOTION_TILT_RAD)).then_some(Motion {
+            rate_rps,
+            tilt_rad,
+            turn_rad: 0.0,
+        })
+    }
+}
+
+/// Whether a second moved by `value` is beyond the motion limit `limit`: a second exactly at
+/// the limit is still.
+fn beyond(value: f64, limit: f64) -> bool {
+    value > limit
+}
+
 /// Accumulates IMU samples into bias estimates.
 #[derive(Clone, Debug)]
 pub struct BiasCalibration {
@@ -80,6 +116,7 @@ pub struct BiasCalibration {
     block_gyro: Vector3<f64>,
     block_accel: Vector3<f64>,
     block_count: u32,
+    reference: Option<Reference>,
     motion: Option<Motion>,
     restarts: u32,
 }
@@ -97,6 +134,7 @@ impl BiasCalibration {
             block_gyro: Vector3::zeros(),
             block_accel: Vector3::zeros(),
             block_count: 0,
+            reference: None,
             motion: None,
             restarts: 0,
         }
@@ -125,6 +163,7 @@ impl BiasCalibration {
             self.block_gyro = Vector3::zeros();
             self.block_accel = Vector3::zeros();
             self.block_count = 0;
+            self.reference = None;
             self.motion = Some(motion);
             self.restarts = self.restarts.saturating_add(1);
         }
@@ -185,7 +224,8 @@ impl BiasCalibration {
     }
 
     /// Adds a sample to the current second's block; at the block's end, compares its mean
-    /// with the window's so far. Returns the motion if the block moved.
+    /// with the mean of the window's whole seconds before it (the first second is only the
+    /// reference of the ones after it). Returns the motion if the block moved.
     fn block(&mut self, imu: &ImuRepr) -> Option<Motion> {
         self.block_gyro += Vector3::from(imu.rate_rps);
         self.block_accel += Vector3::from(imu.accel_mps2);
@@ -193,24 +233,20 @@ impl BiasCalibration {
         if self.block_count < BLOCK {
             return None;
         }
-        let n = f64::from(self.block_count);
-        let (gyro, accel) = (self.block_gyro / n, self.block_accel / n);
+        let gyro = self.block_gyro / f64::from(self.block_count);
+        // Only the direction of gravity is compared: the sum points where the mean does.
+        let accel = self.block_accel;
         self.block_gyro = Vector3::zeros();
         self.block_accel = Vector3::zeros();
         self.block_count = 0;
-        // The first second is the reference of the ones after it.
-        if self.count < BLOCK {
-            return None;
-        }
-        let m = f64::from(self.count);
-        let (mean_gyro, mean_accel) = (self.gyro_sum / m, self.accel_sum / m);
-        let rate_rps = (gyro - mean_gyro).norm();
-        let tilt_rad = accel.angle(&mean_accel);
-        (rate_rps > MOTION_RATE_RPS || tilt_rad > MOTION_TILT_RAD).then_some(Motion {
-            rate_rps,
-            tilt_rad,
-            turn_rad: 0.0,
-        })
+        let motion = self
+            .reference
+            .as_ref()
+            .and_then(|r| r.motion(&gyro, &accel));
+        self.reference
+            .get_or_insert_with(Reference::default)
+            .add(&gyro, &accel);
+        motion
     }
 
     fn accumulate(&mut self, imu: &ImuRepr) {
@@ -327,5 +363,73 @@ mod tests {
         let m = cal.take_motion();
         assert!(m.is_some_and(|m| m.tilt_rad > 0.05), "{m:?}");
         assert_eq!(cal.restarts(), 1);
+    }
+    /// A calibration whose window opened with one still sample at 1 s (no warm-up beyond
+    /// the first sample's second), and the time of the next sample.
+    fn opened() -> (BiasCalibration, u64) {
+        let mut cal = BiasCalibration::new(1.0, 60.0);
+        assert!(cal.push(0, &sample(0.0)).is_none());
+        assert!(cal.push(1_000_000, &sample(0.0)).is_none());
+        assert!(matches!(cal.phase(), CalibrationPhase::Accumulating { .. }));
+        (cal, 1_010_000)
+    }
+
+    #[test]
+    fn motion_is_judged_on_whole_seconds_after_the_first() {
+        // The first second after the window opens is the reference; a turn over the whole
+        // second second is found on its last sample and not before.
+        let (mut cal, mut t) = opened();
+        for k in 1..=200u32 {
+            let turning = if k > 100 { 0.2 } else { 0.0 };
+            let s = ImuRepr {
+                rate_rps: [0.0, 0.0, turning],
+                ..sample(0.0)
+            };
+            cal.push(t, &s);
+            t += 10_000;
+            let motion = cal.take_motion();
+            assert_eq!(motion.is_some(), k == 200, "sample {k}: {motion:?}");
+        }
+        assert_eq!(cal.restarts(), 1);
+        // A one-sample jolt of 3 rad/s in a still second averages out (0.03 rad/s).
+        let (mut cal, mut t) = opened();
+        for k in 1..=300u32 {
+            let rate = if k == 150 { 3.0 } else { 0.0 };
+            let s = ImuRepr {
+                rate_rps: [rate, 0.0, 0.0],
+                ..sample(0.0)
+            };
+            cal.push(t, &s);
+            t += 10_000;
+        }
+        assert_eq!(cal.take_motion(), None);
+    }
+
+    #[test]
+    fn a_second_exactly_at_the_rate_limit_is_still_and_one_beyond_it_is_motion() {
+        // Five samples of 1 rad/s in a second of 100: a mean of exactly 0.05 rad/s.
+        let second = |cal: &mut BiasCalibration, t: &mut u64, fast: f64| {
+            for k in 0..100 {
+                let rate = if k < 5 { fast } else { 0.0 };
+                let s = ImuRepr {
+                    rate_rps: [0.0, rate, 0.0],
+                    ..sample(0.0)
+                };
+                cal.push(*t, &s);
+                *t += 10_000;
+            }
+        };
+        let (mut cal, mut t) = opened();
+        second(&mut cal, &mut t, 0.0);
+        second(&mut cal, &mut t, 1.0);
+        assert_eq!(cal.take_motion(), None, "at the limit");
+        let (mut cal, mut t) = opened();
+        second(&mut cal, &mut t, 0.0);
+        second(&mut cal, &mut t, 1.001);
+        let m = cal.take_motion();
+        assert!(
+            m.is_some_and(|m| (m.rate_rps - 0.05005).abs() < 1e-12),
+            "{m:?}"
+        );
     }
 }
