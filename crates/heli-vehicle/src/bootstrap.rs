@@ -143,6 +143,10 @@ pub struct Bootstrap {
     restarts: Vec<Instant>,
     /// The MAVLink link's view of the bootstrap, when it serves one.
     link: Option<std::sync::Arc<crate::link::LinkShared>>,
+    /// How long Connect and Start Logging wait for the flight process's answer.
+    ready_timeout: Duration,
+    /// How long Stop waits for the flight process to exit before killing it.
+    stop_timeout: Duration,
 }
 
 /// Sends requests to a running bootstrap from another thread (the link's); each reply
@@ -183,7 +187,18 @@ impl Bootstrap {
             restarting: false,
             restarts: Vec::new(),
             link: None,
+            ready_timeout: READY_TIMEOUT,
+            stop_timeout: STOP_TIMEOUT,
         }
+    }
+
+    /// Waits `ready` for the flight process's `ready` and `started` and `stop` for its exit
+    /// (defaults [`READY_TIMEOUT`] and [`STOP_TIMEOUT`]): a slow flight computer may need
+    /// longer, a test less.
+    pub fn with_timeouts(mut self, ready: Duration, stop: Duration) -> Self {
+        self.ready_timeout = ready;
+        self.stop_timeout = stop;
+        self
     }
 
     /// Keeps `shared` told of the state and the telemetry, for the MAVLink link.
@@ -318,7 +333,7 @@ impl Bootstrap {
         };
         if self.tell_child("stop") {
             self.set_state(State::Stopping);
-            let until = Instant::now().checked_add(STOP_TIMEOUT);
+            let until = Instant::now().checked_add(self.stop_timeout);
             while let Some(left) = until.and_then(|u| u.checked_duration_since(Instant::now())) {
                 match self.rx.recv_timeout(left) {
                     Ok(Msg::ChildExited(g, status)) if g == generation => {
@@ -358,7 +373,7 @@ impl Bootstrap {
                     self.kill_child();
                 }
                 match self.spawn_child() {
-                    Ok(()) => self.wait_for(reply, READY_TIMEOUT, State::Connecting),
+                    Ok(()) => self.wait_for(reply, self.ready_timeout, State::Connecting),
                     Err(e) => {
                         let _ = reply.send(format!("error {e}"));
                     }
@@ -379,7 +394,7 @@ impl Bootstrap {
                 }
                 if self.tell_child(&format!("start {words}")) {
                     self.flying = Some(words);
-                    self.wait_for(reply, READY_TIMEOUT, State::Starting);
+                    self.wait_for(reply, self.ready_timeout, State::Starting);
                 } else {
                     let _ = reply.send("error the flight process is not listening".into());
                 }
@@ -390,7 +405,7 @@ impl Bootstrap {
                     return;
                 }
                 if self.tell_child("stop") {
-                    self.wait_for(reply, STOP_TIMEOUT, State::Stopping);
+                    self.wait_for(reply, self.stop_timeout, State::Stopping);
                 } else {
                     // Already dying: its exit is reported when it arrives.
                     self.kill_child();
@@ -540,6 +555,12 @@ impl Bootstrap {
                 self.answer(format!("ok flying, logging to {rest}"));
             }
             "error" => {
+                // A start refused (a plan it does not know): the flight did not begin, so
+                // the process's exit that follows is no crash in flight to restart.
+                if self.state == State::Starting {
+                    self.flying = None;
+                    self.set_state(State::Connected);
+                }
                 self.answer(format!("error {rest}"));
             }
             _ => {}

@@ -86,6 +86,12 @@ impl LinkShared {
         self.lock().ground_fresh
     }
 
+    /// Whether a ground station has been heard in the last few seconds (the link thread
+    /// says so; the bootstrap tells the flight process).
+    pub fn set_ground_fresh(&self, fresh: bool) {
+        self.lock().ground_fresh = fresh;
+    }
+
     /// The flight process's plan line (its legs, JSON): served over the mission protocol.
     /// A plan that cannot be read is said, and no plan is served.
     pub fn set_plan(&self, json: &str) {
@@ -324,7 +330,7 @@ pub fn spawn(
             if let Some(items) = mission {
                 link.set_mission(items);
             }
-            shared.lock().ground_fresh = link.ground_fresh(unix_us());
+            shared.set_ground_fresh(link.ground_fresh(unix_us()));
             for (severity, text) in texts {
                 link.status_text(severity, &text, unix_us());
             }

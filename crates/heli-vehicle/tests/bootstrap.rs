@@ -38,6 +38,16 @@ struct Running {
 
 impl Running {
     fn start(dir: &Path, child: Vec<std::ffi::OsString>, warm_file: Option<&Path>) -> Self {
+        Self::start_with(dir, child, warm_file, |b| b)
+    }
+
+    /// Starts a bootstrap made by `build` from the plain one (timeouts, a link).
+    fn start_with(
+        dir: &Path,
+        child: Vec<std::ffi::OsString>,
+        warm_file: Option<&Path>,
+        build: impl FnOnce(Bootstrap) -> Bootstrap + Send + 'static,
+    ) -> Self {
         let socket = dir.join("ctl.sock");
         let lines = Arc::new(Mutex::new(Vec::new()));
         let config = BootstrapConfig {
@@ -47,7 +57,8 @@ impl Running {
         };
         let sink = Arc::clone(&lines);
         let report = Box::new(move |l: &str| sink.lock().unwrap().push(l.to_string()));
-        let thread = std::thread::spawn(move || Bootstrap::new(config, report).run().unwrap());
+        let thread =
+            std::thread::spawn(move || build(Bootstrap::new(config, report)).run().unwrap());
         let started = Instant::now();
         while !socket.exists() && started.elapsed() < Duration::from_secs(5) {
             std::thread::sleep(Duration::from_millis(10));
@@ -156,4 +167,320 @@ fn power_on_with_a_fresh_record_of_a_flying_helicopter_resumes_the_flight() {
     let boot = Running::start(dir.path(), crashing_child(&told), Some(&warm));
     boot.wait_count("not resuming", 1, Duration::from_secs(5));
     assert_eq!(boot.count("flight process started"), 0);
+}
+
+/// A well-behaved flight process: says ready, records every line it is told in `told`,
+/// answers `start` with a telemetry line and `started LOG`, and exits 0 on `stop`.
+fn polite_child(told: &Path) -> Vec<std::ffi::OsString> {
+    let script = format!(
+        "echo ready; while read line; do echo \"$line\" >> {told}; case \"$line\" in \
+         start*) echo 'telemetry {{\"t_us\":1}}'; echo started /logs/flight_a.mcap ;; \
+         stop) echo bye >> {told}; exit 0 ;; esac; done",
+        told = told.display()
+    );
+    vec!["sh".into(), "-c".into(), script.into()]
+}
+
+fn status(boot: &Running) -> serde_json::Value {
+    let reply = boot.ctl("status").unwrap();
+    let json = reply
+        .strip_prefix("ok ")
+        .unwrap_or_else(|| panic!("{reply}"));
+    serde_json::from_str(json).unwrap()
+}
+
+fn alive(pid: u64) -> bool {
+    std::path::Path::new(&format!("/proc/{pid}")).exists()
+}
+
+fn wait_until(what: &str, timeout: Duration, mut done: impl FnMut() -> bool) {
+    let started = Instant::now();
+    while !done() {
+        assert!(
+            started.elapsed() < timeout,
+            "{what}: not within {timeout:?}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn the_status_follows_the_flight_from_idle_to_flying_and_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let told = dir.path().join("told");
+    let boot = Running::start(dir.path(), polite_child(&told), None);
+    let s = status(&boot);
+    assert_eq!(
+        (s["state"].as_str(), s["pid"].is_null()),
+        (Some("idle"), true)
+    );
+    let reply = boot.ctl("connect").unwrap();
+    let s = status(&boot);
+    assert_eq!(s["state"], "connected");
+    let pid = s["pid"].as_u64().unwrap();
+    assert_eq!(reply, format!("ok connected (pid {pid})"));
+    let reply = boot.ctl("start-logging a autonomous hover").unwrap();
+    assert_eq!(reply, "ok flying, logging to /logs/flight_a.mcap");
+    let s = status(&boot);
+    assert_eq!(s["state"], "flying");
+    assert_eq!(s["log"], "/logs/flight_a.mcap");
+    assert_eq!(s["telemetry"]["t_us"], 1);
+    assert_eq!(boot.ctl("stop").unwrap(), "ok stopped (exit code 0)");
+    let s = status(&boot);
+    assert_eq!(
+        (s["state"].as_str(), s["last_exit"].as_str()),
+        (Some("idle"), Some("exit code 0"))
+    );
+    assert_eq!(boot.count("state stopping"), 1);
+    assert_eq!(
+        boot.count("flight process stopped cleanly (exit code 0)"),
+        1
+    );
+    let told = std::fs::read_to_string(&told).unwrap();
+    assert_eq!(
+        told.lines().collect::<Vec<_>>(),
+        ["start a autonomous hover", "stop", "bye"]
+    );
+    assert_eq!(boot.ctl("stop").unwrap(), "ok nothing to stop");
+}
+
+#[test]
+fn exit_statuses_are_said_as_an_operator_reads_them() {
+    use heli_vehicle::bootstrap::describe_exit;
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::ExitStatus;
+    assert_eq!(describe_exit(ExitStatus::from_raw(0)), "exit code 0");
+    assert_eq!(describe_exit(ExitStatus::from_raw(3 << 8)), "exit code 3");
+    assert_eq!(describe_exit(ExitStatus::from_raw(9)), "signal 9 (SIGKILL)");
+    assert_eq!(
+        describe_exit(ExitStatus::from_raw(11)),
+        "signal 11 (SIGSEGV)"
+    );
+}
+
+#[test]
+fn a_flight_process_that_never_answers_is_timed_out_and_killed() {
+    let dir = tempfile::tempdir().unwrap();
+    let pid_file = dir.path().join("pid");
+    let script = format!("echo $$ > {}; exec sleep 30", pid_file.display());
+    let boot = Running::start_with(
+        dir.path(),
+        vec!["sh".into(), "-c".into(), script.into()],
+        None,
+        |b| b.with_timeouts(Duration::from_millis(300), Duration::from_secs(20)),
+    );
+    assert_eq!(
+        boot.ctl("connect").unwrap_err(),
+        "timed out while connecting"
+    );
+    let pid: u64 = std::fs::read_to_string(&pid_file)
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
+    wait_until("the silent process killed", Duration::from_secs(5), || {
+        !alive(pid)
+    });
+    assert_eq!(status(&boot)["state"], "idle");
+}
+
+#[test]
+fn a_second_connect_kills_the_first_process_and_hears_only_the_new_one() {
+    // The first process leaves a helper holding its output, which says a telemetry line
+    // after the process is gone: an old generation's line, not to be taken as the new
+    // process's.
+    let dir = tempfile::tempdir().unwrap();
+    let marker = dir.path().join("second");
+    let script = format!(
+        "if [ -e {m} ]; then echo ready; echo 'telemetry {{\"from\":\"new\"}}'; exec sleep 30; fi; \
+         touch {m}; echo ready; (sleep 0.6; echo 'telemetry {{\"from\":\"old\"}}'; echo 'started /old') & \
+         exec sleep 30",
+        m = marker.display()
+    );
+    let boot = Running::start(
+        dir.path(),
+        vec!["sh".into(), "-c".into(), script.into()],
+        None,
+    );
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    let first = status(&boot)["pid"].as_u64().unwrap();
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    let second = status(&boot)["pid"].as_u64().unwrap();
+    assert_ne!(first, second);
+    wait_until("the first process killed", Duration::from_secs(5), || {
+        !alive(first)
+    });
+    assert!(alive(second));
+    wait_until("the old line heard", Duration::from_secs(5), || {
+        boot.count("flight: started /old") == 1
+    });
+    std::thread::sleep(Duration::from_millis(100));
+    let s = status(&boot);
+    assert_eq!(s["telemetry"]["from"], "new");
+    assert_eq!(
+        s["state"], "connected",
+        "an old process's 'started' moves nothing"
+    );
+    assert_eq!(s["log"], serde_json::Value::Null);
+}
+
+#[test]
+fn lines_out_of_turn_move_nothing() {
+    // A process that says 'started' before it was asked and 'ready' again in flight.
+    let dir = tempfile::tempdir().unwrap();
+    let script = "echo ready; echo started /too/early; while read line; do \
+         case \"$line\" in start*) echo started /logs/b.mcap; echo ready ;; stop) exit 0 ;; \
+         esac; done";
+    let boot = Running::start(
+        dir.path(),
+        vec!["sh".into(), "-c".into(), script.into()],
+        None,
+    );
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    wait_until("the early line", Duration::from_secs(5), || {
+        boot.count("flight: started /too/early") == 1
+    });
+    let s = status(&boot);
+    assert_eq!(
+        (s["state"].as_str(), s["log"].is_null()),
+        (Some("connected"), true)
+    );
+    assert_eq!(
+        boot.ctl("start-logging b autonomous hover").unwrap(),
+        "ok flying, logging to /logs/b.mcap"
+    );
+    wait_until("the second ready", Duration::from_secs(5), || {
+        boot.count("flight: ready") == 2
+    });
+    std::thread::sleep(Duration::from_millis(100));
+    assert_eq!(status(&boot)["state"], "flying");
+}
+
+#[test]
+fn a_start_the_flight_process_refuses_is_the_reply_and_is_not_restarted() {
+    // As the real flight process does with a plan it does not know: 'error ...', exit 1.
+    // That is a refused start, not a crash in flight: nothing is started again.
+    let dir = tempfile::tempdir().unwrap();
+    let script = "echo ready; read line; echo error no such plan: nowhere; exit 1";
+    let boot = Running::start(
+        dir.path(),
+        vec!["sh".into(), "-c".into(), script.into()],
+        None,
+    );
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    assert_eq!(
+        boot.ctl("start-logging b autonomous nowhere").unwrap_err(),
+        "no such plan: nowhere"
+    );
+    wait_until("the exit", Duration::from_secs(5), || {
+        boot.count("exit code 1") == 1
+    });
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(boot.count("restarting"), 0);
+    assert_eq!(status(&boot)["state"], "idle");
+}
+
+#[test]
+fn quitting_stops_the_flight_process_cleanly_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let told = dir.path().join("told");
+    let mut boot = Running::start_with(dir.path(), polite_child(&told), None, |b| {
+        b.with_timeouts(Duration::from_secs(5), Duration::from_secs(30))
+    });
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    assert!(
+        boot.ctl("start-logging q manual")
+            .unwrap()
+            .starts_with("ok flying")
+    );
+    let started = Instant::now();
+    assert_eq!(boot.ctl("quit").unwrap(), "ok quitting");
+    // Not the 30 s stop timeout: the process's exit ends the wait.
+    assert!(
+        started.elapsed() < Duration::from_secs(10),
+        "{:?}",
+        started.elapsed()
+    );
+    boot.thread.take().unwrap().join().unwrap();
+    assert_eq!(
+        boot.count("flight process stopped cleanly (exit code 0)"),
+        1
+    );
+    let told = std::fs::read_to_string(&told).unwrap();
+    assert_eq!(
+        told.lines().collect::<Vec<_>>(),
+        ["start q manual", "stop", "bye"]
+    );
+}
+
+#[test]
+fn quitting_waits_for_the_current_process_not_an_old_one() {
+    // The first process's helper keeps its output open for a second after it was killed,
+    // so its exit is heard while the bootstrap waits for the second one, which takes two
+    // seconds to stop cleanly.
+    let dir = tempfile::tempdir().unwrap();
+    let marker = dir.path().join("second");
+    let told = dir.path().join("told");
+    let script = format!(
+        "if [ -e {m} ]; then echo ready; read line; echo \"$line\" >> {t}; sleep 2; \
+         echo bye >> {t}; exit 0; fi; touch {m}; echo ready; (sleep 1) & exec sleep 30",
+        m = marker.display(),
+        t = told.display()
+    );
+    let mut boot = Running::start_with(
+        dir.path(),
+        vec!["sh".into(), "-c".into(), script.into()],
+        None,
+        |b| b.with_timeouts(Duration::from_secs(5), Duration::from_secs(30)),
+    );
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    assert_eq!(boot.ctl("quit").unwrap(), "ok quitting");
+    boot.thread.take().unwrap().join().unwrap();
+    assert_eq!(
+        boot.count("old flight process ended: signal 9 (SIGKILL)"),
+        1
+    );
+    assert_eq!(
+        boot.count("flight process stopped cleanly (exit code 0)"),
+        1
+    );
+    let told = std::fs::read_to_string(&told).unwrap();
+    assert_eq!(told.lines().collect::<Vec<_>>(), ["stop", "bye"]);
+}
+
+#[test]
+fn the_flight_process_is_told_whether_a_ground_is_heard_when_that_changes() {
+    use heli_vehicle::link::LinkShared;
+    let dir = tempfile::tempdir().unwrap();
+    let told = dir.path().join("told");
+    let shared = Arc::new(LinkShared::default());
+    shared.set_ground_fresh(true);
+    let link = Arc::clone(&shared);
+    let boot = Running::start_with(dir.path(), polite_child(&told), None, move |b| {
+        b.with_link(link)
+    });
+    let lines = || std::fs::read_to_string(&told).unwrap_or_default();
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    wait_until("told fresh", Duration::from_secs(5), || {
+        lines() == "link fresh\n"
+    });
+    shared.set_ground_fresh(false);
+    wait_until("told lost", Duration::from_secs(5), || {
+        lines() == "link fresh\nlink lost\n"
+    });
+    // Told once per change, and a new process is told afresh.
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(lines(), "link fresh\nlink lost\n");
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    wait_until("the new process told", Duration::from_secs(5), || {
+        lines() == "link fresh\nlink lost\nlink lost\n"
+    });
+    // Without a link nothing is told.
+    let dir = tempfile::tempdir().unwrap();
+    let quiet = dir.path().join("told");
+    let boot = Running::start(dir.path(), polite_child(&quiet), None);
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(!quiet.exists());
 }
