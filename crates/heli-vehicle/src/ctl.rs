@@ -180,10 +180,16 @@ mod tests {
                 .unwrap_err()
                 .contains("unknown command")
         );
-        assert!(
-            Request::parse("start-logging")
-                .unwrap_err()
-                .contains("usage")
-        );
+        for usage in [
+            "start-logging",
+            "start-logging f1",
+            "start-logging f1 autonomous hover x",
+        ] {
+            assert!(
+                Request::parse(usage).unwrap_err().contains("usage"),
+                "{usage}"
+            );
+        }
+        assert_eq!(Request::parse("  ").unwrap_err(), "empty command");
     }
 }

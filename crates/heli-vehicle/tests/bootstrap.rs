@@ -484,3 +484,54 @@ fn the_flight_process_is_told_whether_a_ground_is_heard_when_that_changes() {
     std::thread::sleep(Duration::from_millis(300));
     assert!(!quiet.exists());
 }
+
+#[test]
+fn a_restarted_process_that_dies_before_it_is_ready_is_not_restarted_again() {
+    // The first process crashes in flight; the one started again dies before 'ready'
+    // (it cannot open its devices, say): that is no flight under way to resume.
+    let dir = tempfile::tempdir().unwrap();
+    let marker = dir.path().join("restarted");
+    let script = format!(
+        "if [ -e {m} ]; then exit 4; fi; touch {m}; echo ready; read line; \
+         echo started /dev/null; sleep 0.3; exit 3",
+        m = marker.display()
+    );
+    let boot = Running::start(
+        dir.path(),
+        vec!["sh".into(), "-c".into(), script.into()],
+        None,
+    );
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    assert!(
+        boot.ctl("start-logging r autonomous hover")
+            .unwrap()
+            .starts_with("ok flying")
+    );
+    boot.wait_count("CRASHED: exit code 4", 1, Duration::from_secs(5));
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(boot.count("restarting the flight process"), 1);
+    assert_eq!(status(&boot)["state"], "idle");
+}
+
+#[test]
+fn a_process_that_fails_while_stopping_is_reported_as_failed() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = "echo ready; read line; echo started /dev/null; read line; exit 1";
+    let boot = Running::start(
+        dir.path(),
+        vec!["sh".into(), "-c".into(), script.into()],
+        None,
+    );
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    assert!(
+        boot.ctl("start-logging f manual")
+            .unwrap()
+            .starts_with("ok flying")
+    );
+    assert_eq!(
+        boot.ctl("stop").unwrap_err(),
+        "the flight process ended: exit code 1"
+    );
+    assert_eq!(boot.count("flight process CRASHED: exit code 1"), 1);
+    assert_eq!(boot.count("restarting"), 0, "stopping: not resumed");
+}
