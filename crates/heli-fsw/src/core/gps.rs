@@ -156,4 +156,50 @@ mod tests {
             Some(Implausible::OffTheGlobe)
         );
     }
+
+    #[test]
+    fn a_reset_of_the_estimate_to_gps_is_raised_and_a_fused_fix_raises_nothing() {
+        use crate::core::{Action, CoreConfig, CoreEvent, FlightCore, FlightParams, Input};
+        use heli_nav::NavConfig;
+        use nalgebra::Vector3;
+        let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
+        // The estimate started 100 m south of where the GPS puts it, and has coasted since.
+        let here = fix(42.3581, -71.0966);
+        core.nav.set_origin(heli_nav::GeoOrigin {
+            lat_deg: here.lat_deg - 100.0 / 111_000.0,
+            lon_deg: here.lon_deg,
+            alt_m: here.alt_m,
+        });
+        core.nav.initialise(
+            0,
+            &heli_nav::ImuBiases {
+                gyro_rps: Vector3::zeros(),
+                mean_accel_mps2: Vector3::new(0.0, 0.0, -heli_nav::GRAVITY_MPS2),
+                samples: 100,
+            },
+        );
+        let resets = |out: &[Action]| {
+            out.iter()
+                .filter(|a| matches!(a, Action::Event(e) if e.value == CoreEvent::GpsReset))
+                .count()
+        };
+        let mut out = Vec::new();
+        let refusals = NavConfig::default().gps_reset_rejections;
+        for k in 1..refusals {
+            core.handle(
+                Input::Gps(here),
+                6_000_000 + u64::from(k) * 200_000,
+                &mut out,
+            );
+        }
+        assert_eq!(resets(&out), 0, "refused, not yet reset");
+        core.handle(Input::Gps(here), 7_000_000, &mut out);
+        assert_eq!(resets(&out), 1);
+        assert_eq!(core.nav.stats().gps_resets, 1);
+        // Now the estimate agrees: the next fix is fused, and that is no reset.
+        out.clear();
+        core.handle(Input::Gps(here), 7_200_000, &mut out);
+        assert_eq!(core.nav.stats().gps_fused, 1);
+        assert_eq!(resets(&out), 0);
+    }
 }

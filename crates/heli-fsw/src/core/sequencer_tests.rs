@@ -361,6 +361,7 @@ fn the_landing_settles_on_the_skids_then_the_plan_is_complete() {
     let (phase, out) = next(&mut core, &still, 2 * S - 1);
     assert!(matches!(phase, Phase::Landing { settled_since_us: Some(t), .. } if t == S));
     assert!(out.is_empty());
+    assert!(!core.plan_complete(), "not before the landing is settled");
     let (phase, out) = next(&mut core, &still, 2 * S);
     assert_eq!(phase, Phase::Landed);
     assert!(core.plan_complete());

@@ -331,6 +331,7 @@ fn a_silent_uplink_in_the_air_is_transmitter_loss() {
         }
     ));
     assert_eq!(core.phase(), Phase::Manual, "late is not lost");
+    assert!(!raised(&out, CoreEvent::UplinkLost), "late is not lost");
     fly_for(&mut core, &mut out, t, 500_000, true, None);
     assert!(raised(&out, CoreEvent::UplinkLost));
     assert!(
