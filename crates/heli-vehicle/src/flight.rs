@@ -357,6 +357,24 @@ fn control_loop(
     (computer.core().stats(), inputs)
 }
 
+/// Whether the warm-start record `warm` at `t_us` must be written, the last one written
+/// being `last` (its time and record): the first, one that says something new (airborne or
+/// not, another origin), or one a [`crate::warm::REWRITE_S`] after the last.
+fn rewrite_due(
+    last: Option<&(u64, heli_fsw::core::WarmStart)>,
+    t_us: u64,
+    warm: &heli_fsw::core::WarmStart,
+) -> bool {
+    match last {
+        None => true,
+        Some((at, last)) => {
+            last.airborne != warm.airborne
+                || last.origin != warm.origin
+                || heli_nav::seconds_between(*at, t_us) >= crate::warm::REWRITE_S
+        }
+    }
+}
+
 /// Keeps the warm-start file up to date from the control loop without doing file I/O in
 /// it: records go to a thread of their own, newest wins.
 struct WarmKeeper {
@@ -399,15 +417,9 @@ impl WarmKeeper {
     /// [`crate::warm::REWRITE_S`] has passed.
     fn offer(&mut self, t_us: u64, warm: Option<heli_fsw::core::WarmStart>) {
         let Some(warm) = warm else { return };
-        let due = match self.last {
-            None => true,
-            Some((at, last)) => {
-                last.airborne != warm.airborne
-                    || last.origin != warm.origin
-                    || heli_nav::seconds_between(at, t_us) >= crate::warm::REWRITE_S
-            }
-        };
-        if due && let Some(tx) = &self.tx {
+        if rewrite_due(self.last.as_ref(), t_us, &warm)
+            && let Some(tx) = &self.tx
+        {
             // A full queue skips one rewrite; the next one carries newer values anyway.
             if tx.try_send(Some(warm)).is_ok() {
                 self.last = Some((t_us, warm));
@@ -423,5 +435,48 @@ impl WarmKeeper {
         if let Some(Ok(Some(error))) = self.thread.take().map(std::thread::JoinHandle::join) {
             report(Report::Note(error));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use heli_fsw::core::WarmStart;
+
+    #[test]
+    fn the_warm_start_record_is_rewritten_when_it_says_something_new_or_is_old() {
+        let warm = WarmStart {
+            gyro_bias_rps: [0.001, 0.0, 0.0],
+            origin: None,
+            home_ned_m: None,
+            airborne: false,
+            trim: None,
+        };
+        assert!(rewrite_due(None, 0, &warm), "the first");
+        let last = (10_000_000, warm);
+        // The biases drift a little: not worth a write until the record is old.
+        let drifted = WarmStart {
+            gyro_bias_rps: [0.0011, 0.0, 0.0],
+            ..warm
+        };
+        let rewrite_us = 10_000_000 + (crate::warm::REWRITE_S * 1e6) as u64;
+        assert!(!rewrite_due(Some(&last), 10_500_000, &drifted));
+        assert!(!rewrite_due(Some(&last), rewrite_us - 1, &drifted));
+        assert!(rewrite_due(Some(&last), rewrite_us, &drifted));
+        // Taking off, or an origin found: at once.
+        let flying = WarmStart {
+            airborne: true,
+            ..warm
+        };
+        assert!(rewrite_due(Some(&last), 10_000_001, &flying));
+        let located = WarmStart {
+            origin: Some(heli_nav::GeoOrigin {
+                lat_deg: 42.0,
+                lon_deg: -71.0,
+                alt_m: 3.0,
+            }),
+            ..warm
+        };
+        assert!(rewrite_due(Some(&last), 10_000_001, &located));
     }
 }

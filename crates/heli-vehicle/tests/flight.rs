@@ -1,0 +1,296 @@
+//! The flight process's runtime (`heli_vehicle::flight::run`) on pseudo-terminals, with this
+//! test as the devices: the IMU's packets time the control loop, the servo controller board's
+//! port carries the start check and a servo command for every other IMU packet, a silent
+//! IMU is filled in by the watchdog and then reported, a port that is not there is reported
+//! with the commands lost to it, the ground link's changes reach the flight software and its
+//! log, the battery's channel reaches the telemetry's power row, and the warm-start record is
+//! kept while the flight runs and removed when it ends cleanly.
+
+#![allow(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use heli_fsw::core::{CoreConfig, FlightParams};
+use heli_proto::imu::ImuRepr;
+use heli_vehicle::devices::{Adc, Devices, Gpio, Ports};
+use heli_vehicle::flight::{FlightSetup, FlightSummary, Report, run};
+use serialport::{SerialPort, TTYPort};
+
+/// The test's ends of the IMU's, the board's and the GPS's pseudo-terminals, and the
+/// directory of the analog channels.
+struct Bench {
+    imu: TTYPort,
+    scb: TTYPort,
+    _gps: TTYPort,
+    _slaves: Vec<TTYPort>,
+    devices: Devices,
+}
+
+fn bench(dir: &Path) -> Bench {
+    let pair = || {
+        let (master, slave) = TTYPort::pair().unwrap();
+        let path = PathBuf::from(slave.name().unwrap());
+        (master, slave, path)
+    };
+    let (imu, imu_slave, imu_path) = pair();
+    let (scb, scb_slave, scb_path) = pair();
+    let (gps, gps_slave, gps_path) = pair();
+    let adc = dir.join("adc");
+    std::fs::create_dir_all(&adc).unwrap();
+    for (channel, counts) in [(0, 2048), (1, 2048), (2, 2048), (3, 3000)] {
+        heli_vehicle::adc::write_channel(&adc, channel, counts).unwrap();
+    }
+    let devices = Devices {
+        ports: Ports {
+            imu: imu_path,
+            scb: scb_path,
+            gps: gps_path,
+            // No altimeter: its commands are lost, and that is reported.
+            baro: dir.join("no-such-altimeter"),
+        },
+        adc: Adc {
+            dir: adc,
+            compass: [0, 1, 2],
+            battery: 3,
+        },
+        gpio: Gpio::default(),
+    };
+    Bench {
+        imu,
+        scb,
+        _gps: gps,
+        _slaves: vec![imu_slave, scb_slave, gps_slave],
+        devices,
+    }
+}
+
+fn imu_frame() -> Vec<u8> {
+    let mut buf = [0u8; heli_proto::imu::FRAME_LEN];
+    let n = ImuRepr {
+        rate_rps: [0.0; 3],
+        accel_mps2: [0.0, 0.0, -9.81],
+        temp_c: 30.0,
+    }
+    .emit(&mut buf)
+    .unwrap();
+    buf[..n].to_vec()
+}
+
+/// Everything the servo controller board's port received so far.
+fn drain(port: &mut TTYPort, into: &mut Vec<u8>) {
+    let mut buf = [0u8; 4096];
+    while port.bytes_to_read().unwrap_or(0) > 0 {
+        match std::io::Read::read(port, &mut buf) {
+            Ok(n) if n > 0 => into.extend_from_slice(&buf[..n]),
+            _ => break,
+        }
+    }
+}
+
+/// The servo commands in the board's bytes after the start check, and the bytes that were
+/// not part of one.
+fn servo_commands(bytes: &[u8]) -> (usize, u32) {
+    let mut framer = heli_proto::scb::ServoFramer::default();
+    let after_check = bytes.get(heli_proto::scb::CHECK_LEN..).unwrap_or_default();
+    let commands = after_check
+        .iter()
+        .filter(|&&b| framer.push(b).is_some())
+        .count();
+    (commands, framer.stats().discarded_bytes)
+}
+
+struct Flying {
+    stop: Arc<AtomicBool>,
+    reports: Arc<Mutex<Vec<Report>>>,
+    thread: std::thread::JoinHandle<Result<FlightSummary, String>>,
+    began: Instant,
+}
+
+impl Flying {
+    fn notes(&self) -> Vec<String> {
+        self.reports
+            .lock()
+            .unwrap()
+            .iter()
+            .filter_map(|r| match r {
+                Report::Note(t) => Some(t.clone()),
+                Report::Event { text, .. } => Some(text.clone()),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn wait_for(&self, what: &str, timeout: Duration, done: impl Fn(&[Report]) -> bool) {
+        let started = Instant::now();
+        while !done(&self.reports.lock().unwrap()) {
+            assert!(
+                started.elapsed() < timeout,
+                "{what}: not within {timeout:?}; {:#?}",
+                self.notes()
+            );
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+
+    fn land(self) -> (FlightSummary, Vec<Report>) {
+        self.stop.store(true, Ordering::Release);
+        let summary = self.thread.join().unwrap().unwrap();
+        let reports = std::mem::take(&mut *self.reports.lock().unwrap());
+        (summary, reports)
+    }
+}
+
+fn fly(devices: Devices, dir: &Path, ground_link: Arc<AtomicU8>) -> Flying {
+    let setup = FlightSetup {
+        devices,
+        config: CoreConfig {
+            imu_warm_up_s: 0.1,
+            calibration_s: 0.5,
+            ..CoreConfig::default()
+        },
+        params: FlightParams::default(),
+        baro_rate_hz: 5,
+        log_path: Some(dir.join("flight.mcap")),
+        metadata: BTreeMap::new(),
+        clock_speed: 1.0,
+        restart_from: None,
+        warm_file: Some((dir.join("warm-start"), "t1 manual".into())),
+        ground_link,
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let reports = Arc::new(Mutex::new(Vec::new()));
+    let sink = Arc::clone(&reports);
+    let report = Arc::new(move |r: Report| sink.lock().unwrap().push(r));
+    let flag = Arc::clone(&stop);
+    let began = Instant::now();
+    let thread = std::thread::spawn(move || run(setup, flag, report));
+    Flying {
+        stop,
+        reports,
+        thread,
+        began,
+    }
+}
+
+#[test]
+fn a_flight_on_pseudo_terminals_is_timed_by_the_imu_and_watched() {
+    let dir = tempfile::tempdir().unwrap();
+    let Bench {
+        mut imu,
+        mut scb,
+        _gps,
+        _slaves,
+        devices,
+    } = bench(dir.path());
+    let ground_link = Arc::new(AtomicU8::new(0));
+    let flight = fly(devices, dir.path(), Arc::clone(&ground_link));
+    // Every port that is there opens at once: the loop does not wait out the 2 s allowed
+    // for slow ones.
+    flight.wait_for("started", Duration::from_secs(5), |r| {
+        r.iter().any(|r| matches!(r, Report::Started { .. }))
+    });
+    assert!(
+        flight.began.elapsed() < Duration::from_millis(1500),
+        "started after {:?}",
+        flight.began.elapsed()
+    );
+    // Two seconds of IMU packets at 100 Hz: calibrated, and a record for a successor.
+    let frame = imu_frame();
+    let mut board = Vec::new();
+    let mut next = Instant::now();
+    for k in 0..200 {
+        std::io::Write::write_all(&mut imu, &frame).unwrap();
+        next += Duration::from_millis(10);
+        std::thread::sleep(next.saturating_duration_since(Instant::now()));
+        if k % 20 == 0 {
+            drain(&mut scb, &mut board);
+        }
+        if k == 100 {
+            ground_link.store(1, Ordering::Release);
+        }
+    }
+    std::thread::sleep(Duration::from_millis(50));
+    drain(&mut scb, &mut board);
+    assert!(
+        dir.path().join("warm-start").exists(),
+        "the warm-start record is kept in flight"
+    );
+    // The IMU goes quiet: the watchdog fills in, then the IMU is reported silent.
+    ground_link.store(2, Ordering::Release);
+    flight.wait_for("the IMU reported silent", Duration::from_secs(3), |r| {
+        r.iter()
+            .any(|r| matches!(r, Report::Event { text, .. } if text.contains("imu silent")))
+    });
+    flight.wait_for(
+        "the battery in the telemetry",
+        Duration::from_secs(3),
+        |r| {
+            r.iter().any(|r| {
+                matches!(r, Report::Telemetry(v)
+                if v["power"]["batteries"].as_array().is_some_and(|b| !b.is_empty()))
+            })
+        },
+    );
+    let (summary, reports) = flight.land();
+    let notes: Vec<String> = reports
+        .iter()
+        .filter_map(|r| match r {
+            Report::Note(t) => Some(t.clone()),
+            _ => None,
+        })
+        .collect();
+    // The altimeter's port is not there: its first lost command is said, and the count at
+    // the end.
+    assert!(
+        notes.iter().any(|n| n.contains("write to baro failed")),
+        "{notes:#?}"
+    );
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.ends_with("device writes failed during the flight")),
+        "{notes:#?}"
+    );
+    // The board was checked at start, then given one servo command per control step: one
+    // for every other IMU packet, and the watchdog's fill-ins.
+    std::thread::sleep(Duration::from_millis(100));
+    drain(&mut scb, &mut board);
+    eprintln!("{notes:#?}");
+    assert_eq!(
+        &board[..heli_proto::scb::CHECK_LEN],
+        &[heli_proto::scb::CHECK_BYTE; heli_proto::scb::CHECK_LEN]
+    );
+    let stats = summary.stats;
+    assert_eq!(
+        servo_commands(&board),
+        (stats.control_steps as usize, 0),
+        "{stats:?}"
+    );
+    assert!(stats.control_steps >= 100, "{stats:?}");
+    assert_eq!(stats.imu_samples, 200);
+    assert!(stats.watchdog_fires >= 1, "{stats:?}");
+    assert!(summary.inputs >= 200, "{}", summary.inputs);
+    // A clean end: nothing for a successor to resume.
+    assert!(!dir.path().join("warm-start").exists());
+    // The ground link's two changes are inputs of the flight, in its log.
+    let log = heli_log::reader::read(&std::fs::read(dir.path().join("flight.mcap")).unwrap());
+    let links: Vec<bool> = log
+        .messages
+        .iter()
+        .filter(|m| m.value["kind"] == "ground_link")
+        .map(|m| m.value["fresh"].as_bool().unwrap())
+        .collect();
+    assert_eq!(links, [true, false], "{:?}", log.counts());
+}
