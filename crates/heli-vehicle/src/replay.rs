@@ -163,3 +163,221 @@ fn differing_fields(logged: Option<&Value>, replayed: Option<&Value>) -> Vec<Str
         (None, None) => Vec::new(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use heli_fsw::RecordedInput;
+    use heli_proto::imu::ImuRepr;
+
+    fn setup() -> ReplaySetup {
+        ReplaySetup {
+            config: CoreConfig {
+                imu_warm_up_s: 0.1,
+                calibration_s: 0.3,
+                ..CoreConfig::default()
+            },
+            params: FlightParams::default(),
+            baro_rate_hz: 5,
+            restart_from: None,
+        }
+    }
+
+    fn message(topic: &str, t_us: u64, value: Value) -> LoggedMessage {
+        LoggedMessage {
+            topic: topic.into(),
+            t_us,
+            sequence: 0,
+            value,
+        }
+    }
+
+    /// A second of IMU packets through a flight computer set up as `setup`, logged as the
+    /// flight process logs them: the device inputs and the compared channels' records.
+    fn flown(setup: &ReplaySetup) -> LogContents {
+        let mut computer = FlightComputer::new(setup.config, setup.params, setup.baro_rate_hz);
+        let mut contents = LogContents::default();
+        contents
+            .messages
+            .push(message(inputs::CHANNEL, 0, inputs::start_json()));
+        computer.start(0, &mut |_, _| {});
+        let mut frame = [0u8; heli_proto::imu::FRAME_LEN];
+        let n = ImuRepr {
+            rate_rps: [0.01, 0.0, 0.0],
+            accel_mps2: [0.0, 0.0, -9.81],
+            temp_c: 30.0,
+        }
+        .emit(&mut frame)
+        .unwrap_or(0);
+        let mut actions = Vec::new();
+        for k in 1..=100u64 {
+            let input = RecordedInput::Bytes(heli_fsw::Port::Imu, frame[..n].to_vec());
+            contents.messages.push(message(
+                inputs::CHANNEL,
+                k * 10_000,
+                inputs::input_json(&input),
+            ));
+            actions.clear();
+            computer.receive(k * 10_000, input.as_input(), &mut |_, _| {}, &mut actions);
+            for a in &actions {
+                if let Action::Publish(record) = a {
+                    let (topic, t_us, value) = heli_log::record_json(record);
+                    contents.messages.push(message(topic, t_us, value));
+                }
+            }
+        }
+        contents
+    }
+
+    fn index_of(contents: &LogContents, topic: &str, nth: usize) -> usize {
+        contents
+            .messages
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| m.topic == topic)
+            .nth(nth)
+            .map_or(usize::MAX, |(i, _)| i)
+    }
+
+    #[test]
+    fn a_log_replays_exactly_on_the_software_that_wrote_it() {
+        let contents = flown(&setup());
+        let outcome = replay(&setup(), &contents).unwrap();
+        assert_eq!(outcome.inputs, 100);
+        assert_eq!(outcome.compared.get("servo"), Some(&50));
+        let states = contents
+            .messages
+            .iter()
+            .filter(|m| m.topic == "state")
+            .count();
+        assert!(states > 0);
+        assert_eq!(outcome.compared.get("state"), Some(&states));
+        assert_eq!(outcome.first_difference, None);
+        assert!(outcome.exact());
+    }
+
+    #[test]
+    fn a_changed_record_is_the_first_difference_with_its_fields() {
+        let mut contents = flown(&setup());
+        let i = index_of(&contents, "servo", 7);
+        let t_us = contents.messages[i].t_us;
+        let logged = contents.messages[i].value.clone();
+        let field = logged
+            .as_object()
+            .and_then(|o| o.keys().next().cloned())
+            .unwrap();
+        contents.messages[i].value[&field] = serde_json::json!(12345);
+        let outcome = replay(&setup(), &contents).unwrap();
+        assert!(!outcome.exact());
+        let d = outcome.first_difference.unwrap();
+        assert_eq!((d.channel.as_str(), d.index), ("servo", 7));
+        assert_eq!((d.logged_t_us, d.replayed_t_us), (Some(t_us), Some(t_us)));
+        assert_eq!(
+            d.fields,
+            [format!("{field}: 12345 -> {}", logged[&field])],
+            "only the changed field is named"
+        );
+    }
+
+    #[test]
+    fn the_earliest_difference_of_all_channels_is_reported() {
+        let mut contents = flown(&setup());
+        // A late servo record and an earlier state record changed: the state's is first.
+        let late = index_of(&contents, "servo", 40);
+        contents.messages[late].value = serde_json::json!({"changed": true});
+        let early = index_of(&contents, "state", 2);
+        let early_t = contents.messages[early].t_us;
+        contents.messages[early].value = serde_json::json!(1);
+        let d = replay(&setup(), &contents)
+            .unwrap()
+            .first_difference
+            .unwrap();
+        assert_eq!((d.channel.as_str(), d.index), ("state", 2));
+        assert_eq!(d.logged_t_us, Some(early_t));
+        assert_eq!(d.fields.len(), 1);
+        assert!(d.fields[0].starts_with("1 -> {"), "{:?}", d.fields);
+        // The same changes the other way round: the servo's is first.
+        let mut contents = flown(&setup());
+        let early = index_of(&contents, "servo", 1);
+        contents.messages[early].value = serde_json::json!({"changed": true});
+        let late = index_of(&contents, "state", 20);
+        contents.messages[late].value = serde_json::json!(1);
+        let d = replay(&setup(), &contents)
+            .unwrap()
+            .first_difference
+            .unwrap();
+        assert_eq!((d.channel.as_str(), d.index), ("servo", 1));
+    }
+
+    #[test]
+    fn a_log_cut_short_compares_what_it_has_and_one_with_more_differs() {
+        // Cut by a crash: the last records missing; what is there matches.
+        let mut contents = flown(&setup());
+        let last_servo = index_of(&contents, "servo", 49);
+        contents.messages.remove(last_servo);
+        let outcome = replay(&setup(), &contents).unwrap();
+        assert_eq!(outcome.compared.get("servo"), Some(&49));
+        assert!(outcome.exact());
+        // A record the replay never produces.
+        let mut contents = flown(&setup());
+        contents
+            .messages
+            .push(message("servo", 2_000_000, serde_json::json!({"extra": 1})));
+        let d = replay(&setup(), &contents)
+            .unwrap()
+            .first_difference
+            .unwrap();
+        assert_eq!((d.channel.as_str(), d.index), ("servo", 50));
+        assert_eq!((d.logged_t_us, d.replayed_t_us), (Some(2_000_000), None));
+        assert_eq!(d.fields, ["in the log, not produced by the replay"]);
+    }
+
+    #[test]
+    fn changed_software_is_seen_and_a_log_without_inputs_is_refused() {
+        // The same inputs to a computer calibrating for longer: other servo records.
+        let contents = flown(&setup());
+        let longer = ReplaySetup {
+            config: CoreConfig {
+                calibration_s: 0.6,
+                ..setup().config
+            },
+            ..setup()
+        };
+        assert!(!replay(&longer, &contents).unwrap().exact());
+        // Nothing to feed.
+        let mut bare = flown(&setup());
+        bare.messages.retain(|m| m.topic != inputs::CHANNEL);
+        let e = replay(&setup(), &bare).unwrap_err();
+        assert!(e.contains("no device inputs"), "{e}");
+        // An input that cannot be read is named with its time.
+        let mut bad = flown(&setup());
+        let i = index_of(&bad, inputs::CHANNEL, 3);
+        bad.messages[i].value = serde_json::json!({"kind": "bytes", "port": "modem", "hex": ""});
+        let e = replay(&setup(), &bad).unwrap_err();
+        assert!(e.starts_with("device input at t=0.030000 s"), "{e}");
+        // Compared nothing (no record of either channel): not exact.
+        let mut silent = flown(&setup());
+        silent.messages.retain(|m| m.topic == inputs::CHANNEL);
+        let outcome = replay(&setup(), &silent).unwrap();
+        assert_eq!(outcome.compared.get("servo"), Some(&0));
+        assert!(!outcome.exact());
+    }
+
+    #[test]
+    fn differing_fields_name_what_changed() {
+        let l = serde_json::json!({"a": 1, "b": 2});
+        let r = serde_json::json!({"a": 1, "b": 3});
+        assert_eq!(differing_fields(Some(&l), Some(&r)), ["b: 2 -> 3"]);
+        let r = serde_json::json!({"a": 1});
+        assert_eq!(differing_fields(Some(&l), Some(&r)), ["b: 2 -> null"]);
+        assert_eq!(
+            differing_fields(Some(&serde_json::json!(1)), Some(&serde_json::json!(2))),
+            ["1 -> 2"]
+        );
+        assert_eq!(
+            differing_fields(None, Some(&l)),
+            ["produced by the replay, not in the log"]
+        );
+        assert!(differing_fields(None, None).is_empty());
+    }
+}
