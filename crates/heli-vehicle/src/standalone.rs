@@ -249,14 +249,18 @@ fn serial_driver(
             heli_proto::scb::CHECK_LEN
         ]),
         Port::Baro => baro.start(clock.now_us(), &mut |b: &[u8]| writes.push(b.to_vec())),
-        Port::Imu => watchdog.kick(clock.now_us()),
+        Port::Imu => {
+            // Every 12 ms without a packet is a miss: the reads must wake more often than
+            // that, not once per port timeout.
+            serialport::SerialPort::set_timeout(serial, Duration::from_millis(2))
+                .map_err(|e| format!("setting the read timeout: {e}"))?;
+            watchdog.kick(clock.now_us());
+        }
         Port::Gps => {}
     }
     let mut buf = [0u8; 256];
     while !stop.load(Ordering::Acquire) && max_samples.is_none_or(|m| report.samples < m) {
-        for w in writes.drain(..) {
-            port::write_all(serial, &w).map_err(|e| format!("writing to the device: {e}"))?;
-        }
+        send(serial, &mut writes)?;
         let n =
             port::read_some(serial, &mut buf).map_err(|e| format!("reading the device: {e}"))?;
         let t_us = clock.now_us();
@@ -337,6 +341,15 @@ fn serial_driver(
             logger.record(record)?;
             report.samples = report.samples.saturating_add(1);
         }
+    }
+    // What the last packets called for still goes out (the pilot's last command, a retry).
+    send(serial, &mut writes)
+}
+
+/// Writes what is waiting to go to the device.
+fn send(serial: &mut TTYPort, writes: &mut Vec<Vec<u8>>) -> Result<(), String> {
+    for w in writes.drain(..) {
+        port::write_all(serial, &w).map_err(|e| format!("writing to the device: {e}"))?;
     }
     Ok(())
 }
