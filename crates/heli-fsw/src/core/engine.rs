@@ -72,10 +72,9 @@ impl FlightCore {
             self.airborne_once && self.height_above_home(est) > self.config.airborne_height_m;
         // The rotor speed over the last `falling_over_s` (a few control steps).
         let history = &mut self.rotor_history;
-        while history.len() > 1
-            && history
-                .get(1)
-                .is_some_and(|(t, _)| seconds_between(*t, now_us) >= w.falling_over_s)
+        while history
+            .get(1)
+            .is_some_and(|(t, _)| seconds_between(*t, now_us) >= w.falling_over_s)
         {
             history.pop_front();
         }

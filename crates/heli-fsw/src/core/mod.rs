@@ -589,6 +589,8 @@ fn input_is_finite(input: &Input) -> bool {
 #[cfg(test)]
 mod dispatch_tests;
 #[cfg(test)]
+mod edge_tests;
+#[cfg(test)]
 mod engine_tests;
 #[cfg(test)]
 mod mode_check_tests;

@@ -261,3 +261,36 @@ fn the_failsafe_waits_for_a_roll_and_leaves_the_pilot_and_the_ground_alone() {
     };
     assert_eq!(core.battery_failsafe(&est, 1001 * S, &mut out), None);
 }
+
+#[test]
+fn the_first_hot_swap_reading_on_the_flight_pack_keeps_its_gauge() {
+    // Only a pack coming back on the bus (ground to flight) starts its gauge again: the
+    // line read for the first time, already high, is no swap.
+    let mut core = core();
+    let mut out = Vec::new();
+    battery(&mut core, &mut out, 0, 5, 12.2);
+    core.handle(Input::PowerSource(PowerSource::Flight), 6 * S, &mut out);
+    assert!(core.power().state(Battery::Flight).is_some());
+}
+
+#[test]
+fn a_pack_draining_abnormally_is_raised_once() {
+    let mut core = core();
+    let mut out = Vec::new();
+    // A minute as expected, then the voltage falls far faster than the count allows.
+    battery(&mut core, &mut out, 0, 70, 12.4);
+    battery(&mut core, &mut out, 70, 120, 11.2);
+    let drains = out
+        .iter()
+        .filter(|a| {
+            matches!(a, Action::Event(e) if e.value
+                == CoreEvent::BatteryDrainingAbnormally { battery: Battery::Flight })
+        })
+        .count();
+    assert_eq!(drains, 1);
+    assert!(
+        core.power()
+            .state(Battery::Flight)
+            .is_some_and(|s| s.draining_abnormally)
+    );
+}

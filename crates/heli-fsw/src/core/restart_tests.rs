@@ -149,6 +149,23 @@ fn the_alignment_waits_for_a_gps_fix_up_to_its_limit() {
     assert!(raised(&out, CoreEvent::AlignedInAir { gps: false }));
     // The first sample opens the window at 10 ms.
     assert_eq!(t, 10_000 + (restart::ALIGN_GPS_WAIT_S * 1e6) as u64);
+    // The predecessor's origin is no fix: without one heard, still three seconds.
+    let located = WarmStart {
+        origin: Some(heli_nav::GeoOrigin {
+            lat_deg: 42.36,
+            lon_deg: -71.09,
+            alt_m: 10.0,
+        }),
+        ..warm(None)
+    };
+    let mut core = FlightCore::restarted(CoreConfig::default(), FlightParams::default(), located);
+    assert!(core.nav.origin().is_some());
+    let mut t = 0;
+    while core.aligning() && t < 5 * S {
+        t += 10_000;
+        core.handle(Input::Imu(still()), t, &mut Vec::new());
+    }
+    assert_eq!(t, 10_000 + (restart::ALIGN_GPS_WAIT_S * 1e6) as u64);
     assert!(with_gps, "aligned with the GPS's velocity");
     assert_eq!(aligned_after, 10_000 + (restart::ALIGN_S * 1e6) as u64);
     // The estimate starts level from the samples' mean specific force, with the bias kept.

@@ -48,7 +48,7 @@ impl FlightCore {
         // Where the helicopter can stop: ahead by v²/2a at the braking deceleration, so that
         // a hold begun in motion does not fly back to where it began.
         let horizontal_vel = Vector3::new(est.vel_ned_mps.x, est.vel_ned_mps.y, 0.0);
-        let stop = horizontal_vel * (horizontal_vel.norm() / (2.0 * brake::BRAKE_DECEL_MPS2));
+        let stop = horizontal_vel * (0.5 * horizontal_vel.norm() / brake::BRAKE_DECEL_MPS2);
         let here = Target::hold(est.pos_ned_m + stop, yaw);
         let on_ground = self.height_above_home(est) < self.config.airborne_height_m;
         let bypass = !self.uplink_lost && pilot.is_some_and(|p| p.bypass);
@@ -192,7 +192,11 @@ impl FlightCore {
                 _ => {
                     let target = self.braking_target(target, now_us, est);
                     Phase::Holding {
-                        target: self.weathervane(target, dt_s),
+                        target: weathervane::weathervane(
+                            target,
+                            self.hover.trim_accel_ned_mps2(),
+                            dt_s,
+                        ),
                         since_us,
                     }
                 }

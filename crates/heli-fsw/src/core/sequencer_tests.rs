@@ -26,7 +26,7 @@ fn plan() -> Plan {
 
 /// A core flying `mode` with every device heard and a good GPS fix at `now_us`, calibrated
 /// (the phase is `phase`), the pilot's switch `auto`.
-fn core_in(phase: Phase, mode: FlightMode, auto: bool, now_us: u64) -> FlightCore {
+pub(super) fn core_in(phase: Phase, mode: FlightMode, auto: bool, now_us: u64) -> FlightCore {
     let mut core = FlightCore::new(CoreConfig::default(), FlightParams { mode, plan: plan() });
     for device in Device::ALL {
         core.health.monitor_mut(device).sample(now_us);
@@ -39,7 +39,7 @@ fn core_in(phase: Phase, mode: FlightMode, auto: bool, now_us: u64) -> FlightCor
 }
 
 /// Level at heading 0.3 rad, `height_m` up, at `vel`.
-fn est(height_m: f64, north_m: f64, vel: Vector3<f64>) -> NavState {
+pub(super) fn est(height_m: f64, north_m: f64, vel: Vector3<f64>) -> NavState {
     NavState {
         t_us: 0,
         att: UnitQuaternion::from_euler_angles(0.0, 0.0, 0.3),
@@ -52,7 +52,7 @@ fn est(height_m: f64, north_m: f64, vel: Vector3<f64>) -> NavState {
     }
 }
 
-fn next(core: &mut FlightCore, e: &NavState, now_us: u64) -> (Phase, Vec<Action>) {
+pub(super) fn next(core: &mut FlightCore, e: &NavState, now_us: u64) -> (Phase, Vec<Action>) {
     let mut out = Vec::new();
     let phase = core.next_phase(Some(e), now_us, DT, &mut out);
     (phase, out)
@@ -67,8 +67,9 @@ fn the_auto_switch_in_the_air_holds_where_the_helicopter_can_stop() {
     let mut core = core_in(Phase::Manual, FlightMode::Autonomous, true, S);
     let e = est(8.0, 0.0, Vector3::new(4.0, -2.0, 0.0));
     let (phase, _) = next(&mut core, &e, S);
+    // v²/2a ahead along the velocity: 20 m²/s² over 4 m/s², 5 m along (4, -2)/√20.
     let v: Vector3<f64> = Vector3::new(4.0, -2.0, 0.0);
-    let stop: Vector3<f64> = v * (v.norm() / (2.0 * brake::BRAKE_DECEL_MPS2));
+    let stop: Vector3<f64> = v * (5.0 / 20.0_f64.sqrt());
     match phase {
         Phase::Holding { target, since_us } => {
             assert!(
@@ -543,7 +544,11 @@ fn a_short_path_keeps_the_heading_a_long_one_turns_along_it() {
         .unwrap()
     };
     let target = Target::hold(Vector3::new(0.0, 0.0, -10.0), 0.3);
-    for (north, east, heading) in [(3.0, 3.0, 0.3), (0.0, 20.0, core::f64::consts::FRAC_PI_2)] {
+    for (north, east, heading) in [
+        (3.0, 3.0, 0.3),
+        (5.0, 0.0, 0.3),
+        (0.0, 20.0, core::f64::consts::FRAC_PI_2),
+    ] {
         let mut core = core_in(Phase::TakingOff { target }, FlightMode::Autonomous, true, S);
         core.params.plan = plan(north, east);
         match next(&mut core, &est(10.0, 0.0, Vector3::zeros()), S).0 {
@@ -557,11 +562,13 @@ fn a_short_path_keeps_the_heading_a_long_one_turns_along_it() {
             other => panic!("{other:?}"),
         }
     }
-    // A path that goes nowhere has no velocity.
-    let mut core = core_in(Phase::TakingOff { target }, FlightMode::Autonomous, true, S);
-    core.params.plan = plan(0.0, 0.0);
-    match next(&mut core, &est(10.0, 0.0, Vector3::zeros()), S).0 {
-        Phase::Flying { target: t, .. } => assert_eq!(t.vel_ned_mps, Vector3::zeros()),
-        other => panic!("{other:?}"),
+    // A path that goes nowhere (a micrometre at most) has no velocity.
+    for north in [0.0, 1e-6] {
+        let mut core = core_in(Phase::TakingOff { target }, FlightMode::Autonomous, true, S);
+        core.params.plan = plan(north, 0.0);
+        match next(&mut core, &est(10.0, 0.0, Vector3::zeros()), S).0 {
+            Phase::Flying { target: t, .. } => assert_eq!(t.vel_ned_mps, Vector3::zeros()),
+            other => panic!("{other:?}"),
+        }
     }
 }

@@ -120,7 +120,7 @@ fn two_records_of_one_stream_at_the_same_time_keep_them() {
             repeated: false,
         },
     )));
-    out.push(record.clone());
+    out.push(record);
     out.push(record);
     assert_eq!(checker.check(&core, t, &out), Ok(()));
 }
