@@ -235,6 +235,47 @@ impl LogStore for DirStore {
     }
 }
 
+/// How often an unauthenticated link says so to its grounds.
+const UNSIGNED_WARNING_EVERY: Duration = Duration::from_secs(30);
+
+/// Whether something last done at `last` (never: `None`) is due again at `now`, `every`
+/// after it.
+fn due_again(last: Option<Instant>, now: Instant, every: Duration) -> bool {
+    last.is_none_or(|t| now.saturating_duration_since(t) >= every)
+}
+
+/// The ground stations the link sends to: each heard (a frame that passed the checks) in
+/// the last [`PEER_TIMEOUT`], at most [`MAX_PEERS`] of them.
+#[derive(Debug, Default)]
+struct Peers {
+    heard: BTreeMap<SocketAddr, Instant>,
+}
+
+impl Peers {
+    /// `from` was heard at `now`; true if it is a new peer. A new one beyond
+    /// [`MAX_PEERS`] takes the place of the one heard longest ago.
+    fn heard(&mut self, from: SocketAddr, now: Instant) -> bool {
+        if !self.heard.contains_key(&from) && self.heard.len() >= MAX_PEERS {
+            let oldest = self.heard.iter().min_by_key(|(_, t)| **t).map(|(a, _)| *a);
+            if let Some(a) = oldest {
+                self.heard.remove(&a);
+            }
+        }
+        self.heard.insert(from, now).is_none()
+    }
+
+    /// Forgets the peers not heard for [`PEER_TIMEOUT`] at `now`.
+    fn expire(&mut self, now: Instant) {
+        self.heard
+            .retain(|_, heard| now.saturating_duration_since(*heard) < PEER_TIMEOUT);
+    }
+
+    /// The peers' addresses.
+    fn addrs(&self) -> impl Iterator<Item = &SocketAddr> {
+        self.heard.keys()
+    }
+}
+
 /// The wall clock as Unix time (µs): MAVLink signing's time base. The link's runtime and
 /// `heli ground` read the clock here; the link's state machines only take it as an argument.
 pub fn unix_us() -> u64 {
@@ -281,7 +322,7 @@ pub fn spawn(
         };
         let store = DirStore::new(log_dir.clone());
         let mut link = VehicleLink::new(key, unix_us()).with_params(params);
-        let mut peers: BTreeMap<SocketAddr, Instant> = BTreeMap::new();
+        let mut peers = Peers::default();
         let mut pending: Vec<(heli_link::vehicle::CommandToken, Receiver<String>)> = Vec::new();
         let mut buf = [0u8; 2048];
         let mut last_unsigned_warning: Option<Instant> = None;
@@ -301,17 +342,9 @@ pub fn spawn(
                 events.extend(link.receive(buf.get(..n).unwrap_or(&[]), unix_us(), &store));
                 // Only a sender of a frame that passed the checks is sent to: a refused or
                 // garbled datagram earns its sender nothing.
-                if link.stats.frames_in > accepted_before {
-                    if !peers.contains_key(&from) && peers.len() >= MAX_PEERS {
-                        let oldest = peers.iter().min_by_key(|(_, t)| **t).map(|(a, _)| *a);
-                        if let Some(a) = oldest {
-                            peers.remove(&a);
-                        }
-                    }
-                    if peers.insert(from, Instant::now()).is_none() {
-                        // A ground just arrived is told at once, not at the next 30 s.
-                        last_unsigned_warning = None;
-                    }
+                if link.stats.frames_in > accepted_before && peers.heard(from, Instant::now()) {
+                    // A ground just arrived is told at once, not at the next 30 s.
+                    last_unsigned_warning = None;
                 }
                 if first {
                     let _ = socket.set_nonblocking(true);
@@ -334,7 +367,7 @@ pub fn spawn(
             for (severity, text) in texts {
                 link.status_text(severity, &text, unix_us());
             }
-            if !signed && last_unsigned_warning.is_none_or(|t| t.elapsed() > Duration::from_secs(30)) {
+            if !signed && due_again(last_unsigned_warning, Instant::now(), UNSIGNED_WARNING_EVERY) {
                 link.status_text(
                     MavSeverity::MAV_SEVERITY_WARNING,
                     "link unauthenticated: no signing key set",
@@ -351,8 +384,8 @@ pub fn spawn(
                     // The link tells the ground itself (at most once a second); the
                     // console gets the same, no more often.
                     LinkEvent::Refused { reason, from, message_id } => {
-                        let last = last_refusal_line.get(reason.text());
-                        if last.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
+                        let last = last_refusal_line.get(reason.text()).copied();
+                        if due_again(last, Instant::now(), Duration::from_secs(1)) {
                             use std::io::Write;
                             let _ = writeln!(
                                 std::io::stdout().lock(),
@@ -405,9 +438,9 @@ pub fn spawn(
                     false
                 }
             });
-            peers.retain(|_, heard| heard.elapsed() < PEER_TIMEOUT);
+            peers.expire(Instant::now());
             for datagram in link.take_outgoing() {
-                for peer in peers.keys() {
+                for peer in peers.addrs() {
                     let _ = socket.send_to(&datagram, peer);
                 }
             }
@@ -419,141 +452,4 @@ pub fn spawn(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn lines_get_the_severity_of_their_events() {
-        assert_eq!(
-            severity_of("flight: event fatal t=1.00 s imu silent"),
-            MavSeverity::MAV_SEVERITY_CRITICAL
-        );
-        assert_eq!(
-            severity_of("flight: event warning-hi t=1.00 s GPS lost"),
-            MavSeverity::MAV_SEVERITY_WARNING
-        );
-        assert_eq!(
-            severity_of("bootstrap: flight process CRASHED: signal 9 (SIGKILL)"),
-            MavSeverity::MAV_SEVERITY_CRITICAL
-        );
-        assert_eq!(
-            severity_of("bootstrap: state idle"),
-            MavSeverity::MAV_SEVERITY_INFO
-        );
-    }
-
-    #[test]
-    fn the_heartbeat_knows_the_mode_of_the_flight_under_way() {
-        let shared = LinkShared::default();
-        shared.set_state(State::Flying, Some("hover1 velocity hover"));
-        let s = shared.lock().status;
-        assert_eq!((s.state, s.mode), (BootstrapState::Flying, 5));
-    }
-
-    #[test]
-    fn telemetry_of_a_flight_process_gone_is_not_kept() {
-        let shared = LinkShared::default();
-        shared.set_state(State::Flying, Some("hover1 autonomous"));
-        shared.set_telemetry(&serde_json::to_string(&Telemetry::default()).unwrap());
-        assert!(shared.lock().telemetry.is_some());
-        shared.set_state(State::Idle, None);
-        assert!(shared.lock().telemetry.is_none());
-    }
-
-    /// Starts a link thread without a key on loopback; returns its address, what it said,
-    /// and the stop flag.
-    fn open_link(dir: &std::path::Path) -> (SocketAddr, Arc<Mutex<Vec<String>>>, Arc<AtomicBool>) {
-        let config = crate::bootstrap::BootstrapConfig {
-            socket: dir.join("ctl.sock"),
-            child: Vec::new(),
-            warm_file: None,
-        };
-        let bootstrap = crate::bootstrap::Bootstrap::new(config, Box::new(|_: &str| {}));
-        let probe = UdpSocket::bind("127.0.0.1:0").unwrap();
-        let addr = probe.local_addr().unwrap();
-        drop(probe);
-        let said = Arc::new(Mutex::new(Vec::new()));
-        let said_to = Arc::clone(&said);
-        let stop = Arc::new(AtomicBool::new(false));
-        spawn(
-            addr,
-            None,
-            dir.to_path_buf(),
-            Arc::new(LinkShared::default()),
-            bootstrap.requests(),
-            Arc::new(move |l: &str| said_to.lock().unwrap().push(l.to_string())),
-            Arc::clone(&stop),
-        )
-        .unwrap();
-        (addr, said, stop)
-    }
-
-    #[test]
-    fn without_a_key_the_link_says_it_is_unauthenticated_and_a_garbler_is_sent_nothing() {
-        let dir = tempfile::tempdir().unwrap();
-        let (addr, said, stop) = open_link(dir.path());
-        assert!(
-            said.lock().unwrap()[0].contains("UNAUTHENTICATED"),
-            "{said:?}"
-        );
-        // A sender of garbage is not a peer: it gets nothing back.
-        let garbler = UdpSocket::bind("127.0.0.1:0").unwrap();
-        garbler
-            .set_read_timeout(Some(Duration::from_millis(300)))
-            .unwrap();
-        garbler.send_to(&[0xFD, 1, 2, 3], addr).unwrap();
-        let mut buf = [0u8; 512];
-        assert!(garbler.recv(&mut buf).is_err(), "garbage earned an answer");
-        // A ground's heartbeat makes it a peer, told the link is unauthenticated.
-        let mut ground = heli_link::ground::GroundLink::new(None);
-        let ground_socket = UdpSocket::bind("127.0.0.1:0").unwrap();
-        ground_socket
-            .set_read_timeout(Some(Duration::from_millis(100)))
-            .unwrap();
-        ground_socket
-            .send_to(&ground.heartbeat_frame(unix_us()), addr)
-            .unwrap();
-        let end = Instant::now() + Duration::from_secs(3);
-        while Instant::now() < end
-            && !(ground.heartbeat.is_some()
-                && ground
-                    .texts
-                    .iter()
-                    .any(|(_, t)| t.contains("unauthenticated")))
-        {
-            if let Ok(n) = ground_socket.recv(&mut buf) {
-                ground.receive(&buf[..n], unix_us());
-            }
-        }
-        stop.store(true, Ordering::Release);
-        assert!(
-            ground
-                .texts
-                .iter()
-                .any(|(_, t)| t.contains("link unauthenticated")),
-            "{:?}",
-            ground.texts
-        );
-        assert!(ground.heartbeat.is_some());
-    }
-
-    #[test]
-    fn a_directory_of_logs_is_listed_and_read() {
-        let dir = tempfile::tempdir().unwrap();
-        std::fs::write(dir.path().join("flight_b.mcap"), vec![2u8; 300]).unwrap();
-        std::fs::write(dir.path().join("flight_a.mcap"), vec![1u8; 100]).unwrap();
-        std::fs::write(dir.path().join("warm-start"), "x").unwrap();
-        let store = DirStore::new(dir.path().to_path_buf());
-        let list = store.list();
-        assert_eq!(list.len(), 2);
-        assert_eq!(
-            (list[0].id, list[0].name.as_str(), list[0].size),
-            (1, "flight_a.mcap", 100)
-        );
-        let mut buf = [0u8; 90];
-        assert_eq!(store.read("flight_b.mcap", 250, &mut buf), 50);
-        assert_eq!(buf[0], 2);
-        assert_eq!(store.read("flight_c.mcap", 0, &mut buf), 0);
-        assert_eq!(store.read("../warm-start", 0, &mut buf), 0);
-    }
-}
+mod tests;

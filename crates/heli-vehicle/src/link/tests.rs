@@ -1,0 +1,301 @@
+//! The link's shared state, its pieces, and the link thread on loopback.
+
+use super::*;
+
+#[test]
+fn lines_get_the_severity_of_their_events() {
+    assert_eq!(
+        severity_of("flight: event fatal t=1.00 s imu silent"),
+        MavSeverity::MAV_SEVERITY_CRITICAL
+    );
+    assert_eq!(
+        severity_of("flight: event warning-hi t=1.00 s GPS lost"),
+        MavSeverity::MAV_SEVERITY_WARNING
+    );
+    assert_eq!(
+        severity_of("bootstrap: flight process CRASHED: signal 9 (SIGKILL)"),
+        MavSeverity::MAV_SEVERITY_CRITICAL
+    );
+    assert_eq!(
+        severity_of("bootstrap: state idle"),
+        MavSeverity::MAV_SEVERITY_INFO
+    );
+}
+
+#[test]
+fn the_heartbeat_knows_the_mode_of_the_flight_under_way() {
+    let shared = LinkShared::default();
+    shared.set_state(State::Flying, Some("hover1 velocity hover"));
+    let s = shared.lock().status;
+    assert_eq!((s.state, s.mode), (BootstrapState::Flying, 5));
+}
+
+#[test]
+fn telemetry_of_a_flight_process_gone_is_not_kept() {
+    let shared = LinkShared::default();
+    shared.set_state(State::Flying, Some("hover1 autonomous"));
+    shared.set_telemetry(&serde_json::to_string(&Telemetry::default()).unwrap());
+    assert!(shared.lock().telemetry.is_some());
+    shared.set_state(State::Idle, None);
+    assert!(shared.lock().telemetry.is_none());
+}
+
+/// Starts a link thread without a key on loopback; returns its address, what it said,
+/// and the stop flag.
+fn open_link(dir: &std::path::Path) -> (SocketAddr, Arc<Mutex<Vec<String>>>, Arc<AtomicBool>) {
+    let config = crate::bootstrap::BootstrapConfig {
+        socket: dir.join("ctl.sock"),
+        child: Vec::new(),
+        warm_file: None,
+    };
+    let bootstrap = crate::bootstrap::Bootstrap::new(config, Box::new(|_: &str| {}));
+    let probe = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let addr = probe.local_addr().unwrap();
+    drop(probe);
+    let said = Arc::new(Mutex::new(Vec::new()));
+    let said_to = Arc::clone(&said);
+    let stop = Arc::new(AtomicBool::new(false));
+    spawn(
+        addr,
+        None,
+        dir.to_path_buf(),
+        Arc::new(LinkShared::default()),
+        bootstrap.requests(),
+        Arc::new(move |l: &str| said_to.lock().unwrap().push(l.to_string())),
+        Arc::clone(&stop),
+    )
+    .unwrap();
+    (addr, said, stop)
+}
+
+#[test]
+fn without_a_key_the_link_says_it_is_unauthenticated_and_a_garbler_is_sent_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let (addr, said, stop) = open_link(dir.path());
+    assert!(
+        said.lock().unwrap()[0].contains("UNAUTHENTICATED"),
+        "{said:?}"
+    );
+    // A sender of garbage is not a peer: it gets nothing back.
+    let garbler = UdpSocket::bind("127.0.0.1:0").unwrap();
+    garbler
+        .set_read_timeout(Some(Duration::from_millis(300)))
+        .unwrap();
+    garbler.send_to(&[0xFD, 1, 2, 3], addr).unwrap();
+    let mut buf = [0u8; 512];
+    assert!(garbler.recv(&mut buf).is_err(), "garbage earned an answer");
+    // A ground's heartbeat makes it a peer, told the link is unauthenticated.
+    let mut ground = heli_link::ground::GroundLink::new(None);
+    let ground_socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+    ground_socket
+        .set_read_timeout(Some(Duration::from_millis(100)))
+        .unwrap();
+    ground_socket
+        .send_to(&ground.heartbeat_frame(unix_us()), addr)
+        .unwrap();
+    let end = Instant::now() + Duration::from_secs(3);
+    while Instant::now() < end
+        && !(ground.heartbeat.is_some()
+            && ground
+                .texts
+                .iter()
+                .any(|(_, t)| t.contains("unauthenticated")))
+    {
+        if let Ok(n) = ground_socket.recv(&mut buf) {
+            ground.receive(&buf[..n], unix_us());
+        }
+    }
+    stop.store(true, Ordering::Release);
+    assert!(
+        ground
+            .texts
+            .iter()
+            .any(|(_, t)| t.contains("link unauthenticated")),
+        "{:?}",
+        ground.texts
+    );
+    assert!(ground.heartbeat.is_some());
+}
+
+#[test]
+fn a_directory_of_logs_is_listed_and_read() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("flight_b.mcap"), vec![2u8; 300]).unwrap();
+    std::fs::write(dir.path().join("flight_a.mcap"), vec![1u8; 100]).unwrap();
+    std::fs::write(dir.path().join("warm-start"), "x").unwrap();
+    let store = DirStore::new(dir.path().to_path_buf());
+    let list = store.list();
+    assert_eq!(list.len(), 2);
+    assert_eq!(
+        (list[0].id, list[0].name.as_str(), list[0].size),
+        (1, "flight_a.mcap", 100)
+    );
+    let mut buf = [0u8; 90];
+    assert_eq!(store.read("flight_b.mcap", 250, &mut buf), 50);
+    assert_eq!(buf[0], 2);
+    assert_eq!(store.read("flight_c.mcap", 0, &mut buf), 0);
+    assert_eq!(store.read("../warm-start", 0, &mut buf), 0);
+}
+
+#[test]
+fn the_heartbeat_names_each_controller_by_its_mode_code() {
+    let shared = LinkShared::default();
+    for (name, code) in [
+        ("manual", 1),
+        ("autonomous", 2),
+        ("rate", 3),
+        ("attitude", 4),
+        ("velocity", 5),
+        ("loop", 0),
+    ] {
+        shared.set_state(State::Starting, Some(&format!("f1 {name} hover")));
+        assert_eq!(shared.lock().status.mode, code, "{name}");
+    }
+    shared.set_state(State::Idle, None);
+    assert_eq!(shared.lock().status.mode, 0);
+}
+
+#[test]
+fn every_line_gets_its_severity() {
+    for (line, severity) in [
+        (
+            "flight: event warning-lo t=1.00 s GPS glitch",
+            MavSeverity::MAV_SEVERITY_NOTICE,
+        ),
+        (
+            "flight: event activity-hi t=1.00 s phase hold",
+            MavSeverity::MAV_SEVERITY_INFO,
+        ),
+        (
+            "bootstrap: error timed out while connecting",
+            MavSeverity::MAV_SEVERITY_ERROR,
+        ),
+        (
+            "flight: note an error of the runtime",
+            MavSeverity::MAV_SEVERITY_INFO,
+        ),
+    ] {
+        assert_eq!(severity_of(line), severity, "{line}");
+    }
+}
+
+#[test]
+fn the_texts_waiting_for_the_ground_are_bounded_oldest_first_out() {
+    let shared = LinkShared::default();
+    for k in 0..MAX_QUEUED_TEXTS + 50 {
+        shared.line(&format!("line {k}"));
+    }
+    let texts = &shared.lock().texts;
+    assert_eq!(texts.len(), MAX_QUEUED_TEXTS);
+    assert_eq!(texts.front().map(|(_, t)| t.as_str()), Some("line 50"));
+}
+
+#[test]
+fn the_flight_plan_is_served_or_its_fault_said() {
+    let shared = LinkShared::default();
+    shared.set_plan(r#"[{"leg":"takeoff","alt_m":10.0},{"leg":"land"}]"#);
+    assert_eq!(shared.lock().mission.as_ref().map(Vec::len), Some(2));
+    shared.set_plan(r#"[{"leg":"loop"}]"#);
+    let s = shared.lock();
+    assert_eq!(s.mission.as_ref().map(Vec::len), Some(0), "no plan served");
+    assert!(
+        s.texts
+            .iter()
+            .any(|(_, t)| t.starts_with("link: the flight plan cannot be served")),
+        "{:?}",
+        s.texts
+    );
+}
+
+#[test]
+fn whether_a_ground_is_heard_is_kept_as_told() {
+    let shared = LinkShared::default();
+    assert!(!shared.ground_fresh());
+    shared.set_ground_fresh(true);
+    assert!(shared.ground_fresh());
+    shared.set_ground_fresh(false);
+    assert!(!shared.ground_fresh());
+}
+
+#[test]
+fn only_a_plain_log_name_of_the_directory_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("flight_a.mcap"), [1u8; 10]).unwrap();
+    std::fs::write(dir.path().join("notes.txt"), [2u8; 10]).unwrap();
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
+    std::fs::write(dir.path().join("sub").join("flight_b.mcap"), [3u8; 10]).unwrap();
+    let store = DirStore::new(dir.path().to_path_buf());
+    let mut buf = [0u8; 4];
+    for refused in ["notes.txt", "sub/flight_b.mcap", ""] {
+        assert_eq!(store.read(refused, 0, &mut buf), 0, "{refused}");
+    }
+    assert_eq!(store.read("flight_a.mcap", 8, &mut buf), 2);
+    assert_eq!(buf[..2], [1, 1]);
+}
+
+#[test]
+fn a_repeated_line_is_due_again_once_its_period_has_passed() {
+    let t = Instant::now();
+    let second = Duration::from_secs(1);
+    assert!(due_again(None, t, second));
+    assert!(!due_again(Some(t), t + Duration::from_millis(999), second));
+    assert!(due_again(Some(t), t + second, second));
+    // A clock that went back is not due.
+    assert!(!due_again(Some(t + second), t, second));
+}
+
+fn addr(port: u16) -> SocketAddr {
+    SocketAddr::from(([127, 0, 0, 1], port))
+}
+
+#[test]
+fn peers_are_kept_while_heard_and_the_longest_silent_makes_room() {
+    let t = Instant::now();
+    let mut peers = Peers::default();
+    for k in 0..MAX_PEERS {
+        assert!(peers.heard(addr(1000 + k as u16), t + Duration::from_secs(k as u64)));
+    }
+    // Heard again: no new peer, nobody dropped.
+    assert!(!peers.heard(addr(1000), t + Duration::from_secs(20)));
+    assert_eq!(peers.addrs().count(), MAX_PEERS);
+    // One more: the one heard longest ago (1001, at t + 1 s) makes room.
+    assert!(peers.heard(addr(2000), t + Duration::from_secs(21)));
+    assert_eq!(peers.addrs().count(), MAX_PEERS);
+    assert!(!peers.addrs().any(|a| *a == addr(1001)));
+    assert!(peers.addrs().any(|a| *a == addr(1000)));
+    // Not heard for exactly the timeout: gone; heard since: kept.
+    peers.expire(t + Duration::from_secs(20) + PEER_TIMEOUT - Duration::from_nanos(1));
+    assert!(peers.addrs().any(|a| *a == addr(1000)));
+    peers.expire(t + Duration::from_secs(20) + PEER_TIMEOUT);
+    assert!(!peers.addrs().any(|a| *a == addr(1000)));
+    assert!(peers.addrs().any(|a| *a == addr(2000)));
+}
+
+#[test]
+fn a_signed_link_starts_and_says_commands_must_be_signed() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = crate::bootstrap::BootstrapConfig {
+        socket: dir.path().join("ctl.sock"),
+        child: Vec::new(),
+        warm_file: None,
+    };
+    let bootstrap = crate::bootstrap::Bootstrap::new(config, Box::new(|_: &str| {}));
+    let said = Arc::new(Mutex::new(Vec::new()));
+    let said_to = Arc::clone(&said);
+    let stop = Arc::new(AtomicBool::new(false));
+    let key = heli_link::signing::Key::new([7u8; 32]);
+    let thread = spawn(
+        addr(0),
+        Some(key),
+        dir.path().to_path_buf(),
+        Arc::new(LinkShared::default()),
+        bootstrap.requests(),
+        Arc::new(move |l: &str| said_to.lock().unwrap().push(l.to_string())),
+        Arc::clone(&stop),
+    )
+    .unwrap();
+    stop.store(true, Ordering::Release);
+    thread.join().unwrap();
+    let said = said.lock().unwrap();
+    assert!(said[0].ends_with("commands must be signed"), "{said:?}");
+}
