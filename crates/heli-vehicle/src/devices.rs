@@ -201,4 +201,27 @@ mod tests {
         let typo = good.replace("gps =", "gsp =");
         assert!(Devices::from_toml(&typo).is_err());
     }
+
+    #[test]
+    fn each_port_opens_at_its_devices_baud_rate_and_errors_name_the_file() {
+        assert_eq!(baud(Port::Imu), heli_proto::imu::BAUD);
+        assert_eq!(baud(Port::Scb), heli_proto::scb::BAUD);
+        assert_eq!(baud(Port::Gps), heli_proto::gps::BAUD);
+        assert_eq!(baud(Port::Baro), heli_proto::baro::BAUD);
+        let missing = Devices::from_file(Path::new("/nonexistent/devices.toml")).unwrap_err();
+        assert!(
+            missing
+                .to_string()
+                .starts_with("devices file /nonexistent/devices.toml: "),
+            "{missing}"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let bad = dir.path().join("devices.toml");
+        std::fs::write(&bad, "[ports]\nimu = 3\n").unwrap();
+        let e = Devices::from_file(&bad).unwrap_err().to_string();
+        assert!(
+            e.contains(&bad.display().to_string()) && e.contains("expected [ports]"),
+            "{e}"
+        );
+    }
 }

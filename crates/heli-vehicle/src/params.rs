@@ -202,4 +202,29 @@ mod tests {
         let err = load(dir.path()).unwrap_err();
         assert!(err.contains("line 1") && err.contains("range"), "{err}");
     }
+
+    #[test]
+    fn a_directory_without_a_file_has_the_defaults_and_an_unreadable_one_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let table = load(dir.path()).unwrap();
+        assert_eq!(table.get("HOV_MAX_SPEED"), defaults().get("HOV_MAX_SPEED"));
+        std::fs::create_dir(path_in(dir.path())).unwrap();
+        let e = load(dir.path()).unwrap_err();
+        assert!(
+            e.starts_with(&path_in(dir.path()).display().to_string()),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn the_altimeters_rate_is_rounded_into_its_range() {
+        let mut table = defaults();
+        for (set, rate) in [(5.0, 5), (7.4, 7), (0.2, 1), (30.0, 10)] {
+            if table.set("BARO_RATE_HZ", set).is_ok() {
+                assert_eq!(baro_rate_hz(&table), Some(rate), "{set}");
+            }
+        }
+        table.set("BARO_RATE_HZ", 7.6).unwrap();
+        assert_eq!(baro_rate_hz(&table), Some(8));
+    }
 }

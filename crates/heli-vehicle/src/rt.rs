@@ -40,3 +40,42 @@ pub fn realtime_thread(priority: u8) -> String {
         ),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What a refused call may say: no privilege, or not enough lockable memory; never that
+    /// the request itself was malformed.
+    fn refused_for_privileges(note: &str) -> bool {
+        note.contains("EPERM")
+            || note.contains("ENOMEM")
+            || note.starts_with("control loop under the normal scheduler")
+    }
+
+    #[test]
+    fn the_real_time_notes_say_what_was_done_or_why_not() {
+        let memory = lock_memory();
+        assert!(
+            memory == "memory locked (mlockall)" || refused_for_privileges(&memory),
+            "{memory}"
+        );
+        let note = std::thread::spawn(|| realtime_thread(DRIVER_PRIORITY))
+            .join()
+            .unwrap_or_default();
+        assert!(
+            note == format!("control loop under SCHED_FIFO priority {DRIVER_PRIORITY}")
+                || refused_for_privileges(&note),
+            "{note}"
+        );
+        // Priority 0 is not a SCHED_FIFO priority (1..=99): refused whoever asks.
+        let zero = std::thread::spawn(|| realtime_thread(0))
+            .join()
+            .unwrap_or_default();
+        assert!(
+            zero.starts_with("control loop under the normal scheduler: SCHED_FIFO refused")
+                || zero.starts_with("loop priority 0 refused"),
+            "{zero}"
+        );
+    }
+}

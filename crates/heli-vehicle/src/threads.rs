@@ -396,4 +396,26 @@ mod tests {
             .count();
         assert_eq!((notes, failed), (1, 1), "{msgs:?}");
     }
+
+    #[test]
+    fn the_clock_runs_at_its_speed_from_its_start() {
+        for nonsense in [0.0, -2.0, f64::NAN, f64::INFINITY] {
+            let c = Clock::with_speed(nonsense);
+            assert_eq!(c.wall(1_000_000), Duration::from_secs(1), "{nonsense}");
+        }
+        let c = Clock::with_speed(4.0);
+        assert_eq!(c.wall(1_000_000), Duration::from_millis(250));
+        assert_eq!(c.wall(3), Duration::from_nanos(750));
+        let before = std::time::Instant::now();
+        std::thread::sleep(Duration::from_millis(30));
+        let now = c.now_us();
+        let wall_us = before.elapsed().as_micros() as u64;
+        // Four flight microseconds per wall microsecond since the start (created before
+        // `before`, read after the sleep).
+        assert!(now >= 4 * 30_000, "{now}");
+        assert!(now <= 4 * (wall_us + 5_000), "{now} for {wall_us} us");
+        let fresh = Clock::start();
+        assert!(fresh.now_us() < 5_000);
+        assert_eq!(fresh.wall(2_000), Duration::from_millis(2));
+    }
 }

@@ -242,4 +242,16 @@ mod tests {
             assert!(e.contains(expect), "{text:?}: {e}");
         }
     }
+
+    #[test]
+    fn a_missing_record_is_none_and_removing_it_is_no_error_but_others_are() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("warm-start");
+        assert_eq!(WarmFile::read(&path), Ok(None));
+        assert!(remove(&path).is_ok());
+        // A directory where the file should be: neither read nor removed.
+        std::fs::create_dir(&path).unwrap();
+        assert!(WarmFile::read(&path).is_err());
+        assert!(remove(&path).is_err());
+    }
 }

@@ -65,8 +65,12 @@ fn bench(dir: &Path) -> Bench {
             compass: [0, 1, 2],
             battery: 3,
         },
-        gpio: Gpio::default(),
+        gpio: Gpio {
+            hotswap: Some(dir.join("hotswap").display().to_string()),
+        },
     };
+    // On the ground battery at first.
+    std::fs::write(dir.join("hotswap"), "0\n").unwrap();
     Bench {
         imu,
         scb,
@@ -219,6 +223,7 @@ fn a_flight_on_pseudo_terminals_is_timed_by_the_imu_and_watched() {
         }
         if k == 100 {
             ground_link.store(1, Ordering::Release);
+            std::fs::write(dir.path().join("hotswap"), "1\n").unwrap();
         }
     }
     std::thread::sleep(Duration::from_millis(50));
@@ -243,7 +248,25 @@ fn a_flight_on_pseudo_terminals_is_timed_by_the_imu_and_watched() {
             })
         },
     );
+    // A hot-swap line that reads nonsense is said once, and the flight goes on.
+    std::fs::write(dir.path().join("hotswap"), "maybe\n").unwrap();
+    flight.wait_for(
+        "the hot-swap's nonsense said",
+        Duration::from_secs(3),
+        |r| {
+            r.iter()
+                .any(|r| matches!(r, Report::Note(t) if t.contains("is not 0 or 1")))
+        },
+    );
+    std::thread::sleep(Duration::from_millis(300));
     let (summary, reports) = flight.land();
+    // Single watchdog fires are counted, not reported; the IMU's silence is.
+    assert!(
+        !reports
+            .iter()
+            .any(|r| matches!(r, Report::Event { text, .. } if text.contains("watchdog"))),
+        "{reports:#?}"
+    );
     let notes: Vec<String> = reports
         .iter()
         .filter_map(|r| match r {
@@ -255,6 +278,11 @@ fn a_flight_on_pseudo_terminals_is_timed_by_the_imu_and_watched() {
     // the end.
     assert!(
         notes.iter().any(|n| n.contains("write to baro failed")),
+        "{notes:#?}"
+    );
+    assert_eq!(
+        notes.iter().filter(|n| n.contains("is not 0 or 1")).count(),
+        1,
         "{notes:#?}"
     );
     assert!(
@@ -285,7 +313,31 @@ fn a_flight_on_pseudo_terminals_is_timed_by_the_imu_and_watched() {
     // A clean end: nothing for a successor to resume.
     assert!(!dir.path().join("warm-start").exists());
     // The ground link's two changes are inputs of the flight, in its log.
-    let log = heli_log::reader::read(&std::fs::read(dir.path().join("flight.mcap")).unwrap());
+    let log_path = dir.path().join("flight.mcap");
+    let log = heli_log::reader::read(&std::fs::read(&log_path).unwrap());
+    assert!(log.closed, "the log was finished");
+    let report = summary.log.as_ref().unwrap();
+    assert_eq!(report.path, log_path);
+    assert_eq!(report.error, None);
+    assert_eq!(report.messages, log.messages.len() as u64);
+    let counts = log.counts();
+    for channel in ["imu", "servo", "state", "device", "events", "notes"] {
+        assert!(
+            counts.get(channel).is_some_and(|n| *n > 0),
+            "{channel}: {counts:?}"
+        );
+    }
+    let lines: Vec<bool> = log
+        .messages
+        .iter()
+        .filter(|m| m.value["kind"] == "power_line")
+        .map(|m| m.value["high"].as_bool().unwrap())
+        .collect();
+    assert_eq!(
+        lines,
+        [false, true],
+        "the hot-swap's level at start and its change"
+    );
     let links: Vec<bool> = log
         .messages
         .iter()
