@@ -273,3 +273,31 @@ fn gps_lost_and_regained_are_raised_once_each_and_only_with_an_estimate() {
 fn still_imu() -> heli_proto::imu::ImuRepr {
     super::tests::still()
 }
+
+#[test]
+fn a_helicopter_exactly_at_the_airborne_height_has_not_yet_flown() {
+    // A level estimate at the origin, exactly 0.25 m above a take-off point 0.25 m below it:
+    // not above the airborne height, so not yet flown; a hair higher, flown.
+    let level = heli_proto::imu::ImuRepr {
+        rate_rps: [0.0; 3],
+        accel_mps2: [0.0, 0.0, -heli_nav::GRAVITY_MPS2],
+        temp_c: 30.0,
+    };
+    for (home_z, flown) in [(0.25, false), (0.2500001, true)] {
+        let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
+        core.config.airborne_height_m = 0.25;
+        core.nav.initialise(
+            0,
+            &heli_nav::ImuBiases {
+                gyro_rps: Vector3::zeros(),
+                mean_accel_mps2: Vector3::from(level.accel_mps2),
+                samples: 100,
+            },
+        );
+        core.estimate_valid = true;
+        core.home_ned_m = Some(Vector3::new(0.0, 0.0, home_z));
+        core.control_step(level, level, 20_000, &mut Vec::new());
+        assert_eq!(core.nav.state().map(|s| s.pos_ned_m.z), Some(0.0));
+        assert_eq!(core.airborne_once, flown, "{home_z}");
+    }
+}
