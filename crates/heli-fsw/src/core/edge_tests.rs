@@ -226,7 +226,16 @@ fn without_a_fresh_gps_fix_a_landing_judges_only_the_sink() {
     };
     core.nav.fuse_gps(S + 500_000, &fix);
     assert_eq!(core.nav.stats().gps_fused, 1);
+    let mut stale = core.clone();
     assert!(!settles(&mut core, &drifting));
+    // Fused exactly three seconds ago: no longer fresh.
+    assert!(matches!(
+        next(&mut stale, &drifting, 4 * S + 500_000).0,
+        Phase::Landing {
+            settled_since_us: Some(_),
+            ..
+        }
+    ));
 }
 
 #[test]
