@@ -26,14 +26,8 @@ pub fn counts_to_volts(counts: u16) -> f64 {
     reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
 )]
 pub fn volts_to_counts(volts: f64) -> u16 {
-    let counts = libm::round(volts / ADC_LSB_V);
-    if counts.is_nan() || counts <= 0.0 {
-        0
-    } else if counts >= f64::from(ADC_MAX_COUNTS) {
-        ADC_MAX_COUNTS
-    } else {
-        counts as u16
-    }
+    // NaN stays NaN through the clamp, and `as` makes it 0.
+    libm::round(volts / ADC_LSB_V).clamp(0.0, f64::from(ADC_MAX_COUNTS)) as u16
 }
 
 #[cfg(test)]

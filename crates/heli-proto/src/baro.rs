@@ -120,7 +120,8 @@ fn body(line: &[u8], header: u8) -> Result<&[u8], Error> {
 
 /// A reading rate: one or two ASCII digits, 1..=10.
 fn parse_rate(digits: &[u8]) -> Result<u8, Error> {
-    if digits.is_empty() || digits.len() > 2 || !digits.iter().all(u8::is_ascii_digit) {
+    // An empty field passes this test and fails to parse below.
+    if digits.len() > 2 || !digits.iter().all(u8::is_ascii_digit) {
         return Err(Error::BadField);
     }
     let text = core::str::from_utf8(digits).map_err(|_| Error::BadField)?;
@@ -140,8 +141,8 @@ fn pressure_ok(p: f64) -> bool {
 /// (0, 2000] mbar.
 fn parse_pressure(text: &[u8]) -> Result<f64, Error> {
     let dots = text.iter().filter(|&&b| b == b'.').count();
-    if text.is_empty()
-        || dots > 1
+    // An empty field has no digit.
+    if dots > 1
         || !text.iter().all(|b| b.is_ascii_digit() || *b == b'.')
         || !text.iter().any(u8::is_ascii_digit)
     {
@@ -267,8 +268,7 @@ pub fn pressure_altitude_m(pressure_mbar: f64, reference_mbar: f64) -> f64 {
 /// `p0 · (1 − h/44330.77)^(1/0.190263)`. Altitudes above 44330.77 m (where
 /// the law reaches zero pressure) give 0.
 pub fn pressure_at_altitude_mbar(alt_m: f64, reference_mbar: f64) -> f64 {
-    let base = 1.0 - alt_m / ISA_SCALE_M;
-    let base = if base > 0.0 { base } else { 0.0 };
+    let base = (1.0 - alt_m / ISA_SCALE_M).max(0.0);
     reference_mbar * libm::pow(base, 1.0 / ISA_EXPONENT)
 }
 
@@ -408,6 +408,14 @@ mod tests {
                 pressure_mbar: 1013.25
             })
         );
+        // No decimal point is a whole number of millibars; an empty field is none.
+        assert_eq!(
+            BaroReply::parse(b"?00CP=1013"),
+            Ok(BaroReply::Pressure {
+                pressure_mbar: 1013.0
+            })
+        );
+        assert_eq!(BaroReply::parse(b"?00CP="), Err(Error::BadField));
         let mut b = [0u8; MAX_LINE];
         for p in [0.0, 0.0004, -1.0, 2000.5, f64::NAN, f64::INFINITY] {
             assert_eq!(

@@ -221,6 +221,26 @@ mod tests {
     }
 
     #[test]
+    fn a_horizontal_field_of_at_least_a_microgauss_has_a_heading() {
+        let level = |x: f64, y: f64| {
+            heading_rad(
+                &MagField {
+                    field_gauss: [x, y, 0.5],
+                },
+                0.0,
+                0.0,
+            )
+        };
+        assert_eq!(
+            level(MIN_HORIZONTAL_GAUSS, 0.0),
+            Some(0.0),
+            "exactly the least"
+        );
+        assert_eq!(level(0.1 * MIN_HORIZONTAL_GAUSS, 0.0), None);
+        assert_eq!(level(0.0, 0.1 * MIN_HORIZONTAL_GAUSS), None);
+    }
+
+    #[test]
     fn adc_chain() {
         let zero = CompassAdc { counts: [2048; 3] };
         assert_eq!(zero.raw_field(), MagField::default());

@@ -399,6 +399,90 @@ mod tests {
         }
     }
 
+    /// A format whose second byte is the whole frame's length, whatever it says (0, or
+    /// more than the framer holds), with no checksum.
+    struct Declared;
+    impl BinaryFormat for Declared {
+        const HEADER: u8 = 0x7E;
+        const MAX_FRAME_LEN: usize = 4;
+        fn frame_len(prefix: &[u8]) -> Result<Option<usize>, ()> {
+            Ok(prefix.get(1).map(|&n| usize::from(n)))
+        }
+        fn checksum_ok(_: &[u8]) -> bool {
+            true
+        }
+    }
+
+    /// A format that can never tell where a frame ends.
+    struct Undecided;
+    impl BinaryFormat for Undecided {
+        const HEADER: u8 = 0x7E;
+        const MAX_FRAME_LEN: usize = 4;
+        fn frame_len(_: &[u8]) -> Result<Option<usize>, ()> {
+            Ok(None)
+        }
+        fn checksum_ok(_: &[u8]) -> bool {
+            true
+        }
+    }
+
+    #[test]
+    fn a_declared_length_of_zero_or_beyond_the_buffer_is_a_framing_error() {
+        let mut f: Framer<Declared, 4> = Framer::new();
+        // Length 0, length 9 (the framer holds 4), then a good 3-byte frame.
+        let got = run(&mut f, &[0x7E, 0, 0x7E, 9, 0x7E, 3, 1]);
+        assert_eq!(got, vec![vec![0x7E, 3, 1]]);
+        assert_eq!(f.stats().framing_errors, 2);
+        assert_eq!(f.stats().discarded_bytes, 4);
+    }
+
+    #[test]
+    fn a_format_that_cannot_decide_within_the_buffer_is_a_framing_error() {
+        let mut f: Framer<Undecided, 4> = Framer::new();
+        assert!(run(&mut f, &[0x7E, 1, 2]).is_empty());
+        assert_eq!(
+            f.stats().framing_errors,
+            0,
+            "three bytes: it may still decide"
+        );
+        assert!(run(&mut f, &[3]).is_empty());
+        assert_eq!(
+            f.stats().framing_errors,
+            1,
+            "four bytes, the buffer full: given up"
+        );
+        assert_eq!(f.stats().discarded_bytes, 4);
+    }
+
+    #[test]
+    fn a_clone_carries_on_from_the_same_place() {
+        let mut f: Framer<Toy, 8> = Framer::new();
+        let a = toy(&[1, 2, 3]);
+        assert!(run(&mut f, &[0x55]).is_empty());
+        assert!(run(&mut f, &a[..3]).is_empty());
+        let mut g = f.clone();
+        assert_eq!(run(&mut g, &a[3..]), vec![a.clone()]);
+        assert_eq!((g.stats().frames, g.stats().discarded_bytes), (1, 1));
+        assert_eq!(run(&mut f, &a[3..]), vec![a]);
+    }
+
+    #[test]
+    fn a_reset_drops_the_partial_frame_and_keeps_the_counts() {
+        let mut f: Framer<Toy, 8> = Framer::new();
+        let a = toy(&[1, 2, 3]);
+        let b = toy(&[4]);
+        assert!(run(&mut f, &a[..3]).is_empty());
+        f.reset();
+        // The rest of `a` is not a frame without its start; `b` is.
+        let mut stream = a[3..].to_vec();
+        stream.extend_from_slice(&b);
+        assert_eq!(run(&mut f, &stream), vec![b.clone()]);
+        assert_eq!(f.stats().frames, 1);
+        // A reset right after a frame: the next one still comes out whole.
+        f.reset();
+        assert_eq!(run(&mut f, &b), vec![b]);
+    }
+
     fn toy(payload: &[u8]) -> Vec<u8> {
         let mut v = vec![0x7E, payload.len() as u8];
         v.extend_from_slice(payload);
