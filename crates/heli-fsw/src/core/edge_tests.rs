@@ -181,7 +181,13 @@ fn a_landing_settles_when_its_target_is_half_a_metre_below_the_skids_and_still()
         &mut core,
         &est(0.2, 20.0, Vector3::new(0.0, 0.0, 0.1))
     ));
-    // The target only 0.4 m below the skids: still landing.
+    // Exactly half a metre below (0.49 m and the step's 0.01 m of descent), or only
+    // 0.4 m: still landing.
+    let mut core = core_in(landing(0.49), FlightMode::Autonomous, true, S);
+    assert!(!settles(
+        &mut core,
+        &est(0.0, 20.0, Vector3::new(0.0, 0.0, 0.1))
+    ));
     let mut core = core_in(landing(0.2), FlightMode::Autonomous, true, S);
     assert!(!settles(
         &mut core,
