@@ -293,14 +293,16 @@ fn a_second_connect_kills_the_first_process_and_hears_only_the_new_one() {
     let marker = dir.path().join("second");
     let script = format!(
         "if [ -e {m} ]; then echo ready; echo 'telemetry {{\"from\":\"new\"}}'; exec sleep 30; fi; \
-         touch {m}; echo ready; (sleep 0.6; echo 'telemetry {{\"from\":\"old\"}}'; echo 'started /old') & \
+         touch {m}; echo ready; (sleep 1.5; echo 'telemetry {{\"from\":\"old\"}}'; echo 'started /old') & \
          exec sleep 30",
         m = marker.display()
     );
-    let boot = Running::start(
+    // The processes do not listen for 'stop': the quit at the end kills them after 0.5 s.
+    let boot = Running::start_with(
         dir.path(),
         vec!["sh".into(), "-c".into(), script.into()],
         None,
+        |b| b.with_timeouts(Duration::from_secs(5), Duration::from_millis(500)),
     );
     assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
     let first = status(&boot)["pid"].as_u64().unwrap();
