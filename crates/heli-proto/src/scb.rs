@@ -80,6 +80,8 @@ pub const SERVO_RATE_HZ: u32 = 50;
 pub const FLAG_AUTO: u8 = 0x01;
 /// Flag bit of the emergency bypass switch (1 = engaged).
 pub const FLAG_BYPASS: u8 = 0x02;
+/// Every flag bit the format defines; a packet with another one set is refused.
+pub const KNOWN_FLAGS: u8 = FLAG_AUTO | FLAG_BYPASS;
 
 /// Byte offsets of the pilot uplink fields.
 pub mod uplink_field {
@@ -285,7 +287,7 @@ impl PilotUplink {
             return Err(Error::Checksum);
         }
         let flags = bytes::u8_at(frame, uplink_field::FLAGS);
-        if flags & !(FLAG_AUTO | FLAG_BYPASS) != 0 {
+        if flags & !KNOWN_FLAGS != 0 {
             return Err(Error::BadField);
         }
         Ok(PilotUplink {
@@ -363,7 +365,7 @@ impl BinaryFormat for UplinkFormat {
             None => return Ok(None),
         }
         match prefix.get(uplink_field::FLAGS) {
-            Some(flags) if flags & !(FLAG_AUTO | FLAG_BYPASS) != 0 => Err(()),
+            Some(flags) if flags & !KNOWN_FLAGS != 0 => Err(()),
             _ => Ok(Some(UPLINK_LEN)),
         }
     }
