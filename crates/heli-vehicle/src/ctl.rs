@@ -192,4 +192,24 @@ mod tests {
         }
         assert_eq!(Request::parse("  ").unwrap_err(), "empty command");
     }
+
+    #[test]
+    fn a_bootstrap_that_closes_without_a_reply_or_is_not_there_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let socket = dir.path().join("ctl.sock");
+        let e = send(&socket, &Request::Quit).unwrap_err();
+        assert!(e.contains("is `heli vehicle` running"), "{e}");
+        let listener = std::os::unix::net::UnixListener::bind(&socket).unwrap();
+        let server = std::thread::spawn(move || {
+            let (stream, _) = listener.accept().unwrap();
+            let mut line = String::new();
+            let _ = BufReader::new(&stream).read_line(&mut line);
+            line
+        });
+        assert_eq!(
+            send(&socket, &Request::Quit).unwrap_err(),
+            "the bootstrap closed the connection"
+        );
+        assert_eq!(server.join().unwrap(), "quit\n");
+    }
 }
