@@ -307,6 +307,22 @@ mod tests {
             .first_difference
             .unwrap();
         assert_eq!((d.channel.as_str(), d.index), ("servo", 1));
+        // A servo and a state record of the same control step: the servo's, compared first.
+        let mut contents = flown(&setup());
+        let state = index_of(&contents, "state", 5);
+        let t = contents.messages[state].t_us;
+        let servo = contents
+            .messages
+            .iter()
+            .position(|m| m.topic == "servo" && m.t_us == t)
+            .unwrap();
+        contents.messages[state].value = serde_json::json!(1);
+        contents.messages[servo].value = serde_json::json!(2);
+        let d = replay(&setup(), &contents)
+            .unwrap()
+            .first_difference
+            .unwrap();
+        assert_eq!((d.channel.as_str(), d.logged_t_us), ("servo", Some(t)));
     }
 
     #[test]
@@ -344,6 +360,11 @@ mod tests {
             ..setup()
         };
         assert!(!replay(&longer, &contents).unwrap().exact());
+        // A log that ends right after the start replays, comparing nothing.
+        let mut started = flown(&setup());
+        started.messages.truncate(1);
+        let outcome = replay(&setup(), &started).unwrap();
+        assert_eq!((outcome.inputs, outcome.exact()), (0, false));
         // Nothing to feed.
         let mut bare = flown(&setup());
         bare.messages.retain(|m| m.topic != inputs::CHANNEL);

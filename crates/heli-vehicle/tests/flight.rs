@@ -243,8 +243,12 @@ fn a_flight_on_pseudo_terminals_is_timed_by_the_imu_and_watched() {
         Duration::from_secs(3),
         |r| {
             r.iter().any(|r| {
+                // The freshest value of each stream: the IMU's, the battery server's
+                // voltage, the gauges' power row.
                 matches!(r, Report::Telemetry(v)
-                if v["power"]["batteries"].as_array().is_some_and(|b| !b.is_empty()))
+                if v["power"]["batteries"].as_array().is_some_and(|b| !b.is_empty())
+                    && v["battery_v"].is_number()
+                    && v["imu"]["rate_rps"].is_array())
             })
         },
     );

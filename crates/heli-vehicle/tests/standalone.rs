@@ -145,6 +145,16 @@ fn the_imu_driver_prints_logs_and_counts_the_watchdogs_misses() {
     );
     let counts = log_counts(&log);
     assert_eq!(counts.get("imu"), Some(&20));
+    // Only reads that brought bytes are device inputs.
+    let inputs = heli_log::reader::read(&std::fs::read(&log).unwrap());
+    assert!(
+        inputs
+            .messages
+            .iter()
+            .filter(|m| m.topic == "device")
+            .all(|m| m.value["hex"].as_str().is_some_and(|h| !h.is_empty())),
+        "an empty read logged"
+    );
     assert!(counts.get("device").is_some_and(|n| *n >= 1));
     assert_eq!(
         report.log_messages,
@@ -272,7 +282,14 @@ fn the_compass_and_battery_channels_are_read_printed_and_logged() {
         dir: adc.clone(),
         channels: vec![0, 1, 2],
     };
+    let started = std::time::Instant::now();
     let (report, lines) = drive(DriverKind::Compass, compass, Some(log.clone()), 3).end();
+    // 20 readings a second: three in well under a second.
+    assert!(
+        started.elapsed() < Duration::from_millis(800),
+        "{:?}",
+        started.elapsed()
+    );
     assert_eq!(report.unwrap().samples, 3);
     assert_eq!(lines.len(), 3);
     assert!(
@@ -291,15 +308,22 @@ fn the_compass_and_battery_channels_are_read_printed_and_logged() {
         channels: vec![3],
     };
     let log = dir.path().join("battery.mcap");
-    let (report, lines) = drive(DriverKind::Battery, battery, Some(log.clone()), 1).end();
-    assert_eq!(report.unwrap().samples, 1);
+    let started = std::time::Instant::now();
+    let (report, lines) = drive(DriverKind::Battery, battery, Some(log.clone()), 2).end();
+    assert_eq!(report.unwrap().samples, 2);
+    // Once a second: the second reading a second after the first.
+    assert!(
+        started.elapsed() >= Duration::from_secs(1),
+        "{:?}",
+        started.elapsed()
+    );
     let volts = heli_proto::battery::BatteryAdc { counts: 3100 }.volts();
     assert!(
         lines[0].ends_with(&format!("battery {volts:.2} V (3100 counts)")),
         "{}",
         lines[0]
     );
-    assert_eq!(log_counts(&log).get("battery"), Some(&1));
+    assert_eq!(log_counts(&log).get("battery"), Some(&2));
 }
 
 #[test]
