@@ -64,12 +64,7 @@ impl Clock {
         reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
     )]
     pub fn now_us(&self) -> u64 {
-        let us = self.start.elapsed().as_secs_f64() * 1e6 * self.speed;
-        if us.is_finite() && us >= 0.0 {
-            us as u64
-        } else {
-            0
-        }
+        (self.start.elapsed().as_secs_f64() * 1e6 * self.speed) as u64
     }
 
     /// The wall-clock time `flight_us` of this clock take.
@@ -417,5 +412,27 @@ mod tests {
         let fresh = Clock::start();
         assert!(fresh.now_us() < 5_000);
         assert_eq!(fresh.wall(2_000), Duration::from_millis(2));
+    }
+
+    #[test]
+    fn a_sleep_lasts_its_time_unless_stopped() {
+        let stop = AtomicBool::new(false);
+        let started = std::time::Instant::now();
+        sleep_unless_stopped(Duration::from_millis(60), &stop);
+        assert!(started.elapsed() >= Duration::from_millis(60));
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = Arc::clone(&stop);
+        let stopper = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(30));
+            flag.store(true, Ordering::Release);
+        });
+        let started = std::time::Instant::now();
+        sleep_unless_stopped(Duration::from_secs(10), &stop);
+        assert!(
+            started.elapsed() < Duration::from_secs(2),
+            "{:?}",
+            started.elapsed()
+        );
+        stopper.join().unwrap();
     }
 }

@@ -321,6 +321,10 @@ fn a_flight_on_pseudo_terminals_is_timed_by_the_imu_and_watched() {
     );
     assert!(stats.control_steps >= 100, "{stats:?}");
     assert_eq!(stats.imu_samples, 200);
+    assert!(
+        stats.compass_readings >= 20,
+        "the compass read at 20 Hz: {stats:?}"
+    );
     assert!(stats.watchdog_fires >= 1, "{stats:?}");
     assert!(summary.inputs >= 200, "{}", summary.inputs);
     // A clean end: nothing for a successor to resume.
@@ -377,6 +381,8 @@ fn a_flight_with_every_port_there_reports_no_lost_commands() {
     };
     devices.ports.baro = baro_path;
     devices.gpio = Gpio::default();
+    // The compass's channels are not there: said once, however many reads fail.
+    devices.adc.compass = [7, 8, 9];
     let flight = fly(devices, dir.path(), Arc::new(AtomicU8::new(0)));
     flight.wait_for("started", Duration::from_secs(5), |r| {
         r.iter().any(|r| matches!(r, Report::Started { .. }))
@@ -393,4 +399,9 @@ fn a_flight_with_every_port_there_reports_no_lost_commands() {
         .filter(|r| matches!(r, Report::Note(t) if t.contains("write")))
         .collect();
     assert!(writes.is_empty(), "{writes:#?}");
+    let compass = reports
+        .iter()
+        .filter(|r| matches!(r, Report::Note(t) if t.starts_with("compass: ")))
+        .count();
+    assert_eq!(compass, 1, "{reports:#?}");
 }
