@@ -13,6 +13,8 @@ mod hilsim_cmd;
 mod hilsim_view;
 mod library_cmd;
 mod link_cmd;
+mod log_cmd;
+mod model_cmd;
 mod replay_cmd;
 mod sim_ui;
 mod suite_cmd;
@@ -24,10 +26,8 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use heli_log::FlightLog;
-use heli_sim::analysis;
 use heli_sim::lockstep::{RunOptions, Simulation};
 use heli_sim::logging::StreamLogger;
-use heli_sim::params::Airframe;
 use heli_sim::scenario;
 use heli_sim::summary::{Outcome, Summary};
 
@@ -279,8 +279,8 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Sim(args) => sim(args),
-        Command::Model(args) => model(args),
-        Command::Log { action } => log(action),
+        Command::Model(args) => model_cmd::model(args),
+        Command::Log { action } => log_cmd::log(action),
         Command::Bench {
             json, link: true, ..
         } => bench_link::command(json),
@@ -447,278 +447,6 @@ pub(crate) fn run_flight(
         bar.finish_and_clear();
     }
     Ok(summary)
-}
-
-fn model(args: ModelArgs) -> Result<ExitCode> {
-    let airframe = match &args.airframe {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading {}", path.display()))?;
-            let airframe: Airframe = toml::from_str(&text)
-                .with_context(|| format!("invalid airframe file {}", path.display()))?;
-            heli_sim::validate::airframe(&airframe)
-                .map_err(|e| anyhow::anyhow!("airframe file {}: {e}", path.display()))?;
-            airframe
-        }
-        None => Airframe::default(),
-    };
-    match args.analysis {
-        ModelAnalysis::Trim { speed } => {
-            if !speed.is_finite() || !(0.0..=25.0).contains(&speed) {
-                bail!("--speed must be between 0 and 25 m/s (the model's envelope), not {speed}");
-            }
-            let t = analysis::trim(&airframe, speed).context("the trim did not converge")?;
-            if args.json {
-                println!("{}", serde_json::to_string_pretty(&t)?);
-            } else {
-                println!(
-                    "trim at {:.1} m/s ({} iterations, residual {:.1e})",
-                    t.speed_mps, t.iterations, t.residual
-                );
-                println!("  collective        {:8.3} deg", t.collective_deg);
-                println!("  lateral cyclic    {:8.4} rad", t.lat_cyclic_rad);
-                println!("  longitudinal cyc. {:8.4} rad", t.lon_cyclic_rad);
-                println!("  tail pitch cmd    {:8.4} rad", t.tail_pitch_cmd_rad);
-                println!(
-                    "  roll / pitch      {:8.2} / {:.2} deg",
-                    t.roll_deg, t.pitch_deg
-                );
-                println!(
-                    "  flapping a1 / b1  {:8.3} / {:.3} deg",
-                    t.flap_lon_deg, t.flap_lat_deg
-                );
-                println!("  thrust            {:8.2} N", t.thrust_n);
-                println!("  main-rotor torque {:8.3} N m", t.mr_torque_nm);
-                println!(
-                    "  shaft power       {:8.1} W (throttle {:.3})",
-                    t.power_w, t.throttle
-                );
-            }
-        }
-        ModelAnalysis::Modes => {
-            let m = analysis::hover_modes(&airframe).context("the hover trim did not converge")?;
-            if args.json {
-                println!("{}", serde_json::to_string_pretty(&m)?);
-            } else {
-                println!("rotor-fuselage modes at hover");
-                println!(
-                    "  roll  (p, b1)  wn {:6.2} rad/s  zeta {:.3}",
-                    m.roll.natural_frequency_rps, m.roll.damping
-                );
-                println!(
-                    "  pitch (q, a1)  wn {:6.2} rad/s  zeta {:.3}",
-                    m.pitch.natural_frequency_rps, m.pitch.damping
-                );
-                println!("full linearisation, eigenvalues (re, im):");
-                for [re, im] in &m.full_eigenvalues {
-                    println!("  {re:10.4} {im:+10.4}i");
-                }
-            }
-        }
-        ModelAnalysis::GovernorStep { step } => {
-            if !step.is_finite() || step == 0.0 || step.abs() > 400.0 {
-                bail!("--step must be a non-zero number of rpm up to 400, not {step}");
-            }
-            let g = analysis::governor_step(&airframe, step)
-                .context("the hover trim did not converge")?;
-            if args.json {
-                println!("{}", serde_json::to_string_pretty(&g)?);
-            } else {
-                println!("governor step of {:.0} rpm at hover", g.step_rpm);
-                println!(
-                    "  poles: wn {:.3} rad/s, zeta {:.3}",
-                    g.natural_frequency_rps, g.damping
-                );
-                println!(
-                    "  response: overshoot {:.1} %, first peak at {:.2} s",
-                    100.0 * g.overshoot,
-                    g.peak_time_s
-                );
-            }
-        }
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-fn log(action: LogAction) -> Result<ExitCode> {
-    let read = |file: &std::path::Path| -> Result<heli_log::LogContents> {
-        let bytes = std::fs::read(file).with_context(|| format!("reading {}", file.display()))?;
-        let contents = heli_log::read(&bytes);
-        if let Some(stop) = &contents.stopped
-            && stop.kind == heli_log::StopKind::NotMcap
-        {
-            bail!("{} is {stop}", file.display());
-        }
-        Ok(contents)
-    };
-    match action {
-        LogAction::Replay { file } => return replay_cmd::replay(&file, &read(&file)?),
-        LogAction::Info { file } => {
-            let contents = read(&file)?;
-            print_log_info(&file, &contents)?;
-        }
-        LogAction::Export { file, channel, out } => {
-            let contents = read(&file)?;
-            let csv = heli_log::to_csv(&contents, &channel);
-            if csv.is_empty() {
-                bail!(
-                    "no messages on channel '{channel}' in {} (see `heli log info`)",
-                    file.display()
-                );
-            }
-            match out {
-                Some(path) => std::fs::write(&path, csv)
-                    .with_context(|| format!("writing {}", path.display()))?,
-                None => write_stdout(&csv)?,
-            }
-        }
-        LogAction::Plot {
-            file,
-            channel,
-            fields,
-            from,
-            to,
-            out,
-        } => {
-            use heli_log::plot;
-            let out = out.unwrap_or_else(|| {
-                let stem = file.file_stem().and_then(|s| s.to_str()).unwrap_or("log");
-                let name: String = channel
-                    .chars()
-                    .map(|c| {
-                        if c.is_alphanumeric() || c == '-' {
-                            c
-                        } else {
-                            '_'
-                        }
-                    })
-                    .collect();
-                file.with_file_name(format!("{stem}_{name}.svg"))
-            });
-            let format = plot::ImageFormat::from_path(&out)
-                .ok_or_else(|| plot::PlotError::UnknownFormat(out.display().to_string()))?;
-            let contents = read(&file)?;
-            let window = plot::Window {
-                from_s: from,
-                to_s: to,
-            };
-            let (panels, left_out) = plot::panels(&contents, &channel, &fields, window)
-                .with_context(|| format!("plotting {}", file.display()))?;
-            let marks = plot::events(&contents, window);
-            let title = format!("{} - {channel}", file.display());
-            plot::render(&panels, &marks, &title, format, &out)?;
-            println!("wrote {} ({} panels)", out.display(), panels.len());
-            // The event texts begin with their time.
-            for (i, (_, text)) in marks.iter().enumerate() {
-                println!("  {:>3}  {text}", i + 1);
-            }
-            if left_out > 0 {
-                println!(
-                    "  {left_out} more fields not drawn (at most {} panels per plot): name fewer with --field",
-                    plot::MAX_PANELS
-                );
-            }
-            if let Some(why) = &contents.stopped {
-                println!("  reading the log stopped early ({why}); plotted what was read");
-            }
-        }
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-/// Most faults `heli log info` lists one by one.
-const FAULTS_LISTED: usize = 20;
-
-/// `heli log info`: channels with their counts, rates, gaps and schemas, the metadata, the
-/// warnings and worse, and whether the file is whole. A log with no message, or a corrupt
-/// one, is an error (after what could be read is shown).
-fn print_log_info(file: &std::path::Path, contents: &heli_log::LogContents) -> Result<()> {
-    use heli_log::StopKind;
-    if contents.messages.is_empty() {
-        let why = contents
-            .stopped
-            .as_ref()
-            .map_or(String::new(), |s| format!(" ({s})"));
-        bail!("{} holds no messages{why}", file.display());
-    }
-    println!("{}", file.display());
-    if let Some((first, last)) = contents.span_us() {
-        println!(
-            "  time     {:.3} s to {:.3} s",
-            first as f64 * 1e-6,
-            last as f64 * 1e-6
-        );
-    }
-    println!("  channel       messages            rate  largest interval        sequence");
-    for c in heli_log::stats::channels(contents) {
-        let rate = c.rate_hz.map_or("-".to_string(), |hz| {
-            if hz >= 1.0 {
-                format!("{hz:.1} Hz")
-            } else {
-                format!("{hz:.3} Hz")
-            }
-        });
-        let interval = format!(
-            "{:.3} s before {:.2} s",
-            c.largest_interval_us as f64 * 1e-6,
-            c.largest_interval_end_us as f64 * 1e-6
-        );
-        let sequence = match (c.sequence_gaps, c.sequence_breaks) {
-            (0, 0) => "no gaps".to_string(),
-            (gaps, 0) => format!("{gaps} gaps, {} missing", c.missing),
-            (gaps, breaks) => format!("{gaps} gaps, {} missing, {breaks} restarts", c.missing),
-        };
-        println!(
-            "  {:<12} {:>6} messages {:>10}  {interval:<22}  {sequence}  [{}]",
-            c.topic,
-            c.messages,
-            rate,
-            c.schema.as_deref().unwrap_or("no schema")
-        );
-    }
-    for m in &contents.metadata {
-        println!("  metadata '{}'", m.name);
-        for (key, value) in &m.entries {
-            let lines = value.lines().count();
-            if lines > 1 {
-                println!("    {key:<26} ({lines} lines)");
-            } else {
-                println!("    {key:<26} {value}");
-            }
-        }
-    }
-    let faults = heli_log::stats::faults(contents);
-    if faults.is_empty() {
-        println!("  faults   none (no event at level warning or worse)");
-    } else {
-        println!(
-            "  faults   {} events at level warning or worse",
-            faults.len()
-        );
-        for f in faults.iter().take(FAULTS_LISTED) {
-            println!("    {:<8} {}", f.level.name(), f.text);
-        }
-        if faults.len() > FAULTS_LISTED {
-            println!("    ... and {} more", faults.len() - FAULTS_LISTED);
-        }
-    }
-    if contents.bad_messages > 0 {
-        println!("  {} messages could not be decoded", contents.bad_messages);
-    }
-    match &contents.stopped {
-        None if contents.closed => println!("  complete: closed by its writer"),
-        None => println!(
-            "  complete up to its last flush, not closed by its writer (crash, kill or power loss)"
-        ),
-        Some(stop) if stop.kind == StopKind::Truncated => {
-            println!("  cut off: read up to the last whole chunk; {stop}")
-        }
-        Some(stop) => bail!(
-            "{} is damaged: {stop}; the messages before it are listed above",
-            file.display()
-        ),
-    }
-    Ok(())
 }
 
 fn bench(json: bool) -> Result<ExitCode> {
