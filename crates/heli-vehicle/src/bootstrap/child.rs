@@ -1,0 +1,217 @@
+//! The bootstrap's side of the flight process: starting it, hearing its lines and its exit,
+//! killing it, and restarting it with its parameters when it crashes in flight or when the
+//! vehicle powers on with a fresh record of a flight under way.
+
+use super::*;
+
+impl Bootstrap {
+    pub(super) fn tell_child(&mut self, line: &str) -> bool {
+        let Some(stdin) = self.child.as_mut().and_then(|c| c.stdin.as_mut()) else {
+            return false;
+        };
+        writeln!(stdin, "{line}")
+            .and_then(|()| stdin.flush())
+            .is_ok()
+    }
+
+    pub(super) fn spawn_child(&mut self) -> Result<(), String> {
+        let (program, args) = self
+            .config
+            .child
+            .split_first()
+            .ok_or("no flight process program configured")?;
+        // Its own process group: a Ctrl-C or hang-up meant for the bootstrap's terminal must
+        // not kill the flight.
+        let mut child = Command::new(program)
+            .process_group(0)
+            .args(args)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .map_err(|e| format!("starting the flight process: {e}"))?;
+        self.generation = self.generation.saturating_add(1);
+        let generation = self.generation;
+        let pid = child.id();
+        let stdin = child.stdin.take();
+        let stdout = child.stdout.take();
+        let tx = self.tx.clone();
+        std::thread::Builder::new()
+            .name(format!("child-{generation}"))
+            .spawn(move || {
+                if let Some(out) = stdout {
+                    for line in BufReader::new(out).lines() {
+                        let Ok(line) = line else { break };
+                        if tx.send(Msg::ChildLine(generation, line)).is_err() {
+                            break;
+                        }
+                    }
+                }
+                if let Ok(status) = child.wait() {
+                    let _ = tx.send(Msg::ChildExited(generation, status));
+                }
+            })
+            .map_err(|e| e.to_string())?;
+        self.child = Some(Child {
+            generation,
+            pid,
+            stdin,
+        });
+        self.last_telemetry = None;
+        self.say(&format!("flight process started (pid {pid})"));
+        Ok(())
+    }
+
+    pub(super) fn kill_child(&mut self) {
+        let Some(child) = self.child.take() else {
+            return;
+        };
+        let pid = nix::unistd::Pid::from_raw(i32::try_from(child.pid).unwrap_or(i32::MAX));
+        let _ = nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGKILL);
+        // Its exit arrives as a message of an old generation and is reported then.
+        self.child = None;
+        self.set_state(State::Idle);
+    }
+
+    pub(super) fn current(&self, generation: u32) -> bool {
+        self.child
+            .as_ref()
+            .is_some_and(|c| c.generation == generation)
+    }
+
+    pub(super) fn child_line(&mut self, generation: u32, line: &str) {
+        let (word, rest) = line.split_once(' ').unwrap_or((line, ""));
+        if word == "telemetry" {
+            if self.current(generation) {
+                if let Some(link) = &self.link {
+                    link.set_telemetry(rest);
+                }
+                self.last_telemetry = Some(rest.to_string());
+            }
+            return;
+        }
+        if word == "plan" {
+            if self.current(generation)
+                && let Some(link) = &self.link
+            {
+                link.set_plan(rest);
+            }
+            return;
+        }
+        (self.report)(&format!("flight: {line}"));
+        if !self.current(generation) {
+            return;
+        }
+        match word {
+            "ready" if self.state == State::Connecting && self.restarting => {
+                self.restarting = false;
+                let words = self.flying.clone().unwrap_or_default();
+                if self.tell_child(&format!("restart {words}")) {
+                    self.set_state(State::Starting);
+                } else {
+                    self.say("the restarted flight process is not listening");
+                }
+            }
+            "ready" if self.state == State::Connecting => {
+                let pid = self.child.as_ref().map_or(0, |c| c.pid);
+                self.set_state(State::Connected);
+                self.answer(format!("ok connected (pid {pid})"));
+            }
+            "started" if self.state == State::Starting => {
+                self.log = Some(rest.to_string());
+                self.set_state(State::Flying);
+                self.answer(format!("ok flying, logging to {rest}"));
+            }
+            "error" => {
+                // A start refused (a plan it does not know): the flight did not begin, so
+                // the process's exit that follows is no crash in flight to restart.
+                if self.state == State::Starting {
+                    self.flying = None;
+                    self.set_state(State::Connected);
+                }
+                self.answer(format!("error {rest}"));
+            }
+            _ => {}
+        }
+    }
+
+    pub(super) fn child_exited(&mut self, generation: u32, status: ExitStatus) {
+        let how = describe_exit(status);
+        self.last_exit = Some(how.clone());
+        if !self.current(generation) {
+            self.say(&format!("old flight process ended: {how}"));
+            return;
+        }
+        let stopping = self.state == State::Stopping;
+        let in_flight =
+            matches!(self.state, State::Flying | State::Starting) && self.flying.is_some();
+        self.child = None;
+        if stopping && status.success() {
+            self.flying = None;
+            self.say(&format!("flight process stopped cleanly ({how})"));
+            self.answer(format!("ok stopped ({how})"));
+        } else {
+            self.say(&format!("flight process CRASHED: {how}"));
+            self.answer(format!("error the flight process ended: {how}"));
+        }
+        self.set_state(State::Idle);
+        if in_flight && !stopping {
+            self.restart_in_flight();
+        }
+    }
+
+    /// A flight process that crashed in flight is started again at once with the same
+    /// parameters; it resumes from its predecessor's warm-start record (aligning in the air
+    /// if the helicopter was flying). At most [`MAX_RESTARTS`] in [`RESTART_WINDOW`].
+    pub(super) fn restart_in_flight(&mut self) {
+        let now = Instant::now();
+        self.restarts
+            .retain(|t| now.saturating_duration_since(*t) < RESTART_WINDOW);
+        if self.restarts.len() >= MAX_RESTARTS {
+            self.flying = None;
+            self.say(&format!(
+                "not restarting: {MAX_RESTARTS} restarts within {} s already",
+                RESTART_WINDOW.as_secs()
+            ));
+            return;
+        }
+        self.restarts.push(now);
+        match self.spawn_child() {
+            Ok(()) => {
+                self.restarting = true;
+                self.say("restarting the flight process to resume the flight");
+                self.set_state(State::Connecting);
+            }
+            Err(e) => {
+                self.flying = None;
+                self.say(&format!("could not restart the flight process: {e}"));
+            }
+        }
+    }
+
+    /// At power-on (a brown-out of the whole computer): a fresh warm-start file that says
+    /// the helicopter was airborne resumes the flight it was flying.
+    pub(super) fn resume_after_power_on(&mut self) {
+        let Some(path) = self.config.warm_file.clone() else {
+            return;
+        };
+        let fresh = std::fs::metadata(&path)
+            .and_then(|m| m.modified())
+            .ok()
+            .and_then(|t| t.elapsed().ok())
+            .is_some_and(|age| age <= RESUME_AFTER_POWER_ON_MAX);
+        match crate::warm::WarmFile::read(&path) {
+            Ok(Some(file)) if fresh && file.warm.airborne => {
+                self.say(&format!(
+                    "power-on with a fresh warm-start record ({}): resuming the flight in the air",
+                    path.display()
+                ));
+                self.flying = Some(file.start);
+                self.restart_in_flight();
+            }
+            Ok(Some(_)) => self.say("an old or grounded warm-start record: not resuming"),
+            Ok(None) => {}
+            Err(e) => self.say(&format!("warm-start record unreadable, not resuming: {e}")),
+        }
+    }
+}
