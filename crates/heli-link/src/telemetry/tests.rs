@@ -1,0 +1,162 @@
+use super::*;
+
+fn full() -> Telemetry {
+    Telemetry {
+        t_us: 1,
+        imu: Some(ImuRow {
+            rate_rps: [0.1, 0.0, 0.0],
+            accel_mps2: [0.0, 0.0, -9.80665],
+        }),
+        state: Some(StateRow {
+            phase: "hold".into(),
+            euler_rad: [0.1, -0.1, 1.0],
+            rate_rps: [0.0; 3],
+            pos_ned_m: [1.0, 2.0, -10.0],
+            vel_ned_mps: [0.5, 0.0, 0.0],
+        }),
+        uplink: Some(UplinkRow {
+            pulses_us: [1500; 5],
+            auto_mode: true,
+            bypass: false,
+            rotor_rpm: 1600,
+            receiver_batt_v: 4.8,
+            servo_batt_v: 4.9,
+        }),
+        servo: Some(ServoRow {
+            commands: [0.0, 1.0, -1.0, 0.5, 0.0],
+        }),
+        gps: Some(GpsRow {
+            lat_deg: 42.36,
+            lon_deg: -71.09,
+            alt_m: 20.0,
+            vel_ned_mps: [0.0, 1.0, 0.0],
+            satellites: 8,
+            fix_3d: true,
+        }),
+        baro: Some(BaroRow {
+            pressure_mbar: 1013.0,
+            alt_m: Some(10.0),
+        }),
+        compass: Some(CompassRow {
+            field_gauss: [0.2, 0.0, 0.4],
+            heading_rad: Some(1.0),
+        }),
+        battery_v: Some(12.3),
+        battery_remaining: None,
+        power: None,
+        health: vec![
+            DeviceHealth {
+                device: "imu".into(),
+                state: "ok".into(),
+            },
+            DeviceHealth {
+                device: "gps".into(),
+                state: "silent".into(),
+            },
+        ],
+    }
+}
+
+#[test]
+fn every_telemetry_message_is_made_from_a_full_snapshot() {
+    for id in TELEMETRY_MESSAGES
+        .iter()
+        .filter(|&&id| id != HEARTBEAT_DATA::ID)
+    {
+        assert!(message(*id, &full(), 10).is_some(), "message {id}");
+    }
+}
+
+#[test]
+fn nothing_is_made_before_its_stream_has_data() {
+    let empty = Telemetry::default();
+    for id in TELEMETRY_MESSAGES {
+        if id != SYS_STATUS_DATA::ID {
+            assert!(message(id, &empty, 0).is_none(), "message {id}");
+        }
+    }
+}
+
+#[test]
+fn units_are_mavlinks() {
+    let Some(MavMessage::SCALED_IMU(imu)) = message(SCALED_IMU_DATA::ID, &full(), 0) else {
+        panic!()
+    };
+    assert_eq!(imu.zacc, -1000);
+    assert_eq!(imu.xgyro, 100);
+    let Some(MavMessage::SERVO_OUTPUT_RAW(s)) = message(SERVO_OUTPUT_RAW_DATA::ID, &full(), 0)
+    else {
+        panic!()
+    };
+    assert_eq!((s.servo2_raw, s.servo3_raw), (2000, 1000));
+    let Some(MavMessage::SYS_STATUS(st)) = message(SYS_STATUS_DATA::ID, &full(), 0) else {
+        panic!()
+    };
+    assert!(
+        st.onboard_control_sensors_health
+            .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO)
+    );
+    assert!(
+        !st.onboard_control_sensors_health
+            .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS)
+    );
+    assert!(
+        st.onboard_control_sensors_present
+            .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS)
+    );
+    assert_eq!(st.voltage_battery, 12_300);
+}
+
+#[test]
+fn telemetry_round_trips_as_json() {
+    let text = serde_json::to_string(&full()).unwrap();
+    assert_eq!(serde_json::from_str::<Telemetry>(&text).unwrap(), full());
+}
+
+#[test]
+fn the_gauges_go_out_as_battery_remaining_and_named_values() {
+    let mut t = full();
+    assert!(power_values(&t, 5).is_empty(), "no gauge, no values");
+    let row = |name: &str, percent: f64, minutes_left: f64| BatteryRow {
+        name: name.into(),
+        volts: 5.0,
+        percent,
+        minutes_left,
+        level: "good".into(),
+        draining_abnormally: false,
+    };
+    t.power = Some(PowerRow {
+        batteries: vec![row("receiver", 80.4, 100.0), row("servo", 55.0, 40.0)],
+        source: Some("ground".into()),
+        flight_s: 0.0,
+        ground_s: 90.0,
+    });
+    let remaining: Vec<i8> = board_batteries(&t)
+        .iter()
+        .filter_map(|m| match m {
+            MavMessage::BATTERY_STATUS(b) => Some(b.battery_remaining),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(remaining, [80, 55]);
+    let values: Vec<(String, f32)> = power_values(&t, 5)
+        .iter()
+        .filter_map(|m| match m {
+            MavMessage::NAMED_VALUE_FLOAT(v) => {
+                Some((v.name.to_str().unwrap_or("").to_string(), v.value))
+            }
+            _ => None,
+        })
+        .collect();
+    // No flight pack read: its minutes are left out, not sent as a made-up number.
+    assert_eq!(
+        values,
+        [
+            ("RTXB_MIN".to_string(), 100.0),
+            ("SBAT_MIN".to_string(), 40.0),
+            ("PWR_FLIGHT".to_string(), 0.0),
+            ("PWR_FLT_S".to_string(), 0.0),
+            ("PWR_GND_S".to_string(), 90.0),
+        ]
+    );
+}
