@@ -23,6 +23,14 @@
 //! 4. **Level**: below [`AutorotationGains::level_height_m`] the attitude is held level
 //!    whatever the speed left, so the skids meet the ground flat.
 //!
+//! **Close to the ground** (the engine quits below [`AutorotationGains::hover_auto_height_m`]
+//! at walking speed, in a low hover, a take-off or a landing) there is no height for a
+//! glide: the autorotation is a pilot's *hovering autorotation*. The stages are the same,
+//! but the cushion's profile decelerates at [`AutorotationGains::hover_cushion_decel_mps2`],
+//! gentler than the glide's arrival: the collective comes up as soon as the helicopter
+//! starts to sink, and the rotor's energy is spent on a slow descent instead of on stopping
+//! a fast one it could not stop.
+//!
 //! Sans-I/O: the estimate, the height, the rotor speed and the step time come in, the
 //! servo commands go out. The flight core decides when it begins (the engine-failure
 //! detection) and when it ends (on the ground).
@@ -71,6 +79,11 @@ pub struct AutorotationGains {
     pub flare_decel_per_mps: f64,
     /// Deceleration of the cushion's sink-rate profile (m/s²).
     pub cushion_decel_mps2: f64,
+    /// Height above the take-off point below which an engine failure at walking speed
+    /// (at most [`HOVERING_MAX_SPEED_MPS`]) begins a hovering autorotation (m).
+    pub hover_auto_height_m: f64,
+    /// Deceleration of the cushion's sink-rate profile in a hovering autorotation (m/s²).
+    pub hover_cushion_decel_mps2: f64,
     /// Sink rate the profile reaches at [`AutorotationGains::touchdown_height_m`] and holds
     /// to the ground (m/s).
     pub touchdown_sink_mps: f64,
@@ -111,6 +124,8 @@ impl Default for AutorotationGains {
             flare_max_tilt_rad: 0.35,
             flare_decel_per_mps: 0.3,
             cushion_decel_mps2: 9.0,
+            hover_auto_height_m: 5.0,
+            hover_cushion_decel_mps2: 2.0,
             touchdown_sink_mps: 0.6,
             touchdown_height_m: 0.3,
             sink_to_collective: 0.8,
@@ -121,6 +136,11 @@ impl Default for AutorotationGains {
         }
     }
 }
+
+/// Ground speed (m/s) at or below which the helicopter is hovering when the engine quits:
+/// the glide goes the nose's way, and close to the ground the autorotation is a hovering
+/// one.
+pub const HOVERING_MAX_SPEED_MPS: f64 = 2.0;
 
 /// Where in the autorotation the helicopter is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -166,15 +186,20 @@ pub struct Autorotation {
     rotor_integral: f64,
     stage: AutorotationStage,
     cushioning: bool,
+    /// Begun close to the ground at walking speed: a hovering autorotation.
+    hovering: bool,
 }
 
 impl Autorotation {
-    /// Begins at the estimate `est`: the glide goes the way the helicopter was going (above
-    /// 2 m/s), otherwise the way its nose points.
-    pub fn begin(gains: AutorotationGains, est: &NavState) -> Self {
+    /// Begins at the estimate `est`, `height_m` above the take-off point: the glide goes the
+    /// way the helicopter was going (above [`HOVERING_MAX_SPEED_MPS`]), otherwise the way
+    /// its nose points; below [`AutorotationGains::hover_auto_height_m`] at walking speed
+    /// it is a hovering autorotation.
+    pub fn begin(gains: AutorotationGains, est: &NavState, height_m: f64) -> Self {
         let (_, _, yaw) = est.euler_rad();
         let vel = Vector3::new(est.vel_ned_mps.x, est.vel_ned_mps.y, 0.0);
-        let glide_dir = if vel.norm() > 2.0 {
+        let moving = vel.norm() > HOVERING_MAX_SPEED_MPS;
+        let glide_dir = if moving {
             vel / vel.norm()
         } else {
             Vector3::new(yaw.cos(), yaw.sin(), 0.0)
@@ -187,7 +212,13 @@ impl Autorotation {
             rotor_integral: 0.0,
             stage: AutorotationStage::Glide,
             cushioning: false,
+            hovering: !moving && height_m < gains.hover_auto_height_m,
         }
+    }
+
+    /// Whether this is a hovering autorotation (begun close to the ground at walking speed).
+    pub fn hovering(&self) -> bool {
+        self.hovering
     }
 
     /// The stage of the last update.
@@ -200,7 +231,12 @@ impl Autorotation {
         let g = self.gains;
         let td = g.touchdown_sink_mps;
         let above = (height_m - g.touchdown_height_m).max(0.0);
-        (td * td + 2.0 * g.cushion_decel_mps2 * above).sqrt()
+        let decel = if self.hovering {
+            g.hover_cushion_decel_mps2
+        } else {
+            g.cushion_decel_mps2
+        };
+        (td * td + 2.0 * decel * above).sqrt()
     }
 
     /// One control step: servo commands from the estimate, the height above the take-off
@@ -373,10 +409,10 @@ mod tests {
     #[test]
     fn with_the_rotor_slow_and_speed_to_spend_the_nose_comes_up() {
         let e = est(Vector3::new(10.0, 0.0, 2.0));
-        let mut ar = Autorotation::begin(AutorotationGains::default(), &e);
+        let mut ar = Autorotation::begin(AutorotationGains::default(), &e, 50.0);
         // Level now: a nose-up command is aft cyclic (positive elevator pitches up).
         let slow = step(&mut ar, &e, 50.0, 1100.0);
-        let mut ar = Autorotation::begin(AutorotationGains::default(), &e);
+        let mut ar = Autorotation::begin(AutorotationGains::default(), &e, 50.0);
         let at_speed = step(&mut ar, &e, 50.0, 1500.0);
         assert_eq!(ar.stage(), AutorotationStage::Glide);
         assert!(slow.elevator > 0.0, "{slow:?}");
@@ -387,9 +423,9 @@ mod tests {
     fn the_collective_holds_the_rotor_speed_in_the_glide() {
         let e = est(Vector3::new(10.0, 0.0, 8.0));
         let g = AutorotationGains::default();
-        let mut ar = Autorotation::begin(g, &e);
+        let mut ar = Autorotation::begin(g, &e, 50.0);
         let slow = step(&mut ar, &e, 50.0, 1250.0).collective;
-        let mut ar = Autorotation::begin(g, &e);
+        let mut ar = Autorotation::begin(g, &e, 50.0);
         let fast = step(&mut ar, &e, 50.0, 1650.0).collective;
         assert!(slow < g.glide_collective && fast > g.glide_collective);
         assert!(slow >= g.min_collective);
@@ -401,7 +437,7 @@ mod tests {
         // In the flare, sinking slower than the profile: nose up, collective still on the
         // rotor.
         let e = est(Vector3::new(12.0, 0.0, 3.0));
-        let mut ar = Autorotation::begin(g, &e);
+        let mut ar = Autorotation::begin(g, &e, 50.0);
         let flare = step(&mut ar, &e, g.flare_height_m - 1.0, g.rotor_target_rpm);
         assert_eq!(ar.stage(), AutorotationStage::Flare);
         assert!(flare.elevator > 0.0, "{flare:?}");
@@ -425,7 +461,7 @@ mod tests {
     fn upset_it_is_righted_by_the_shortest_way_without_thrust() {
         let g = AutorotationGains::default();
         let mut e = est(Vector3::new(5.0, 0.0, 2.0));
-        let mut ar = Autorotation::begin(g, &e);
+        let mut ar = Autorotation::begin(g, &e, 50.0);
         // Rolled 150 degrees right: back left is the short way (the Euler roll error says
         // the same here; upside down, a pitch error does not).
         e.att = UnitQuaternion::from_euler_angles(150f64.to_radians(), 0.0, 0.0);
@@ -458,7 +494,7 @@ mod tests {
     #[test]
     fn the_sink_profile_reaches_the_touchdown_sink_above_the_ground_and_holds_it() {
         let g = AutorotationGains::default();
-        let ar = Autorotation::begin(g, &est(Vector3::zeros()));
+        let ar = Autorotation::begin(g, &est(Vector3::zeros()), 50.0);
         let td = g.touchdown_sink_mps;
         assert!((ar.sink_profile_mps(g.touchdown_height_m) - td).abs() < 1e-12);
         assert!((ar.sink_profile_mps(0.0) - td).abs() < 1e-12);

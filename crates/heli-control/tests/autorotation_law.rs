@@ -11,7 +11,9 @@
     clippy::arithmetic_side_effects
 )]
 
-use heli_control::autorotation::{Autorotation, AutorotationGains, AutorotationStage};
+use heli_control::autorotation::{
+    Autorotation, AutorotationGains, AutorotationStage, HOVERING_MAX_SPEED_MPS,
+};
 use heli_control::hover::{HoverController, HoverGains, accel_to_attitude};
 use heli_control::{GOVERNED_THROTTLE, limit};
 use heli_nav::NavState;
@@ -39,6 +41,8 @@ fn gains() -> AutorotationGains {
         flare_max_tilt_rad: 0.3,
         flare_decel_per_mps: 0.3,
         cushion_decel_mps2: 9.0,
+        hover_auto_height_m: 4.0,
+        hover_cushion_decel_mps2: 2.5,
         touchdown_sink_mps: 0.6,
         touchdown_height_m: 0.3,
         sink_to_collective: 0.7,
@@ -68,10 +72,60 @@ fn level(yaw: f64, vel: Vector3<f64>) -> NavState {
 
 #[test]
 fn the_sink_profile_decelerates_to_the_touchdown_sink_above_the_ground() {
-    let ar = Autorotation::begin(gains(), &level(0.0, Vector3::zeros()));
+    let ar = Autorotation::begin(gains(), &level(0.0, Vector3::zeros()), 50.0);
     close(ar.sink_profile_mps(0.1), 0.6);
     close(ar.sink_profile_mps(0.3), 0.6);
     close(ar.sink_profile_mps(5.3), (0.36f64 + 2.0 * 9.0 * 5.0).sqrt());
+}
+
+#[test]
+fn close_to_the_ground_at_walking_speed_the_autorotation_is_a_hovering_one() {
+    let g = gains();
+    let hovering_profile = (0.36f64 + 2.0 * 2.5 * 5.0).sqrt();
+    let glide_profile = (0.36f64 + 2.0 * 9.0 * 5.0).sqrt();
+    // Still, below the height (and just below it): hovering.
+    for height_m in [0.5, 3.0, 4.0 - 1e-9] {
+        let ar = Autorotation::begin(g, &level(0.0, Vector3::zeros()), height_m);
+        assert!(ar.hovering(), "{height_m}");
+        close(ar.sink_profile_mps(5.3), hovering_profile);
+        close(ar.sink_profile_mps(0.2), 0.6);
+    }
+    // At walking speed exactly, in any direction, and sinking: hovering.
+    let walking = Vector3::new(0.6, 0.8, 0.0) * HOVERING_MAX_SPEED_MPS;
+    let ar = Autorotation::begin(g, &level(1.0, walking + Vector3::new(0.0, 0.0, 1.5)), 2.0);
+    assert!(ar.hovering());
+    // From the height up, or faster than walking: the glide's cushion.
+    let faster = Vector3::new(0.6, 0.8, 0.0) * (HOVERING_MAX_SPEED_MPS + 1e-6);
+    for (vel, height_m) in [
+        (Vector3::zeros(), 4.0),
+        (Vector3::zeros(), 40.0),
+        (faster, 2.0),
+        (Vector3::zeros(), f64::NAN),
+    ] {
+        let ar = Autorotation::begin(g, &level(0.0, vel), height_m);
+        assert!(!ar.hovering(), "{vel:?} at {height_m}");
+        close(ar.sink_profile_mps(5.3), glide_profile);
+    }
+}
+
+#[test]
+fn a_hovering_autorotation_raises_the_collective_on_a_sink_the_glide_would_allow() {
+    let g = gains();
+    let mut hover = HoverController::new(HoverGains::default());
+    // 2 m up, sinking 3.5 m/s, the rotor on its target: the glide's profile allows
+    // 5.6 m/s here (no cushion yet, the flare), the hovering one 3.0 m/s (the cushion).
+    let e = level(0.0, Vector3::new(0.0, 0.0, 3.5));
+    let mut low = Autorotation::begin(g, &level(0.0, Vector3::zeros()), 2.0);
+    let mut high = Autorotation::begin(g, &level(0.0, Vector3::zeros()), 50.0);
+    let allowed = (0.36f64 + 2.0 * 2.5 * 1.7).sqrt();
+    assert!(allowed < 3.5 && (0.36f64 + 2.0 * 9.0 * 1.7).sqrt() > 3.5);
+    let u = low.update(&mut hover, &e, 2.0, 1400.0, 0.02);
+    assert_eq!(low.stage(), AutorotationStage::Cushion);
+    close(u.collective, 0.4 + 0.7 * (3.5 - allowed));
+    let mut hover = HoverController::new(HoverGains::default());
+    let u = high.update(&mut hover, &e, 2.0, 1400.0, 0.02);
+    assert_eq!(high.stage(), AutorotationStage::Flare);
+    close(u.collective, -0.3);
 }
 
 #[test]
@@ -79,7 +133,7 @@ fn the_stages_follow_height_sink_and_attitude() {
     let g = gains();
     let mut hover = HoverController::new(HoverGains::default());
     let e = level(0.0, Vector3::new(8.0, 0.0, 3.0));
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     assert_eq!(ar.stage(), AutorotationStage::Glide);
     ar.update(&mut hover, &e, 40.0, 1400.0, 0.02);
     assert_eq!(ar.stage(), AutorotationStage::Glide);
@@ -91,7 +145,7 @@ fn the_stages_follow_height_sink_and_attitude() {
     // 8 m/s down at 2 m is faster than the profile (5.6 m/s): the cushion, which goes on
     // when the sink is back under the profile.
     let fast = level(0.0, Vector3::new(8.0, 0.0, 8.0));
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     ar.update(&mut hover, &fast, 2.0, 1400.0, 0.02);
     assert!(ar.sink_profile_mps(2.0) < 8.0);
     assert_eq!(ar.stage(), AutorotationStage::Cushion);
@@ -99,7 +153,7 @@ fn the_stages_follow_height_sink_and_attitude() {
     ar.update(&mut hover, &slow, 8.0, 1400.0, 0.02);
     assert_eq!(ar.stage(), AutorotationStage::Cushion);
     // At the profile exactly, not faster: no cushion.
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     let at = ar.sink_profile_mps(2.0);
     ar.update(
         &mut hover,
@@ -110,10 +164,10 @@ fn the_stages_follow_height_sink_and_attitude() {
     );
     assert_eq!(ar.stage(), AutorotationStage::Flare);
     // At the level height exactly, not yet level; at the flare height exactly, flaring.
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     ar.update(&mut hover, &e, 1.5, 1400.0, 0.02);
     assert_eq!(ar.stage(), AutorotationStage::Flare);
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     ar.update(&mut hover, &e, 10.0, 1400.0, 0.02);
     assert_eq!(ar.stage(), AutorotationStage::Glide);
     // Below the level height, level whatever the sink.
@@ -148,7 +202,7 @@ fn the_collective_holds_the_rotor_speed_with_feedback_and_integral() {
     let g = gains();
     let mut hover = HoverController::new(HoverGains::default());
     let e = level(0.0, Vector3::new(8.0, 0.0, 3.0));
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     // 100 rpm fast: −0.3 + 0.004 × 100 + 0.002 × (100 × 0.02).
     let u = ar.update(&mut hover, &e, 40.0, 1500.0, 0.02);
     close(u.collective, -0.3 + 0.4 + 0.002 * 2.0);
@@ -156,15 +210,15 @@ fn the_collective_holds_the_rotor_speed_with_feedback_and_integral() {
     close(u.collective, -0.3 + 0.4 + 0.002 * 4.0);
     assert_eq!(u.throttle, GOVERNED_THROTTLE);
     // Slow: held at the lowest collective.
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     let u = ar.update(&mut hover, &e, 40.0, 1300.0, 0.02);
     close(u.collective, -0.45);
     // A rotor speed that is not a reading counts as on target.
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     let u = ar.update(&mut hover, &e, 40.0, f64::NAN, 0.02);
     close(u.collective, -0.3);
     // The integral holds at most half the travel.
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     for _ in 0..2_000 {
         ar.update(&mut hover, &e, 40.0, 1900.0, 0.1);
     }
@@ -177,7 +231,7 @@ fn the_cushion_limits_the_sink_and_freezes_the_rotor_integral() {
     let g = gains();
     let mut hover = HoverController::new(HoverGains::default());
     let e = level(0.0, Vector3::new(4.0, 0.0, 6.0));
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     ar.update(&mut hover, &e, 40.0, 1500.0, 0.02);
     // 2 m up, 6 m/s down: the profile is sqrt(0.36 + 18 × 1.7) = 5.56 m/s.
     let profile = (0.36f64 + 2.0 * 9.0 * 1.7).sqrt();
@@ -199,7 +253,7 @@ fn the_glide_flies_its_speed_along_the_way_it_was_going() {
     let hg = HoverGains::default();
     // Moving at 5 m/s north-east: the glide goes that way, whatever the heading.
     let e = level(0.3, Vector3::new(3.0, 4.0, 2.0));
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     let mut hover = HoverController::new(hg);
     let u = ar.update(&mut hover, &e, 40.0, 1400.0, 0.02);
     let mut stages = HoverController::new(hg);
@@ -211,7 +265,7 @@ fn the_glide_flies_its_speed_along_the_way_it_was_going() {
     close(u.elevator, el);
     // At 2 m/s exactly, and slower, the glide goes along the heading.
     let e2 = level(0.3, Vector3::new(2.0, 0.0, 2.0));
-    let mut ar = Autorotation::begin(g, &e2);
+    let mut ar = Autorotation::begin(g, &e2, 50.0);
     let mut hover = HoverController::new(hg);
     let u = ar.update(&mut hover, &e2, 40.0, 1400.0, 0.02);
     let mut stages = HoverController::new(hg);
@@ -222,7 +276,7 @@ fn the_glide_flies_its_speed_along_the_way_it_was_going() {
     close(u.elevator, el);
     // Nearly still: the glide goes along the heading.
     let e = level(0.3, Vector3::new(1.0, 1.0, 2.0));
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     let mut hover = HoverController::new(hg);
     let u = ar.update(&mut hover, &e, 40.0, 1400.0, 0.02);
     let mut stages = HoverController::new(hg);
@@ -241,7 +295,7 @@ fn with_the_rotor_slow_the_glide_trades_speed_for_rotor_speed() {
     // the speed share (10/5 ≥ 1): the pitch is at least −0.35 × 0.5 + 0.45 × 1 × 0.5.
     let e = level(0.0, Vector3::new(10.0, 0.0, 2.0));
     let floor = -0.35 * 0.5 + 0.45 * 0.5;
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     let mut hover = HoverController::new(hg);
     let u = ar.update(&mut hover, &e, 40.0, 1100.0, 0.02);
     let mut stages = HoverController::new(hg);
@@ -253,7 +307,7 @@ fn with_the_rotor_slow_the_glide_trades_speed_for_rotor_speed() {
     // At 2.5 m/s along the glide, half the entry pitch.
     let e = level(0.0, Vector3::new(2.5, 0.0, 2.0));
     let floor = -0.35 * 0.5 + 0.45 * 0.5 * 0.5;
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     let mut hover = HoverController::new(hg);
     let u = ar.update(&mut hover, &e, 40.0, 1100.0, 0.02);
     let mut stages = HoverController::new(hg);
@@ -272,7 +326,7 @@ fn the_flare_decelerates_along_the_glide_and_stops_the_sideways_drift() {
     let g = gains();
     let hg = HoverGains::default();
     let begin = level(0.0, Vector3::new(10.0, 0.0, 2.0));
-    let mut ar = Autorotation::begin(g, &begin);
+    let mut ar = Autorotation::begin(g, &begin, 50.0);
     let mut hover = HoverController::new(hg);
     // Heading 0.2 rad, 6 m/s along the glide (north) and 1 m/s east.
     let e = level(0.2, Vector3::new(6.0, 1.0, 2.0));
@@ -296,7 +350,7 @@ fn an_upset_is_righted_the_shortest_way_at_the_upset_collective() {
     let g = gains();
     let hg = HoverGains::default();
     let e = level(0.0, Vector3::new(10.0, 0.0, 2.0));
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     let mut hover = HoverController::new(hg);
     // Rolled 2.0 rad right: right it by rolling left at att_to_rate × 2.0, at most 5 rad/s.
     let upset = est(
@@ -317,6 +371,7 @@ fn an_upset_is_righted_the_shortest_way_at_the_upset_collective() {
             ..gains()
         },
         &e,
+        50.0,
     );
     // A gentle gain keeps the cyclic off its stops: 0.5 × 2.0 rad.
     let gentle = HoverGains {
@@ -334,7 +389,7 @@ fn an_upset_is_righted_the_shortest_way_at_the_upset_collective() {
         upset_rate_rps: 1.0,
         ..gains()
     };
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     let nose_up = est(
         UnitQuaternion::from_euler_angles(0.0, 1.4, 0.0),
         e.vel_ned_mps,
@@ -359,7 +414,7 @@ fn the_tail_holds_the_heading_it_began_on_without_engine_torque() {
     let g = gains();
     let hg = HoverGains::default();
     let e = level(0.5, Vector3::new(10.0, 0.0, 2.0));
-    let mut ar = Autorotation::begin(g, &e);
+    let mut ar = Autorotation::begin(g, &e, 50.0);
     let mut hover = HoverController::new(hg);
     // Turned 0.2 rad off the heading it began on.
     let turned = level(0.7, Vector3::new(10.0, 0.0, 2.0));

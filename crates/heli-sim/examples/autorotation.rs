@@ -31,6 +31,8 @@ fn slot<'a>(g: &'a mut AutorotationGains, key: &str) -> &'a mut f64 {
         "flare_max_tilt_rad" => &mut g.flare_max_tilt_rad,
         "flare_decel_per_mps" => &mut g.flare_decel_per_mps,
         "cushion_decel_mps2" => &mut g.cushion_decel_mps2,
+        "hover_auto_height_m" => &mut g.hover_auto_height_m,
+        "hover_cushion_decel_mps2" => &mut g.hover_cushion_decel_mps2,
         "touchdown_sink_mps" => &mut g.touchdown_sink_mps,
         "touchdown_height_m" => &mut g.touchdown_height_m,
         "sink_to_collective" => &mut g.sink_to_collective,

@@ -4,7 +4,9 @@
 //!
 //! The heights are above the model's height–velocity curve: from lower down there is not
 //! the time to build the forward speed the flare turns into lift (the measured curve is in
-//! docs/autorotation.md). Campaigns over 100 seeds: `campaigns/autorotation/`.
+//! docs/autorotation.md). Below the curve is its other side, a hover close to the ground,
+//! where the rotor's energy alone cushions the drop (a hovering autorotation). Campaigns
+//! over 100 seeds: `campaigns/autorotation/`.
 
 use crate::faults::EngineFault;
 use crate::scenario::{LegSpec, Limits, Scenario, hover, rolls};
@@ -48,6 +50,29 @@ pub fn engine_failure_hover() -> Scenario {
     ];
     s.faults.engine = engine_off(165.0);
     s.limits = autorotation_limits();
+    s.expect_events = expected();
+    s
+}
+
+/// `engine-failure-low-hover`: the engine quits in a hover 1.5 m up (a take-off's or a
+/// landing's height): a hovering autorotation. The rotor's speed is spent on the cushion
+/// by design, so it is not judged.
+pub fn engine_failure_low_hover() -> Scenario {
+    let mut s = hover();
+    s.name = "engine-failure-low-hover".into();
+    s.description =
+        "the engine quits in a hover 1.5 m up: hovering autorotation, the rotor's energy cushions the drop"
+            .into();
+    s.duration_s = 160.0;
+    s.plan = vec![
+        LegSpec::Takeoff { alt_m: 1.5 },
+        LegSpec::Hold { seconds: 60.0 },
+    ];
+    s.faults.engine = engine_off(120.0);
+    s.limits = Limits {
+        rotor_min_rpm: None,
+        ..autorotation_limits()
+    };
     s.expect_events = expected();
     s
 }

@@ -488,6 +488,7 @@ pub fn builtins() -> Vec<Scenario> {
         crate::device_faults::brownout(),
         crate::device_faults::gps_lost(),
         crate::engine_failures::engine_failure_hover(),
+        crate::engine_failures::engine_failure_low_hover(),
         crate::engine_failures::engine_failure_forward(),
         crate::engine_failures::engine_failure_roll(),
         crate::power_scenarios::battery_swap(),

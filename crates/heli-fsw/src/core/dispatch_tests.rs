@@ -143,8 +143,30 @@ fn the_autorotation_flies_the_autorotation_law() {
     let e = est(30.0);
     let u = core.phase_controls(Some(e), &imu(), DT);
     let mut hover = HoverController::new(core.config.hover);
-    let mut ar = Autorotation::begin(core.config.autorotation, &e);
+    let mut ar = Autorotation::begin(core.config.autorotation, &e, 30.0);
     assert_eq!(u, ar.update(&mut hover, &e, 30.0, 1500.0, DT));
+}
+
+#[test]
+fn an_autorotation_begun_close_to_the_ground_is_a_hovering_one() {
+    let mut core = core_in(
+        Phase::Autorotation {
+            settled_since_us: None,
+        },
+        FlightMode::Autonomous,
+    );
+    // 2 m up, sinking 3.5 m/s at walking speed: the hovering autorotation's cushion.
+    let mut e = est(2.0);
+    e.vel_ned_mps.z = 3.5;
+    let u = core.phase_controls(Some(e), &imu(), DT);
+    let law = |height_m: f64| {
+        let mut hover = HoverController::new(core.config.hover);
+        Autorotation::begin(core.config.autorotation, &e, height_m)
+            .update(&mut hover, &e, 2.0, 1500.0, DT)
+    };
+    assert_eq!(u, law(2.0));
+    assert_ne!(u, law(30.0));
+    assert!(core.autorotation.is_some_and(|a| a.hovering()));
 }
 
 #[test]

@@ -146,7 +146,8 @@ impl FlightCore {
 
     fn begin_autorotation(&mut self, est: &NavState) -> Phase {
         self.plan_abandoned = true;
-        self.autorotation = Some(Autorotation::begin(self.config.autorotation, est));
+        let height = self.height_above_home(est);
+        self.autorotation = Some(Autorotation::begin(self.config.autorotation, est, height));
         Phase::Autorotation {
             settled_since_us: None,
         }
@@ -158,7 +159,7 @@ impl FlightCore {
         let rpm = self.pilot.map_or(f64::NAN, |p| f64::from(p.rotor_rpm));
         let gains = self.config.autorotation;
         self.autorotation
-            .get_or_insert_with(|| Autorotation::begin(gains, est))
+            .get_or_insert_with(|| Autorotation::begin(gains, est, height))
             .update(&mut self.hover, est, height, rpm, dt_s)
     }
 }

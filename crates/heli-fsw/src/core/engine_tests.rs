@@ -259,6 +259,34 @@ fn in_autonomous_flight_an_engine_failure_is_an_autorotation() {
 }
 
 #[test]
+fn close_to_the_ground_the_autorotation_is_a_hovering_one() {
+    // The engine quits in an autonomous hover: 2 m up a hovering autorotation, 8 m up the
+    // glide's (the height is the one the failure is detected at).
+    for (height_m, hovering_expected) in [(2.0, true), (8.0, false)] {
+        let (mut core, mut out, mut t) = hovering(FlightMode::Autonomous, height_m);
+        fly(
+            &mut core,
+            &mut out,
+            &mut t,
+            1.0,
+            uplink(true, false),
+            height_m,
+        );
+        fly(
+            &mut core,
+            &mut out,
+            &mut t,
+            0.5,
+            with_rpm(uplink(true, false), 1200),
+            height_m,
+        );
+        assert_eq!(failures(&out), 1, "{height_m} m");
+        let autorotation = core.autorotation.as_ref().map(|a| a.hovering());
+        assert_eq!(autorotation, Some(hovering_expected), "{height_m} m");
+    }
+}
+
+#[test]
 fn after_an_engine_failure_the_engine_is_not_flown_again() {
     let (mut core, mut out, mut t) = hovering(FlightMode::Autonomous, 8.0);
     fly(
