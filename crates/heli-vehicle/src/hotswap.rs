@@ -118,10 +118,16 @@ impl LineReader {
                 };
                 let value = request.value(*offset).map_err(named)?;
                 self.request = Some(request);
-                Ok(value == gpiocdev::line::Value::Active)
+                Ok(on_flight_battery(value))
             }
         }
     }
+}
+
+/// A GPIO line's value as a level: active (after the line's polarity) is the flight
+/// battery.
+fn on_flight_battery(value: gpiocdev::line::Value) -> bool {
+    value == gpiocdev::line::Value::Active
 }
 
 /// A value file's text as a level.
@@ -176,6 +182,12 @@ pub fn spawn_hotswap(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_active_line_is_the_flight_battery() {
+        assert!(on_flight_battery(gpiocdev::line::Value::Active));
+        assert!(!on_flight_battery(gpiocdev::line::Value::Inactive));
+    }
 
     #[test]
     fn a_line_is_named_by_chip_and_offset_or_by_its_value_file() {

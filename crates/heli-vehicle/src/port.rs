@@ -44,16 +44,9 @@ pub fn open(path: &Path, baud: u32) -> Result<TTYPort, PortError> {
         reason,
         hint,
     };
-    let meta = std::fs::metadata(path).map_err(|e| match e.kind() {
-        io::ErrorKind::NotFound => error(
-            "no such device".into(),
-            "is the device plugged in and the path right? for HIL, is `heli hilsim --ptys DIR` running?",
-        ),
-        io::ErrorKind::PermissionDenied => error(
-            "permission denied".into(),
-            "add the user to the `dialout` group, or run as root",
-        ),
-        _ => error(e.to_string(), "check the path"),
+    let meta = std::fs::metadata(path).map_err(|e| {
+        let (reason, hint) = lookup_failure(&e);
+        error(reason, hint)
     })?;
     if !meta.file_type().is_char_device() {
         return Err(error(
@@ -69,19 +62,39 @@ pub fn open(path: &Path, baud: u32) -> Result<TTYPort, PortError> {
         .exclusive(false)
         .open_native()
         .map_err(|e| {
-            let hint = match e.kind() {
-                serialport::ErrorKind::NoDevice => "is another program using the port?",
-                serialport::ErrorKind::Io(io::ErrorKind::PermissionDenied) => {
-                    "add the user to the `dialout` group, or run as root"
-                }
-                _ => "is it a serial device?",
-            };
+            let hint = open_hint(e.kind());
             error(e.to_string(), hint)
         })?;
     // Whatever waited in the line's buffer before the flight began is stale: a driver stamps
     // bytes when it reads them, so old bytes would arrive as a burst of "new" samples.
     let _ = port.clear(serialport::ClearBuffer::Input);
     Ok(port)
+}
+
+/// What an operator reads when the path cannot be looked up: the reason and what to do.
+fn lookup_failure(e: &io::Error) -> (String, &'static str) {
+    match e.kind() {
+        io::ErrorKind::NotFound => (
+            "no such device".into(),
+            "is the device plugged in and the path right? for HIL, is `heli hilsim --ptys DIR` running?",
+        ),
+        io::ErrorKind::PermissionDenied => (
+            "permission denied".into(),
+            "add the user to the `dialout` group, or run as root",
+        ),
+        _ => (e.to_string(), "check the path"),
+    }
+}
+
+/// What an operator is told to do when a terminal device is there but will not open.
+fn open_hint(kind: serialport::ErrorKind) -> &'static str {
+    match kind {
+        serialport::ErrorKind::NoDevice => "is another program using the port?",
+        serialport::ErrorKind::Io(io::ErrorKind::PermissionDenied) => {
+            "add the user to the `dialout` group, or run as root"
+        }
+        _ => "is it a serial device?",
+    }
 }
 
 /// Reads what is there (up to `buf.len()` bytes), waiting at most [`READ_TIMEOUT`]; `Ok(0)`
@@ -122,6 +135,28 @@ mod tests {
         std::fs::write(&file, b"x").unwrap();
         let e = open(&file, 115_200).unwrap_err();
         assert!(e.to_string().contains("not a terminal device"), "{e}");
+    }
+
+    #[test]
+    fn each_failure_to_open_says_what_to_do() {
+        // Root opens anything, so the permission answers are checked on the mapping.
+        let (reason, hint) = lookup_failure(&io::Error::from(io::ErrorKind::PermissionDenied));
+        assert_eq!(reason, "permission denied");
+        assert!(hint.contains("dialout"), "{hint}");
+        let (reason, hint) = lookup_failure(&io::Error::from(io::ErrorKind::NotFound));
+        assert_eq!(reason, "no such device");
+        assert!(hint.contains("heli hilsim --ptys"), "{hint}");
+        let (reason, hint) = lookup_failure(&io::Error::other("disk on fire"));
+        assert_eq!((reason.as_str(), hint), ("disk on fire", "check the path"));
+        assert!(open_hint(serialport::ErrorKind::NoDevice).contains("another program"));
+        let denied = serialport::ErrorKind::Io(io::ErrorKind::PermissionDenied);
+        assert!(open_hint(denied).contains("dialout"));
+        let other = serialport::ErrorKind::Io(io::ErrorKind::InvalidInput);
+        assert_eq!(open_hint(other), "is it a serial device?");
+        assert_eq!(
+            open_hint(serialport::ErrorKind::InvalidInput),
+            "is it a serial device?"
+        );
     }
 
     #[test]
