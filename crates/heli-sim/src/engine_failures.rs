@@ -31,96 +31,99 @@ fn engine_off(start_s: f64) -> Vec<EngineFault> {
     }]
 }
 
-/// The failure is raised, and the phase follows.
-fn expected() -> Vec<String> {
-    vec!["engine failure".into(), "phase autorotation".into()]
+/// An engine-failure scenario flown from `base`: `plan`, the engine quitting at `fail_at_s`
+/// for good, judged on the autorotation's limits; the failure and the phase expected.
+fn engine_failure(
+    base: Scenario,
+    name: &str,
+    description: &str,
+    duration_s: f64,
+    plan: Vec<LegSpec>,
+    fail_at_s: f64,
+) -> Scenario {
+    let mut s = base;
+    s.name = name.into();
+    s.description = description.into();
+    s.duration_s = duration_s;
+    s.plan = plan;
+    s.faults.engine = engine_off(fail_at_s);
+    s.limits = autorotation_limits();
+    s.expect_events = vec!["engine failure".into(), "phase autorotation".into()];
+    s
 }
 
 /// `engine-failure-hover`: the engine quits in a hover at 80 m.
 pub fn engine_failure_hover() -> Scenario {
-    let mut s = hover();
-    s.name = "engine-failure-hover".into();
-    s.description =
-        "the engine quits in a hover at 80 m: autorotation, a dive for speed, flare, soft touchdown"
-            .into();
-    s.duration_s = 220.0;
-    s.plan = vec![
-        LegSpec::Takeoff { alt_m: 80.0 },
-        LegSpec::Hold { seconds: 60.0 },
-    ];
-    s.faults.engine = engine_off(165.0);
-    s.limits = autorotation_limits();
-    s.expect_events = expected();
-    s
+    engine_failure(
+        hover(),
+        "engine-failure-hover",
+        "the engine quits in a hover at 80 m: autorotation, a dive for speed, flare, soft touchdown",
+        220.0,
+        vec![
+            LegSpec::Takeoff { alt_m: 80.0 },
+            LegSpec::Hold { seconds: 60.0 },
+        ],
+        165.0,
+    )
 }
 
 /// `engine-failure-low-hover`: the engine quits in a hover 1.5 m up (a take-off's or a
 /// landing's height): a hovering autorotation. The rotor's speed is spent on the cushion
 /// by design, so it is not judged.
 pub fn engine_failure_low_hover() -> Scenario {
-    let mut s = hover();
-    s.name = "engine-failure-low-hover".into();
-    s.description =
-        "the engine quits in a hover 1.5 m up: hovering autorotation, the rotor's energy cushions the drop"
-            .into();
-    s.duration_s = 160.0;
-    s.plan = vec![
-        LegSpec::Takeoff { alt_m: 1.5 },
-        LegSpec::Hold { seconds: 60.0 },
-    ];
-    s.faults.engine = engine_off(120.0);
-    s.limits = Limits {
-        rotor_min_rpm: None,
-        ..autorotation_limits()
-    };
-    s.expect_events = expected();
+    let mut s = engine_failure(
+        hover(),
+        "engine-failure-low-hover",
+        "the engine quits in a hover 1.5 m up: hovering autorotation, the rotor's energy cushions the drop",
+        160.0,
+        vec![
+            LegSpec::Takeoff { alt_m: 1.5 },
+            LegSpec::Hold { seconds: 60.0 },
+        ],
+        120.0,
+    );
+    s.limits.rotor_min_rpm = None;
     s
 }
 
 /// `engine-failure-forward`: the engine quits at 10 m/s, 60 m up.
 pub fn engine_failure_forward() -> Scenario {
-    let mut s = hover();
-    s.name = "engine-failure-forward".into();
-    s.description =
-        "the engine quits flying north at 10 m/s, 60 m up: autorotation, glide, flare, soft touchdown"
-            .into();
-    s.duration_s = 200.0;
-    s.plan = vec![
-        LegSpec::Takeoff { alt_m: 60.0 },
-        LegSpec::Fly {
-            north_m: 400.0,
-            east_m: 0.0,
-            alt_m: 60.0,
-            speed_mps: 10.0,
-        },
-        LegSpec::Hold { seconds: 10.0 },
-    ];
-    s.faults.engine = engine_off(150.0);
-    s.limits = autorotation_limits();
-    s.expect_events = expected();
-    s
+    engine_failure(
+        hover(),
+        "engine-failure-forward",
+        "the engine quits flying north at 10 m/s, 60 m up: autorotation, glide, flare, soft touchdown",
+        200.0,
+        vec![
+            LegSpec::Takeoff { alt_m: 60.0 },
+            LegSpec::Fly {
+                north_m: 400.0,
+                east_m: 0.0,
+                alt_m: 60.0,
+                speed_mps: 10.0,
+            },
+            LegSpec::Hold { seconds: 10.0 },
+        ],
+        150.0,
+    )
 }
 
 /// `engine-failure-roll`: the engine quits 1 s into the first of three rolls at 80 m, rolled
 /// about 140 degrees; the helicopter is righted, then autorotates.
 pub fn engine_failure_roll() -> Scenario {
-    let mut s = rolls();
-    s.name = "engine-failure-roll".into();
-    s.description =
-        "the engine quits in the first aileron roll at 80 m: righted, autorotation, soft touchdown"
-            .into();
-    s.duration_s = 220.0;
-    s.plan = vec![
-        LegSpec::Takeoff { alt_m: 80.0 },
-        LegSpec::Hold { seconds: 5.0 },
-        LegSpec::Rolls {
-            count: 3,
-            speed_mps: 8.0,
-        },
-        LegSpec::Hold { seconds: 10.0 },
-    ];
-    s.faults.engine = engine_off(155.6);
-    s.limits = autorotation_limits();
-    s.expect_events = expected();
-    s
+    engine_failure(
+        rolls(),
+        "engine-failure-roll",
+        "the engine quits in the first aileron roll at 80 m: righted, autorotation, soft touchdown",
+        220.0,
+        vec![
+            LegSpec::Takeoff { alt_m: 80.0 },
+            LegSpec::Hold { seconds: 5.0 },
+            LegSpec::Rolls {
+                count: 3,
+                speed_mps: 8.0,
+            },
+            LegSpec::Hold { seconds: 10.0 },
+        ],
+        155.6,
+    )
 }

@@ -213,10 +213,18 @@ fn on_the_ground_a_slow_rotor_is_no_engine_failure() {
     assert_eq!(failures(&out), 0);
 }
 
-#[test]
-fn in_autonomous_flight_an_engine_failure_is_an_autorotation() {
-    let (mut core, mut out, mut t) = hovering(FlightMode::Autonomous, 8.0);
-    fly(&mut core, &mut out, &mut t, 1.0, uplink(true, false), 8.0);
+/// An autonomous hold `height_m` up, then the rotor held at 1200 rpm for 0.5 s: the
+/// engine has failed.
+fn engine_fails_in_a_hold(height_m: f64) -> (FlightCore, Vec<Action>, u64) {
+    let (mut core, mut out, mut t) = hovering(FlightMode::Autonomous, height_m);
+    fly(
+        &mut core,
+        &mut out,
+        &mut t,
+        1.0,
+        uplink(true, false),
+        height_m,
+    );
     assert!(
         matches!(core.phase(), Phase::Holding { .. }),
         "{:?}",
@@ -228,8 +236,14 @@ fn in_autonomous_flight_an_engine_failure_is_an_autorotation() {
         &mut t,
         0.5,
         with_rpm(uplink(true, false), 1200),
-        8.0,
+        height_m,
     );
+    (core, out, t)
+}
+
+#[test]
+fn in_autonomous_flight_an_engine_failure_is_an_autorotation() {
+    let (mut core, mut out, mut t) = engine_fails_in_a_hold(8.0);
     assert_eq!(failures(&out), 1);
     assert!(matches!(core.phase(), Phase::Autorotation { .. }));
     assert!(raised(
@@ -263,23 +277,7 @@ fn close_to_the_ground_the_autorotation_is_a_hovering_one() {
     // The engine quits in an autonomous hover: 2 m up a hovering autorotation, 8 m up the
     // glide's (the height is the one the failure is detected at).
     for (height_m, hovering_expected) in [(2.0, true), (8.0, false)] {
-        let (mut core, mut out, mut t) = hovering(FlightMode::Autonomous, height_m);
-        fly(
-            &mut core,
-            &mut out,
-            &mut t,
-            1.0,
-            uplink(true, false),
-            height_m,
-        );
-        fly(
-            &mut core,
-            &mut out,
-            &mut t,
-            0.5,
-            with_rpm(uplink(true, false), 1200),
-            height_m,
-        );
+        let (core, out, _) = engine_fails_in_a_hold(height_m);
         assert_eq!(failures(&out), 1, "{height_m} m");
         let autorotation = core.autorotation.as_ref().map(|a| a.hovering());
         assert_eq!(autorotation, Some(hovering_expected), "{height_m} m");
