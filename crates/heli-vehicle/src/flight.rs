@@ -257,17 +257,10 @@ fn control_loop(
     }
     computer.start(last_t_us, &mut tx);
     let mut inputs = 0u64;
-    let mut log_dropped = false;
+    let mut input_log = logger::InputLog::new(log);
     let mut feed = |computer: &mut FlightComputer, t_us: u64, input: RecordedInput| {
-        if let Some(log) = log
-            && !log.send(LogItem::Input(t_us, inputs, input.clone()))
-            && !log_dropped
-        {
-            log_dropped = true;
-            report(Report::Note(
-                "the logger fell behind and dropped items: the log has a gap and cannot be replayed past it"
-                    .into(),
-            ));
+        if let Some(note) = input_log.record(|| LogItem::Input(t_us, inputs, input.clone())) {
+            report(Report::Note(note.into()));
         }
         actions.clear();
         computer.receive(t_us, input.as_input(), &mut tx, &mut actions);

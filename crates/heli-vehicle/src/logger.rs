@@ -72,6 +72,38 @@ impl LogSender {
     }
 }
 
+/// What is said when the first item is dropped: from there the log has a gap.
+pub const GAP_NOTE: &str =
+    "the logger fell behind and dropped items: the log has a gap and cannot be replayed past it";
+
+/// The control loop's side of the log: each input handed to the logger, and the first one
+/// dropped said once (the sender counts them all).
+pub struct InputLog<'a> {
+    sender: Option<&'a LogSender>,
+    gap_said: bool,
+}
+
+impl<'a> InputLog<'a> {
+    /// A log through `sender`, or none.
+    pub fn new(sender: Option<&'a LogSender>) -> Self {
+        Self {
+            sender,
+            gap_said: false,
+        }
+    }
+
+    /// Hands the item `make` builds to the logger (nothing is built without a logger).
+    /// Returns [`GAP_NOTE`] when this is the first item dropped.
+    pub fn record(&mut self, make: impl FnOnce() -> LogItem) -> Option<&'static str> {
+        let sender = self.sender?;
+        if sender.send(make()) || self.gap_said {
+            return None;
+        }
+        self.gap_said = true;
+        Some(GAP_NOTE)
+    }
+}
+
 /// What the logger did.
 #[derive(Clone, Debug, Default)]
 pub struct LogReport {
@@ -203,5 +235,27 @@ mod tests {
         assert!(!sender.send(LogItem::Battery(1, 12.0)));
         assert!(!sender.send(LogItem::Battery(2, 12.0)));
         assert_eq!(sender.dropped(), 2);
+    }
+
+    #[test]
+    fn the_first_item_dropped_is_said_once_and_none_without_a_logger() {
+        let (tx, _rx) = std::sync::mpsc::sync_channel(1);
+        let sender = LogSender {
+            tx,
+            dropped: Default::default(),
+        };
+        let mut log = InputLog::new(Some(&sender));
+        assert_eq!(log.record(|| LogItem::Battery(0, 12.0)), None, "it fits");
+        assert_eq!(log.record(|| LogItem::Battery(1, 12.0)), Some(GAP_NOTE));
+        assert_eq!(log.record(|| LogItem::Battery(2, 12.0)), None, "said once");
+        assert_eq!(sender.dropped(), 2, "but every one counted");
+        let built = std::cell::Cell::new(false);
+        let mut none = InputLog::new(None);
+        let item = || {
+            built.set(true);
+            LogItem::Battery(3, 12.0)
+        };
+        assert_eq!(none.record(item), None);
+        assert!(!built.get(), "nothing built without a logger");
     }
 }
