@@ -167,10 +167,7 @@ pub fn run(
     drop(tx);
     // The first commands (the board's check, the altimeter's reset) go out at start: give
     // every port its first try at opening before the loop starts (up to 2 s).
-    let opening = std::time::Instant::now();
-    while writers.first_attempts() < Port::ALL.len() && opening.elapsed() < Duration::from_secs(2) {
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    writers.wait_for_first_attempts(Duration::from_secs(2));
     report(Report::Started {
         log: setup.log_path.clone(),
     });

@@ -118,6 +118,14 @@ impl Writers {
         self.attempted.load(Ordering::Acquire)
     }
 
+    /// Waits until every port has had its first try at opening, at most `limit`.
+    pub fn wait_for_first_attempts(&self, limit: Duration) {
+        let start = Instant::now();
+        while self.first_attempts() < Port::ALL.len() && start.elapsed() < limit {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
     fn attempted(&self) {
         self.attempted.fetch_add(1, Ordering::AcqRel);
     }
@@ -310,6 +318,31 @@ mod tests {
     use serialport::SerialPort;
     use std::path::PathBuf;
     use std::time::Duration;
+
+    #[test]
+    fn the_loop_waits_for_every_port_s_first_try_but_no_longer_than_its_limit() {
+        let writers = Writers::default();
+        // No port has tried: the whole limit.
+        let start = Instant::now();
+        writers.wait_for_first_attempts(Duration::from_millis(40));
+        assert!(start.elapsed() >= Duration::from_millis(40));
+        // All but one: still the whole limit.
+        for _ in 1..Port::ALL.len() {
+            writers.attempted();
+        }
+        let start = Instant::now();
+        writers.wait_for_first_attempts(Duration::from_millis(40));
+        assert!(start.elapsed() >= Duration::from_millis(40));
+        // Every port has tried: at once, however long the limit.
+        writers.attempted();
+        let start = Instant::now();
+        writers.wait_for_first_attempts(Duration::from_secs(30));
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "{:?}",
+            start.elapsed()
+        );
+    }
 
     fn devices_with_imu(path: PathBuf) -> Devices {
         let mut d = Devices::hilsim(std::path::Path::new("/nonexistent"));
