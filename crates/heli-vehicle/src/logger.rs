@@ -222,14 +222,19 @@ pub fn worth_reporting(event: &CoreEvent) -> bool {
 mod tests {
     use super::*;
 
-    #[test]
-    fn a_full_queue_drops_and_counts_and_never_waits() {
-        // A logger that has stopped reading: its queue holds one item.
-        let (tx, _rx) = std::sync::mpsc::sync_channel(1);
+    /// The sender of a logger that has stopped reading: its queue holds one item.
+    fn stalled() -> (LogSender, std::sync::mpsc::Receiver<LogItem>) {
+        let (tx, rx) = std::sync::mpsc::sync_channel(1);
         let sender = LogSender {
             tx,
             dropped: Default::default(),
         };
+        (sender, rx)
+    }
+
+    #[test]
+    fn a_full_queue_drops_and_counts_and_never_waits() {
+        let (sender, _rx) = stalled();
         assert!(sender.send(LogItem::Battery(0, 12.0)));
         // Would block with `send`; `try_send` drops it and counts.
         assert!(!sender.send(LogItem::Battery(1, 12.0)));
@@ -239,11 +244,7 @@ mod tests {
 
     #[test]
     fn the_first_item_dropped_is_said_once_and_none_without_a_logger() {
-        let (tx, _rx) = std::sync::mpsc::sync_channel(1);
-        let sender = LogSender {
-            tx,
-            dropped: Default::default(),
-        };
+        let (sender, _rx) = stalled();
         let mut log = InputLog::new(Some(&sender));
         assert_eq!(log.record(|| LogItem::Battery(0, 12.0)), None, "it fits");
         assert_eq!(log.record(|| LogItem::Battery(1, 12.0)), Some(GAP_NOTE));

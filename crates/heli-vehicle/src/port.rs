@@ -71,6 +71,9 @@ pub fn open(path: &Path, baud: u32) -> Result<TTYPort, PortError> {
     Ok(port)
 }
 
+/// What to do about a permission refused.
+const DIALOUT_HINT: &str = "add the user to the `dialout` group, or run as root";
+
 /// What an operator reads when the path cannot be looked up: the reason and what to do.
 fn lookup_failure(e: &io::Error) -> (String, &'static str) {
     match e.kind() {
@@ -78,10 +81,7 @@ fn lookup_failure(e: &io::Error) -> (String, &'static str) {
             "no such device".into(),
             "is the device plugged in and the path right? for HIL, is `heli hilsim --ptys DIR` running?",
         ),
-        io::ErrorKind::PermissionDenied => (
-            "permission denied".into(),
-            "add the user to the `dialout` group, or run as root",
-        ),
+        io::ErrorKind::PermissionDenied => ("permission denied".into(), DIALOUT_HINT),
         _ => (e.to_string(), "check the path"),
     }
 }
@@ -90,9 +90,7 @@ fn lookup_failure(e: &io::Error) -> (String, &'static str) {
 fn open_hint(kind: serialport::ErrorKind) -> &'static str {
     match kind {
         serialport::ErrorKind::NoDevice => "is another program using the port?",
-        serialport::ErrorKind::Io(io::ErrorKind::PermissionDenied) => {
-            "add the user to the `dialout` group, or run as root"
-        }
+        serialport::ErrorKind::Io(io::ErrorKind::PermissionDenied) => DIALOUT_HINT,
         _ => "is it a serial device?",
     }
 }

@@ -450,7 +450,7 @@ mod tests {
     #[test]
     fn a_sleep_lasts_its_time_unless_stopped() {
         let stop = AtomicBool::new(false);
-        let started = std::time::Instant::now();
+        let started = Instant::now();
         sleep_unless_stopped(Duration::from_millis(60), &stop);
         assert!(started.elapsed() >= Duration::from_millis(60));
         let stop = Arc::new(AtomicBool::new(false));
@@ -459,7 +459,7 @@ mod tests {
             std::thread::sleep(Duration::from_millis(30));
             flag.store(true, Ordering::Release);
         });
-        let started = std::time::Instant::now();
+        let started = Instant::now();
         sleep_unless_stopped(Duration::from_secs(10), &stop);
         assert!(
             started.elapsed() < Duration::from_secs(2),
