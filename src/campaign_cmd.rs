@@ -13,8 +13,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use anyhow::{Context, Result, bail};
 use clap::Subcommand;
-use heli_log::plot::ImageFormat;
-use heli_sim::campaign::{self, Campaign, FlightOutcome, Report, RunConfig, Shard};
+use heli_campaign::log_plot::ImageFormat;
+use heli_campaign::{self as campaign, Campaign, FlightOutcome, Report, RunConfig, Shard};
 
 /// `heli campaign FILE ...`.
 #[derive(clap::Args)]

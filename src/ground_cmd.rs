@@ -18,7 +18,7 @@ use heli_link::messages::StartParameters;
 use heli_vehicle::link::unix_us;
 use mavlink::dialects::common::MavResult;
 
-use crate::link_cmd::{load_key, parse_link};
+use heli_link::setup::{load_key, parse_address as parse_link};
 
 /// `heli ground` options.
 #[derive(Args)]

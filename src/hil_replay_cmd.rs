@@ -47,8 +47,8 @@ pub fn replay(args: &crate::hilsim_cmd::HilsimArgs, flight: &Path) -> Result<Exi
         },
     };
     let report = hil_replay::run(&rec, &args.ptys, options, &stop, |devices| {
-        let cal = devices.dir.join(crate::vehicle_cmd::HIL_COMPASS_CAL);
-        if let Err(e) = crate::vehicle_cmd::write_compass_cal(&cal, &setup.config.compass) {
+        let cal = devices.dir.join(heli_vehicle::compass_file::HIL_FILE_NAME);
+        if let Err(e) = heli_vehicle::compass_file::write(&cal, &setup.config.compass) {
             eprintln!("heli hilsim: {e:#}");
         }
         println!(

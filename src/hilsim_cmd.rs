@@ -114,8 +114,8 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
         options,
         &stop,
         |devices| {
-            let cal = devices.dir.join(crate::vehicle_cmd::HIL_COMPASS_CAL);
-            if let Err(e) = crate::vehicle_cmd::write_compass_cal(&cal, &compass) {
+            let cal = devices.dir.join(heli_vehicle::compass_file::HIL_FILE_NAME);
+            if let Err(e) = heli_vehicle::compass_file::write(&cal, &compass) {
                 eprintln!("heli hilsim: {e:#}");
             }
             println!("hilsim: scenario {name}, {}x real time", args.speed);

@@ -7,7 +7,7 @@ use std::net::SocketAddr;
 use std::sync::mpsc::{Receiver, channel};
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Result, anyhow};
 use heli_ground::truth_view::{self, PilotFrame, TruthFeed, ViewInput};
 use heli_proto::scb::Controls;
 use heli_sim::Scenario;
@@ -32,11 +32,8 @@ pub fn serve(
     scenario: &Scenario,
     pilot: bool,
 ) -> Result<(TruthFeed, Option<Cockpit>)> {
-    // The plan's legs as the vehicle reports them, into the points the display draws.
-    let legs: Vec<heli_link::mission::PlanLeg> =
-        serde_json::from_value(serde_json::to_value(&scenario.plan)?)
-            .context("the scenario's plan as legs")?;
-    let plan = heli_ground::view::plan_points(&heli_link::mission::mission_items(&legs));
+    // The plan's legs, into the points the display draws.
+    let plan = heli_ground::view::plan_points(&heli_link::mission::mission_items(&scenario.plan));
     let setup = serde_json::json!({
         "type": "setup",
         "scenario": scenario.name,

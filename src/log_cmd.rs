@@ -48,7 +48,7 @@ pub(crate) fn log(action: LogAction) -> Result<ExitCode> {
             to,
             out,
         } => {
-            use heli_log::plot;
+            use heli_campaign::log_plot as plot;
             let out = out.unwrap_or_else(|| {
                 let stem = file.file_stem().and_then(|s| s.to_str()).unwrap_or("log");
                 let name: String = channel

@@ -6,7 +6,6 @@
 mod bench_hil;
 mod bench_link;
 mod campaign_cmd;
-mod driver_cmd;
 mod ground_cmd;
 mod hil_replay_cmd;
 mod hilsim_cmd;
@@ -18,7 +17,6 @@ mod model_cmd;
 mod replay_cmd;
 mod sim_ui;
 mod suite_cmd;
-mod vehicle_cmd;
 
 use std::io::IsTerminal;
 use std::process::ExitCode;
@@ -70,24 +68,15 @@ enum Command {
     #[command(args_conflicts_with_subcommands = true)]
     Vehicle {
         #[command(flatten)]
-        flight: vehicle_cmd::FlightArgs,
-        /// The bootstrap's control socket.
-        #[arg(long, global = true, env = "HELI_VEHICLE_SOCKET", default_value = vehicle_cmd::DEFAULT_SOCKET)]
-        socket: std::path::PathBuf,
-        /// Serve the MAVLink 2 link on this address (udp:HOST:PORT; e.g. udp:0.0.0.0:14550).
-        #[arg(long)]
-        link: Option<String>,
-        /// The signing key file (heli link keygen); without one the link is unauthenticated.
-        #[arg(long, env = "HELI_LINK_KEY")]
-        key: Option<std::path::PathBuf>,
+        bootstrap: heli_vehicle::cli::BootstrapArgs,
         #[command(subcommand)]
-        ctl: Option<VehicleCtl>,
+        ctl: Option<heli_vehicle::cli::BootstrapCommand>,
     },
     /// The flight process the bootstrap starts (speaks a line protocol on stdin/stdout).
     #[command(hide = true)]
-    Flight(vehicle_cmd::FlightArgs),
+    Flight(heli_vehicle::cli::FlightArgs),
     /// One device's stand-alone driver: readable lines per packet, logging with --log.
-    Driver(driver_cmd::DriverArgs),
+    Driver(heli_vehicle::cli::DriverArgs),
     /// Monte Carlo campaigns: many flights of a scenario with values drawn or stepped, in
     /// parallel, summed up in one report (docs/campaigns.md). Exit status 0 only when every
     /// flight passed.
@@ -110,17 +99,6 @@ enum Command {
     Log {
         #[command(subcommand)]
         action: LogAction,
-    },
-}
-
-#[derive(Subcommand)]
-enum VehicleCtl {
-    /// Send the bootstrap one command: connect, start-logging SUFFIX MODE [PLAN], stop,
-    /// status, quit.
-    Ctl {
-        /// The command and its arguments.
-        #[arg(required = true, num_args = 1..)]
-        command: Vec<String>,
     },
 }
 
@@ -293,22 +271,13 @@ fn main() -> ExitCode {
             ..
         } => bench_hil::command(seconds, json),
         Command::Hilsim(args) => hilsim_cmd::hilsim(&args),
-        Command::Vehicle {
-            flight,
-            socket,
-            link,
-            key,
-            ctl,
-        } => match ctl {
-            Some(VehicleCtl::Ctl { command }) => vehicle_cmd::ctl(&command, &socket),
-            None => vehicle_cmd::vehicle(&flight, &socket, link.as_deref(), key.as_deref()),
-        },
+        Command::Vehicle { bootstrap, ctl } => heli_vehicle::cli::vehicle(&bootstrap, ctl.as_ref()),
         Command::Ground(args) => ground_cmd::ground(&args),
         Command::Link {
             action: LinkAction::Keygen { out, force },
         } => link_cmd::keygen(&out, force),
-        Command::Flight(args) => vehicle_cmd::flight_process(&args),
-        Command::Driver(args) => driver_cmd::driver(&args),
+        Command::Flight(args) => heli_vehicle::flight_process::run(&args),
+        Command::Driver(args) => heli_vehicle::cli::driver(&args),
         Command::Campaign { run, merge } => match merge {
             Some(campaign_cmd::MergeCommand::Merge(args)) => campaign_cmd::merge(&args),
             Some(campaign_cmd::MergeCommand::Suite(args)) => suite_cmd::suite(&args),

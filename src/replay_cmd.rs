@@ -7,9 +7,9 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, anyhow, bail};
 use heli_fsw::core::{CoreConfig, FlightParams};
-use heli_link::FlightMode;
 use heli_log::LogContents;
 use heli_sim::lockstep::Simulation;
+use heli_types::FlightMode;
 use heli_vehicle::replay::{self, ReplaySetup};
 
 /// How the logged flight's computer was set up, from the log's `flight` metadata: a lockstep
@@ -53,15 +53,14 @@ pub(crate) fn setup_of(contents: &LogContents) -> Result<ReplaySetup> {
         .with_context(|| format!("unknown mode '{mode_name}' in the flight metadata"))?;
     let plan_name = get("plan")?;
     // The legs themselves are in the log; older logs name a plan to look up.
-    let legs: Vec<heli_sim::scenario::LegSpec> = match entries.get("plan_legs_json") {
+    let legs: Vec<heli_types::Leg> = match entries.get("plan_legs_json") {
         Some(json) => serde_json::from_str(json).context("the logged plan's legs do not parse")?,
-        None => {
-            heli_sim::scenario::load(plan_name)
-                .with_context(|| format!("the logged flight plan '{plan_name}'"))?
-                .plan
-        }
+        None => heli_types::library::plan(plan_name)
+            .with_context(|| format!("the logged flight plan '{plan_name}' is not in the library"))?
+            .legs
+            .to_vec(),
     };
-    let plan = crate::vehicle_cmd::plan_of(&legs)
+    let plan = heli_types::Plan::new(&legs)
         .with_context(|| format!("the logged flight plan '{plan_name}'"))?;
     let mut config = CoreConfig {
         calibration_s: number("calibration_s")?,

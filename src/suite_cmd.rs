@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
-use heli_sim::campaign::{Campaign, Report, Shard};
+use heli_campaign::{Campaign, Report, Shard};
 
 /// The arguments of `heli campaign suite`.
 #[derive(clap::Args)]

@@ -1,4 +1,4 @@
-//! The processes of a HIL test: `heli hilsim`, `heli vehicle`, and readers of their output.
+//! The processes of a HIL test: `heli hilsim`, the onboard `heli-vehicle`, and readers of their output.
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -22,6 +22,19 @@ pub fn heli_process(args: &[&str]) -> Lines {
     Lines::spawn(&args.iter().map(|s| s.to_string()).collect::<Vec<_>>())
 }
 
+/// The onboard program, `heli-vehicle`, which the HIL tests fly: the binary of the
+/// heli-vehicle package, built beside `heli` by `cargo test --workspace` (or `cargo build -p
+/// heli-vehicle`; a test run of this package alone does not build it).
+pub fn vehicle_program() -> PathBuf {
+    let path = Path::new(env!("CARGO_BIN_EXE_heli")).with_file_name("heli-vehicle");
+    assert!(
+        path.exists(),
+        "{} is missing: run the tests with --workspace (or cargo build -p heli-vehicle with the same profile)",
+        path.display()
+    );
+    path
+}
+
 /// A process whose standard output is collected line by line (killed when dropped).
 pub struct Lines {
     child: Child,
@@ -30,13 +43,17 @@ pub struct Lines {
 
 impl Lines {
     fn spawn(args: &[String]) -> Self {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_heli"))
+        Self::spawn_program(Path::new(env!("CARGO_BIN_EXE_heli")), args)
+    }
+
+    fn spawn_program(program: &Path, args: &[String]) -> Self {
+        let mut child = Command::new(program)
             .args(args)
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()
-            .unwrap_or_else(|e| panic!("cannot run heli: {e}"));
+            .unwrap_or_else(|e| panic!("cannot run {}: {e}", program.display()));
         let lines = Arc::new(Mutex::new(Vec::new()));
         let out = child.stdout.take().unwrap();
         let sink = Arc::clone(&lines);
@@ -159,7 +176,7 @@ impl Hilsim {
     }
 }
 
-/// A running `heli vehicle` (the bootstrap) against a HILSim.
+/// A running `heli-vehicle` (the bootstrap of the onboard program) against a HILSim.
 pub struct Vehicle {
     proc: Lines,
     socket: PathBuf,
@@ -189,7 +206,6 @@ impl Vehicle {
     fn start_full(dir: &Path, dev: &Path, clock_speed: f64, extra: &[String]) -> Self {
         let socket = dir.join("ctl.sock");
         let mut args: Vec<String> = [
-            "vehicle",
             "--hilsim",
             &dev.display().to_string(),
             "--log-dir",
@@ -207,18 +223,21 @@ impl Vehicle {
         .map(|s| s.to_string())
         .collect();
         args.extend_from_slice(extra);
-        let proc = Lines::spawn(&args);
+        let proc = Lines::spawn_program(&vehicle_program(), &args);
         proc.wait_for("bootstrap: listening", Duration::from_secs(10));
         Self { proc, socket }
     }
 
     /// Sends one control command; returns the reply (stdout, or stderr on failure).
     pub fn ctl(&self, words: &[&str]) -> String {
-        let mut args = vec!["vehicle", "ctl"];
+        let mut args = vec!["ctl"];
         args.extend_from_slice(words);
         let socket = self.socket.display().to_string();
         args.extend(["--socket", &socket]);
-        let out = heli(&args);
+        let out = Command::new(vehicle_program())
+            .args(&args)
+            .output()
+            .unwrap_or_else(|e| panic!("cannot run heli-vehicle: {e}"));
         let text = if out.status.success() {
             out.stdout
         } else {

@@ -4,24 +4,11 @@
 
 use heli_nav::NavState;
 use heli_proto::scb::Controls;
+use heli_types::AugmentedMode;
 use nalgebra::Vector3;
 
 use crate::hover::{HoverController, sanitize_dt};
 use crate::{GOVERNED_THROTTLE, limit};
-
-/// What the pilot's sticks command.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum AugmentedMode {
-    /// Aileron and elevator command roll and pitch rates, rudder yaw rate; collective and
-    /// throttle pass through.
-    Rate,
-    /// Aileron and elevator command roll and pitch angles, rudder yaw rate; collective and
-    /// throttle pass through.
-    Attitude,
-    /// Aileron and elevator command velocity right and forward, collective climb rate, rudder
-    /// yaw rate; the rotor is governed. Sticks centred: hover in place.
-    Velocity,
-}
 
 /// Full-stick values of the augmented modes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,15 +37,13 @@ impl Default for StickScales {
     }
 }
 
-impl AugmentedMode {
-    /// The velocity (m/s, forward, right, down) the sticks command in velocity mode.
-    pub fn commanded_velocity(sticks: &Controls, scales: &StickScales) -> Vector3<f64> {
-        Vector3::new(
-            -limit(sticks.elevator, 1.0) * scales.speed_mps,
-            limit(sticks.aileron, 1.0) * scales.speed_mps,
-            -limit(sticks.collective, 1.0) * scales.climb_mps,
-        )
-    }
+/// The velocity (m/s, forward, right, down) the sticks command in velocity mode.
+pub fn commanded_velocity(sticks: &Controls, scales: &StickScales) -> Vector3<f64> {
+    Vector3::new(
+        -limit(sticks.elevator, 1.0) * scales.speed_mps,
+        limit(sticks.aileron, 1.0) * scales.speed_mps,
+        -limit(sticks.collective, 1.0) * scales.climb_mps,
+    )
 }
 
 /// One step of augmented control. Pilot stick conventions are those of the servos: aileron
@@ -88,7 +73,7 @@ pub fn augmented_controls(
             (a, e, sticks.collective)
         }
         AugmentedMode::Velocity => {
-            let v_body = AugmentedMode::commanded_velocity(sticks, scales);
+            let v_body = commanded_velocity(sticks, scales);
             let (_, _, yaw) = est.euler_rad();
             let (s, c) = yaw.sin_cos();
             let v_ned = Vector3::new(
@@ -163,15 +148,12 @@ mod tests {
 
     #[test]
     fn velocity_mode_sticks_centred_is_hover() {
-        let v = AugmentedMode::commanded_velocity(&Controls::default(), &StickScales::default());
+        let v = commanded_velocity(&Controls::default(), &StickScales::default());
         assert_eq!(v, Vector3::zeros());
         let forward = Controls {
             elevator: -1.0,
             ..Controls::default()
         };
-        assert_eq!(
-            AugmentedMode::commanded_velocity(&forward, &StickScales::default()).x,
-            5.0
-        );
+        assert_eq!(commanded_velocity(&forward, &StickScales::default()).x, 5.0);
     }
 }

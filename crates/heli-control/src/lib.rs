@@ -32,14 +32,12 @@ pub mod autorotation;
 pub mod heading_lock;
 pub mod hover;
 pub mod manual;
-pub mod mode;
 pub mod roll;
 pub mod safety;
 
-pub use augmented::{AugmentedMode, StickScales, augmented_controls};
+pub use augmented::{StickScales, augmented_controls};
 pub use hover::{HoverController, HoverGains, Target};
 pub use manual::{YawDamper, manual_with_yaw_damping};
-pub use mode::FlightMode;
 pub use roll::{RollGains, rolling_controls};
 
 /// Throttle channel that sets the governor to 1600 rpm, the speed of every flight in the

@@ -14,11 +14,12 @@ use heli_control::heading_lock::HeadingLock;
 use heli_control::hover::{HoverController, HoverGains};
 use heli_control::safety::{Condition, Conditions, Facts, Rule};
 use heli_control::{
-    AugmentedMode, FlightMode, GOVERNED_THROTTLE, RollGains, StickScales, YawDamper,
-    augmented_controls, limit, manual_with_yaw_damping, rolling_controls,
+    GOVERNED_THROTTLE, RollGains, StickScales, YawDamper, augmented_controls, limit,
+    manual_with_yaw_damping, rolling_controls,
 };
 use heli_nav::NavState;
 use heli_proto::scb::Controls;
+use heli_types::{AugmentedMode, FlightMode};
 use nalgebra::{UnitQuaternion, Vector3};
 
 const TOL: f64 = 1e-12;
@@ -116,12 +117,12 @@ fn the_roll_flies_its_rate_and_schedules_the_collective_on_the_angle() {
 
 #[test]
 fn the_velocity_sticks_command_forward_right_and_up() {
-    let v = AugmentedMode::commanded_velocity(&sticks(), &scales());
+    let v = heli_control::augmented::commanded_velocity(&sticks(), &scales());
     close(v.x, 0.2 * 4.0);
     close(v.y, 0.3 * 4.0);
     close(v.z, -0.25 * 1.5);
     // Beyond full travel counts as full travel.
-    let v = AugmentedMode::commanded_velocity(
+    let v = heli_control::augmented::commanded_velocity(
         &Controls {
             elevator: -3.0,
             aileron: 2.0,

@@ -39,7 +39,5 @@ pub mod invariants;
 pub mod streams;
 
 pub use crate::computer::{DeviceInput, FlightComputer, Port, RecordedInput};
-pub use crate::core::{
-    Action, CoreConfig, CoreStats, FlightCore, FlightMode, FlightParams, Input, Phase,
-};
+pub use crate::core::{Action, CoreConfig, CoreStats, FlightCore, FlightParams, Input, Phase};
 pub use crate::streams::{Record, Stamped, Streams};

@@ -12,9 +12,6 @@
     clippy::indexing_slicing
 )]
 
-use heli_control::AugmentedMode;
-use heli_control::FlightMode;
-use heli_fsw::core::mission::{Leg, Plan};
 use heli_fsw::health::Device;
 use heli_fsw::invariants::Invariants;
 use heli_fsw::{Action, CoreConfig, FlightCore, FlightParams, Input};
@@ -23,6 +20,7 @@ use heli_proto::compass::CompassAdc;
 use heli_proto::gps::{FixType, GpsNav};
 use heli_proto::imu::ImuRepr;
 use heli_proto::scb::{Controls, PilotUplink, Pulses};
+use heli_types::{AugmentedMode, FlightMode, Leg, Plan};
 use proptest::prelude::*;
 
 /// One input of a generated sequence, with the time since the previous one.

@@ -1,6 +1,6 @@
 //! What the ground display writes: labels that depend on the flight's controller choice.
 
-use heli_link::{AugmentedMode, FlightMode};
+use heli_types::{AugmentedMode, FlightMode};
 
 /// The labels the display writes over the pilot-uplink columns (aileron, elevator, rudder,
 /// collective, throttle): what the sticks mean under `mode` when the auto switch is on (the

@@ -12,7 +12,8 @@ use heli_link::command::{PLANS, command_long};
 use heli_link::ground::{COMMAND_RETRY_US, GroundLink};
 use heli_link::signing::Key;
 use heli_link::status::{BootstrapState, VehicleStatus};
-use heli_link::{FlightMode, GroundCommand, StartParameters};
+use heli_link::{GroundCommand, StartParameters};
+use heli_types::FlightMode;
 use mavlink::dialects::common::*;
 use serde::Deserialize;
 

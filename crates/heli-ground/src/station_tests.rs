@@ -130,7 +130,7 @@ impl Bench {
                             self.vehicle
                                 .set_mission(heli_link::mission::mission_items(&legs));
                             // The heartbeat's mode code: 1 + the controller's place in the list.
-                            self.mode = heli_link::FlightMode::ALL
+                            self.mode = heli_types::FlightMode::ALL
                                 .iter()
                                 .position(|m| *m == p.controller)
                                 .map_or(0, |i| i as u8 + 1);

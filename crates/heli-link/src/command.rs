@@ -12,7 +12,7 @@
 use mavlink::dialects::common::{COMMAND_LONG_DATA, MavCmd};
 
 use crate::messages::{GroundCommand, StartParameters};
-use heli_control::{AugmentedMode, FlightMode};
+use heli_types::{AugmentedMode, FlightMode};
 
 /// Connect: start the flight process.
 pub const CMD_CONNECT: MavCmd = MavCmd::MAV_CMD_USER_1;

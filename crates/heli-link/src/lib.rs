@@ -8,7 +8,9 @@
 //! ([`telemetry`]), the log protocol ([`logs`]), the flight plan over the mission protocol
 //! ([`mission`]), and the two ends of the link, the vehicle's
 //! ([`vehicle`]) and the ground's ([`ground`]). All of it is sans-I/O: datagrams and the time
-//! go in, datagrams and events come out; the sockets are the runtime's.
+//! go in, datagrams and events come out; the sockets are the runtime's. The one exception is
+//! [`setup`], which reads what both ends need to open a link: the `udp:HOST:PORT` address
+//! and the signing key file.
 //!
 //! What it is not: flight code, a socket layer or ground-station UI.
 
@@ -31,11 +33,10 @@ pub mod logs;
 pub mod messages;
 pub mod mission;
 pub mod params;
+pub mod setup;
 pub mod signing;
 pub mod status;
 pub mod telemetry;
 pub mod vehicle;
 
-pub use messages::{
-    AugmentedMode, FinalParameters, FlightMode, GroundCommand, LinkError, StartParameters,
-};
+pub use messages::{FinalParameters, GroundCommand, LinkError, StartParameters};

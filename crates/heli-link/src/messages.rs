@@ -2,7 +2,7 @@
 
 use std::fmt;
 
-pub use heli_control::{AugmentedMode, FlightMode};
+use heli_types::FlightMode;
 
 /// Parameters sent with "Start Logging".
 #[derive(Clone, Debug, PartialEq)]
@@ -101,7 +101,7 @@ mod tests {
         );
         assert_eq!(
             StartParameters::new("a", "velocity").map(|p| p.controller),
-            Ok(FlightMode::Augmented(heli_control::AugmentedMode::Velocity))
+            Ok(FlightMode::Augmented(heli_types::AugmentedMode::Velocity))
         );
         assert!(matches!(
             StartParameters::new("a", "loop"),

@@ -17,53 +17,15 @@
 //! A plan cannot be uploaded: the vehicle flies only plans it knows by name; an upload is
 //! answered `MAV_MISSION_UNSUPPORTED`.
 
+use heli_types::Leg;
 use mavlink::dialects::common::*;
-use serde::Deserialize;
 
 /// The mission command for aileron rolls (no standard command exists).
 pub const CMD_ROLLS: MavCmd = MavCmd::MAV_CMD_USER_4;
 
-/// One leg of the plan, as the flight process reports it (the scenario files' form). The
-/// link keeps its own copy of the legs' wire form so that a ground station, which links no
-/// flight software, can read it.
-#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
-#[serde(tag = "leg", rename_all = "lowercase")]
-pub enum PlanLeg {
-    /// Climb vertically to `alt_m` above the take-off point.
-    Takeoff {
-        /// Height (m).
-        alt_m: f64,
-    },
-    /// Hold position (`None` or not finite: without end).
-    Hold {
-        /// How long (s).
-        seconds: Option<f64>,
-    },
-    /// Fly a straight path to a point.
-    Fly {
-        /// North of the take-off point (m).
-        north_m: f64,
-        /// East (m).
-        east_m: f64,
-        /// Height (m).
-        alt_m: f64,
-        /// Path speed (m/s).
-        speed_mps: f64,
-    },
-    /// Aileron rolls along the current heading.
-    Rolls {
-        /// How many.
-        count: u32,
-        /// Trim speed (m/s).
-        speed_mps: f64,
-    },
-    /// Descend and settle on the skids.
-    Land,
-}
-
 /// The legs of a plan from the flight process's JSON.
-pub fn parse_plan(json: &str) -> Result<Vec<PlanLeg>, String> {
-    serde_json::from_str(json).map_err(|e| format!("flight plan: {e}"))
+pub fn parse_plan(json: &str) -> Result<Vec<Leg>, serde_json::Error> {
+    serde_json::from_str(json)
 }
 
 fn local(m: f64) -> i32 {
@@ -76,7 +38,7 @@ fn local(m: f64) -> i32 {
 }
 
 /// The mission items of `legs` (`seq` from 0).
-pub fn mission_items(legs: &[PlanLeg]) -> Vec<MISSION_ITEM_INT_DATA> {
+pub fn mission_items(legs: &[Leg]) -> Vec<MISSION_ITEM_INT_DATA> {
     let mut items = Vec::new();
     let (mut north, mut east, mut alt) = (0.0, 0.0, 0.0);
     let mut push = |command: MavCmd, params: [f32; 4], at: (f64, f64, f64)| {
@@ -100,7 +62,7 @@ pub fn mission_items(legs: &[PlanLeg]) -> Vec<MISSION_ITEM_INT_DATA> {
     };
     for leg in legs {
         match *leg {
-            PlanLeg::Takeoff { alt_m } => {
+            Leg::Takeoff { alt_m } => {
                 alt = alt_m;
                 push(
                     MavCmd::MAV_CMD_NAV_TAKEOFF_LOCAL,
@@ -108,19 +70,17 @@ pub fn mission_items(legs: &[PlanLeg]) -> Vec<MISSION_ITEM_INT_DATA> {
                     (north, east, alt),
                 );
             }
-            PlanLeg::Hold { seconds } => match seconds.filter(|s| s.is_finite()) {
-                Some(s) => push(
-                    MavCmd::MAV_CMD_NAV_LOITER_TIME,
-                    [s as f32, 0.0, 0.0, 0.0],
-                    (north, east, alt),
-                ),
-                None => push(
-                    MavCmd::MAV_CMD_NAV_LOITER_UNLIM,
-                    [0.0; 4],
-                    (north, east, alt),
-                ),
-            },
-            PlanLeg::Fly {
+            Leg::Hold { seconds } if seconds.is_finite() => push(
+                MavCmd::MAV_CMD_NAV_LOITER_TIME,
+                [seconds as f32, 0.0, 0.0, 0.0],
+                (north, east, alt),
+            ),
+            Leg::Hold { .. } => push(
+                MavCmd::MAV_CMD_NAV_LOITER_UNLIM,
+                [0.0; 4],
+                (north, east, alt),
+            ),
+            Leg::Fly {
                 north_m,
                 east_m,
                 alt_m,
@@ -134,12 +94,12 @@ pub fn mission_items(legs: &[PlanLeg]) -> Vec<MISSION_ITEM_INT_DATA> {
                 (north, east, alt) = (north_m, east_m, alt_m);
                 push(MavCmd::MAV_CMD_NAV_WAYPOINT, [0.0; 4], (north, east, alt));
             }
-            PlanLeg::Rolls { count, speed_mps } => push(
+            Leg::Rolls { count, speed_mps } => push(
                 CMD_ROLLS,
                 [count as f32, speed_mps as f32, 0.0, 0.0],
                 (north, east, alt),
             ),
-            PlanLeg::Land => {
+            Leg::Land => {
                 alt = 0.0;
                 push(MavCmd::MAV_CMD_NAV_LAND_LOCAL, [0.0; 4], (north, east, alt));
             }

@@ -68,10 +68,20 @@ impl VehicleStatus {
     }
 
     /// The control mode of the flight under way, if any.
-    pub fn flight_mode(self) -> Option<crate::FlightMode> {
+    pub fn flight_mode(self) -> Option<heli_types::FlightMode> {
         let index = usize::from(self.mode).checked_sub(1)?;
-        crate::FlightMode::ALL.get(index).copied()
+        heli_types::FlightMode::ALL.get(index).copied()
     }
+}
+
+/// The heartbeat's code of a control mode (1 manual, 2 autonomous, 3 rate, 4 attitude, 5
+/// velocity: its place in [`heli_types::FlightMode::ALL`] from 1; 0 is none).
+pub fn mode_code(mode: heli_types::FlightMode) -> u8 {
+    heli_types::FlightMode::ALL
+        .iter()
+        .position(|m| *m == mode)
+        .and_then(|i| u8::try_from(i).ok())
+        .map_or(0, |i| i.saturating_add(1))
 }
 
 /// `text` in chunks of at most `max` bytes (a STATUSTEXT holds 50), cut at spaces where it

@@ -7,7 +7,7 @@ use serde_json::Value;
 use crate::LogContents;
 
 /// Calls `leaf` with the flattened name (`a.b`, `v[2]`) and value of every scalar in `value`.
-pub(crate) fn for_each_leaf(prefix: &str, value: &Value, leaf: &mut dyn FnMut(String, &Value)) {
+pub fn for_each_leaf(prefix: &str, value: &Value, leaf: &mut dyn FnMut(String, &Value)) {
     match value {
         Value::Object(map) => {
             for (k, v) in map {

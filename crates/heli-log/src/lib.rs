@@ -20,10 +20,10 @@
 //!   says why and where it stopped; [`stats`] gives per-channel rates, gaps and the warnings.
 //! - Conversion ([`records`], [`events`]): the flight software's stream records and core
 //!   events as log messages, shared by the simulator's logger and the vehicle runtime.
-//! - Export ([`to_csv`]) flattens one channel's messages into CSV for plotting elsewhere;
-//!   [`plot`] draws a channel's fields against time as SVG or PNG, with the flight's events.
+//! - Export ([`to_csv`]) flattens one channel's messages into CSV for plotting elsewhere.
 //!
-//! What it is not: the stream buffers themselves (heli-fsw).
+//! What it is not: the stream buffers themselves (heli-fsw), or plots of a log (the
+//! workstation's `heli-campaign`): the onboard program links this crate.
 
 use std::fmt;
 
@@ -32,7 +32,6 @@ pub mod export;
 pub mod foxglove;
 pub mod inputs;
 pub mod metadata;
-pub mod plot;
 pub mod reader;
 pub mod records;
 pub mod schema;
@@ -40,7 +39,7 @@ pub mod stats;
 pub mod writer;
 
 pub use events::{EventLevel, event_json};
-pub(crate) use export::for_each_leaf;
+pub use export::for_each_leaf;
 pub use export::to_csv;
 pub use reader::{
     LogContents, LogMetadata, LoggedMessage, RECORD_LENGTH_SLACK, Stop, StopKind, read,

@@ -9,7 +9,7 @@
 //! over 100 seeds: `campaigns/autorotation/`.
 
 use crate::faults::EngineFault;
-use crate::scenario::{LegSpec, Limits, Scenario, hover, rolls};
+use crate::scenario::{Limits, Scenario, hover, rolls};
 
 /// What every engine-failure scenario judges: a touchdown at most 1.5 m/s down, near level
 /// (no rollover), the rotor above 60 % of its governed speed until the cushion.
@@ -31,21 +31,20 @@ fn engine_off(start_s: f64) -> Vec<EngineFault> {
     }]
 }
 
-/// An engine-failure scenario flown from `base`: `plan`, the engine quitting at `fail_at_s`
+/// An engine-failure scenario flown from `base`: the library's plan of its name, the engine quitting at `fail_at_s`
 /// for good, judged on the autorotation's limits; the failure and the phase expected.
 fn engine_failure(
     base: Scenario,
     name: &str,
     description: &str,
     duration_s: f64,
-    plan: Vec<LegSpec>,
     fail_at_s: f64,
 ) -> Scenario {
     let mut s = base;
     s.name = name.into();
     s.description = description.into();
     s.duration_s = duration_s;
-    s.plan = plan;
+    s.plan = crate::scenario::library_plan(name);
     s.faults.engine = engine_off(fail_at_s);
     s.limits = autorotation_limits();
     s.expect_events = vec!["engine failure".into(), "phase autorotation".into()];
@@ -59,10 +58,6 @@ pub fn engine_failure_hover() -> Scenario {
         "engine-failure-hover",
         "the engine quits in a hover at 80 m: autorotation, a dive for speed, flare, soft touchdown",
         220.0,
-        vec![
-            LegSpec::Takeoff { alt_m: 80.0 },
-            LegSpec::Hold { seconds: 60.0 },
-        ],
         165.0,
     )
 }
@@ -76,10 +71,6 @@ pub fn engine_failure_low_hover() -> Scenario {
         "engine-failure-low-hover",
         "the engine quits in a hover 1.5 m up: hovering autorotation, the rotor's energy cushions the drop",
         160.0,
-        vec![
-            LegSpec::Takeoff { alt_m: 1.5 },
-            LegSpec::Hold { seconds: 60.0 },
-        ],
         120.0,
     );
     s.limits.rotor_min_rpm = None;
@@ -93,16 +84,6 @@ pub fn engine_failure_forward() -> Scenario {
         "engine-failure-forward",
         "the engine quits flying north at 10 m/s, 60 m up: autorotation, glide, flare, soft touchdown",
         200.0,
-        vec![
-            LegSpec::Takeoff { alt_m: 60.0 },
-            LegSpec::Fly {
-                north_m: 400.0,
-                east_m: 0.0,
-                alt_m: 60.0,
-                speed_mps: 10.0,
-            },
-            LegSpec::Hold { seconds: 10.0 },
-        ],
         150.0,
     )
 }
@@ -115,15 +96,6 @@ pub fn engine_failure_roll() -> Scenario {
         "engine-failure-roll",
         "the engine quits in the first aileron roll at 80 m: righted, autorotation, soft touchdown",
         220.0,
-        vec![
-            LegSpec::Takeoff { alt_m: 80.0 },
-            LegSpec::Hold { seconds: 5.0 },
-            LegSpec::Rolls {
-                count: 3,
-                speed_mps: 8.0,
-            },
-            LegSpec::Hold { seconds: 10.0 },
-        ],
         155.6,
     )
 }

@@ -14,7 +14,6 @@
 pub mod actuators;
 pub mod analysis;
 pub mod bench;
-pub mod campaign;
 pub mod device_faults;
 pub mod devices;
 pub mod empennage;

@@ -3,7 +3,7 @@
 //! the air (the return-and-land failsafe), and a drain no one planned (the field rule).
 
 use crate::faults::{Battery, BatteryDrain, PackName};
-use crate::scenario::{LegSpec, Limits, Scenario, hover};
+use crate::scenario::{Limits, Scenario, hover};
 
 /// `battery-swap`: the ground battery powers the avionics for the first minute of the
 /// calibration, then the operator swaps to the flight batteries; both times are logged.
@@ -37,16 +37,7 @@ pub fn weak_battery() -> Scenario {
         health: 0.35,
         ..Battery::default()
     };
-    s.plan = vec![
-        LegSpec::Takeoff { alt_m: 10.0 },
-        LegSpec::Fly {
-            north_m: 60.0,
-            east_m: 0.0,
-            alt_m: 10.0,
-            speed_mps: 3.0,
-        },
-        LegSpec::Hold { seconds: 1200.0 },
-    ];
+    s.plan = crate::scenario::library_plan("weak-battery");
     s.limits = Limits {
         touchdown_distance_max_m: Some(3.0),
         touchdown_sink_max_mps: Some(1.0),

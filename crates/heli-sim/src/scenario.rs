@@ -6,27 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::params::{Airframe, Atmosphere};
 
-pub use heli_control::FlightMode;
-
-/// A scenario names its control system as the link and the command line do
-/// (`manual`, `autonomous`, `rate`, `attitude`, `velocity`).
-mod flight_mode_name {
-    use heli_control::FlightMode;
-    use serde::{Deserialize, Deserializer, Serializer, de::Error};
-
-    pub fn serialize<S: Serializer>(mode: &FlightMode, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(mode.name())
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<FlightMode, D::Error> {
-        let name = String::deserialize(d)?;
-        FlightMode::from_name(&name).ok_or_else(|| {
-            D::Error::custom(format!(
-                "unknown mode '{name}' (expected manual, autonomous, rate, attitude or velocity)"
-            ))
-        })
-    }
-}
+pub use heli_types::{FlightMode, Leg};
 
 pub use crate::pilot::{Channel, Pilot, Shape, StickInput};
 
@@ -118,66 +98,6 @@ pub struct Limits {
 
 pub use crate::faults::{ByteLoss, Faults, ForcedSatellites, GpsGlitch};
 
-/// One leg of the autonomous flight plan, as written in a scenario file.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "leg", rename_all = "lowercase", deny_unknown_fields)]
-pub enum LegSpec {
-    /// Climb vertically to `alt_m` above the take-off point.
-    Takeoff {
-        /// Height (m).
-        alt_m: f64,
-    },
-    /// Hold position.
-    Hold {
-        /// How long (s).
-        seconds: f64,
-    },
-    /// Fly a straight path to a point relative to the take-off point.
-    Fly {
-        /// North (m).
-        north_m: f64,
-        /// East (m).
-        east_m: f64,
-        /// Height (m).
-        alt_m: f64,
-        /// Path speed (m/s).
-        speed_mps: f64,
-    },
-    /// Aileron rolls from a forward-flight trim along the current heading.
-    Rolls {
-        /// How many.
-        count: u32,
-        /// Trim speed (m/s).
-        speed_mps: f64,
-    },
-    /// Descend and settle on the skids.
-    Land,
-}
-
-impl LegSpec {
-    /// The flight software's leg.
-    pub fn to_leg(self) -> heli_fsw::core::mission::Leg {
-        use heli_fsw::core::mission::Leg;
-        match self {
-            LegSpec::Takeoff { alt_m } => Leg::Takeoff { alt_m },
-            LegSpec::Hold { seconds } => Leg::Hold { seconds },
-            LegSpec::Fly {
-                north_m,
-                east_m,
-                alt_m,
-                speed_mps,
-            } => Leg::Fly {
-                north_m,
-                east_m,
-                alt_m,
-                speed_mps,
-            },
-            LegSpec::Rolls { count, speed_mps } => Leg::Rolls { count, speed_mps },
-            LegSpec::Land => Leg::Land,
-        }
-    }
-}
-
 /// One scenario.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -208,10 +128,9 @@ pub struct Scenario {
     /// The servo board's packs and the hot-swap.
     pub power: crate::faults::Power,
     /// Control system.
-    #[serde(with = "flight_mode_name")]
     pub mode: FlightMode,
     /// The autonomous flight plan.
-    pub plan: Vec<LegSpec>,
+    pub plan: Vec<Leg>,
     /// Pilot's transmitter.
     pub pilot: Pilot,
     /// Injected faults.
@@ -241,7 +160,12 @@ impl Default for Scenario {
     }
 }
 
-fn base(name: &str, description: &str, plan: Vec<LegSpec>, duration_s: f64) -> Scenario {
+/// The plan of the library named `name` (the plan the built-in scenario of that name flies).
+pub(crate) fn library_plan(name: &str) -> Vec<Leg> {
+    heli_types::library::plan(name).map_or_else(Vec::new, |p| p.legs.to_vec())
+}
+
+fn base(name: &str, description: &str, duration_s: f64) -> Scenario {
     Scenario {
         name: name.into(),
         description: description.into(),
@@ -256,7 +180,7 @@ fn base(name: &str, description: &str, plan: Vec<LegSpec>, duration_s: f64) -> S
         battery: crate::faults::Battery::default(),
         power: crate::faults::Power::default(),
         mode: FlightMode::Autonomous,
-        plan,
+        plan: library_plan(name),
         pilot: Pilot::default(),
         faults: Faults::default(),
         limits: Limits::default(),
@@ -270,10 +194,6 @@ pub fn hover() -> Scenario {
     let mut s = base(
         "hover",
         "calibrate on the ground, take off autonomously to 10 m, hold position for 60 s",
-        vec![
-            LegSpec::Takeoff { alt_m: 10.0 },
-            LegSpec::Hold { seconds: 60.0 },
-        ],
         200.0,
     );
     s.limits = Limits {
@@ -293,15 +213,6 @@ pub fn rolls() -> Scenario {
     let mut s = base(
         "rolls",
         "take off, climb to 25 m, three autonomous aileron rolls from 8 m/s, recover, hold",
-        vec![
-            LegSpec::Takeoff { alt_m: 25.0 },
-            LegSpec::Hold { seconds: 5.0 },
-            LegSpec::Rolls {
-                count: 3,
-                speed_mps: 8.0,
-            },
-            LegSpec::Hold { seconds: 10.0 },
-        ],
         260.0,
     );
     s.limits = Limits {
@@ -324,29 +235,6 @@ pub fn demo() -> Scenario {
     let mut s = base(
         "demo",
         "demonstration flight: take off, hover, three aileron rolls, fly home, land",
-        vec![
-            LegSpec::Takeoff { alt_m: 10.0 },
-            LegSpec::Hold { seconds: 10.0 },
-            LegSpec::Fly {
-                north_m: 0.0,
-                east_m: 0.0,
-                alt_m: 25.0,
-                speed_mps: 3.0,
-            },
-            LegSpec::Rolls {
-                count: 3,
-                speed_mps: 8.0,
-            },
-            LegSpec::Hold { seconds: 5.0 },
-            LegSpec::Fly {
-                north_m: 0.0,
-                east_m: 0.0,
-                alt_m: 10.0,
-                speed_mps: 5.0,
-            },
-            LegSpec::Hold { seconds: 5.0 },
-            LegSpec::Land,
-        ],
         320.0,
     );
     s.limits = Limits {
@@ -367,16 +255,6 @@ pub fn rc_loss() -> Scenario {
     let mut s = base(
         "rc-loss",
         "transmitter lost while flying a path at 3 m/s: hover within 2 s, drift under 3 m",
-        vec![
-            LegSpec::Takeoff { alt_m: 10.0 },
-            LegSpec::Fly {
-                north_m: 150.0,
-                east_m: 0.0,
-                alt_m: 10.0,
-                speed_mps: 3.0,
-            },
-            LegSpec::Land,
-        ],
         160.0,
     );
     s.faults.transmitter_lost = vec![[110.0, 1000.0]];
@@ -409,10 +287,6 @@ pub fn manual_sweep() -> Scenario {
     let mut s = base(
         "manual-sweep",
         "manual flight with computer yaw damping: a 0.3-3 Hz lateral-cyclic sweep from a hover",
-        vec![
-            LegSpec::Takeoff { alt_m: 15.0 },
-            LegSpec::Hold { seconds: 1000.0 },
-        ],
         170.0,
     );
     s.pilot.auto_flipped = vec![[105.0, 155.0]];
@@ -441,10 +315,9 @@ pub fn augmented() -> Scenario {
     let mut s = base(
         "augmented",
         "augmented velocity mode: scripted sticks climb, fly forward, sideways, turn; the computer tracks",
-        Vec::new(),
         140.0,
     );
-    s.mode = FlightMode::Augmented(heli_control::AugmentedMode::Velocity);
+    s.mode = FlightMode::Augmented(heli_types::AugmentedMode::Velocity);
     let step = |channel, start_s, duration_s, amplitude| StickInput {
         channel,
         shape: Shape::Step,

@@ -114,7 +114,7 @@ fn a_roll_criterion_fails_when_the_rolls_are_not_flown() {
     let mut no_rolls = scenario::rolls();
     no_rolls
         .plan
-        .retain(|leg| !matches!(leg, heli_sim::scenario::LegSpec::Rolls { .. }));
+        .retain(|leg| !matches!(leg, heli_sim::scenario::Leg::Rolls { .. }));
     let s = fly(&no_rolls, 1);
     assert_eq!(s.outcome, Outcome::Fail);
     assert!(

@@ -10,11 +10,9 @@
 //! - A child that exits on its own (a crash, `kill -9`) is reported at once with its exit
 //!   status; a later Connect starts a fresh one.
 //!
-//! The child protocol is line-based. Bootstrap → child (stdin): `start SUFFIX MODE [PLAN]`,
-//! `link fresh` / `link lost` (whether a ground is heard, on a vehicle with a link), `stop`
-//! (and end of input means stop). Child → bootstrap (stdout): `ready`, `started LOG`,
-//! `note TEXT`, `event SEVERITY TEXT`, `telemetry JSON`, `plan JSON` (the flight plan's
-//! legs, for the link's mission protocol), `stopped JSON`.
+//! The flight process speaks [`crate::supervisor`]'s messages, one a line on its standard
+//! input and output; requests get typed [`Reply`]s; what the bootstrap reports is [`Said`]:
+//! its own lines, the link's and the flight process's messages, each with its severity.
 
 use std::ffi::OsString;
 use std::io::{BufRead, BufReader, Write};
@@ -25,9 +23,11 @@ use std::process::{ChildStdin, Command, ExitStatus, Stdio};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
 use std::time::{Duration, Instant};
 
-use heli_link::GroundCommand;
+use heli_fsw::core::Severity;
+use heli_link::{GroundCommand, StartParameters};
 
-use crate::ctl::Request;
+use crate::ctl::{Reply, Request};
+use crate::supervisor::{FromFlight, ProtocolError, ToFlight, VERSION};
 
 mod child;
 
@@ -88,6 +88,61 @@ impl State {
     }
 }
 
+/// What the bootstrap reports: its own lines, the link's, and the flight process's messages.
+/// Printed (one line each), and sent to the ground as status texts.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Said {
+    /// A line of the bootstrap's own.
+    Bootstrap {
+        /// How much it matters.
+        severity: Severity,
+        /// What it says.
+        text: String,
+    },
+    /// A line of the link's.
+    Link {
+        /// How much it matters.
+        severity: Severity,
+        /// What it says.
+        text: String,
+    },
+    /// A message of the flight process.
+    Flight(FromFlight),
+    /// A line of the flight process that is not a message of the protocol.
+    Unreadable {
+        /// The line (its first 200 characters are printed).
+        line: String,
+        /// Why it is not one.
+        error: ProtocolError,
+    },
+}
+
+impl Said {
+    /// How much it matters: a flight event's own severity, a refusal's warning, the
+    /// bootstrap's and the link's as they said it.
+    pub fn severity(&self) -> Severity {
+        match self {
+            Said::Bootstrap { severity, .. } | Said::Link { severity, .. } => *severity,
+            Said::Flight(FromFlight::Event { severity, .. }) => *severity,
+            Said::Flight(FromFlight::Refused(_)) | Said::Unreadable { .. } => Severity::WarningHi,
+            Said::Flight(_) => Severity::ActivityLo,
+        }
+    }
+}
+
+impl std::fmt::Display for Said {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Said::Bootstrap { text, .. } => write!(f, "bootstrap: {text}"),
+            Said::Link { text, .. } => write!(f, "link: {text}"),
+            Said::Flight(message) => write!(f, "flight: {message}"),
+            Said::Unreadable { line, error } => {
+                write!(f, "flight: {line:.200} (not the protocol: {error})")
+            }
+        }
+    }
+}
+
 /// A human reading of an exit status: `exit code 0`, `signal 9 (SIGKILL)`.
 pub fn describe_exit(status: ExitStatus) -> String {
     match (status.code(), status.signal()) {
@@ -103,8 +158,8 @@ pub fn describe_exit(status: ExitStatus) -> String {
 }
 
 enum Msg {
-    Request(Request, Sender<String>),
-    ChildLine(u32, String),
+    Request(Request, Sender<Reply>),
+    FromChild(u32, Said),
     ChildExited(u32, ExitStatus),
 }
 
@@ -115,7 +170,7 @@ struct Child {
 }
 
 struct Pending {
-    reply: Sender<String>,
+    reply: Sender<Reply>,
     until: Instant,
 }
 
@@ -127,18 +182,17 @@ pub struct Bootstrap {
     generation: u32,
     pending: Option<Pending>,
     last_exit: Option<String>,
-    last_telemetry: Option<String>,
+    last_telemetry: Option<serde_json::Value>,
     /// What the flight process was last told of the link (`link fresh` / `link lost`).
     told_link: Option<bool>,
     log: Option<String>,
-    report: Box<dyn FnMut(&str)>,
+    report: Box<dyn FnMut(&Said)>,
     tx: Sender<Msg>,
     rx: Receiver<Msg>,
     /// Told each time the control thread has written a reply.
     written: Option<Receiver<()>>,
-    /// The start line of the flight under way (`<suffix> <mode> [plan]`), to start a
-    /// crashed flight process again with.
-    flying: Option<String>,
+    /// The start of the flight under way, to start a crashed flight process again with.
+    flying: Option<StartParameters>,
     /// A flight process started again is waiting for its `ready`.
     restarting: bool,
     /// When flight processes were started again, for [`MAX_RESTARTS`].
@@ -159,8 +213,8 @@ pub struct RequestHandle {
 }
 
 impl RequestHandle {
-    /// Sends `request`; its reply (`ok …` or `error …`) comes on the receiver.
-    pub fn send(&self, request: Request) -> Receiver<String> {
+    /// Sends `request`; its reply comes on the receiver.
+    pub fn send(&self, request: Request) -> Receiver<Reply> {
         let (tx, rx) = channel();
         let _ = self.tx.send(Msg::Request(request, tx));
         rx
@@ -169,7 +223,7 @@ impl RequestHandle {
 
 impl Bootstrap {
     /// A bootstrap that reports every change through `report`.
-    pub fn new(config: BootstrapConfig, report: Box<dyn FnMut(&str)>) -> Self {
+    pub fn new(config: BootstrapConfig, report: Box<dyn FnMut(&Said)>) -> Self {
         let (tx, rx) = channel();
         Self {
             config,
@@ -238,27 +292,36 @@ impl Bootstrap {
             .name("ctl".into())
             .spawn(move || crate::ctl::serve(&listener, &handle, &written_tx))
             .map_err(|e| e.to_string())?;
-        self.say(&format!("listening on {}", self.config.socket.display()));
+        self.say(
+            Severity::ActivityHi,
+            &format!("listening on {}", self.config.socket.display()),
+        );
         self.resume_after_power_on();
         let result = self.main_loop();
         let _ = std::fs::remove_file(&self.config.socket);
         result
     }
 
-    fn say(&mut self, text: &str) {
-        (self.report)(&format!("bootstrap: {text}"));
+    fn say(&mut self, severity: Severity, text: &str) {
+        (self.report)(&Said::Bootstrap {
+            severity,
+            text: text.to_string(),
+        });
     }
 
     fn set_state(&mut self, state: State) {
         if self.state != state {
             self.state = state;
             if let Some(link) = &self.link {
-                link.set_state(state, self.flying.as_deref());
+                link.set_state(state, self.flying.as_ref().map(|p| p.controller));
             }
             let pid = self.child.as_ref().map(|c| c.pid);
             match pid {
-                Some(pid) => self.say(&format!("state {} (pid {pid})", state.name())),
-                None => self.say(&format!("state {}", state.name())),
+                Some(pid) => self.say(
+                    Severity::ActivityLo,
+                    &format!("state {} (pid {pid})", state.name()),
+                ),
+                None => self.say(Severity::ActivityLo, &format!("state {}", state.name())),
             }
         }
     }
@@ -278,11 +341,8 @@ impl Bootstrap {
             self.told_link = None;
             return;
         }
-        if self.told_link != Some(fresh) {
-            let word = if fresh { "fresh" } else { "lost" };
-            if self.tell_child(&format!("link {word}")) {
-                self.told_link = Some(fresh);
-            }
+        if self.told_link != Some(fresh) && self.tell_child(&ToFlight::Link { fresh }) {
+            self.told_link = Some(fresh);
         }
     }
 
@@ -300,8 +360,8 @@ impl Bootstrap {
                     if let Some(written) = &self.written {
                         while written.try_recv().is_ok() {}
                     }
-                    let _ = reply.send("ok quitting".into());
-                    self.say("quit");
+                    let _ = reply.send(Reply::Quitting);
+                    self.say(Severity::ActivityHi, "quit");
                     // Let the control thread write the reply before the process ends.
                     if let Some(written) = &self.written {
                         let _ = written.recv_timeout(Duration::from_secs(1));
@@ -309,7 +369,7 @@ impl Bootstrap {
                     return Ok(());
                 }
                 Some(Msg::Request(Request::Ground(cmd), reply)) => self.command(cmd, reply),
-                Some(Msg::ChildLine(generation, line)) => self.child_line(generation, &line),
+                Some(Msg::FromChild(generation, said)) => self.heard(generation, said),
                 Some(Msg::ChildExited(generation, status)) => self.child_exited(generation, status),
                 None => {}
             }
@@ -319,7 +379,7 @@ impl Bootstrap {
                 .is_some_and(|p| Instant::now() > p.until)
             {
                 let state = self.state;
-                self.answer(format!("error timed out while {}", state.name()));
+                self.answer(Reply::refused(format!("timed out while {}", state.name())));
                 if matches!(state, State::Connecting | State::Stopping | State::Starting) {
                     self.kill_child();
                 }
@@ -333,7 +393,7 @@ impl Bootstrap {
         let Some(generation) = self.child.as_ref().map(|c| c.generation) else {
             return;
         };
-        if self.tell_child("stop") {
+        if self.tell_child(&ToFlight::Stop) {
             self.set_state(State::Stopping);
             let until = Instant::now().checked_add(self.stop_timeout);
             while let Some(left) = until.and_then(|u| u.checked_duration_since(Instant::now())) {
@@ -342,9 +402,9 @@ impl Bootstrap {
                         self.child_exited(g, status);
                         return;
                     }
-                    Ok(Msg::ChildLine(g, line)) => self.child_line(g, &line),
+                    Ok(Msg::FromChild(g, said)) => self.heard(g, said),
                     Ok(Msg::Request(_, reply)) => {
-                        let _ = reply.send("error the bootstrap is quitting".into());
+                        let _ = reply.send(Reply::refused("the bootstrap is quitting"));
                     }
                     Ok(Msg::ChildExited(g, status)) => self.child_exited(g, status),
                     Err(_) => break,
@@ -354,15 +414,15 @@ impl Bootstrap {
         self.kill_child();
     }
 
-    fn answer(&mut self, text: String) {
+    fn answer(&mut self, reply: Reply) {
         if let Some(p) = self.pending.take() {
-            let _ = p.reply.send(text);
+            let _ = p.reply.send(reply);
         }
     }
 
-    fn command(&mut self, cmd: GroundCommand, reply: Sender<String>) {
+    fn command(&mut self, cmd: GroundCommand, reply: Sender<Reply>) {
         if self.pending.is_some() {
-            let _ = reply.send(format!("error busy ({})", self.state.name()));
+            let _ = reply.send(Reply::refused(format!("busy ({})", self.state.name())));
             return;
         }
         match cmd {
@@ -371,48 +431,45 @@ impl Bootstrap {
                 self.flying = None;
                 self.restarting = false;
                 if self.child.is_some() {
-                    self.say("connect: killing the running flight process first");
+                    self.say(
+                        Severity::WarningLo,
+                        "connect: killing the running flight process first",
+                    );
                     self.kill_child();
                 }
                 match self.spawn_child() {
                     Ok(()) => self.wait_for(reply, self.ready_timeout, State::Connecting),
                     Err(e) => {
-                        let _ = reply.send(format!("error {e}"));
+                        let _ = reply.send(Reply::refused(e));
                     }
                 }
             }
             GroundCommand::StartLogging(p) => {
                 if self.state != State::Connected {
-                    let _ = reply.send(format!(
-                        "error not connected (state {}): send connect first",
+                    let _ = reply.send(Reply::refused(format!(
+                        "not connected (state {}): send connect first",
                         self.state.name()
-                    ));
+                    )));
                     return;
                 }
-                let mut words = format!("{} {}", p.file_suffix, p.controller.name());
-                if let Some(plan) = &p.plan {
-                    words.push(' ');
-                    words.push_str(plan);
-                }
-                if self.tell_child(&format!("start {words}")) {
-                    self.flying = Some(words);
+                if self.tell_child(&ToFlight::Start(p.clone())) {
+                    self.flying = Some(p);
                     self.wait_for(reply, self.ready_timeout, State::Starting);
                 } else {
-                    let _ = reply.send("error the flight process is not listening".into());
+                    let _ = reply.send(Reply::refused("the flight process is not listening"));
                 }
             }
             GroundCommand::Stop => {
                 if self.child.is_none() {
-                    let _ = reply.send("ok nothing to stop".into());
+                    let _ = reply.send(Reply::NothingToStop);
                     return;
                 }
-                if self.tell_child("stop") {
+                if self.tell_child(&ToFlight::Stop) {
                     self.wait_for(reply, self.stop_timeout, State::Stopping);
                 } else {
                     // Already dying: its exit is reported when it arrives.
                     self.kill_child();
-                    let _ = reply
-                        .send("ok stopped (the flight process was not listening; killed)".into());
+                    let _ = reply.send(Reply::Killed);
                 }
             }
             GroundCommand::TelemetryRequest | GroundCommand::Final(_) => {
@@ -421,15 +478,14 @@ impl Bootstrap {
                     "pid": self.child.as_ref().map(|c| c.pid),
                     "last_exit": self.last_exit,
                     "log": self.log,
-                    "telemetry": self.last_telemetry.as_deref()
-                        .and_then(|t| serde_json::from_str::<serde_json::Value>(t).ok()),
+                    "telemetry": self.last_telemetry,
                 });
-                let _ = reply.send(format!("ok {status}"));
+                let _ = reply.send(Reply::Status(status));
             }
         }
     }
 
-    fn wait_for(&mut self, reply: Sender<String>, timeout: Duration, state: State) {
+    fn wait_for(&mut self, reply: Sender<Reply>, timeout: Duration, state: State) {
         self.pending = Some(Pending {
             reply,
             until: Instant::now()

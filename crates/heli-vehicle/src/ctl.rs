@@ -15,9 +15,10 @@
 //! Everything but `quit` maps onto the link's [`GroundCommand`], so the MAVLink bridge hands
 //! the bootstrap the same values.
 
+use std::fmt;
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use heli_link::{GroundCommand, StartParameters};
@@ -35,9 +36,38 @@ pub enum Request {
     Quit,
 }
 
+/// A command line that is not a request.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum RequestError {
+    /// Nothing in it.
+    Empty,
+    /// Not one of the commands.
+    Unknown(String),
+    /// `start-logging` without its words, or with too many.
+    Usage,
+    /// Start Logging's parameters are refused (the link's check).
+    Parameters(heli_link::LinkError),
+}
+
+impl fmt::Display for RequestError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RequestError::Empty => write!(f, "empty command"),
+            RequestError::Unknown(word) => write!(
+                f,
+                "unknown command '{word}' (expected connect, start-logging, stop, status or quit)"
+            ),
+            RequestError::Usage => write!(f, "usage: start-logging SUFFIX MODE [PLAN]"),
+            RequestError::Parameters(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for RequestError {}
+
 impl Request {
     /// Parses a command line; the error says what is wrong.
-    pub fn parse(line: &str) -> Result<Self, String> {
+    pub fn parse(line: &str) -> Result<Self, RequestError> {
         let words: Vec<&str> = line.split_whitespace().collect();
         match words.as_slice() {
             ["connect"] => Ok(Request::Ground(GroundCommand::Connect)),
@@ -45,15 +75,14 @@ impl Request {
             ["status"] => Ok(Request::Ground(GroundCommand::TelemetryRequest)),
             ["quit"] => Ok(Request::Quit),
             ["start-logging", suffix, mode, rest @ ..] if rest.len() <= 1 => {
-                let mut params = StartParameters::new(suffix, mode).map_err(|e| e.to_string())?;
+                let mut params =
+                    StartParameters::new(suffix, mode).map_err(RequestError::Parameters)?;
                 params.plan = rest.first().map(|p| (*p).to_string());
                 Ok(Request::Ground(GroundCommand::StartLogging(params)))
             }
-            ["start-logging", ..] => Err("usage: start-logging SUFFIX MODE [PLAN]".into()),
-            [] => Err("empty command".into()),
-            [other, ..] => Err(format!(
-                "unknown command '{other}' (expected connect, start-logging, stop, status or quit)"
-            )),
+            ["start-logging", ..] => Err(RequestError::Usage),
+            [] => Err(RequestError::Empty),
+            [other, ..] => Err(RequestError::Unknown((*other).to_string())),
         }
     }
 
@@ -64,12 +93,7 @@ impl Request {
             Request::Ground(GroundCommand::Stop) => "stop".into(),
             Request::Ground(GroundCommand::TelemetryRequest) => "status".into(),
             Request::Ground(GroundCommand::StartLogging(p)) => {
-                let mut line = format!("start-logging {} {}", p.file_suffix, p.controller.name());
-                if let Some(plan) = &p.plan {
-                    line.push(' ');
-                    line.push_str(plan);
-                }
-                line
+                format!("start-logging {}", crate::supervisor::start_words(p))
             }
             Request::Ground(GroundCommand::Final(f)) => {
                 format!("final {} {}", f.base_directory, f.file_suffix)
@@ -79,27 +103,128 @@ impl Request {
     }
 }
 
-/// Sends `request` to the bootstrap listening on `socket` and returns its reply. `Err` when
-/// the bootstrap cannot be reached or answered `error`.
-pub fn send(socket: &Path, request: &Request) -> Result<String, String> {
-    let mut stream = UnixStream::connect(socket).map_err(|e| {
-        format!(
-            "control socket {}: {e} (is `heli vehicle` running with this --socket?)",
-            socket.display()
-        )
+/// The bootstrap's answer to a request: what happened, or why it was refused. On the socket
+/// it is one line, `ok …` or `error …`; the link turns it into a command's acknowledgement.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Reply {
+    /// Connect: the flight process is up.
+    Connected {
+        /// Its process id.
+        pid: u32,
+    },
+    /// Start Logging: flying, and logging there.
+    Flying {
+        /// The log (`(no log)` without one).
+        log: String,
+    },
+    /// Stop: the flight process exited.
+    Stopped {
+        /// How (`exit code 0`).
+        how: String,
+    },
+    /// Stop: the flight process was not listening and was killed.
+    Killed,
+    /// Stop with no flight process.
+    NothingToStop,
+    /// Status: the bootstrap's state, the flight process's, the freshest telemetry.
+    Status(serde_json::Value),
+    /// Quit: the bootstrap is ending.
+    Quitting,
+    /// The request was refused or failed; why.
+    Refused(String),
+}
+
+impl Reply {
+    /// A refusal with `why`.
+    pub fn refused(why: impl Into<String>) -> Self {
+        Reply::Refused(why.into())
+    }
+
+    /// What the reply says, without its `ok` or `error`.
+    pub fn text(&self) -> String {
+        match self {
+            Reply::Connected { pid } => format!("connected (pid {pid})"),
+            Reply::Flying { log } => format!("flying, logging to {log}"),
+            Reply::Stopped { how } => format!("stopped ({how})"),
+            Reply::Killed => "stopped (the flight process was not listening; killed)".into(),
+            Reply::NothingToStop => "nothing to stop".into(),
+            Reply::Status(v) => v.to_string(),
+            Reply::Quitting => "quitting".into(),
+            Reply::Refused(why) => why.replace(['\n', '\r'], " "),
+        }
+    }
+
+    /// What was done (`Ok`), or why not (`Err`): the link's acknowledgement.
+    pub fn outcome(&self) -> Result<String, String> {
+        match self {
+            Reply::Refused(_) => Err(self.text()),
+            _ => Ok(self.text()),
+        }
+    }
+
+    /// The reply's line on the control socket.
+    pub fn to_line(&self) -> String {
+        match self {
+            Reply::Refused(_) => format!("error {}", self.text()),
+            _ => format!("ok {}", self.text()),
+        }
+    }
+}
+
+/// Why a request to the bootstrap got no `ok`.
+#[derive(Debug)]
+pub enum CtlError {
+    /// The socket cannot be reached.
+    Unreachable {
+        /// The socket.
+        socket: PathBuf,
+        /// The system's answer.
+        error: std::io::Error,
+    },
+    /// The request could not be sent, or no reply came in time.
+    NoReply(std::io::Error),
+    /// The bootstrap closed the connection without a reply.
+    Closed,
+    /// The bootstrap answered `error`: why.
+    Refused(String),
+}
+
+impl fmt::Display for CtlError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CtlError::Unreachable { socket, error } => write!(
+                f,
+                "control socket {}: {error} (is `heli vehicle` running with this --socket?)",
+                socket.display()
+            ),
+            CtlError::NoReply(e) => write!(f, "no reply from the bootstrap: {e}"),
+            CtlError::Closed => write!(f, "the bootstrap closed the connection"),
+            CtlError::Refused(why) => f.write_str(why),
+        }
+    }
+}
+
+impl std::error::Error for CtlError {}
+
+/// Sends `request` to the bootstrap listening on `socket` and returns its reply line. An
+/// error when the bootstrap cannot be reached or answered `error`.
+pub fn send(socket: &Path, request: &Request) -> Result<String, CtlError> {
+    let mut stream = UnixStream::connect(socket).map_err(|error| CtlError::Unreachable {
+        socket: socket.to_path_buf(),
+        error,
     })?;
     stream
         .set_read_timeout(Some(REPLY_TIMEOUT))
-        .map_err(|e| e.to_string())?;
-    writeln!(stream, "{}", request.to_line()).map_err(|e| e.to_string())?;
+        .map_err(CtlError::NoReply)?;
+    writeln!(stream, "{}", request.to_line()).map_err(CtlError::NoReply)?;
     let mut reply = String::new();
     BufReader::new(stream)
         .read_line(&mut reply)
-        .map_err(|e| format!("no reply from the bootstrap: {e}"))?;
+        .map_err(CtlError::NoReply)?;
     let reply = reply.trim_end().to_string();
     match reply.strip_prefix("error") {
-        Some(rest) => Err(rest.trim_start().to_string()),
-        None if reply.is_empty() => Err("the bootstrap closed the connection".into()),
+        Some(rest) => Err(CtlError::Refused(rest.trim_start().to_string())),
+        None if reply.is_empty() => Err(CtlError::Closed),
         None => Ok(reply),
     }
 }
@@ -141,10 +266,10 @@ fn serve_one(
         Ok(request) => bootstrap
             .send(request)
             .recv()
-            .unwrap_or_else(|_| "error the bootstrap is ending".into()),
-        Err(e) => format!("error {e}"),
+            .unwrap_or_else(|_| Reply::refused("the bootstrap is ending")),
+        Err(e) => Reply::refused(e.to_string()),
     };
-    let _ = writeln!(stream, "{reply}");
+    let _ = writeln!(stream, "{}", reply.to_line());
     let _ = stream.flush();
     let _ = written.send(());
 }
@@ -168,16 +293,19 @@ mod tests {
         assert!(
             Request::parse("start-logging ../x manual")
                 .unwrap_err()
+                .to_string()
                 .contains("suffix")
         );
         assert!(
             Request::parse("start-logging a loop")
                 .unwrap_err()
+                .to_string()
                 .contains("loop")
         );
         assert!(
             Request::parse("fly")
                 .unwrap_err()
+                .to_string()
                 .contains("unknown command")
         );
         for usage in [
@@ -186,18 +314,24 @@ mod tests {
             "start-logging f1 autonomous hover x",
         ] {
             assert!(
-                Request::parse(usage).unwrap_err().contains("usage"),
+                Request::parse(usage)
+                    .unwrap_err()
+                    .to_string()
+                    .contains("usage"),
                 "{usage}"
             );
         }
-        assert_eq!(Request::parse("  ").unwrap_err(), "empty command");
+        assert_eq!(
+            Request::parse("  ").unwrap_err().to_string(),
+            "empty command"
+        );
     }
 
     #[test]
     fn a_bootstrap_that_closes_without_a_reply_or_is_not_there_is_an_error() {
         let dir = tempfile::tempdir().unwrap();
         let socket = dir.path().join("ctl.sock");
-        let e = send(&socket, &Request::Quit).unwrap_err();
+        let e = send(&socket, &Request::Quit).unwrap_err().to_string();
         assert!(e.contains("is `heli vehicle` running"), "{e}");
         let listener = std::os::unix::net::UnixListener::bind(&socket).unwrap();
         let server = std::thread::spawn(move || {
@@ -207,9 +341,47 @@ mod tests {
             line
         });
         assert_eq!(
-            send(&socket, &Request::Quit).unwrap_err(),
+            send(&socket, &Request::Quit).unwrap_err().to_string(),
             "the bootstrap closed the connection"
         );
         assert_eq!(server.join().unwrap(), "quit\n");
+    }
+
+    #[test]
+    fn replies_are_one_line_of_ok_or_error() {
+        let cases = [
+            (Reply::Connected { pid: 42 }, "ok connected (pid 42)"),
+            (
+                Reply::Flying {
+                    log: "/l/flight_a.mcap".into(),
+                },
+                "ok flying, logging to /l/flight_a.mcap",
+            ),
+            (
+                Reply::Stopped {
+                    how: "exit code 0".into(),
+                },
+                "ok stopped (exit code 0)",
+            ),
+            (
+                Reply::Killed,
+                "ok stopped (the flight process was not listening; killed)",
+            ),
+            (Reply::NothingToStop, "ok nothing to stop"),
+            (
+                Reply::Status(serde_json::json!({"state": "idle"})),
+                r#"ok {"state":"idle"}"#,
+            ),
+            (Reply::Quitting, "ok quitting"),
+            (Reply::refused("busy\n(flying)"), "error busy (flying)"),
+        ];
+        for (reply, line) in cases {
+            assert_eq!(reply.to_line(), line);
+            let text = line.split_once(' ').unwrap().1.to_string();
+            match reply {
+                Reply::Refused(_) => assert_eq!(reply.outcome(), Err(text)),
+                _ => assert_eq!(reply.outcome(), Ok(text)),
+            }
+        }
     }
 }

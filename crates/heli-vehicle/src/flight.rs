@@ -46,9 +46,9 @@ pub struct FlightSetup {
     /// Started again after a crash or a brown-out: the record the process before left
     /// (`heli_fsw::core::restart`).
     pub restart_from: Option<heli_fsw::core::WarmStart>,
-    /// Where to keep this process's own record for a successor, with the start line it
-    /// flies (`crate::warm`).
-    pub warm_file: Option<(PathBuf, String)>,
+    /// Where to keep this process's own record for a successor, with the start it flies
+    /// (`crate::warm`).
+    pub warm_file: Option<(PathBuf, heli_link::StartParameters)>,
     /// What the bootstrap says of its link: 0 nothing (no link), 1 a ground is heard, 2 no
     /// ground is heard. The control loop hands each change to the flight software.
     pub ground_link: Arc<std::sync::atomic::AtomicU8>,
@@ -374,7 +374,7 @@ struct WarmKeeper {
 }
 
 impl WarmKeeper {
-    fn spawn(path: PathBuf, start: String) -> Self {
+    fn spawn(path: PathBuf, start: heli_link::StartParameters) -> Self {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Option<heli_fsw::core::WarmStart>>(4);
         let thread = std::thread::Builder::new()
             .name("warm-start".into())

@@ -34,18 +34,23 @@
 
 pub mod adc;
 pub mod bootstrap;
+pub mod cli;
+pub mod compass_file;
 pub mod ctl;
 pub mod devices;
 pub mod flight;
+pub mod flight_process;
 pub mod hotswap;
 pub mod link;
 pub mod logger;
 pub mod params;
+pub mod plans;
 pub mod port;
 pub mod replay;
 pub mod rt;
 pub mod standalone;
 pub mod streams;
+pub mod supervisor;
 pub mod telemetry;
 pub mod threads;
 pub mod warm;

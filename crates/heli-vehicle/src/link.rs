@@ -21,8 +21,13 @@ use heli_link::telemetry::Telemetry;
 use heli_link::vehicle::{BootstrapState, LinkEvent, VehicleLink, VehicleStatus};
 use mavlink::dialects::common::MavSeverity;
 
-use crate::bootstrap::{RequestHandle, State};
-use crate::ctl::Request;
+use heli_fsw::core::Severity;
+use heli_types::{FlightMode, Leg};
+use serde::Deserialize;
+
+use crate::bootstrap::{RequestHandle, Said, State};
+use crate::ctl::{Reply, Request};
+use crate::supervisor::FromFlight;
 
 /// A ground not heard for this long is no longer sent to.
 pub const PEER_TIMEOUT: Duration = Duration::from_secs(10);
@@ -44,6 +49,8 @@ struct Shared {
     status: VehicleStatus,
     telemetry: Option<Telemetry>,
     texts: VecDeque<(MavSeverity, String)>,
+    /// Why the flight process's telemetry could not be read (said once a flight process).
+    telemetry_unreadable: Option<String>,
     /// A ground station heard recently (the link thread keeps it).
     ground_fresh: bool,
     /// The plan of the flight under way as mission items, when it changed (taken by the
@@ -58,8 +65,8 @@ impl LinkShared {
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
-    /// The bootstrap's state changed; `flying` is the start line of the flight under way.
-    pub fn set_state(&self, state: State, flying: Option<&str>) {
+    /// The bootstrap's state changed; `flying` is the mode of the flight under way.
+    pub fn set_state(&self, state: State, flying: Option<FlightMode>) {
         let state = match state {
             State::Idle => BootstrapState::Idle,
             State::Connecting => BootstrapState::Connecting,
@@ -68,15 +75,14 @@ impl LinkShared {
             State::Flying => BootstrapState::Flying,
             State::Stopping => BootstrapState::Stopping,
         };
-        let mode = flying
-            .and_then(|words| words.split_whitespace().nth(1))
-            .map_or(0, mode_code);
+        let mode = flying.map_or(0, heli_link::status::mode_code);
         let mut shared = self.lock();
         shared.status = VehicleStatus { state, mode };
         // A flight process gone or not yet flying has no telemetry: the last one's values
         // must not go on being sent as if fresh.
         if matches!(state, BootstrapState::Idle | BootstrapState::Connecting) {
             shared.telemetry = None;
+            shared.telemetry_unreadable = None;
             shared.mission = Some(Vec::new());
         }
     }
@@ -92,65 +98,54 @@ impl LinkShared {
         self.lock().ground_fresh = fresh;
     }
 
-    /// The flight process's plan line (its legs, JSON): served over the mission protocol.
-    /// A plan that cannot be read is said, and no plan is served.
-    pub fn set_plan(&self, json: &str) {
-        match heli_link::mission::parse_plan(json) {
-            Ok(legs) => self.lock().mission = Some(heli_link::mission::mission_items(&legs)),
+    /// The flight process's plan: served over the mission protocol.
+    pub fn set_plan(&self, legs: &[Leg]) {
+        self.lock().mission = Some(heli_link::mission::mission_items(legs));
+    }
+
+    /// The flight process's telemetry snapshot; one the link cannot read is said, once
+    /// per flight process, and not sent.
+    pub fn set_telemetry(&self, values: &serde_json::Value) {
+        match Telemetry::deserialize(values) {
+            Ok(t) => self.lock().telemetry = Some(t),
             Err(e) => {
-                self.lock().mission = Some(Vec::new());
-                self.line(&format!("link: the flight plan cannot be served: {e}"));
+                let mut shared = self.lock();
+                if shared.telemetry_unreadable.is_none() {
+                    shared.telemetry_unreadable = Some(e.to_string());
+                    drop(shared);
+                    self.said(&Said::Link {
+                        severity: Severity::WarningLo,
+                        text: format!("telemetry not sent: {e}"),
+                    });
+                }
             }
         }
     }
 
-    /// The flight process's telemetry line (JSON).
-    pub fn set_telemetry(&self, json: &str) {
-        if let Ok(t) = serde_json::from_str::<Telemetry>(json) {
-            self.lock().telemetry = Some(t);
-        }
-    }
-
-    /// A line the bootstrap reported, to go to the ground as a status text.
-    pub fn line(&self, line: &str) {
-        let severity = severity_of(line);
+    /// What the bootstrap reported, to go to the ground as a status text.
+    pub fn said(&self, said: &Said) {
+        let severity = mav_severity(said);
+        let text = said.to_string();
         let mut shared = self.lock();
         if shared.texts.len() >= MAX_QUEUED_TEXTS {
             shared.texts.pop_front();
         }
-        shared.texts.push_back((severity, line.to_string()));
+        shared.texts.push_back((severity, text));
     }
 }
 
-/// The heartbeat's mode code of a controller name.
-fn mode_code(name: &str) -> u8 {
-    match name {
-        "manual" => 1,
-        "autonomous" => 2,
-        "rate" => 3,
-        "attitude" => 4,
-        "velocity" => 5,
-        _ => 0,
-    }
-}
-
-/// The MAVLink severity of a bootstrap line: the flight process's events carry theirs.
-fn severity_of(line: &str) -> MavSeverity {
-    use heli_fsw::core::Severity;
-    let event = line
-        .strip_prefix("flight: event ")
-        .and_then(|rest| rest.split_whitespace().next())
-        .and_then(Severity::from_name);
-    match event {
-        Some(Severity::Fatal) => MavSeverity::MAV_SEVERITY_CRITICAL,
-        Some(Severity::WarningHi) => MavSeverity::MAV_SEVERITY_WARNING,
-        Some(Severity::WarningLo) => MavSeverity::MAV_SEVERITY_NOTICE,
-        Some(Severity::ActivityHi | Severity::ActivityLo) => MavSeverity::MAV_SEVERITY_INFO,
-        None if line.contains("CRASHED") => MavSeverity::MAV_SEVERITY_CRITICAL,
-        None if line.starts_with("bootstrap:") && line.contains("error") => {
+/// The MAVLink severity of what the bootstrap reported.
+fn mav_severity(said: &Said) -> MavSeverity {
+    match said.severity() {
+        Severity::Fatal => MavSeverity::MAV_SEVERITY_CRITICAL,
+        // The bootstrap's own trouble (a restart that failed, a refused flight process)
+        // is an error of the vehicle; a flight's is a warning.
+        Severity::WarningHi if !matches!(said, Said::Flight(FromFlight::Event { .. })) => {
             MavSeverity::MAV_SEVERITY_ERROR
         }
-        None => MavSeverity::MAV_SEVERITY_INFO,
+        Severity::WarningHi => MavSeverity::MAV_SEVERITY_WARNING,
+        Severity::WarningLo => MavSeverity::MAV_SEVERITY_NOTICE,
+        Severity::ActivityHi | Severity::ActivityLo => MavSeverity::MAV_SEVERITY_INFO,
     }
 }
 
@@ -292,7 +287,7 @@ pub fn spawn(
     log_dir: PathBuf,
     shared: Arc<LinkShared>,
     requests: RequestHandle,
-    say: Arc<dyn Fn(&str) + Send + Sync>,
+    say: Arc<dyn Fn(&Said) + Send + Sync>,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<JoinHandle<()>> {
     if key.is_some() && heli_link::signing::timestamp_from_unix_us(unix_us()) == 0 {
@@ -304,26 +299,37 @@ pub fn spawn(
     socket.set_read_timeout(Some(TICK))?;
     let local = socket.local_addr()?;
     let signed = key.is_some();
-    say(&format!(
-        "link: MAVLink 2 on udp {local}, {}",
+    let note = |severity, text: String| Said::Link { severity, text };
+    say(&note(
         if signed {
-            "commands must be signed"
+            Severity::ActivityHi
         } else {
-            "UNAUTHENTICATED: no signing key, anyone on the network can command the vehicle (heli link keygen)"
-        }
+            Severity::WarningHi
+        },
+        format!(
+            "MAVLink 2 on udp {local}, {}",
+            if signed {
+                "commands must be signed"
+            } else {
+                "UNAUTHENTICATED: no signing key, anyone on the network can command the vehicle (heli link keygen)"
+            }
+        ),
     ));
     std::thread::Builder::new().name("link".into()).spawn(move || {
         let params = match crate::params::load(&log_dir) {
             Ok(t) => t,
             Err(e) => {
-                say(&format!("link: parameters not loaded ({e}); serving the defaults"));
+                say(&note(
+                    Severity::WarningHi,
+                    format!("parameters not loaded ({e}); serving the defaults"),
+                ));
                 crate::params::defaults()
             }
         };
         let store = DirStore::new(log_dir.clone());
         let mut link = VehicleLink::new(key, unix_us()).with_params(params);
         let mut peers = Peers::default();
-        let mut pending: Vec<(heli_link::vehicle::CommandToken, Receiver<String>)> = Vec::new();
+        let mut pending: Vec<(heli_link::vehicle::CommandToken, Receiver<Reply>)> = Vec::new();
         let mut buf = [0u8; 2048];
         let mut last_unsigned_warning: Option<Instant> = None;
         // When each kind of refusal was last printed (one line per kind per second).
@@ -415,21 +421,25 @@ pub fn spawn(
                                     &format!("param not saved, change undone: {e}"),
                                     unix_us(),
                                 );
-                                say(&format!("link: parameter not saved: {e}"));
+                                say(&note(
+                                    Severity::WarningHi,
+                                    format!("parameter not saved: {e}"),
+                                ));
                             }
                         }
                     }
-                    LinkEvent::LinkLost => say("link: lost (no ground heard for 5 s); flying on"),
-                    LinkEvent::LinkRegained => say("link: ground heard again"),
+                    LinkEvent::LinkLost => say(&note(
+                        Severity::WarningLo,
+                        "lost (no ground heard for 5 s); flying on".into(),
+                    )),
+                    LinkEvent::LinkRegained => {
+                        say(&note(Severity::ActivityHi, "ground heard again".into()));
+                    }
                 }
             }
             pending.retain(|(token, rx)| match rx.try_recv() {
                 Ok(reply) => {
-                    let result = match reply.strip_prefix("ok ") {
-                        Some(rest) => Ok(rest.to_string()),
-                        None => Err(reply.strip_prefix("error ").unwrap_or(&reply).to_string()),
-                    };
-                    link.finish(*token, result, unix_us());
+                    link.finish(*token, reply.outcome(), unix_us());
                     false
                 }
                 Err(std::sync::mpsc::TryRecvError::Empty) => true,

@@ -25,20 +25,20 @@ use serialport::TTYPort;
 use crate::{adc, devices, port};
 use heli_log::inputs;
 
-/// Which device.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Which device (as named on the command line: `heli driver imu`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum DriverKind {
-    /// The IMU.
+    /// The IMU (serial); runs the 12 ms watchdog and reports misses.
     Imu,
-    /// The servo controller board.
+    /// The servo controller board (serial); passes the pilot's commands to the servos.
     Scb,
-    /// The GPS receiver.
+    /// The GPS receiver (serial).
     Gps,
-    /// The barometric altimeter.
+    /// The barometric altimeter (serial); runs the handshake at --rate.
     Baro,
-    /// The compass (ADC).
+    /// The compass (ADC channels, --adc DIR).
     Compass,
-    /// The battery (ADC).
+    /// The battery (ADC channel, --adc DIR).
     Battery,
 }
 

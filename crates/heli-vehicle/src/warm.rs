@@ -11,6 +11,7 @@
 use std::path::{Path, PathBuf};
 
 use heli_fsw::core::WarmStart;
+use heli_link::StartParameters;
 use heli_nav::GeoOrigin;
 use heli_proto::scb::Controls;
 
@@ -26,13 +27,13 @@ pub fn path_in(log_dir: &Path) -> PathBuf {
     log_dir.join(FILE_NAME)
 }
 
-/// What the file holds: the record and the start line (`<suffix> <mode> [plan]`).
+/// What the file holds: the record and the start it flies (`start = <suffix> <mode> [plan]`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct WarmFile {
     /// The flight software's record.
     pub warm: WarmStart,
-    /// The words of the start command the flight was started with.
-    pub start: String,
+    /// The parameters the flight was started with.
+    pub start: StartParameters,
 }
 
 /// `N` numbers whose count was checked.
@@ -54,7 +55,7 @@ impl WarmFile {
         let w = &self.warm;
         let mut text = format!(
             "start = {}\nairborne = {}\ngyro_bias_rps = {}\n",
-            self.start,
+            crate::supervisor::start_words(&self.start),
             w.airborne,
             numbers(&w.gyro_bias_rps)
         );
@@ -104,7 +105,12 @@ impl WarmFile {
                 Ok(v)
             };
             match key {
-                "start" => start = Some(value.to_string()),
+                "start" => {
+                    start = Some(
+                        crate::supervisor::parse_start_words(value)
+                            .map_err(|e| format!("line {n}: start: {e}"))?,
+                    );
+                }
                 "airborne" => {
                     airborne = Some(
                         value
@@ -176,7 +182,7 @@ mod tests {
 
     fn sample() -> WarmFile {
         WarmFile {
-            start: "hover1 autonomous hover".into(),
+            start: crate::supervisor::parse_start_words("hover1 autonomous hover").unwrap(),
             warm: WarmStart {
                 gyro_bias_rps: [0.001, -0.0135, 2.5e-7],
                 origin: Some(GeoOrigin {
@@ -222,21 +228,22 @@ mod tests {
     #[test]
     fn a_damaged_file_is_an_error_naming_the_line() {
         for (text, expect) in [
-            ("start = a b\nairborne = maybe\n", "line 2: airborne"),
+            ("start = a manual\nairborne = maybe\n", "line 2: airborne"),
             (
-                "start = a b\ngyro_bias_rps = 1 2\n",
+                "start = a manual\ngyro_bias_rps = 1 2\n",
                 "line 2: gyro_bias_rps needs 3",
             ),
             (
-                "start = a b\ngyro_bias_rps = 1 nan 2\n",
+                "start = a manual\ngyro_bias_rps = 1 nan 2\n",
                 "line 2: gyro_bias_rps needs 3",
             ),
-            ("start = a b\nwhat\n", "line 2: 'what'"),
-            ("start = a b\ncolour = 3\n", "unknown key 'colour'"),
+            ("start = a manual\nwhat\n", "line 2: 'what'"),
+            ("start = a manual\ncolour = 3\n", "unknown key 'colour'"),
             (
                 "airborne = true\ngyro_bias_rps = 0 0 0\n",
                 "no 'start' line",
             ),
+            ("start = a loop\n", "line 1: start: "),
         ] {
             let e = WarmFile::parse(text).unwrap_err();
             assert!(e.contains(expect), "{text:?}: {e}");

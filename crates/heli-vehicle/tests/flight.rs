@@ -170,7 +170,10 @@ fn fly(devices: Devices, dir: &Path, ground_link: Arc<AtomicU8>) -> Flying {
         metadata: BTreeMap::new(),
         clock_speed: 1.0,
         restart_from: None,
-        warm_file: Some((dir.join("warm-start"), "t1 manual".into())),
+        warm_file: Some((
+            dir.join("warm-start"),
+            heli_vehicle::supervisor::parse_start_words("t1 manual").unwrap(),
+        )),
         ground_link,
     };
     let stop = Arc::new(AtomicBool::new(false));

@@ -38,23 +38,23 @@ pub use phase::Phase;
 pub use preflight::Refusal;
 pub use restart::WarmStart;
 
-pub use heli_control::FlightMode;
 use heli_control::{
-    AugmentedMode, HoverController, HoverGains, RollGains, StickScales, Target, YawDamper,
-    augmented_controls, manual_with_yaw_damping, rolling_controls,
+    HoverController, HoverGains, RollGains, StickScales, Target, YawDamper, augmented_controls,
+    manual_with_yaw_damping, rolling_controls,
 };
 use heli_nav::{BiasCalibration, NavConfig, NavState, Navigator, seconds_between};
 use heli_proto::compass::{CompassAdc, CompassCalibration, heading_rad};
 use heli_proto::gps::GpsNav;
 use heli_proto::imu::ImuRepr;
 use heli_proto::scb::{Controls, PilotUplink};
+use heli_types::{AugmentedMode, FlightMode, Leg, Plan};
 use nalgebra::Vector3;
 
 use crate::health::{Device, Health, HealthState, IMU_FIRES_TO_INVALID};
 use crate::streams::{
     BaroRecord, CompassRecord, ImuRecord, Record, ServoRecord, Stamped, StateRecord,
 };
-use mission::{Leg, Plan, RollStage};
+use mission::RollStage;
 use watchdog::{WATCHDOG_PERIOD_US, Watchdog};
 
 /// Longest the roll maneuver waits to settle on its trim speed before giving up (s).

@@ -18,11 +18,11 @@ fn names_round_trip() {
     assert_eq!(Severity::from_name("loud"), None);
     assert_eq!(RollStage::PullUp { since_us: 0 }.name(), "pull-up");
     assert_eq!(
-        mission::PlanError::BadValue("speed").to_string(),
+        heli_types::PlanError::BadValue("speed").to_string(),
         "bad plan value: speed"
     );
     assert!(
-        mission::PlanError::TooManyLegs
+        heli_types::PlanError::TooManyLegs
             .to_string()
             .contains("at most")
     );
@@ -348,7 +348,7 @@ fn each_event_has_the_severity_its_consequence_calls_for() {
 #[test]
 fn a_plan_with_a_value_out_of_range_is_refused_naming_the_leg() {
     let refused = |leg| match Plan::new(&[leg]) {
-        Err(mission::PlanError::BadValue(text)) => text,
+        Err(heli_types::PlanError::BadValue(text)) => text,
         other => panic!("{other:?}"),
     };
     assert!(refused(Leg::Takeoff { alt_m: 0.5 }).contains("take-off"));

@@ -284,15 +284,15 @@ impl FlightCore {
         // Warning: back to the take-off point at this height, then down.
         let height_m = home.z - est.pos_ned_m.z;
         let back = [
-            mission::Leg::Fly {
+            heli_types::Leg::Fly {
                 north_m: 0.0,
                 east_m: 0.0,
                 alt_m: height_m.max(2.0),
                 speed_mps: self.config.power.return_speed_mps,
             },
-            mission::Leg::Land,
+            heli_types::Leg::Land,
         ];
-        match mission::Plan::new(&back) {
+        match heli_types::Plan::new(&back) {
             Ok(plan) => {
                 self.params.plan = plan;
                 self.leg = 0;

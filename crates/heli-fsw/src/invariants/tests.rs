@@ -333,7 +333,7 @@ fn a_change_of_roll_stage_or_of_pilot_mode_is_a_change_of_phase() {
     assert!(check_phase_events(&accelerate, &pull_up, &[]).is_err());
     assert_eq!(check_phase_events(&accelerate, &accelerate, &[]), Ok(()));
     assert!(check_phase_events(&accelerate, &accelerate, &[accelerate]).is_err());
-    let augmented = Phase::Augmented(heli_control::AugmentedMode::Rate);
+    let augmented = Phase::Augmented(heli_types::AugmentedMode::Rate);
     assert!(check_phase_events(&augmented, &Phase::Manual, &[]).is_err());
     assert!(
         check_phase_events(

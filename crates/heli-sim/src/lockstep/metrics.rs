@@ -418,7 +418,7 @@ impl Simulation {
                 crate::pilot::Channel::Elevator,
             ])
         {
-            let cmd = AugmentedMode::commanded_velocity(&pilot.sticks, &scales);
+            let cmd = heli_control::augmented::commanded_velocity(&pilot.sticks, &scales);
             let (_, _, yaw) = s.att.euler_angles();
             let v = s.vel_ned_mps();
             let (sy, cy) = yaw.sin_cos();

@@ -29,7 +29,7 @@ use std::time::{Duration, Instant};
 pub use truth::TruthFrame;
 
 use heli_fsw::computer::{DeviceInput, FlightComputer, Port, RecordedInput};
-use heli_fsw::core::{Action, CoreConfig, CoreEvent, FlightCore, FlightMode, FlightParams, Phase};
+use heli_fsw::core::{Action, CoreConfig, CoreEvent, FlightCore, FlightParams, Phase};
 use heli_fsw::streams::{Record, StateRecord, Streams};
 use heli_nav::GeoOrigin;
 use heli_nav::compass_cal::fit_hard_iron;
@@ -37,6 +37,7 @@ use heli_proto::baro::pressure_at_altitude_mbar;
 use heli_proto::battery::BatteryAdc;
 use heli_proto::compass::{CompassAdc, CompassCalibration, MagField};
 use heli_proto::scb::Controls;
+use heli_types::FlightMode;
 use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::actuators::{Actuators, ServoParams, control_inputs};
@@ -54,8 +55,9 @@ use crate::summary::{
     LoopSummary, ManeuverSummary, Outcome, Rms, Summary,
 };
 use crate::turbulence::Turbulence;
-use heli_control::AugmentedMode;
-use heli_fsw::core::mission::{Plan, RollStage};
+use heli_fsw::core::mission::RollStage;
+use heli_types::AugmentedMode;
+use heli_types::Plan;
 
 /// Physics integration step (µs): 200 Hz RK4, twice the rate H15 integrated at, and a
 /// divisor of the IMU's 10 ms so every IMU sample reads a state of its own instant. The
@@ -227,8 +229,8 @@ impl Simulation {
 
     /// The helicopter, its devices and the flight software, set up but not started.
     fn build(scenario: Scenario, config: CoreConfig) -> Result<Self, ScenarioError> {
-        let legs: Vec<_> = scenario.plan.iter().map(|l| l.to_leg()).collect();
-        let plan = Plan::new(&legs).map_err(|e| ScenarioError::Invalid(format!("plan: {e}")))?;
+        let plan =
+            Plan::new(&scenario.plan).map_err(|e| ScenarioError::Invalid(format!("plan: {e}")))?;
         let seed = scenario.seed;
         let env = Environment {
             wind_ned_mps: Vector3::from(scenario.wind_ned_mps),

@@ -35,3 +35,22 @@ fn unknown_fields_and_bases_are_clear_errors() {
     assert!(e.contains("wnd"), "{e}");
     assert!(from_toml("base = \"loop-the-loop\"").is_err());
 }
+
+#[test]
+fn every_built_in_scenario_flies_the_library_plan_of_its_name() {
+    let scenarios = builtins();
+    for s in &scenarios {
+        let named = heli_types::library::plan(&s.name)
+            .unwrap_or_else(|| panic!("the plan library has no plan '{}'", s.name));
+        assert_eq!(s.plan, named.legs, "{}", s.name);
+    }
+    let names: Vec<_> = scenarios.iter().map(|s| s.name.as_str()).collect();
+    let library: Vec<_> = heli_types::library::LIBRARY
+        .iter()
+        .map(|p| p.name)
+        .collect();
+    assert_eq!(
+        names, library,
+        "the library lists the built-in scenarios, in order"
+    );
+}

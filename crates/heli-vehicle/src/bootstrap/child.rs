@@ -5,11 +5,11 @@
 use super::*;
 
 impl Bootstrap {
-    pub(super) fn tell_child(&mut self, line: &str) -> bool {
+    pub(super) fn tell_child(&mut self, message: &ToFlight) -> bool {
         let Some(stdin) = self.child.as_mut().and_then(|c| c.stdin.as_mut()) else {
             return false;
         };
-        writeln!(stdin, "{line}")
+        writeln!(stdin, "{message}")
             .and_then(|()| stdin.flush())
             .is_ok()
     }
@@ -30,6 +30,8 @@ impl Bootstrap {
             .stderr(Stdio::inherit())
             .spawn()
             .map_err(|e| format!("starting the flight process: {e}"))?;
+        // Each line read is parsed here, on the reader's thread: the bootstrap's loop sees
+        // only messages.
         self.generation = self.generation.saturating_add(1);
         let generation = self.generation;
         let pid = child.id();
@@ -42,7 +44,11 @@ impl Bootstrap {
                 if let Some(out) = stdout {
                     for line in BufReader::new(out).lines() {
                         let Ok(line) = line else { break };
-                        if tx.send(Msg::ChildLine(generation, line)).is_err() {
+                        let said = match FromFlight::parse(&line) {
+                            Ok(message) => Said::Flight(message),
+                            Err(error) => Said::Unreadable { line, error },
+                        };
+                        if tx.send(Msg::FromChild(generation, said)).is_err() {
                             break;
                         }
                     }
@@ -58,7 +64,10 @@ impl Bootstrap {
             stdin,
         });
         self.last_telemetry = None;
-        self.say(&format!("flight process started (pid {pid})"));
+        self.say(
+            Severity::ActivityLo,
+            &format!("flight process started (pid {pid})"),
+        );
         Ok(())
     }
 
@@ -79,57 +88,85 @@ impl Bootstrap {
             .is_some_and(|c| c.generation == generation)
     }
 
-    pub(super) fn child_line(&mut self, generation: u32, line: &str) {
-        let (word, rest) = line.split_once(' ').unwrap_or((line, ""));
-        if word == "telemetry" {
-            if self.current(generation) {
-                if let Some(link) = &self.link {
-                    link.set_telemetry(rest);
+    pub(super) fn heard(&mut self, generation: u32, said: Said) {
+        let current = self.current(generation);
+        let message = match said {
+            Said::Flight(FromFlight::Telemetry(values)) => {
+                if current {
+                    if let Some(link) = &self.link {
+                        link.set_telemetry(&values);
+                    }
+                    self.last_telemetry = Some(values);
                 }
-                self.last_telemetry = Some(rest.to_string());
+                return;
             }
-            return;
-        }
-        if word == "plan" {
-            if self.current(generation)
-                && let Some(link) = &self.link
-            {
-                link.set_plan(rest);
+            Said::Flight(FromFlight::Plan(legs)) => {
+                if current && let Some(link) = &self.link {
+                    link.set_plan(&legs);
+                }
+                return;
             }
+            Said::Flight(message) => {
+                (self.report)(&Said::Flight(message.clone()));
+                message
+            }
+            other => {
+                (self.report)(&other);
+                return;
+            }
+        };
+        if !current {
             return;
         }
-        (self.report)(&format!("flight: {line}"));
-        if !self.current(generation) {
-            return;
-        }
-        match word {
-            "ready" if self.state == State::Connecting && self.restarting => {
+        match message {
+            FromFlight::Ready { version } if version != VERSION => {
+                self.say(
+                    Severity::WarningHi,
+                    &format!(
+                        "the flight process speaks protocol version {version}, this bootstrap {VERSION}: restart the bootstrap (was the program replaced under it?)"
+                    ),
+                );
+                if self.state == State::Connecting {
+                    self.answer(Reply::refused(format!(
+                        "the flight process speaks protocol version {version}, this bootstrap {VERSION}"
+                    )));
+                }
+                self.kill_child();
+            }
+            FromFlight::Ready { .. } if self.state == State::Connecting && self.restarting => {
                 self.restarting = false;
-                let words = self.flying.clone().unwrap_or_default();
-                if self.tell_child(&format!("restart {words}")) {
+                let told = match self.flying.clone() {
+                    Some(p) => self.tell_child(&ToFlight::Restart(p)),
+                    None => false,
+                };
+                if told {
                     self.set_state(State::Starting);
                 } else {
-                    self.say("the restarted flight process is not listening");
+                    self.say(
+                        Severity::WarningHi,
+                        "the restarted flight process is not listening",
+                    );
                 }
             }
-            "ready" if self.state == State::Connecting => {
+            FromFlight::Ready { .. } if self.state == State::Connecting => {
                 let pid = self.child.as_ref().map_or(0, |c| c.pid);
                 self.set_state(State::Connected);
-                self.answer(format!("ok connected (pid {pid})"));
+                self.answer(Reply::Connected { pid });
             }
-            "started" if self.state == State::Starting => {
-                self.log = Some(rest.to_string());
+            FromFlight::Started { log } if self.state == State::Starting => {
+                let log = log.unwrap_or_else(|| "(no log)".into());
+                self.log = Some(log.clone());
                 self.set_state(State::Flying);
-                self.answer(format!("ok flying, logging to {rest}"));
+                self.answer(Reply::Flying { log });
             }
-            "error" => {
+            FromFlight::Refused(why) => {
                 // A start refused (a plan it does not know): the flight did not begin, so
                 // the process's exit that follows is no crash in flight to restart.
                 if self.state == State::Starting {
                     self.flying = None;
                     self.set_state(State::Connected);
                 }
-                self.answer(format!("error {rest}"));
+                self.answer(Reply::Refused(why));
             }
             _ => {}
         }
@@ -139,7 +176,10 @@ impl Bootstrap {
         let how = describe_exit(status);
         self.last_exit = Some(how.clone());
         if !self.current(generation) {
-            self.say(&format!("old flight process ended: {how}"));
+            self.say(
+                Severity::ActivityLo,
+                &format!("old flight process ended: {how}"),
+            );
             return;
         }
         let stopping = self.state == State::Stopping;
@@ -148,11 +188,14 @@ impl Bootstrap {
         self.child = None;
         if stopping && status.success() {
             self.flying = None;
-            self.say(&format!("flight process stopped cleanly ({how})"));
-            self.answer(format!("ok stopped ({how})"));
+            self.say(
+                Severity::ActivityHi,
+                &format!("flight process stopped cleanly ({how})"),
+            );
+            self.answer(Reply::Stopped { how });
         } else {
-            self.say(&format!("flight process CRASHED: {how}"));
-            self.answer(format!("error the flight process ended: {how}"));
+            self.say(Severity::Fatal, &format!("flight process CRASHED: {how}"));
+            self.answer(Reply::refused(format!("the flight process ended: {how}")));
         }
         self.set_state(State::Idle);
         if in_flight && !stopping {
@@ -169,22 +212,31 @@ impl Bootstrap {
             .retain(|t| now.saturating_duration_since(*t) < RESTART_WINDOW);
         if self.restarts.len() >= MAX_RESTARTS {
             self.flying = None;
-            self.say(&format!(
-                "not restarting: {MAX_RESTARTS} restarts within {} s already",
-                RESTART_WINDOW.as_secs()
-            ));
+            self.say(
+                Severity::WarningHi,
+                &format!(
+                    "not restarting: {MAX_RESTARTS} restarts within {} s already",
+                    RESTART_WINDOW.as_secs()
+                ),
+            );
             return;
         }
         self.restarts.push(now);
         match self.spawn_child() {
             Ok(()) => {
                 self.restarting = true;
-                self.say("restarting the flight process to resume the flight");
+                self.say(
+                    Severity::WarningHi,
+                    "restarting the flight process to resume the flight",
+                );
                 self.set_state(State::Connecting);
             }
             Err(e) => {
                 self.flying = None;
-                self.say(&format!("could not restart the flight process: {e}"));
+                self.say(
+                    Severity::WarningHi,
+                    &format!("could not restart the flight process: {e}"),
+                );
             }
         }
     }
@@ -202,16 +254,25 @@ impl Bootstrap {
             .is_some_and(|age| age <= RESUME_AFTER_POWER_ON_MAX);
         match crate::warm::WarmFile::read(&path) {
             Ok(Some(file)) if fresh && file.warm.airborne => {
-                self.say(&format!(
-                    "power-on with a fresh warm-start record ({}): resuming the flight in the air",
-                    path.display()
-                ));
+                self.say(
+                    Severity::WarningHi,
+                    &format!(
+                        "power-on with a fresh warm-start record ({}): resuming the flight in the air",
+                        path.display()
+                    ),
+                );
                 self.flying = Some(file.start);
                 self.restart_in_flight();
             }
-            Ok(Some(_)) => self.say("an old or grounded warm-start record: not resuming"),
+            Ok(Some(_)) => self.say(
+                Severity::ActivityLo,
+                "an old or grounded warm-start record: not resuming",
+            ),
             Ok(None) => {}
-            Err(e) => self.say(&format!("warm-start record unreadable, not resuming: {e}")),
+            Err(e) => self.say(
+                Severity::WarningLo,
+                &format!("warm-start record unreadable, not resuming: {e}"),
+            ),
         }
     }
 }

@@ -2,6 +2,26 @@
 
 use super::*;
 
+/// What the bootstrap reports of a line it printed.
+fn said(line: &str) -> Said {
+    if let Some(rest) = line.strip_prefix("flight: ") {
+        return Said::Flight(FromFlight::parse(rest).unwrap());
+    }
+    let text = line.strip_prefix("bootstrap: ").unwrap().to_string();
+    let severity = if text.contains("CRASHED") {
+        Severity::Fatal
+    } else if text.starts_with("error") {
+        Severity::WarningHi
+    } else {
+        Severity::ActivityLo
+    };
+    Said::Bootstrap { severity, text }
+}
+
+fn severity_of(line: &str) -> MavSeverity {
+    mav_severity(&said(line))
+}
+
 #[test]
 fn lines_get_the_severity_of_their_events() {
     assert_eq!(
@@ -25,7 +45,7 @@ fn lines_get_the_severity_of_their_events() {
 #[test]
 fn the_heartbeat_knows_the_mode_of_the_flight_under_way() {
     let shared = LinkShared::default();
-    shared.set_state(State::Flying, Some("hover1 velocity hover"));
+    shared.set_state(State::Flying, FlightMode::from_name("velocity"));
     let s = shared.lock().status;
     assert_eq!((s.state, s.mode), (BootstrapState::Flying, 5));
 }
@@ -33,8 +53,8 @@ fn the_heartbeat_knows_the_mode_of_the_flight_under_way() {
 #[test]
 fn telemetry_of_a_flight_process_gone_is_not_kept() {
     let shared = LinkShared::default();
-    shared.set_state(State::Flying, Some("hover1 autonomous"));
-    shared.set_telemetry(&serde_json::to_string(&Telemetry::default()).unwrap());
+    shared.set_state(State::Flying, Some(FlightMode::Autonomous));
+    shared.set_telemetry(&serde_json::to_value(Telemetry::default()).unwrap());
     assert!(shared.lock().telemetry.is_some());
     shared.set_state(State::Idle, None);
     assert!(shared.lock().telemetry.is_none());
@@ -48,7 +68,7 @@ fn open_link(dir: &std::path::Path) -> (SocketAddr, Arc<Mutex<Vec<String>>>, Arc
         child: Vec::new(),
         warm_file: None,
     };
-    let bootstrap = crate::bootstrap::Bootstrap::new(config, Box::new(|_: &str| {}));
+    let bootstrap = crate::bootstrap::Bootstrap::new(config, Box::new(|_: &Said| {}));
     let probe = UdpSocket::bind("127.0.0.1:0").unwrap();
     let addr = probe.local_addr().unwrap();
     drop(probe);
@@ -61,7 +81,7 @@ fn open_link(dir: &std::path::Path) -> (SocketAddr, Arc<Mutex<Vec<String>>>, Arc
         dir.to_path_buf(),
         Arc::new(LinkShared::default()),
         bootstrap.requests(),
-        Arc::new(move |l: &str| said_to.lock().unwrap().push(l.to_string())),
+        Arc::new(move |l: &Said| said_to.lock().unwrap().push(l.to_string())),
         Arc::clone(&stop),
     )
     .unwrap();
@@ -157,7 +177,7 @@ fn the_heartbeat_names_each_controller_by_its_mode_code() {
         ("velocity", 5),
         ("loop", 0),
     ] {
-        shared.set_state(State::Starting, Some(&format!("f1 {name} hover")));
+        shared.set_state(State::Starting, FlightMode::from_name(name));
         assert_eq!(shared.lock().status.mode, code, "{name}");
     }
     shared.set_state(State::Idle, None);
@@ -192,25 +212,45 @@ fn every_line_gets_its_severity() {
 fn the_texts_waiting_for_the_ground_are_bounded_oldest_first_out() {
     let shared = LinkShared::default();
     for k in 0..MAX_QUEUED_TEXTS + 50 {
-        shared.line(&format!("line {k}"));
+        shared.said(&Said::Link {
+            severity: Severity::ActivityLo,
+            text: format!("line {k}"),
+        });
     }
     let texts = &shared.lock().texts;
     assert_eq!(texts.len(), MAX_QUEUED_TEXTS);
-    assert_eq!(texts.front().map(|(_, t)| t.as_str()), Some("line 50"));
+    assert_eq!(
+        texts.front().map(|(_, t)| t.as_str()),
+        Some("link: line 50")
+    );
 }
 
 #[test]
 fn the_flight_plan_is_served_or_its_fault_said() {
     let shared = LinkShared::default();
-    shared.set_plan(r#"[{"leg":"takeoff","alt_m":10.0},{"leg":"land"}]"#);
+    let FromFlight::Plan(legs) =
+        FromFlight::parse(r#"plan [{"leg":"takeoff","alt_m":10.0},{"leg":"land"}]"#).unwrap()
+    else {
+        panic!("a plan line")
+    };
+    shared.set_plan(&legs);
     assert_eq!(shared.lock().mission.as_ref().map(Vec::len), Some(2));
-    shared.set_plan(r#"[{"leg":"loop"}]"#);
+    // A plan the flight process sent wrong is no message: the bootstrap reports it, and a
+    // new flight process serves no plan until it sends one.
+    let line = r#"plan [{"leg":"loop"}]"#;
+    let error = FromFlight::parse(line).unwrap_err();
+    shared.said(&Said::Unreadable {
+        line: line.into(),
+        error,
+    });
+    shared.set_state(State::Connecting, None);
     let s = shared.lock();
     assert_eq!(s.mission.as_ref().map(Vec::len), Some(0), "no plan served");
     assert!(
         s.texts
             .iter()
-            .any(|(_, t)| t.starts_with("link: the flight plan cannot be served")),
+            .any(|(severity, t)| t.contains("not the protocol")
+                && *severity == MavSeverity::MAV_SEVERITY_ERROR),
         "{:?}",
         s.texts
     );
@@ -288,7 +328,7 @@ fn a_signed_link_starts_and_says_commands_must_be_signed() {
         child: Vec::new(),
         warm_file: None,
     };
-    let bootstrap = crate::bootstrap::Bootstrap::new(config, Box::new(|_: &str| {}));
+    let bootstrap = crate::bootstrap::Bootstrap::new(config, Box::new(|_: &Said| {}));
     let said = Arc::new(Mutex::new(Vec::new()));
     let said_to = Arc::clone(&said);
     let stop = Arc::new(AtomicBool::new(false));
@@ -299,7 +339,7 @@ fn a_signed_link_starts_and_says_commands_must_be_signed() {
         dir.path().to_path_buf(),
         Arc::new(LinkShared::default()),
         bootstrap.requests(),
-        Arc::new(move |l: &str| said_to.lock().unwrap().push(l.to_string())),
+        Arc::new(move |l: &Said| said_to.lock().unwrap().push(l.to_string())),
         Arc::clone(&stop),
     )
     .unwrap();

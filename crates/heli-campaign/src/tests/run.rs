@@ -121,7 +121,7 @@ fn a_panicking_flight_is_recorded_with_its_place() {
     assert_eq!(record.outcome, FlightOutcome::Error);
     let e = record.error.unwrap_or_default();
     assert!(
-        e.starts_with("panic: boom in flight at ") && e.contains("campaign/tests/run.rs"),
+        e.starts_with("panic: boom in flight at ") && e.contains("heli-campaign/src/tests/run.rs"),
         "{e}"
     );
     // Panics outside flights are not swallowed.
@@ -130,7 +130,7 @@ fn a_panicking_flight_is_recorded_with_its_place() {
 
 #[test]
 fn scores_rank_failures_by_how_far_past_the_limit() {
-    use crate::summary::Criterion;
+    use heli_sim::summary::Criterion;
     let r = |c: Criterion| score::ratio(&c);
     assert_eq!(r(Criterion::at_most("a", 2.0, 4.0)), 0.5);
     assert_eq!(r(Criterion::at_most("a", 6.0, 4.0)), 1.5);
@@ -182,13 +182,13 @@ fn the_plot_has_a_panel_per_key() {
     let dir = std::env::temp_dir().join(format!("heli-campaign-unit-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap_or_default();
     let svg = dir.join("outcomes.svg");
-    plot::render(&r, heli_log::plot::ImageFormat::Svg, &svg).unwrap_or_else(|e| panic!("{e}"));
+    plot::render(&r, crate::log_plot::ImageFormat::Svg, &svg).unwrap_or_else(|e| panic!("{e}"));
     let text = std::fs::read_to_string(&svg).unwrap_or_default();
     for key in &r.keys {
         assert!(text.contains(key.as_str()), "panel {key}");
     }
     let png = dir.join("outcomes.png");
-    plot::render(&r, heli_log::plot::ImageFormat::Png, &png).unwrap_or_else(|e| panic!("{e}"));
+    plot::render(&r, crate::log_plot::ImageFormat::Png, &png).unwrap_or_else(|e| panic!("{e}"));
     assert!(std::fs::metadata(&png).map(|m| m.len()).unwrap_or(0) > 1000);
     std::fs::remove_dir_all(&dir).unwrap_or_default();
 }

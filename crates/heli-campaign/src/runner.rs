@@ -20,9 +20,9 @@ use serde::{Deserialize, Serialize};
 
 use super::report::{FlightRecord, Report, Wall};
 use super::{Campaign, CampaignError};
-use crate::lockstep::{RunOptions, Simulation};
-use crate::scenario::Scenario;
-use crate::summary::Summary;
+use heli_sim::lockstep::{RunOptions, Simulation};
+use heli_sim::scenario::Scenario;
+use heli_sim::summary::Summary;
 
 /// One of `count` parts of a campaign: the flights whose index is `index` modulo `count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

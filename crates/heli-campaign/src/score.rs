@@ -1,7 +1,7 @@
 //! A flight's ranking score: how far past (or how close to) its limits it came.
 
 use super::report::SCORE_CAP;
-use crate::summary::Criterion;
+use heli_sim::summary::Criterion;
 
 /// A flight's ranking score and the criterion that gives it (see [`super::FlightRecord::score`]).
 pub(crate) fn score(criteria: &[Criterion]) -> (f64, Option<String>) {

@@ -17,7 +17,7 @@ use std::path::Path;
 use plotters::prelude::*;
 use serde_json::Value;
 
-use crate::{LogContents, LoggedMessage};
+use heli_log::{LogContents, LoggedMessage};
 
 /// Most points drawn per trace; longer traces are thinned by min/max buckets.
 pub const MAX_POINTS_PER_SERIES: usize = 4000;
@@ -386,7 +386,7 @@ fn numeric_columns(messages: &[&LoggedMessage]) -> Vec<Series> {
 }
 
 fn numeric_leaves(value: &Value, out: &mut Vec<(String, f64)>) {
-    crate::for_each_leaf("", value, &mut |name, v| match v {
+    heli_log::for_each_leaf("", value, &mut |name, v| match v {
         Value::Number(n) => {
             if let Some(x) = n.as_f64().filter(|x| x.is_finite()) {
                 out.push((name, x));

@@ -13,7 +13,7 @@ use super::Campaign;
 use super::runner::Shard;
 use super::sample::Flight;
 use super::score::score;
-use crate::summary::{Outcome, Summary};
+use heli_sim::summary::{Outcome, Summary};
 
 /// Worst cases a report lists.
 pub const WORST_CASES: usize = 10;

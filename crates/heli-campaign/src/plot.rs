@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use heli_log::plot::ImageFormat;
+use crate::log_plot::ImageFormat;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -22,7 +22,7 @@ pub const PANEL_HEIGHT_PX: u32 = 260;
 pub const MAX_PANELS: usize = 12;
 
 /// The font the images' text uses (heli-log's, so no system font library is needed).
-static FONT: &[u8] = include_bytes!("../../../heli-log/assets/DejaVuSansMono.ttf");
+static FONT: &[u8] = include_bytes!("../assets/DejaVuSansMono.ttf");
 
 /// Colours by outcome (colour-blind-safe): pass, fail, crash, error.
 const PASS: RGBColor = RGBColor(0, 158, 115);

@@ -1,8 +1,15 @@
-//! Monte Carlo campaigns: many simulated flights of one scenario with some of its values
-//! drawn at random or stepped over a grid, flown in parallel and summed up in one report
-//! (`heli campaign`, docs/campaigns.md).
+//! The heli workstation's analysis of many flights and of one.
 //!
-//! The pieces, in the order a campaign goes through them:
+//! What it is: Monte Carlo campaigns — many simulated flights of one scenario with some of
+//! its values drawn at random or stepped over a grid, flown in parallel and summed up in one
+//! report (`heli campaign`, docs/campaigns.md) — and the plots of a flight log's channels
+//! ([`log_plot`], `heli log plot`). The crate that takes a thread pool (rayon) and a plotting
+//! library (plotters), so that nothing below it does.
+//!
+//! What it is not: the simulation itself (`heli-sim` flies each flight) or anything that
+//! flies: the onboard program never links it.
+//!
+//! A campaign's pieces, in the order it goes through them:
 //!
 //! - [`file`]: the campaign file (TOML), checked when it is loaded: every number finite,
 //!   ranges ordered, counts positive, every varied key present in the scenario, and the ends
@@ -11,7 +18,7 @@
 //! - [`sample`]: flight `i` of a campaign, a pure function of the file and `i`: its values
 //!   are drawn from a ChaCha stream of its own (campaign seed, stream `i`), so that a shard
 //!   draws exactly the flights a whole run draws. Each flight's scenario is built as a
-//!   scenario file and goes through [`crate::scenario::from_toml`], checks included.
+//!   scenario file and goes through [`heli_sim::scenario::from_toml`], checks included.
 //! - [`runner`]: the flights on a rayon pool (`--jobs`), one shard of them (`--shard I/N`:
 //!   the flights whose index is `I` modulo `N`); a flight that cannot be built or panics is
 //!   recorded as an error, never the end of the campaign.
@@ -24,6 +31,7 @@
 mod checks;
 pub mod file;
 mod keys;
+pub mod log_plot;
 mod merge;
 pub mod plot;
 pub mod report;

@@ -1,0 +1,328 @@
+//! The onboard program's command line, shared by the `heli-vehicle` binary and the
+//! workstation's `heli vehicle` / `heli flight` / `heli driver`: the bootstrap, its control
+//! client, the flight process and the stand-alone drivers.
+
+use std::ffi::OsString;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::{Context, Result, bail};
+use heli_proto::compass::CompassCalibration;
+
+use crate::bootstrap::{Bootstrap, BootstrapConfig, Said};
+use crate::ctl::{self, Request};
+use crate::devices::Devices;
+use crate::standalone::{self, DriverKind, Source};
+
+/// The control socket when none is given.
+pub const DEFAULT_SOCKET: &str = "/tmp/heli-vehicle.sock";
+
+/// Where the devices are and how the flight software is set up: shared by the bootstrap
+/// (which passes them on) and the flight process.
+#[derive(clap::Args, Clone, Debug)]
+pub struct FlightArgs {
+    /// Device paths and ADC channels (TOML; see docs/architecture.md).
+    #[arg(long, conflicts_with = "hilsim")]
+    pub devices: Option<PathBuf>,
+    /// Fly against `heli hilsim --ptys DIR`: its pseudo-terminals, ADC files and compass
+    /// calibration.
+    #[arg(long)]
+    pub hilsim: Option<PathBuf>,
+    /// Directory for the flight logs (`flight_<suffix>.mcap`).
+    #[arg(long, default_value = ".")]
+    pub log_dir: PathBuf,
+    /// Compass calibration (TOML: bias_gauss = [x, y, z], scale = [x, y, z]).
+    #[arg(long)]
+    pub compass_cal: Option<PathBuf>,
+    /// Altimeter readings per second (1-10).
+    #[arg(long, default_value_t = heli_proto::baro::DEFAULT_RATE_HZ)]
+    pub baro_rate: u8,
+    /// IMU bias calibration window (s). 80 as in the thesis; shorter only for tests.
+    #[arg(long, default_value_t = 80.0)]
+    pub calibration_s: f64,
+    /// IMU warm-up before the calibration (s). Shorter only for tests.
+    #[arg(long, default_value_t = 5.0)]
+    pub warm_up_s: f64,
+    /// Run the flight clock this many times as fast as the wall clock, to fly against
+    /// `heli hilsim --speed` above 1. Never on a vehicle.
+    #[arg(long, default_value_t = 1.0)]
+    pub clock_speed: f64,
+}
+
+impl FlightArgs {
+    /// Where the devices are.
+    pub fn devices(&self) -> Result<Devices> {
+        match (&self.devices, &self.hilsim) {
+            (Some(file), _) => Ok(Devices::from_file(file)?),
+            (None, Some(dir)) => Ok(Devices::hilsim(dir)),
+            (None, None) => bail!("say where the devices are: --devices FILE or --hilsim DIR"),
+        }
+    }
+
+    /// Checks every value is in its range and the log directory is one.
+    pub fn validate(&self) -> Result<()> {
+        if !(1..=10).contains(&self.baro_rate) {
+            bail!(
+                "--baro-rate {}: the altimeter does 1 to 10 readings a second",
+                self.baro_rate
+            );
+        }
+        for (name, v) in [
+            ("--calibration-s", self.calibration_s),
+            ("--warm-up-s", self.warm_up_s),
+        ] {
+            if !(v.is_finite() && (0.0..=600.0).contains(&v)) {
+                bail!("{name} {v}: must be between 0 and 600 seconds");
+            }
+        }
+        if !(self.clock_speed.is_finite() && self.clock_speed > 0.0 && self.clock_speed <= 100.0) {
+            bail!(
+                "--clock-speed {}: must be more than 0 and at most 100",
+                self.clock_speed
+            );
+        }
+        if !self.log_dir.is_dir() {
+            bail!("--log-dir {}: not a directory", self.log_dir.display());
+        }
+        Ok(())
+    }
+
+    /// The compass calibration: the file given, the HILSim's, or none (identity).
+    pub fn compass(&self) -> Result<CompassCalibration> {
+        let hil_file = self
+            .hilsim
+            .as_ref()
+            .map(|dir| dir.join(crate::compass_file::HIL_FILE_NAME));
+        let path = match (&self.compass_cal, hil_file) {
+            (Some(p), _) => p.clone(),
+            (None, Some(p)) if p.exists() => p,
+            _ => return Ok(CompassCalibration::default()),
+        };
+        Ok(crate::compass_file::read(&path)?)
+    }
+
+    /// The same settings as arguments, for the flight process's command line.
+    pub fn to_args(&self) -> Vec<OsString> {
+        let mut args: Vec<OsString> = Vec::new();
+        if let Some(d) = &self.devices {
+            args.extend(["--devices".into(), d.clone().into_os_string()]);
+        }
+        if let Some(d) = &self.hilsim {
+            args.extend(["--hilsim".into(), d.clone().into_os_string()]);
+        }
+        if let Some(c) = &self.compass_cal {
+            args.extend(["--compass-cal".into(), c.clone().into_os_string()]);
+        }
+        args.extend([
+            "--log-dir".into(),
+            self.log_dir.clone().into_os_string(),
+            "--baro-rate".into(),
+            self.baro_rate.to_string().into(),
+            "--calibration-s".into(),
+            self.calibration_s.to_string().into(),
+            "--warm-up-s".into(),
+            self.warm_up_s.to_string().into(),
+            "--clock-speed".into(),
+            self.clock_speed.to_string().into(),
+        ]);
+        args
+    }
+}
+
+/// The bootstrap's settings: the flight process's, its control socket and its link.
+#[derive(clap::Args, Clone, Debug)]
+pub struct BootstrapArgs {
+    #[command(flatten)]
+    #[allow(missing_docs)]
+    pub flight: FlightArgs,
+    /// The bootstrap's control socket.
+    #[arg(long, global = true, env = "HELI_VEHICLE_SOCKET", default_value = DEFAULT_SOCKET)]
+    pub socket: PathBuf,
+    /// Serve the MAVLink 2 link on this address (udp:HOST:PORT; e.g. udp:0.0.0.0:14550).
+    #[arg(long)]
+    pub link: Option<String>,
+    /// The signing key file (heli link keygen); without one the link is unauthenticated.
+    #[arg(long, env = "HELI_LINK_KEY")]
+    pub key: Option<PathBuf>,
+}
+
+/// The bootstrap's own subcommand: one command to a running bootstrap.
+#[derive(clap::Subcommand, Clone, Debug)]
+pub enum BootstrapCommand {
+    /// Send the bootstrap one command: connect, start-logging SUFFIX MODE [PLAN], stop,
+    /// status, quit.
+    Ctl {
+        /// The command and its arguments.
+        #[arg(required = true, num_args = 1..)]
+        command: Vec<String>,
+    },
+}
+
+/// The bootstrap, or with a subcommand one command to a running one.
+pub fn vehicle(args: &BootstrapArgs, command: Option<&BootstrapCommand>) -> Result<ExitCode> {
+    match command {
+        Some(BootstrapCommand::Ctl { command }) => ctl(command, &args.socket),
+        None => bootstrap(args),
+    }
+}
+
+/// Prints a line at once (the bootstrap's output is read line by line).
+fn say(line: &str) {
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "{line}");
+    let _ = out.flush();
+}
+
+/// The bootstrap, serving the MAVLink link too with `--link`. It starts this same program as
+/// the flight process (`<program> flight …`).
+pub fn bootstrap(args: &BootstrapArgs) -> Result<ExitCode> {
+    let flight = &args.flight;
+    flight.validate()?;
+    // Fail now, not at the first Connect, on a devices file that cannot be used.
+    flight.devices()?;
+    flight.compass()?;
+    let link_addr = args
+        .link
+        .as_deref()
+        .map(heli_link::setup::parse_address)
+        .transpose()?;
+    let key = heli_link::setup::load_key(args.key.as_deref())?;
+    let exe =
+        std::env::current_exe().context("finding this program, to start the flight process")?;
+    let mut child = vec![exe.into_os_string(), "flight".into()];
+    child.extend(flight.to_args());
+    let config = BootstrapConfig {
+        socket: args.socket.clone(),
+        child,
+        warm_file: Some(crate::warm::path_in(&flight.log_dir)),
+    };
+    let shared = Arc::new(crate::link::LinkShared::default());
+    let to_link = Arc::clone(&shared);
+    let serving = link_addr.is_some();
+    let report = Box::new(move |said: &Said| {
+        say(&said.to_string());
+        if serving {
+            to_link.said(said);
+        }
+    });
+    let mut bootstrap = Bootstrap::new(config, report);
+    let stop = Arc::new(AtomicBool::new(false));
+    if let Some(addr) = link_addr {
+        bootstrap = bootstrap.with_link(Arc::clone(&shared));
+        let say_shared = Arc::clone(&shared);
+        let to_ground = Arc::new(move |said: &Said| {
+            say(&said.to_string());
+            say_shared.said(said);
+        });
+        crate::link::spawn(
+            addr,
+            key,
+            flight.log_dir.clone(),
+            shared,
+            bootstrap.requests(),
+            to_ground,
+            Arc::clone(&stop),
+        )
+        .with_context(|| format!("serving the link on udp {addr}"))?;
+    }
+    let result = bootstrap.run().map_err(anyhow::Error::msg);
+    stop.store(true, Ordering::Release);
+    result?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// One command to the bootstrap on `socket`; its reply is printed.
+pub fn ctl(words: &[String], socket: &Path) -> Result<ExitCode> {
+    let request = Request::parse(&words.join(" "))?;
+    match ctl::send(socket, &request) {
+        Ok(reply) => {
+            println!("{reply}");
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(e) => {
+            eprintln!("heli vehicle: {e}");
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+/// Arguments of a stand-alone driver.
+#[derive(clap::Args, Clone, Debug)]
+pub struct DriverArgs {
+    /// The device.
+    #[arg(value_enum)]
+    pub device: DriverKind,
+    /// Serial port of the device (imu, scb, gps, baro).
+    #[arg(long)]
+    pub port: Option<PathBuf>,
+    /// IIO directory of the ADC (compass, battery).
+    #[arg(long)]
+    pub adc: Option<PathBuf>,
+    /// ADC channels: three for the compass (default 0,1,2), one for the battery (default 3).
+    #[arg(long, value_delimiter = ',')]
+    pub channel: Vec<u8>,
+    /// Write a flight log (MCAP) of what the driver read.
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+    /// Altimeter readings per second (1-10).
+    #[arg(long, default_value_t = heli_proto::baro::DEFAULT_RATE_HZ)]
+    pub rate: u8,
+    /// Stop after this many packets or readings.
+    #[arg(long)]
+    pub count: Option<u64>,
+}
+
+/// Runs one device's stand-alone driver until --count, an error, or SIGINT / SIGTERM.
+pub fn driver(args: &DriverArgs) -> Result<ExitCode> {
+    if !(1..=10).contains(&args.rate) {
+        bail!(
+            "--rate {}: the altimeter does 1 to 10 readings a second",
+            args.rate
+        );
+    }
+    let kind = args.device;
+    let source = match (kind, &args.port, &args.adc) {
+        (DriverKind::Compass | DriverKind::Battery, _, Some(dir)) => Source::Adc {
+            dir: dir.clone(),
+            channels: match (kind, args.channel.is_empty()) {
+                (DriverKind::Compass, true) => vec![0, 1, 2],
+                (_, true) => vec![3],
+                (_, false) => args.channel.clone(),
+            },
+        },
+        (DriverKind::Compass | DriverKind::Battery, Some(port), None) => Source::Port(port.clone()),
+        (DriverKind::Compass | DriverKind::Battery, None, None) => {
+            bail!("give the ADC's IIO directory: --adc DIR")
+        }
+        (_, Some(port), _) => Source::Port(port.clone()),
+        (_, None, _) => bail!("give the device's serial port: --port PATH"),
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&stop))
+            .context("installing the signal handler")?;
+    }
+    let mut print = |line: &str| println!("{line}");
+    let report = standalone::run(
+        kind,
+        &source,
+        args.log.as_deref(),
+        args.rate,
+        args.count,
+        &stop,
+        &mut print,
+    )
+    .map_err(anyhow::Error::msg)?;
+    eprintln!(
+        "heli driver: {} samples, {} watchdog misses, {} bytes discarded, {} servo packets, {} log messages",
+        report.samples,
+        report.watchdog_misses,
+        report.discarded_bytes,
+        report.servo_packets,
+        report.log_messages
+    );
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,272 @@
+//! The flight process's program: what `heli-vehicle flight` (started by the bootstrap, not by
+//! people) does around [`crate::flight::run`]. It says `ready`, waits for the start on its
+//! standard input, reads the plan, the parameters and the warm-start record, names its log,
+//! records the flight's setup in the log's metadata, flies until `stop` (or the end of its
+//! input) and says `stopped` with its counts.
+
+use std::io::Write;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};
+
+use std::io::BufRead;
+
+use anyhow::{Result, bail};
+use heli_fsw::core::{CoreConfig, FlightParams};
+
+use crate::cli::FlightArgs;
+use crate::flight::{self, FlightSetup, Report};
+use crate::supervisor::{FromFlight, ToFlight, VERSION};
+
+/// The bootstrap's next message on standard input (the stdin buffer is shared, so threads may
+/// take turns); `None` at its end. A line that is not a message is answered, and skipped.
+fn next_message(say: &dyn Fn(FromFlight)) -> Option<ToFlight> {
+    let stdin = std::io::stdin();
+    loop {
+        let mut line = String::new();
+        // A line longer than the protocol's is read whole and refused by the parser.
+        match stdin.lock().read_line(&mut line) {
+            Ok(0) | Err(_) => return None,
+            Ok(_) => {}
+        }
+        match ToFlight::parse(&line) {
+            Ok(message) => return Some(message),
+            Err(e) => say(FromFlight::Refused(format!(
+                "not understood: '{:.80}' ({e})",
+                line.trim_end()
+            ))),
+        }
+    }
+}
+
+/// Writes one message to the bootstrap at once.
+fn say(message: FromFlight) {
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "{message}");
+    let _ = out.flush();
+}
+
+/// Where the flight process's lines go: a printer thread, so that no flight thread (the
+/// control loop least of all) ever waits on the pipe to the bootstrap. Lines that do not
+/// fit are counted and the count said when there is room.
+fn reporter() -> impl Fn(FromFlight) + Send + Sync + Clone {
+    let (tx, rx) = std::sync::mpsc::sync_channel::<FromFlight>(4096);
+    let dropped = Arc::new(AtomicU64::new(0));
+    {
+        let dropped = Arc::clone(&dropped);
+        std::thread::spawn(move || {
+            for message in rx {
+                let lost = dropped.swap(0, Ordering::AcqRel);
+                if lost > 0 {
+                    say(FromFlight::Note(format!(
+                        "{lost} report lines dropped (the bootstrap was not reading)"
+                    )));
+                }
+                say(message);
+            }
+        });
+    }
+    move |message: FromFlight| {
+        if tx.try_send(message).is_err() {
+            dropped.fetch_add(1, Ordering::AcqRel);
+        }
+    }
+}
+
+/// The flight process: ready, the start, the flight, stopped.
+pub fn run(args: &FlightArgs) -> Result<ExitCode> {
+    args.validate()?;
+    let devices = args.devices()?;
+    let compass = args.compass()?;
+    say(FromFlight::Ready { version: VERSION });
+    // What the bootstrap says of its link: 0 nothing (no link), 1 a ground heard, 2 none.
+    let ground_link = Arc::new(AtomicU8::new(0));
+    let link_state = |fresh: bool| if fresh { 1 } else { 2 };
+    let (restart, start) = loop {
+        match next_message(&say) {
+            Some(ToFlight::Start(p)) => break (false, p),
+            Some(ToFlight::Restart(p)) => break (true, p),
+            Some(ToFlight::Link { fresh }) => {
+                ground_link.store(link_state(fresh), Ordering::Release);
+            }
+            Some(ToFlight::Stop) | None => {
+                say(FromFlight::Stopped(serde_json::json!({})));
+                return Ok(ExitCode::SUCCESS);
+            }
+        }
+    };
+    let mode = start.controller;
+    let suffix = start.file_suffix.clone();
+    let plan = match crate::plans::named(start.plan.as_deref()) {
+        Ok(plan) => plan,
+        Err(e) => {
+            say(FromFlight::Refused(e.to_string()));
+            bail!("{e}");
+        }
+    };
+    let plan_legs = plan.legs_json();
+    // The plan's legs, for the bootstrap to serve over the link's mission protocol.
+    say(FromFlight::Plan(plan.legs.clone()));
+    let warm_path = crate::warm::path_in(&args.log_dir);
+    // Started again by the bootstrap after a crash or a brown-out: resume from the record
+    // the process before left, if it can be read (otherwise start cold, and say so).
+    let restart_from = if restart {
+        match crate::warm::WarmFile::read(&warm_path) {
+            Ok(Some(file)) => Some(file),
+            Ok(None) => {
+                say(FromFlight::Note(
+                    "restarted without a warm-start record: calibrating from scratch".into(),
+                ));
+                None
+            }
+            Err(e) => {
+                say(FromFlight::Note(format!(
+                    "warm-start record unreadable ({e}): calibrating from scratch"
+                )));
+                None
+            }
+        }
+    } else {
+        None
+    };
+    let log_path = next_free_log(&args.log_dir, &suffix, restart);
+    let mut config = CoreConfig {
+        calibration_s: args.calibration_s,
+        imu_warm_up_s: args.warm_up_s,
+        compass,
+        ..CoreConfig::default()
+    };
+    // The parameters set over the link: a file that cannot be used stops the start, with
+    // its reason, rather than flying on values nobody chose.
+    // With no file the flight software's own defaults are flown, exactly.
+    let params = if crate::params::path_in(&args.log_dir).exists() {
+        let table = crate::params::load(&args.log_dir).map_err(anyhow::Error::msg)?;
+        crate::params::apply(&table, &mut config);
+        Some(table)
+    } else {
+        None
+    };
+    let baro_rate = params
+        .as_ref()
+        .and_then(crate::params::baro_rate_hz)
+        .unwrap_or(args.baro_rate);
+    let software = concat!("heli ", env!("CARGO_PKG_VERSION"));
+    let parameters = [
+        ("suffix".to_string(), suffix.clone()),
+        ("mode".to_string(), mode.name().to_string()),
+        ("plan".to_string(), plan.name),
+        ("plan_legs_json".to_string(), plan_legs),
+        ("calibration_s".to_string(), args.calibration_s.to_string()),
+        ("warm_up_s".to_string(), args.warm_up_s.to_string()),
+        ("baro_rate_hz".to_string(), baro_rate.to_string()),
+        (
+            "params".to_string(),
+            params.as_ref().map(|t| t.to_text()).unwrap_or_default(),
+        ),
+        ("clock_speed".to_string(), args.clock_speed.to_string()),
+        (
+            "compass_bias_gauss".to_string(),
+            format!("{:?}", compass.bias_gauss),
+        ),
+        ("compass_scale".to_string(), format!("{:?}", compass.scale)),
+        ("devices".to_string(), format!("{devices:?}")),
+        (
+            "warm_start".to_string(),
+            restart_from
+                .as_ref()
+                .map(|w| w.to_text())
+                .unwrap_or_default(),
+        ),
+    ];
+    let metadata = heli_log::metadata::flight(software, std::time::SystemTime::now(), parameters);
+    let setup = FlightSetup {
+        devices,
+        config,
+        params: FlightParams {
+            mode,
+            plan: plan.plan,
+        },
+        baro_rate_hz: baro_rate,
+        log_path: Some(log_path.clone()),
+        metadata,
+        clock_speed: args.clock_speed,
+        restart_from: restart_from.map(|w| w.warm),
+        warm_file: Some((warm_path, start)),
+        ground_link: Arc::clone(&ground_link),
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = Arc::clone(&stop);
+        let ground_link = Arc::clone(&ground_link);
+        std::thread::spawn(move || {
+            while let Some(message) = next_message(&say) {
+                match message {
+                    ToFlight::Stop => break,
+                    ToFlight::Link { fresh } => {
+                        ground_link.store(link_state(fresh), Ordering::Release);
+                    }
+                    ToFlight::Start(_) | ToFlight::Restart(_) => say(FromFlight::Refused(
+                        "already started: stop this flight first".into(),
+                    )),
+                }
+            }
+            // `stop`, or the bootstrap is gone: clean up either way.
+            stop.store(true, Ordering::Release);
+        });
+    }
+    let line = reporter();
+    let report = Arc::new(move |r: Report| {
+        line(match r {
+            Report::Started { log } => FromFlight::Started {
+                log: log.map(|p| p.display().to_string()),
+            },
+            Report::Note(text) => FromFlight::Note(text),
+            Report::Event { severity, text, .. } => FromFlight::Event { severity, text },
+            Report::Telemetry(v) => FromFlight::Telemetry(v),
+        });
+    });
+    let summary = match flight::run(setup, stop, report) {
+        Ok(s) => s,
+        Err(e) => {
+            // The bootstrap answers the pending Start Logging with this.
+            say(FromFlight::Refused(e.to_string()));
+            bail!("{e}");
+        }
+    };
+    let s = summary.stats;
+    let json = serde_json::json!({
+        "imu_samples": s.imu_samples,
+        "watchdog_fires": s.watchdog_fires,
+        "control_steps": s.control_steps,
+        "uplinks": s.uplinks,
+        "gps_fixes": s.gps_fixes,
+        "baro_readings": s.baro_readings,
+        "compass_readings": s.compass_readings,
+        "inputs": summary.inputs,
+        "log_messages": summary.log.as_ref().map(|l| l.messages),
+        "log_error": summary.log.as_ref().and_then(|l| l.error.clone()),
+        "log_dropped": summary.log_dropped,
+    });
+    say(FromFlight::Stopped(json));
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The flight log's path: `flight_<suffix>.mcap`, or for a process started again after a
+/// crash `flight_<suffix>_r<N>.mcap` with the first N not taken (the crashed process's log
+/// is never overwritten).
+fn next_free_log(dir: &std::path::Path, suffix: &str, restart: bool) -> std::path::PathBuf {
+    let first = dir.join(heli_log::file_name("flight", suffix, "mcap"));
+    if !restart {
+        return first;
+    }
+    (1..1000)
+        .map(|n| {
+            dir.join(heli_log::file_name(
+                "flight",
+                &format!("{suffix}_r{n}"),
+                "mcap",
+            ))
+        })
+        .find(|p| !p.exists())
+        .unwrap_or(first)
+}
