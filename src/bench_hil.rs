@@ -71,7 +71,7 @@ pub fn run(seconds: f64) -> Result<HilBench> {
     let dir = std::env::temp_dir().join(format!("heli-bench-hil-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let dev = dir.join("dev");
-    let scenario = heli_sim::scenario::load("hover")?;
+    let scenario = heli_scenario::load("hover")?;
     let stop = Arc::new(AtomicBool::new(false));
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
     let sim = {

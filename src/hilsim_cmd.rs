@@ -9,9 +9,9 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result, bail};
+use heli_scenario as scenario;
 use heli_sim::hil::{self, HilOptions};
 use heli_sim::lockstep::Simulation;
-use heli_sim::scenario;
 use heli_sim::summary::Outcome;
 
 /// Arguments of `heli hilsim`.

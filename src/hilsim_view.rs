@@ -10,10 +10,10 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, anyhow};
 use heli_ground::truth_view::{self, PilotFrame, TruthFeed, ViewInput};
 use heli_proto::scb::Controls;
+use heli_scenario::trainer::TrainerFault;
 use heli_sim::Scenario;
 use heli_sim::devices::scb::PilotCommand;
 use heli_sim::lockstep::Simulation;
-use heli_sim::trainer::TrainerFault;
 
 /// How often a frame is taken from the simulation (wall clock): the pages get 30 a second.
 pub const FRAME_EVERY: Duration = Duration::from_millis(30);

@@ -8,7 +8,8 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use heli_sim::{Outcome, RunOptions, scenario};
+use heli_scenario as scenario;
+use heli_sim::{Outcome, RunOptions};
 
 /// Records the library into `dir`; exit 1 if a flight failed (its log is kept all the same).
 pub fn record(dir: &Path) -> Result<ExitCode> {

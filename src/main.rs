@@ -24,9 +24,9 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use heli_log::FlightLog;
+use heli_scenario as scenario;
 use heli_sim::lockstep::{RunOptions, Simulation};
 use heli_sim::logging::StreamLogger;
-use heli_sim::scenario;
 use heli_sim::summary::{Outcome, Summary};
 
 /// Avionics of MIT's X-Cell 60 acrobatic helicopter, rebuilt: flight software, ground

@@ -4,8 +4,8 @@
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
-use heli_sim::analysis;
-use heli_sim::params::Airframe;
+use heli_model::analysis;
+use heli_model::params::Airframe;
 
 use super::{ModelAnalysis, ModelArgs};
 
@@ -17,7 +17,7 @@ pub(crate) fn model(args: ModelArgs) -> Result<ExitCode> {
                 .with_context(|| format!("reading {}", path.display()))?;
             let airframe: Airframe = toml::from_str(&text)
                 .with_context(|| format!("invalid airframe file {}", path.display()))?;
-            heli_sim::validate::airframe(&airframe)
+            heli_scenario::validate::airframe(&airframe)
                 .map_err(|e| anyhow::anyhow!("airframe file {}: {e}", path.display()))?;
             airframe
         }

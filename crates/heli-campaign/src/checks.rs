@@ -4,7 +4,7 @@ use toml::{Table, Value};
 
 use super::file::{Draw, MAX_LIST, Target, Vary, VaryToml, resolve};
 use super::keys::{self, Segment};
-use heli_sim::validate::MAX_DURATION_S;
+use heli_scenario::validate::MAX_DURATION_S;
 
 fn finite(name: &str, x: f64) -> Result<f64, String> {
     if x.is_finite() {

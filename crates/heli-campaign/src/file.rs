@@ -22,7 +22,7 @@ use toml::{Table, Value};
 use super::checks::{check_ends, check_vary};
 use super::keys::{self, Segment};
 use super::{CampaignError, fingerprint};
-use heli_sim::scenario;
+use heli_scenario as scenario;
 
 /// Most flights one campaign may have (grid points × samples).
 pub const MAX_FLIGHTS: u64 = 100_000_000;

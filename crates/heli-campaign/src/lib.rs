@@ -18,7 +18,7 @@
 //! - [`sample`]: flight `i` of a campaign, a pure function of the file and `i`: its values
 //!   are drawn from a ChaCha stream of its own (campaign seed, stream `i`), so that a shard
 //!   draws exactly the flights a whole run draws. Each flight's scenario is built as a
-//!   scenario file and goes through [`heli_sim::scenario::from_toml`], checks included.
+//!   scenario file and goes through [`heli_scenario::from_toml`], checks included.
 //! - [`runner`]: the flights on a rayon pool (`--jobs`), one shard of them (`--shard I/N`:
 //!   the flights whose index is `I` modulo `N`); a flight that cannot be built or panics is
 //!   recorded as an error, never the end of the campaign.

@@ -20,8 +20,8 @@ use serde::{Deserialize, Serialize};
 
 use super::report::{FlightRecord, Report, Wall};
 use super::{Campaign, CampaignError};
+use heli_scenario::Scenario;
 use heli_sim::lockstep::{RunOptions, Simulation};
-use heli_sim::scenario::Scenario;
 use heli_sim::summary::Summary;
 
 /// One of `count` parts of a campaign: the flights whose index is `index` modulo `count`.

@@ -17,7 +17,7 @@ use toml::{Table, Value};
 use super::CampaignError;
 use super::file::{Campaign, Draw, Target, Vary};
 use super::keys::{self, Segment};
-use heli_sim::scenario::{self, Scenario};
+use heli_scenario::{self as scenario, Scenario};
 
 /// Draws from a truncated normal before it is clamped instead.
 const NORMAL_TRIES: usize = 1000;

@@ -16,51 +16,8 @@ use heli_proto::compass::CompassAdc;
 
 use crate::core::{Action, CoreConfig, FlightCore, FlightParams, Input};
 use crate::drivers::{self, BaroLinkState, Drivers};
-use crate::health::Device;
 use crate::invariants::{InvariantReport, Invariants};
-
-/// A serial port of the flight computer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Port {
-    /// The IMU (in only).
-    Imu,
-    /// The servo controller board (pilot uplink in, servo commands out).
-    Scb,
-    /// The GPS receiver (in only).
-    Gps,
-    /// The barometric altimeter (readings in, handshake commands out).
-    Baro,
-}
-
-impl Port {
-    /// Every serial port, in a fixed order.
-    pub const ALL: [Port; 4] = [Port::Imu, Port::Scb, Port::Gps, Port::Baro];
-
-    /// Short name, as used for device paths and log channels.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Port::Imu => "imu",
-            Port::Scb => "scb",
-            Port::Gps => "gps",
-            Port::Baro => "baro",
-        }
-    }
-
-    /// The port named `name` (see [`Port::name`]).
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|p| p.name() == name)
-    }
-
-    /// The device whose samples arrive on this port.
-    pub const fn device(self) -> Device {
-        match self {
-            Port::Imu => Device::Imu,
-            Port::Scb => Device::Uplink,
-            Port::Gps => Device::Gps,
-            Port::Baro => Device::Baro,
-        }
-    }
-}
+use heli_types::{Device, Port};
 
 /// One thing that reaches the flight computer.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -23,51 +23,16 @@
 /// meaningless at the helicopter's rates.
 pub const IMU_FIRES_TO_INVALID: u32 = 25;
 
-/// A device watched by the flight software.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Device {
-    /// The inertial measurement unit (times the main loop).
-    Imu,
-    /// The servo controller board's pilot uplink.
-    Uplink,
-    /// The GPS receiver.
-    Gps,
-    /// The barometric altimeter.
-    Baro,
-    /// The compass (analog channels).
-    Compass,
-}
+use heli_types::Device;
 
-impl Device {
-    /// Every device, in a fixed order.
-    pub const ALL: [Device; 5] = [
-        Device::Imu,
-        Device::Uplink,
-        Device::Gps,
-        Device::Baro,
-        Device::Compass,
-    ];
-
-    /// Short name for logs and displays.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Device::Imu => "imu",
-            Device::Uplink => "uplink",
-            Device::Gps => "gps",
-            Device::Baro => "baro",
-            Device::Compass => "compass",
-        }
-    }
-
-    /// Expected period, late and silent thresholds (µs).
-    pub const fn timing_us(self) -> (u64, u64, u64) {
-        match self {
-            Device::Imu => (10_000, 25_000, 100_000),
-            Device::Uplink => (20_000, 60_000, 500_000),
-            Device::Gps => (1_000_000, 1_500_000, 3_000_000),
-            Device::Baro => (200_000, 600_000, 2_000_000),
-            Device::Compass => (50_000, 150_000, 1_000_000),
-        }
+/// A device's expected period, late and silent thresholds (µs).
+pub const fn timing_us(device: Device) -> (u64, u64, u64) {
+    match device {
+        Device::Imu => (10_000, 25_000, 100_000),
+        Device::Uplink => (20_000, 60_000, 500_000),
+        Device::Gps => (1_000_000, 1_500_000, 3_000_000),
+        Device::Baro => (200_000, 600_000, 2_000_000),
+        Device::Compass => (50_000, 150_000, 1_000_000),
     }
 }
 
@@ -164,7 +129,7 @@ impl DeviceMonitor {
         if self.state == HealthState::Failed {
             return None;
         }
-        let (_, late, silent) = self.device.timing_us();
+        let (_, late, silent) = timing_us(self.device);
         let age = now_us.saturating_sub(last);
         let state = if age >= silent {
             HealthState::Silent
@@ -183,7 +148,7 @@ impl DeviceMonitor {
     /// When [`DeviceMonitor::check`] next has something to decide (µs), if ever.
     pub fn deadline_us(&self) -> Option<u64> {
         let last = self.last_us?;
-        let (_, late, silent) = self.device.timing_us();
+        let (_, late, silent) = timing_us(self.device);
         match self.state {
             HealthState::Ok => Some(last.saturating_add(late)),
             HealthState::Waiting => Some(last.saturating_add(silent)),

@@ -38,6 +38,6 @@ pub mod health;
 pub mod invariants;
 pub mod streams;
 
-pub use crate::computer::{DeviceInput, FlightComputer, Port, RecordedInput};
+pub use crate::computer::{DeviceInput, FlightComputer, RecordedInput};
 pub use crate::core::{Action, CoreConfig, CoreStats, FlightCore, FlightParams, Input, Phase};
 pub use crate::streams::{Record, Stamped, Streams};

@@ -12,7 +12,6 @@
     clippy::indexing_slicing
 )]
 
-use heli_fsw::health::Device;
 use heli_fsw::invariants::Invariants;
 use heli_fsw::{Action, CoreConfig, FlightCore, FlightParams, Input};
 use heli_power::PowerSource;
@@ -20,6 +19,7 @@ use heli_proto::compass::CompassAdc;
 use heli_proto::gps::{FixType, GpsNav};
 use heli_proto::imu::ImuRepr;
 use heli_proto::scb::{Controls, PilotUplink, Pulses};
+use heli_types::Device;
 use heli_types::{AugmentedMode, FlightMode, Leg, Plan};
 use proptest::prelude::*;
 

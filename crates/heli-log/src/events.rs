@@ -13,7 +13,8 @@
 //! (transmitter lost, GPS outage, a silent device) is `error`; an invalid estimate is `fatal`.
 
 use heli_fsw::core::{CoreEvent, Severity};
-use heli_fsw::health::{Device, HealthState};
+use heli_fsw::health::HealthState;
+use heli_types::Device;
 use serde_json::{Value, json};
 
 /// How much an event matters (Foxglove's `foxglove.LogLevel` numbers).

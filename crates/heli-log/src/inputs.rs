@@ -6,9 +6,10 @@
 //! (`imu`, `scb`, `gps`, `baro`) and `hex` (the bytes, two lowercase hex digits each); for a
 //! compass reading `counts` (x, y, z); for a failed port `port`.
 
-use heli_fsw::{Port, RecordedInput};
+use heli_fsw::RecordedInput;
 use heli_proto::battery::BatteryAdc;
 use heli_proto::compass::CompassAdc;
+use heli_types::Port;
 use serde_json::{Value, json};
 
 /// The log channel of the device inputs.

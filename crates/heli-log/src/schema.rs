@@ -302,7 +302,7 @@ pub fn for_topic(topic: &str) -> ChannelSchema {
 /// device input the flight computer took, in order, so that a flight can be replayed from its
 /// log. Only `kind` is always there; the other fields belong to some kinds.
 fn device_schema() -> ChannelSchema {
-    let ports: Vec<&str> = heli_fsw::Port::ALL.iter().map(|p| p.name()).collect();
+    let ports: Vec<&str> = heli_types::Port::ALL.iter().map(|p| p.name()).collect();
     let name = "heli.device".to_string();
     ChannelSchema {
         json: json!({

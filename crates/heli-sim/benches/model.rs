@@ -2,10 +2,10 @@
 //! and tail-rotor inflow iterations), one inflow solution, and one simulated second of the
 //! whole lockstep system. `cargo bench -p heli-sim --bench model`; results in docs/BENCHMARKS.md.
 
-use heli_sim::analysis::trimmed_helicopter;
+use heli_model::analysis::trimmed_helicopter;
+use heli_model::model::Environment;
+use heli_model::params::{Airframe, Atmosphere};
 use heli_sim::lockstep::Simulation;
-use heli_sim::model::Environment;
-use heli_sim::params::{Airframe, Atmosphere};
 use nalgebra::Vector3;
 
 fn main() {
@@ -39,7 +39,7 @@ fn main_rotor_inflow_solution() -> f64 {
 #[divan::bench(sample_count = 10)]
 fn lockstep_one_simulated_second_in_hover(bencher: divan::Bencher) {
     // Start from a run that has calibrated and taken off (100 s in), then time one more second.
-    let mut sim = Simulation::new(heli_sim::scenario::hover()).unwrap_or_else(|e| panic!("{e}"));
+    let mut sim = Simulation::new(heli_scenario::hover()).unwrap_or_else(|e| panic!("{e}"));
     while sim.advance(100_000_000) {}
     bencher
         .with_inputs(|| sim.clone())

@@ -11,8 +11,8 @@
 
 use heli_control::autorotation::AutorotationGains;
 use heli_fsw::core::CoreConfig;
+use heli_scenario::Scenario;
 use heli_sim::lockstep::Simulation;
-use heli_sim::scenario::Scenario;
 
 /// The gain named `key`.
 fn slot<'a>(g: &'a mut AutorotationGains, key: &str) -> &'a mut f64 {
@@ -179,7 +179,7 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let cmd = args.next().unwrap_or_else(|| "trace".into());
     let file = args.next().unwrap_or_else(|| panic!("scenario file"));
-    let s = heli_sim::scenario::load(&file).unwrap_or_else(|e| panic!("{e}"));
+    let s = heli_scenario::load(&file).unwrap_or_else(|e| panic!("{e}"));
     let pairs: Vec<(String, Vec<f64>)> = args
         .map(|a| {
             let (k, v) = a

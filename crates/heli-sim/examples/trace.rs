@@ -8,7 +8,7 @@ fn main() {
     let mut args = std::env::args().skip(1);
     let name = args.next().unwrap_or_else(|| "hover".into());
     let period_s: f64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(1.0);
-    let scenario = heli_sim::scenario::load(&name).unwrap_or_else(|e| panic!("{e}"));
+    let scenario = heli_scenario::load(&name).unwrap_or_else(|e| panic!("{e}"));
     let end_us = (scenario.duration_s * 1e6) as u64;
     let mut sim = Simulation::new(scenario).unwrap_or_else(|e| panic!("{e}"));
     let mut next = 0u64;

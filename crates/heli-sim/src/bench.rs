@@ -12,7 +12,7 @@ use serde::Serialize;
 
 use crate::devices::Bytes;
 use crate::lockstep::{RunOptions, Simulation};
-use crate::scenario;
+use heli_scenario as scenario;
 
 /// Throughput of one device parser.
 #[derive(Clone, Debug, Serialize)]

@@ -19,12 +19,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, channel};
 use std::time::{Duration, Instant};
 
-use heli_fsw::Port;
+use heli_types::Port;
 use serialport::{SerialPort, TTYPort};
 
 use crate::lockstep::{HilOut, Simulation};
-use crate::scenario::Scenario;
 use crate::summary::{HilSummary, Percentiles, Summary};
+use heli_scenario::Scenario;
 
 /// The flight computer's reaction time as the HILSim sees it: from the write of an IMU
 /// packet to the first whole servo packet read back after it.

@@ -20,10 +20,11 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use heli_fsw::{Port, RecordedInput};
+use heli_fsw::RecordedInput;
 use heli_log::LogContents;
 use heli_log::inputs::{self, Logged};
 use heli_proto::scb::{Controls, Pulses, ServoFramer, ServoPacket};
+use heli_types::Port;
 
 use crate::hil::{HilDevices, expose, spawn_readers, write_adc};
 use crate::replay_compare::{Comparison, Tolerance, compare};

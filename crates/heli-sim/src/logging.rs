@@ -111,7 +111,7 @@ mod tests {
 
     #[test]
     fn every_stream_and_event_is_logged_with_its_streams_numbers() {
-        let mut scenario = crate::scenario::builtins()
+        let mut scenario = heli_scenario::builtins()
             .into_iter()
             .find(|s| s.name == "hover")
             .unwrap_or_default();

@@ -2,14 +2,15 @@
 //! the hover twice on one seed, with and without the fault, and decodes what the computer
 //! received from the device over the fault's window.
 
-use heli_fsw::{Port, RecordedInput};
+use heli_fsw::RecordedInput;
 use heli_proto::baro::{BaroReply, reply_framer};
 use heli_proto::gps::{GpsFramer, GpsNav};
 use heli_proto::imu::{ImuFramer, ImuRepr};
 use heli_proto::scb::{PilotUplink, UplinkFramer};
+use heli_scenario::faults::{Device, DeviceFault, DeviceFaultKind};
+use heli_scenario::{self as scenario, Scenario};
 use heli_sim::Simulation;
-use heli_sim::faults::{Device, DeviceFault, DeviceFaultKind};
-use heli_sim::scenario::{self, Scenario};
+use heli_types::Port;
 
 /// The fault window of every test (s): the hover is holding by then.
 const START_S: f64 = 110.0;
@@ -323,7 +324,7 @@ fn battery_faults_act_on_its_voltage_readings() {
 
 #[test]
 fn a_nearly_empty_or_small_battery_reads_low() {
-    let min_v = |battery: heli_sim::faults::Battery| {
+    let min_v = |battery: heli_scenario::faults::Battery| {
         let mut s = scenario::hover();
         s.duration_s = 60.0;
         s.battery = battery;
@@ -333,13 +334,13 @@ fn a_nearly_empty_or_small_battery_reads_low() {
             .battery_min_v
             .unwrap_or(f64::NAN)
     };
-    let full = min_v(heli_sim::faults::Battery::default());
-    let low = min_v(heli_sim::faults::Battery {
+    let full = min_v(heli_scenario::faults::Battery::default());
+    let low = min_v(heli_scenario::faults::Battery {
         charge: 0.1,
         ..Default::default()
     });
     // A tenth of a small pack under load empties within the minute.
-    let tiny = min_v(heli_sim::faults::Battery {
+    let tiny = min_v(heli_scenario::faults::Battery {
         capacity_ah: 0.03,
         ..Default::default()
     });

@@ -1,9 +1,10 @@
 //! Each kind of injected fault acts where the flight computer can see it: in the bytes its
 //! drivers receive.
 
-use heli_fsw::{Port, RecordedInput};
+use heli_fsw::RecordedInput;
+use heli_scenario::{self as scenario, ByteLoss, ForcedSatellites, GpsGlitch, Scenario};
 use heli_sim::Simulation;
-use heli_sim::scenario::{self, ByteLoss, ForcedSatellites, GpsGlitch, Scenario};
+use heli_types::Port;
 
 /// Flies `s` to `until_s` recording the flight computer's inputs.
 fn fly(s: Scenario, until_s: f64) -> Simulation {
@@ -106,7 +107,7 @@ fn a_wrong_reading_the_gate_refuses_is_raised_and_its_return_too() {
     // An altimeter reading 30 m high and a compass field turned around for 10 s each: the
     // readings arrive (the watchdogs see healthy devices) but the filter's gate refuses them.
     // That is an event after 3 s, and another when the aid is fused again.
-    use heli_sim::faults::{Device, DeviceFault, DeviceFaultKind};
+    use heli_scenario::faults::{Device, DeviceFault, DeviceFaultKind};
     let wrong = |device, kind, value, start_s: f64| DeviceFault {
         device,
         kind,

@@ -1,7 +1,7 @@
 //! Skid contact: sitting, touching down, and the crash detector.
 
+use heli_scenario as scenario;
 use heli_sim::lockstep::Simulation;
-use heli_sim::scenario;
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// A run whose helicopter is dropped from `height_m` at `sink_mps` with `roll_rad`.

@@ -1,7 +1,7 @@
 //! The walking skeleton's acceptance: the built-in `hover` flight, end to end through every
 //! device byte stream, judged on its summary.
 
-use heli_sim::scenario::{self, Scenario};
+use heli_scenario::{self as scenario, Scenario};
 use heli_sim::{Outcome, Summary, run};
 
 fn criterion(s: &Summary, name: &str) -> f64 {

@@ -4,7 +4,8 @@
 //! global allocator in this test binary) on a flight computer replaying a simulated hover's inputs.
 
 use heli_fsw::{Action, FlightComputer, Phase};
-use heli_sim::{Simulation, scenario};
+use heli_scenario as scenario;
+use heli_sim::Simulation;
 
 #[test]
 fn the_flying_control_process_does_not_allocate() {

@@ -1,14 +1,15 @@
 //! Faults outside the devices act on the helicopter and the pilot's link: the engine, the
 //! servos, the receiver's channels and switches, the wind.
 
-use heli_fsw::{Port, RecordedInput};
+use heli_fsw::RecordedInput;
 use heli_proto::scb::{PilotUplink, UplinkFramer};
-use heli_sim::Simulation;
-use heli_sim::faults::{
+use heli_scenario::faults::{
     EngineFault, FrozenChannel, RcChannel, ServoFault, ServoFaultKind, Switch, SwitchFlicker,
     WindChange, WindShape,
 };
-use heli_sim::scenario::{self, Channel as ServoChannel, Scenario};
+use heli_scenario::{self as scenario, Channel as ServoChannel, Scenario};
+use heli_sim::Simulation;
+use heli_types::Port;
 
 fn fly(s: Scenario, until_s: f64) -> Simulation {
     let mut sim = Simulation::new(s).unwrap_or_else(|e| panic!("{e}"));

@@ -2,8 +2,8 @@
 //! the return-and-land it brings, a drain no one planned raised as the field rule, and the
 //! flight software's gauge against the simulator's truth.
 
-use heli_sim::power_scenarios::{battery_drain, battery_swap, weak_battery};
-use heli_sim::scenario::Scenario;
+use heli_scenario::Scenario;
+use heli_scenario::power_scenarios::{battery_drain, battery_swap, weak_battery};
 use heli_sim::{Outcome, Summary, run};
 
 fn fly(scenario: Scenario, seed: u64) -> Summary {
@@ -40,7 +40,7 @@ fn a_swap_from_the_ground_battery_is_logged_with_both_times() {
         );
         // The flight pack was off the bus for that minute: it holds a minute's more charge
         // than a flight on it from the start.
-        let whole = fly(heli_sim::scenario::hover(), seed);
+        let whole = fly(heli_scenario::hover(), seed);
         let minute = 1.8 * 60.0 / 3600.0 / 1.615;
         let saved = s.power.flight_soc_end - whole.power.flight_soc_end;
         assert!((saved - minute).abs() < 0.002, "{saved} vs {minute}");
@@ -110,7 +110,7 @@ fn a_drain_no_one_planned_is_raised_as_the_field_rule_soon_after_it_begins() {
 
 #[test]
 fn on_a_good_pack_the_gauge_tells_the_truth() {
-    let s = fly(heli_sim::scenario::hover(), 1);
+    let s = fly(heli_scenario::hover(), 1);
     let p = &s.power;
     assert!(
         (p.gauge_soc_end.unwrap_or(0.0) - p.flight_soc_end).abs() < 0.01,

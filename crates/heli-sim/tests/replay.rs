@@ -4,8 +4,8 @@
 //! — the property that lets a recorded flight be replayed against new code.
 
 use heli_fsw::FlightComputer;
+use heli_scenario as scenario;
 use heli_sim::Simulation;
-use heli_sim::scenario;
 
 #[test]
 fn a_fresh_core_fed_the_recorded_inputs_takes_the_same_actions() {

@@ -1,8 +1,8 @@
 //! Scenario files are checked where they enter: whatever a file says, loading it and flying
 //! it never panics; a bad value is an error naming its key.
 
+use heli_scenario::from_toml;
 use heli_sim::lockstep::{RunOptions, Simulation};
-use heli_sim::scenario::from_toml;
 use proptest::prelude::*;
 
 /// Keys a scenario file may set, with how to write a value for each.

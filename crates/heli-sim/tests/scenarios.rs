@@ -1,8 +1,8 @@
 //! Every built-in scenario passes its criteria on ten seeds, and the criteria measure what
 //! their names say.
 
-use heli_sim::device_faults;
-use heli_sim::scenario::{self, Scenario};
+use heli_scenario::device_faults;
+use heli_scenario::{self as scenario, Scenario};
 use heli_sim::{Outcome, Summary, run};
 
 fn fly(scenario: &Scenario, seed: u64) -> Summary {
@@ -114,7 +114,7 @@ fn a_roll_criterion_fails_when_the_rolls_are_not_flown() {
     let mut no_rolls = scenario::rolls();
     no_rolls
         .plan
-        .retain(|leg| !matches!(leg, heli_sim::scenario::Leg::Rolls { .. }));
+        .retain(|leg| !matches!(leg, heli_scenario::Leg::Rolls { .. }));
     let s = fly(&no_rolls, 1);
     assert_eq!(s.outcome, Outcome::Fail);
     assert!(
@@ -159,9 +159,9 @@ fn the_manual_yaw_criterion_catches_a_turn() {
     // The yaw-rate criterion can fail: a pilot who kicks the rudder turns the helicopter
     // faster than the damped hover allows.
     let mut turning = scenario::manual_sweep();
-    turning.pilot.inputs.push(heli_sim::pilot::StickInput {
-        channel: heli_sim::pilot::Channel::Rudder,
-        shape: heli_sim::pilot::Shape::Step,
+    turning.pilot.inputs.push(heli_scenario::pilot::StickInput {
+        channel: heli_scenario::pilot::Channel::Rudder,
+        shape: heli_scenario::pilot::Shape::Step,
         start_s: 145.0,
         duration_s: 3.0,
         amplitude: 0.6,
@@ -272,7 +272,7 @@ fn a_brownout_without_the_warm_start_loses_the_hover() {
 #[test]
 fn a_scenario_with_no_criteria_does_not_pass() {
     let mut s = scenario::hover();
-    s.limits = heli_sim::scenario::Limits::default();
+    s.limits = heli_scenario::Limits::default();
     s.expect_events.clear();
     s.duration_s = 5.0;
     let summary = heli_sim::run(s).unwrap_or_else(|e| panic!("{e}"));

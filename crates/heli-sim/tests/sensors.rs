@@ -1,10 +1,10 @@
 //! The simulated sensors against the thesis's figures, statistically, with fixed seeds.
 
+use heli_model::noise::Noise;
 use heli_proto::baro::{BaroReply, pressure_altitude_m};
 use heli_proto::compass::heading_rad;
 use heli_proto::gps::{FixType, GpsNav};
 use heli_proto::imu::ImuRepr;
-use heli_sim::devices::Noise;
 use heli_sim::devices::baro::{BaroDevice, BaroErrors, ground_effect_mbar};
 use heli_sim::devices::battery::BatteryDevice;
 use heli_sim::devices::compass::{CompassDevice, CompassErrors};
@@ -230,7 +230,7 @@ fn gps_satellite_count_drops_now_and_then_and_recovers() {
 #[test]
 fn gps_solutions_arrive_one_second_after_their_epoch() {
     use heli_sim::lockstep::Simulation;
-    let mut scenario = heli_sim::scenario::hover();
+    let mut scenario = heli_scenario::hover();
     scenario.duration_s = 20.0;
     let mut sim = Simulation::new(scenario).unwrap_or_else(|e| panic!("{e}"));
     let mut fixes = Vec::new();

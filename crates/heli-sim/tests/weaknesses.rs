@@ -2,8 +2,8 @@
 //! its fix: a strong wind that blew the hover away, a calibration that averaged in a
 //! fuselage turning on its skids, an augmented turn that a crosswind held back.
 
-use heli_sim::faults::{WindChange, WindShape};
-use heli_sim::scenario;
+use heli_scenario as scenario;
+use heli_scenario::faults::{WindChange, WindShape};
 use heli_sim::{Outcome, run};
 
 fn criterion(s: &heli_sim::Summary, name: &str) -> f64 {
@@ -115,7 +115,7 @@ fn a_calibration_that_saw_the_fuselage_turn_starts_again() {
 fn a_process_restarted_in_the_air_never_calibrates_again() {
     // Before: 85 s after the restart the ground calibration, never run by the restarted
     // process, closed its window in flight and started the estimate over — in the air.
-    let mut s = heli_sim::device_faults::brownout();
+    let mut s = heli_scenario::device_faults::brownout();
     s.duration_s = 300.0;
     let summary = run(s).unwrap_or_else(|e| panic!("{e}"));
     let calibrations = summary

@@ -25,7 +25,7 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use heli_fsw::Port;
+use heli_types::Port;
 use serde::Deserialize;
 
 /// ADC channel numbers of the compass x, y, z in the HILSim's directory.

@@ -12,7 +12,8 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
 use std::time::Duration;
 
 use heli_fsw::core::{Action, CoreConfig, CoreStats, FlightParams, Severity};
-use heli_fsw::{FlightComputer, Port, RecordedInput};
+use heli_fsw::{FlightComputer, RecordedInput};
+use heli_types::Port;
 use serde_json::Value;
 
 use crate::devices::Devices;

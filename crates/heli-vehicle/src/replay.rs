@@ -211,7 +211,7 @@ mod tests {
         .unwrap_or(0);
         let mut actions = Vec::new();
         for k in 1..=100u64 {
-            let input = RecordedInput::Bytes(heli_fsw::Port::Imu, frame[..n].to_vec());
+            let input = RecordedInput::Bytes(heli_types::Port::Imu, frame[..n].to_vec());
             contents.messages.push(message(
                 inputs::CHANNEL,
                 k * 10_000,

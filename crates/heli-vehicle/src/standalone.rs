@@ -16,10 +16,11 @@ use std::time::Duration;
 use heli_fsw::core::watchdog::Watchdog;
 use heli_fsw::drivers::{self, BaroDriver, BaroLinkState};
 use heli_fsw::streams::{BaroRecord, CompassRecord, ImuRecord, Record};
-use heli_fsw::{Port, RecordedInput, Stamped};
+use heli_fsw::{RecordedInput, Stamped};
 use heli_log::FlightLog;
 use heli_proto::battery::BatteryAdc;
 use heli_proto::compass::{CompassAdc, CompassCalibration, heading_rad};
+use heli_types::Port;
 use serialport::TTYPort;
 
 use crate::{adc, devices, port};

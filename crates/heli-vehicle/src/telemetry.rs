@@ -11,8 +11,8 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use heli_fsw::Stamped;
-use heli_fsw::health::Device;
 use heli_proto::battery::BatteryAdc;
+use heli_types::Device;
 use serde_json::{Value, json};
 
 use crate::adc;

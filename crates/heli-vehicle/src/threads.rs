@@ -14,8 +14,9 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use heli_fsw::{Port, RecordedInput};
+use heli_fsw::RecordedInput;
 use heli_proto::compass::CompassAdc;
+use heli_types::Port;
 use serialport::TTYPort;
 
 use crate::adc;

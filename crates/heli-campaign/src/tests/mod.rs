@@ -172,15 +172,15 @@ grid = [7, 8]
         let count = f.values["plan.2.count"].as_i64().unwrap_or(0);
         assert!((1..=3).contains(&count), "{count}");
         assert!(
-            matches!(s.plan[2], heli_sim::scenario::Leg::Rolls { count: n, .. } if i64::from(n) == count)
+            matches!(s.plan[2], heli_scenario::Leg::Rolls { count: n, .. } if i64::from(n) == count)
         );
         // What --write-scenario writes flies the same scenario, limits of the base included.
         let text = f
             .scenario_file_text(&c.root_base(), "# test\n")
             .unwrap_or_else(|e| panic!("{e}"));
-        let again = heli_sim::scenario::from_toml(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+        let again = heli_scenario::from_toml(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
         assert_eq!(again, s);
-        let mut limits = heli_sim::scenario::rolls().limits;
+        let mut limits = heli_scenario::rolls().limits;
         limits.pos_err_rms_max_m = None;
         assert_eq!(again.limits, limits, "an unset limit stays unset");
     }

@@ -2,7 +2,8 @@
 //! and the log can sort the routine from the alarming.
 
 use super::Phase;
-use crate::health::{Device, HealthState};
+use crate::health::HealthState;
+use heli_types::Device;
 
 /// How much an event matters (F´'s event severities).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]

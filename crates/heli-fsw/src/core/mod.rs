@@ -47,10 +47,10 @@ use heli_proto::compass::{CompassAdc, CompassCalibration, heading_rad};
 use heli_proto::gps::GpsNav;
 use heli_proto::imu::ImuRepr;
 use heli_proto::scb::{Controls, PilotUplink};
-use heli_types::{AugmentedMode, FlightMode, Leg, Plan};
+use heli_types::{AugmentedMode, Device, FlightMode, Leg, Plan};
 use nalgebra::Vector3;
 
-use crate::health::{Device, Health, HealthState, IMU_FIRES_TO_INVALID};
+use crate::health::{Health, HealthState, IMU_FIRES_TO_INVALID};
 use crate::streams::{
     BaroRecord, CompassRecord, ImuRecord, Record, ServoRecord, Stamped, StateRecord,
 };

@@ -34,6 +34,22 @@ impl Default for BatteryDevice {
 }
 
 impl BatteryDevice {
+    /// The simulated pack a scenario describes, of type `pack` (its capacity replaced by the
+    /// scenario's).
+    pub fn of_scenario(battery: &heli_scenario::faults::Battery, pack: PackType) -> Self {
+        let mut d = Self::new(
+            PackType {
+                capacity_ah: battery.capacity_ah,
+                ..pack
+            },
+            battery.charge,
+            battery.temperature_c,
+        );
+        d.cycles = battery.cycles;
+        d.health = battery.health;
+        d
+    }
+
     /// A new pack of type `pack` charged to `charge` (fraction) at `temperature_c`.
     pub fn new(pack: PackType, charge: f64, temperature_c: f64) -> Self {
         Self {

@@ -14,9 +14,7 @@ pub mod gps;
 pub mod imu;
 pub mod scb;
 
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
+pub use heli_model::noise::Noise;
 
 /// Up to 32 bytes of one transmission, without allocating.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,31 +48,4 @@ impl Bytes {
 /// Time to send `n` bytes at `baud` with 8N1 framing (10 bits a byte), in µs.
 pub fn transmit_time_us(n: usize, baud: u32) -> u64 {
     (n as u64 * 10 * 1_000_000).div_ceil(u64::from(baud))
-}
-
-/// A seeded noise source: each device gets its own stream derived from the scenario seed,
-/// so adding a device never changes another device's noise.
-#[derive(Clone, Debug)]
-pub struct Noise {
-    rng: ChaCha8Rng,
-}
-
-impl Noise {
-    /// The noise stream of device number `stream` for `seed`.
-    pub fn new(seed: u64, stream: u64) -> Self {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        rng.set_stream(stream);
-        Self { rng }
-    }
-
-    /// A normal sample with standard deviation `sigma`.
-    pub fn gaussian(&mut self, sigma: f64) -> f64 {
-        let z: f64 = StandardNormal.sample(&mut self.rng);
-        sigma * z
-    }
-
-    /// A uniform sample in [0, 1).
-    pub fn uniform(&mut self) -> f64 {
-        rand::Rng::random::<f64>(&mut self.rng)
-    }
 }

@@ -4,9 +4,9 @@
 
 use super::*;
 use crate::devices::battery::BatteryDevice;
-use crate::faults::PackName;
 use heli_fsw::core::power::Battery;
 use heli_power::PackType;
+use heli_scenario::faults::PackName;
 
 /// The gauge's time left is judged once it has had this long (s) ...
 const JUDGE_AFTER_S: f64 = 120.0;
@@ -38,9 +38,9 @@ pub(super) struct PowerMetrics {
 impl SimPower {
     pub(super) fn new(s: &Scenario) -> Self {
         Self {
-            flight: s.battery.device(PackType::FLIGHT),
-            receiver: s.power.receiver.device(PackType::RECEIVER),
-            servo: s.power.servo.device(PackType::SERVO),
+            flight: BatteryDevice::of_scenario(&s.battery, PackType::FLIGHT),
+            receiver: BatteryDevice::of_scenario(&s.power.receiver, PackType::RECEIVER),
+            servo: BatteryDevice::of_scenario(&s.power.servo, PackType::SERVO),
             line_sent: None,
         }
     }

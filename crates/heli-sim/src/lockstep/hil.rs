@@ -72,7 +72,7 @@ impl Simulation {
     /// The take-off height of the scenario's plan (m), if it has a take-off.
     fn takeoff_alt_m(&self) -> Option<f64> {
         self.scenario.plan.iter().find_map(|l| match l {
-            crate::scenario::Leg::Takeoff { alt_m } => Some(*alt_m),
+            heli_scenario::Leg::Takeoff { alt_m } => Some(*alt_m),
             _ => None,
         })
     }

@@ -1,11 +1,11 @@
 //! The fault catalog at work: device faults on what each device transmits or reads, servo
 //! and engine faults on the physics, receiver faults on the pilot's channels
-//! ([`crate::faults`]).
+//! ([`heli_scenario::faults`]).
 
 use super::*;
-use crate::actuators::ServoSpeeds;
-use crate::faults::{Device, DeviceFault, DeviceFaultKind, RcChannel, ServoFaultKind};
-use crate::pilot::Channel as ServoChannel;
+use heli_model::actuators::ServoSpeeds;
+use heli_scenario::faults::{Device, DeviceFault, DeviceFaultKind, RcChannel, ServoFaultKind};
+use heli_scenario::pilot::Channel as ServoChannel;
 
 /// What the injector remembers between transmissions.
 #[derive(Clone)]
@@ -264,10 +264,10 @@ impl Simulation {
         let mut pilot = self.pilot();
         let t_s = self.t_s();
         let faults = &self.scenario.faults;
-        if faults.switch_flipped(crate::faults::Switch::Auto, t_s) {
+        if faults.switch_flipped(heli_scenario::faults::Switch::Auto, t_s) {
             pilot.auto_mode = !pilot.auto_mode;
         }
-        if faults.switch_flipped(crate::faults::Switch::Bypass, t_s) {
+        if faults.switch_flipped(heli_scenario::faults::Switch::Bypass, t_s) {
             pilot.bypass = !pilot.bypass;
         }
         for (i, f) in faults.rc_frozen.iter().enumerate() {

@@ -390,14 +390,14 @@ impl Simulation {
         }
         let inputs = &self.scenario.pilot.inputs;
         if inputs.iter().any(|i| {
-            i.shape == crate::pilot::Shape::Sweep
+            i.shape == heli_scenario::pilot::Shape::Sweep
                 && (0.0..i.duration_s).contains(&(t_s - i.start_s))
         }) {
             self.metrics
                 .sweep_roll_rate
                 .add(s.rate_body_rps.x.to_degrees());
         }
-        let settling = |channels: &[crate::pilot::Channel]| {
+        let settling = |channels: &[heli_scenario::pilot::Channel]| {
             inputs.iter().any(|i| {
                 channels.contains(&i.channel)
                     && (i.duration_s - 1.0..i.duration_s).contains(&(t_s - i.start_s))
@@ -405,7 +405,7 @@ impl Simulation {
         };
         let scales = heli_control::StickScales::default();
         let augmented = self.scenario.mode.is_augmented() && pilot.auto_mode;
-        if augmented && settling(&[crate::pilot::Channel::Rudder]) {
+        if augmented && settling(&[heli_scenario::pilot::Channel::Rudder]) {
             let cmd = pilot.sticks.rudder.clamp(-1.0, 1.0) * scales.yaw_rate_rps;
             let err = (s.rate_body_rps.z - cmd).abs().to_degrees();
             self.metrics.yaw_rate_tracking_max_dps =
@@ -414,8 +414,8 @@ impl Simulation {
         if augmented
             && self.scenario.mode == FlightMode::Augmented(AugmentedMode::Velocity)
             && settling(&[
-                crate::pilot::Channel::Aileron,
-                crate::pilot::Channel::Elevator,
+                heli_scenario::pilot::Channel::Aileron,
+                heli_scenario::pilot::Channel::Elevator,
             ])
         {
             let cmd = heli_control::augmented::commanded_velocity(&pilot.sticks, &scales);

@@ -28,7 +28,7 @@ use std::collections::BinaryHeap;
 use std::time::{Duration, Instant};
 pub use truth::TruthFrame;
 
-use heli_fsw::computer::{DeviceInput, FlightComputer, Port, RecordedInput};
+use heli_fsw::computer::{DeviceInput, FlightComputer, RecordedInput};
 use heli_fsw::core::{Action, CoreConfig, CoreEvent, FlightCore, FlightParams, Phase};
 use heli_fsw::streams::{Record, StateRecord, Streams};
 use heli_nav::GeoOrigin;
@@ -38,24 +38,25 @@ use heli_proto::battery::BatteryAdc;
 use heli_proto::compass::{CompassAdc, CompassCalibration, MagField};
 use heli_proto::scb::Controls;
 use heli_types::FlightMode;
+use heli_types::Port;
 use nalgebra::{UnitQuaternion, Vector3};
 
-use crate::actuators::{Actuators, ServoParams, control_inputs};
 use crate::devices::baro::{BaroDevice, BaroErrors, ground_effect_mbar};
 use crate::devices::compass::{CompassDevice, CompassErrors};
 use crate::devices::gps::{GpsDevice, GpsErrors};
 use crate::devices::imu::{ImuDevice, ImuErrors, RotorPhase};
 use crate::devices::scb::{PilotCommand, ScbDevice};
 use crate::devices::{Bytes, Noise, transmit_time_us};
-use crate::model::{Environment, Helicopter};
-use crate::pilot::{HoveringPilot, seen_by_pilot};
-use crate::scenario::{Scenario, ScenarioError};
 use crate::summary::{
     Criterion, DeviceSummary, EstimatorSummary, HoldSummary, InvariantSummary, LinkSummary,
     LoopSummary, ManeuverSummary, Outcome, Rms, Summary,
 };
-use crate::turbulence::Turbulence;
 use heli_fsw::core::mission::RollStage;
+use heli_model::actuators::{Actuators, ServoParams, control_inputs};
+use heli_model::model::{Environment, Helicopter};
+use heli_model::turbulence::Turbulence;
+use heli_scenario::pilot::{HoveringPilot, seen_by_pilot};
+use heli_scenario::{Scenario, ScenarioError};
 use heli_types::AugmentedMode;
 use heli_types::Plan;
 

@@ -53,7 +53,7 @@ impl Simulation {
     /// what was done, or why it was refused.
     pub fn trigger_fault(
         &mut self,
-        fault: &crate::trainer::TrainerFault,
+        fault: &heli_scenario::trainer::TrainerFault,
     ) -> Result<String, String> {
         let now_s = self.t_s();
         fault.apply(&mut self.scenario, now_s)

@@ -64,11 +64,8 @@ impl Simulation {
     }
 
     /// True while the scenario's fault `windows` are active.
-    pub(super) fn fault(
-        &self,
-        windows: impl Fn(&crate::scenario::Faults) -> &Vec<[f64; 2]>,
-    ) -> bool {
-        crate::scenario::Faults::active(windows(&self.scenario.faults), self.now_us as f64 * 1e-6)
+    pub(super) fn fault(&self, windows: impl Fn(&heli_scenario::Faults) -> &Vec<[f64; 2]>) -> bool {
+        heli_scenario::Faults::active(windows(&self.scenario.faults), self.now_us as f64 * 1e-6)
     }
 
     pub(super) fn dispatch(&mut self, kind: Kind) {
@@ -84,7 +81,8 @@ impl Simulation {
             Kind::ImuSample => {
                 let s = self.heli.state;
                 let f = self.heli.outputs.specific_force_body_mps2;
-                let rate_rps = self.wrong_vector(crate::faults::Device::Imu, s.rate_body_rps);
+                let rate_rps =
+                    self.wrong_vector(heli_scenario::faults::Device::Imu, s.rate_body_rps);
                 let rotor = RotorPhase {
                     azimuth_rad: self.rotor_azimuth_rad,
                     speed_ratio: s.rotor_rps / self.heli.airframe.omega_nom_rps,
@@ -144,7 +142,7 @@ impl Simulation {
                     .iter()
                     .find(|g| t_s >= g.start_s && t_s < g.end_s)
                     .map(|g| g.satellites);
-                let gps = crate::faults::Device::Gps;
+                let gps = heli_scenario::faults::Device::Gps;
                 let pos_ned_m = Vector3::new(
                     self.wrong_reading(gps, s.pos_ned_m.x),
                     self.wrong_reading(gps, s.pos_ned_m.y),
@@ -167,7 +165,8 @@ impl Simulation {
                 let p = pressure_at_altitude_mbar(alt_m, p0);
                 let mbar_per_m = p - pressure_at_altitude_mbar(alt_m + 1.0, p0);
                 let seen_alt_m = alt_m - self.baro_ground_effect_mbar() / mbar_per_m;
-                let seen_alt_m = self.wrong_reading(crate::faults::Device::Baro, seen_alt_m);
+                let seen_alt_m =
+                    self.wrong_reading(heli_scenario::faults::Device::Baro, seen_alt_m);
                 if let Some(bytes) = self.baro.transmit(now, seen_alt_m, p0)
                     && !self.fault(|f| &f.baro_silent)
                 {
@@ -217,7 +216,7 @@ impl Simulation {
     /// and the rotor speed.
     pub(super) fn uplink_packet(&mut self) -> Bytes {
         let rpm = self.heli.state.rotor_rps * 30.0 / std::f64::consts::PI;
-        let rpm = self.wrong_reading(crate::faults::Device::Uplink, rpm);
+        let rpm = self.wrong_reading(heli_scenario::faults::Device::Uplink, rpm);
         let pilot = self.receiver();
         self.scb.uplink(&pilot, rpm)
     }

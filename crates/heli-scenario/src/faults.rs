@@ -153,21 +153,6 @@ impl Battery {
     pub fn servo() -> Self {
         Self::of(heli_power::PackType::SERVO, 0.8)
     }
-
-    /// The simulated pack of type `pack` (its capacity replaced by this one's).
-    pub fn device(&self, pack: heli_power::PackType) -> crate::devices::battery::BatteryDevice {
-        let mut d = crate::devices::battery::BatteryDevice::new(
-            heli_power::PackType {
-                capacity_ah: self.capacity_ah,
-                ..pack
-            },
-            self.charge,
-            self.temperature_c,
-        );
-        d.cycles = self.cycles;
-        d.health = self.health;
-        d
-    }
 }
 
 /// The servo board's two packs and the hot-swap.

@@ -5,8 +5,8 @@
 
 use serde_json::Value;
 
-use crate::params::Airframe;
 use crate::scenario::Scenario;
+use heli_model::params::Airframe;
 
 /// Longest scenario (s): a day.
 pub const MAX_DURATION_S: f64 = 86_400.0;
@@ -147,7 +147,7 @@ pub fn scenario(s: &Scenario) -> Result<(), String> {
         }
     }
     for (i, b) in f.byte_loss.iter().enumerate() {
-        if heli_fsw::Port::from_name(&b.port).is_none() {
+        if heli_types::Port::from_name(&b.port).is_none() {
             errors.push(format!(
                 "faults.byte_loss[{i}].port = '{}': must be imu, scb, gps or baro",
                 b.port

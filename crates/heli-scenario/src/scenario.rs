@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::params::{Airframe, Atmosphere};
+use heli_model::params::{Airframe, Atmosphere};
 
 pub use heli_types::{FlightMode, Leg};
 

@@ -1,11 +1,11 @@
 //! The model against the published reference numbers (H15, heli-model.md §5–7), through the
 //! same actuators the simulator flies with.
 
+use heli_model::actuators::{Actuators, ServoParams, control_inputs};
+use heli_model::analysis::trimmed_helicopter;
+use heli_model::model::Environment;
+use heli_model::params::{Airframe, Atmosphere};
 use heli_proto::scb::Controls;
-use heli_sim::actuators::{Actuators, ServoParams, control_inputs};
-use heli_sim::analysis::trimmed_helicopter;
-use heli_sim::model::Environment;
-use heli_sim::params::{Airframe, Atmosphere};
 use nalgebra::Vector3;
 
 #[test]

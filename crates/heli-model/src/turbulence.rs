@@ -8,7 +8,7 @@
 
 use nalgebra::Vector3;
 
-use crate::devices::Noise;
+use crate::noise::Noise;
 
 /// Metres per foot.
 const FT: f64 = 0.3048;
