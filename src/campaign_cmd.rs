@@ -13,7 +13,6 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use anyhow::{Context, Result, bail};
 use clap::Subcommand;
-use heli_campaign::log_plot::ImageFormat;
 use heli_campaign::{self as campaign, Campaign, FlightOutcome, Report, RunConfig, Shard};
 
 /// `heli campaign FILE ...`.
@@ -152,11 +151,14 @@ pub(crate) fn merge(args: &MergeArgs) -> Result<ExitCode> {
 /// Writes the report's files, prints it, and says by the exit status whether every flight
 /// passed.
 fn finish(report: &Report, out: Option<&Path>, json: bool) -> Result<ExitCode> {
-    let written = write_report(report, out)?;
+    let written = match out {
+        Some(dir) => heli_campaign::files::write_report(report, dir)?,
+        None => Vec::new(),
+    };
     if json {
         println!("{}", serde_json::to_string_pretty(report)?);
     } else {
-        print_report(report);
+        print!("{}", heli_campaign::table::report_table(report));
         for path in &written {
             println!("wrote      {}", path.display());
         }
@@ -168,34 +170,13 @@ fn finish(report: &Report, out: Option<&Path>, json: bool) -> Result<ExitCode> {
     })
 }
 
-/// Writes report.json and the outcome plots into `out`, if given; returns what it wrote.
-pub(crate) fn write_report(report: &Report, out: Option<&Path>) -> Result<Vec<PathBuf>> {
-    let mut written = Vec::new();
-    if let Some(dir) = out {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        let path = dir.join("report.json");
-        std::fs::write(&path, serde_json::to_string_pretty(report)? + "\n")
-            .with_context(|| format!("writing {}", path.display()))?;
-        written.push(path);
-        for (name, format) in [
-            ("outcomes.svg", ImageFormat::Svg),
-            ("outcomes.png", ImageFormat::Png),
-        ] {
-            let path = dir.join(name);
-            campaign::plot::render(report, format, &path).map_err(anyhow::Error::msg)?;
-            written.push(path);
-        }
-    }
-    Ok(written)
-}
-
 /// `--flight I`: flies one flight as `heli sim` does.
 fn one_flight(campaign: &Campaign, index: u64, args: &RunArgs) -> Result<ExitCode> {
     let flight = campaign.flight(index)?;
     let values = if flight.values.is_empty() {
         "nothing varied".to_string()
     } else {
-        values_text(&flight.values, ", ")
+        heli_campaign::table::values_text(&flight.values, ", ")
     };
     if let Some(path) = &args.write_scenario {
         let header = format!(
@@ -233,97 +214,4 @@ fn one_flight(campaign: &Campaign, index: u64, args: &RunArgs) -> Result<ExitCod
         calibration_s: 0.0,
     };
     crate::fly(scenario, &sim)
-}
-
-fn values_text(
-    values: &std::collections::BTreeMap<String, serde_json::Value>,
-    sep: &str,
-) -> String {
-    let parts: Vec<String> = values
-        .iter()
-        .map(|(k, v)| match v.as_f64() {
-            Some(x) if !v.is_i64() && !v.is_u64() => format!("{k} = {x:.3}"),
-            _ => format!("{k} = {v}"),
-        })
-        .collect();
-    parts.join(sep)
-}
-
-fn print_report(r: &Report) {
-    println!(
-        "campaign   {} ({}, fingerprint {})",
-        r.campaign, r.file, r.fingerprint
-    );
-    match r.shard {
-        Some(s) => println!(
-            "flights    {} of {} (shard {s}: the flights whose index is {} modulo {})",
-            r.totals.flights, r.flights_total, s.index, s.count
-        ),
-        None => println!("flights    {} of {}", r.totals.flights, r.flights_total),
-    }
-    if r.wall.jobs > 0 {
-        println!(
-            "wall time  {:.1} s on {} threads ({:.1} s of flights)",
-            r.wall.elapsed_s, r.wall.jobs, r.wall.flights_s
-        );
-    }
-    let t = &r.totals;
-    let share = |n: u64| {
-        if t.flights == 0 {
-            0.0
-        } else {
-            100.0 * n as f64 / t.flights as f64
-        }
-    };
-    println!();
-    println!("{:<10} {:>8} {:>8}", "outcome", "flights", "share");
-    for (name, n) in [
-        ("pass", t.pass),
-        ("fail", t.fail),
-        ("crash", t.crash),
-        ("error", t.error),
-    ] {
-        println!("{name:<10} {n:>8} {:>7.1}%", share(n));
-    }
-    if let (Some(rate), Some([lo, hi])) = (t.pass_rate, t.pass_rate_ci95) {
-        println!(
-            "pass rate  {:.1} % (95 % interval {:.1} to {:.1} %)",
-            100.0 * rate,
-            100.0 * lo,
-            100.0 * hi
-        );
-    }
-    if !r.criterion_failures.is_empty() {
-        println!();
-        println!("{:<32} {:>8}", "criterion", "failed");
-        for (name, n) in &r.criterion_failures {
-            println!("{name:<32} {n:>8}");
-        }
-    }
-    if !r.worst.is_empty() {
-        println!();
-        println!(
-            "worst cases (errors, crashes, then by score: worst criterion / its limit, above 1 fails)"
-        );
-        for w in &r.worst {
-            let score = w.score.map_or("-".to_string(), |s| format!("{s:.2}"));
-            println!(
-                "  flight {:<6} {:<6} score {score:<6} {}",
-                w.index,
-                w.outcome.name(),
-                values_text(&w.values, ", ")
-            );
-            println!("    {}", w.why);
-            println!("    {}", w.reproduce);
-        }
-    }
-    println!();
-    println!(
-        "outcome    {}",
-        if r.all_passed() {
-            "every flight passed"
-        } else {
-            "NOT every flight passed"
-        }
-    );
 }

@@ -1,24 +1,21 @@
 //! `heli ground --link udp:HOST:PORT COMMAND`: the ground station as a command-line client
-//! of the vehicle's MAVLink link (the same client library, `heli_link::ground`, as the web
-//! display that `--http ADDR` serves, `heli_ground::server`). Connect, Start Logging, Stop (with the final parameters: the
-//! flight's log is downloaded into the base directory under the suffix), status, the log
-//! list and downloads.
+//! of the vehicle's MAVLink link (`heli_ground::client`, whose commands and downloads are the
+//! display's own), or with `--http ADDR` the operator's display (`heli_ground::server`):
+//! arguments in, results printed.
 
-use std::net::{SocketAddr, UdpSocket};
+use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
+use heli_ground::client::Client;
+use heli_ground::transfer::Which;
 use heli_link::GroundCommand;
-use heli_link::command::command_long;
-use heli_link::ground::{COMMAND_RETRY_US, GroundLink};
 use heli_link::messages::StartParameters;
-use heli_vehicle::link::unix_us;
+use heli_link::setup::{load_key, parse_address};
 use mavlink::dialects::common::MavResult;
-
-use heli_link::setup::{load_key, parse_address as parse_link};
 
 /// `heli ground` options.
 #[derive(Args)]
@@ -97,275 +94,40 @@ pub enum GroundAction {
     },
 }
 
-/// A ground station session on a socket.
-struct Session {
-    socket: UdpSocket,
-    vehicle: SocketAddr,
-    link: GroundLink,
-    last_heartbeat: Option<Instant>,
-    texts_shown: usize,
+/// A session with the vehicle, its status texts printed as they come.
+fn open(args: &GroundArgs, timeout: Duration) -> Result<Client> {
+    let vehicle = parse_address(&args.link)?;
+    let key = load_key(args.key.as_deref())?;
+    let on_text = Box::new(|severity, text: &str| {
+        eprintln!(
+            "vehicle [{}]: {text}",
+            heli_ground::view::severity_word(severity)
+        );
+    });
+    Ok(Client::open(vehicle, key, timeout, on_text)?)
 }
 
-impl Session {
-    fn open(args: &GroundArgs) -> Result<Self> {
-        let vehicle = parse_link(&args.link)?;
-        let key = load_key(args.key.as_deref())?;
-        let bind: SocketAddr = if vehicle.is_ipv4() {
-            "0.0.0.0:0".parse()?
-        } else {
-            "[::]:0".parse()?
-        };
-        let socket = UdpSocket::bind(bind).context("opening a UDP socket")?;
-        // Datagrams from the vehicle's address only.
-        socket
-            .connect(vehicle)
-            .with_context(|| format!("link {}", args.link))?;
-        socket.set_read_timeout(Some(Duration::from_millis(10)))?;
-        Ok(Self {
-            socket,
-            vehicle,
-            link: GroundLink::new(key),
-            last_heartbeat: None,
-            texts_shown: 0,
-        })
-    }
-
-    fn send(&self, datagram: &[u8]) {
-        let _ = self.socket.send(datagram);
-    }
-
-    /// One turn: heartbeat when due, receive what came, print new status texts.
-    fn pump(&mut self) {
-        if self
-            .last_heartbeat
-            .is_none_or(|t| t.elapsed() >= Duration::from_secs(1))
-        {
-            let hb = self.link.heartbeat_frame(unix_us());
-            self.send(&hb);
-            self.last_heartbeat = Some(Instant::now());
-        }
-        // Wait up to the socket's timeout for the first datagram, then take all that came
-        // without waiting again.
-        let mut buf = [0u8; 2048];
-        let _ = self.socket.set_nonblocking(false);
-        while let Ok(n) = self.socket.recv(&mut buf) {
-            self.link.receive(buf.get(..n).unwrap_or(&[]), unix_us());
-            let _ = self.socket.set_nonblocking(true);
-        }
-        self.link.flush_texts(unix_us());
-        for (severity, text) in self.link.texts.iter().skip(self.texts_shown) {
-            eprintln!(
-                "vehicle [{}]: {text}",
-                heli_ground::view::severity_word(*severity)
-            );
-        }
-        self.texts_shown = self.link.texts.len();
-        if let Some(dl) = self.link.download_tick(unix_us()) {
-            self.send(&dl);
-        }
-    }
-
-    /// Sends a command until it is acknowledged with a final result, or `timeout` passes.
-    /// Retries carry a rising `confirmation`, so the vehicle answers them without carrying
-    /// the command out twice; after `IN_PROGRESS` they go slowly, to recover a lost final
-    /// acknowledgement.
-    fn command(&mut self, command: &GroundCommand, timeout: Duration) -> Result<MavResult> {
-        let mut long = command_long(command, (1, 1))
-            .context("this command or its parameters cannot go over the link")?;
-        let id = long.command;
-        let start = Instant::now();
-        let acks_before = self.link.acks.len();
-        let mut sent: Option<Instant> = None;
-        let mut in_progress = false;
-        while start.elapsed() < timeout {
-            let retry = if in_progress {
-                Duration::from_secs(2)
-            } else {
-                Duration::from_micros(COMMAND_RETRY_US)
-            };
-            if sent.is_none_or(|t| t.elapsed() >= retry) {
-                let frame = self.link.command_frame(long.clone(), unix_us());
-                self.send(&frame);
-                sent = Some(Instant::now());
-                long.confirmation = long.confirmation.saturating_add(1);
-            }
-            self.pump();
-            for (c, r) in self.link.acks.iter().skip(acks_before) {
-                if *c == id {
-                    if *r == MavResult::MAV_RESULT_IN_PROGRESS {
-                        in_progress = true;
-                    } else {
-                        return Ok(*r);
-                    }
-                }
-            }
-        }
-        bail!(
-            "no answer from the vehicle at {} within {:.0} s{}",
-            self.vehicle,
-            timeout.as_secs_f64(),
-            if self.link.heartbeat.is_none() {
-                " (no heartbeat either: is `heli vehicle --link` running there, with the same key?)"
-            } else {
-                ""
-            }
+/// Downloads log `which` to `out` with a progress bar.
+fn download(s: &mut Client, which: Which, out: &Path) -> Result<()> {
+    let bar = indicatif::ProgressBar::new(0);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "log {msg} {bar:40} {bytes}/{total_bytes} {bytes_per_sec} eta {eta}",
         )
-    }
-
-    fn listen(&mut self, seconds: f64) {
-        let end = Instant::now() + Duration::from_secs_f64(seconds.clamp(0.0, 3600.0));
-        while Instant::now() < end {
-            self.pump();
-        }
-    }
-
-    fn param_list(&mut self, timeout: Duration) -> Result<()> {
-        let start = Instant::now();
-        let mut asked: Option<Instant> = None;
-        while start.elapsed() < timeout {
-            if asked.is_none_or(|t| t.elapsed() > Duration::from_secs(1)) {
-                let frame = self.link.param_list_frame(unix_us());
-                self.send(&frame);
-                asked = Some(Instant::now());
-            }
-            self.pump();
-            let count = self
-                .link
-                .params
-                .values()
-                .next()
-                .map(|(_, _, n)| usize::from(*n));
-            if count.is_some_and(|n| self.link.params.len() >= n) {
-                return Ok(());
-            }
-        }
-        bail!(
-            "the vehicle's parameters did not arrive within {:.0} s",
-            timeout.as_secs_f64()
-        )
-    }
-
-    fn param_set(&mut self, name: &str, value: f32, timeout: Duration) -> Result<f32> {
-        let start = Instant::now();
-        let mut asked: Option<Instant> = None;
-        let texts_before = self.link.texts.len();
-        self.link.params.remove(name);
-        while start.elapsed() < timeout {
-            if asked.is_none_or(|t| t.elapsed() > Duration::from_secs(1)) {
-                let frame = self.link.param_set_frame(name, value, unix_us());
-                self.send(&frame);
-                asked = Some(Instant::now());
-            }
-            self.pump();
-            if let Some((kept, _, _)) = self.link.params.get(name) {
-                return Ok(*kept);
-            }
-            if self
-                .link
-                .texts
-                .iter()
-                .skip(texts_before)
-                .any(|(_, t)| t.contains("no such parameter"))
-            {
-                bail!("param {name}: the vehicle has no such parameter");
-            }
-        }
-        bail!(
-            "param {name}: no answer within {:.0} s",
-            timeout.as_secs_f64()
-        )
-    }
-
-    fn log_list(&mut self, timeout: Duration) -> Result<()> {
-        let frame = self.link.log_list_frame(unix_us());
-        self.send(&frame);
-        let start = Instant::now();
-        let mut asked = Instant::now();
-        while start.elapsed() < timeout {
-            self.pump();
-            let want = self
-                .link
-                .log_entries
-                .values()
-                .next()
-                .map(|e| usize::from(e.num_logs));
-            if want
-                .is_some_and(|n| self.link.log_entries.values().filter(|e| e.id > 0).count() >= n)
-            {
-                return Ok(());
-            }
-            if asked.elapsed() > Duration::from_secs(1) {
-                let frame = self.link.log_list_frame(unix_us());
-                self.send(&frame);
-                asked = Instant::now();
-            }
-        }
-        bail!(
-            "the vehicle's log list did not arrive within {:.0} s",
-            timeout.as_secs_f64()
-        )
-    }
-
-    fn download(&mut self, id: u16, out: &Path, timeout: Duration) -> Result<()> {
-        self.log_list(timeout)?;
-        let Some(entry) = self
-            .link
-            .log_entries
-            .get(&id)
-            .cloned()
-            .filter(|e| e.num_logs > 0)
-        else {
-            bail!("the vehicle has no log {id} (heli ground logs lists them)");
-        };
-        let bar = indicatif::ProgressBar::new(u64::from(entry.size));
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "log {msg} {bar:40} {bytes}/{total_bytes} {bytes_per_sec} eta {eta}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        bar.set_message(id.to_string());
-        let req = self.link.start_download(id, entry.size, unix_us());
-        self.send(&req);
-        let mut last_progress = Instant::now();
-        let mut received = 0;
-        loop {
-            self.pump();
-            let Some(dl) = self.link.download.as_ref() else {
-                break;
-            };
-            if dl.received() != received {
-                received = dl.received();
-                last_progress = Instant::now();
-                bar.set_position(received);
-            }
-            if dl.complete() {
-                break;
-            }
-            if last_progress.elapsed() > timeout {
-                bail!(
-                    "log {id}: nothing new for {:.0} s ({received} of {} bytes)",
-                    timeout.as_secs_f64(),
-                    entry.size
-                );
-            }
-        }
-        bar.finish();
-        let end = self.link.log_end_frame(unix_us());
-        self.send(&end);
-        let bytes = self
-            .link
-            .download
-            .take()
-            .map(|d| d.bytes)
-            .unwrap_or_default();
-        if let Some(dir) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        }
-        std::fs::write(out, &bytes).with_context(|| format!("writing {}", out.display()))?;
-        println!("log {id}: {} bytes to {}", bytes.len(), out.display());
-        Ok(())
-    }
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let name = match which {
+        Which::Newest => "newest".to_string(),
+        Which::Id(id) => id.to_string(),
+    };
+    bar.set_message(name.clone());
+    let bytes = s.download(which, out, &mut |received, size| {
+        bar.set_length(u64::from(size));
+        bar.set_position(received);
+    })?;
+    bar.finish();
+    println!("log {name}: {bytes} bytes to {}", out.display());
+    Ok(())
 }
 
 fn outcome(what: &str, result: MavResult) -> Result<ExitCode> {
@@ -394,17 +156,17 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
             "give a command (connect, start, stop, status, params, logs, download) or --http ADDR for the display"
         );
     };
-    let mut s = Session::open(args)?;
+    let mut s = open(args, timeout)?;
     match action {
-        GroundAction::Connect => outcome("connect", s.command(&GroundCommand::Connect, timeout)?),
+        GroundAction::Connect => outcome("connect", s.command(&GroundCommand::Connect)?),
         GroundAction::Start { suffix, mode, plan } => {
             let mut p = StartParameters::new(suffix, mode).map_err(anyhow::Error::msg)?;
             p.plan = plan.clone();
             let c = GroundCommand::StartLogging(p);
-            outcome("start logging", s.command(&c, timeout)?)
+            outcome("start logging", s.command(&c)?)
         }
         GroundAction::Stop { base_dir, suffix } => {
-            let result = s.command(&GroundCommand::Stop, timeout)?;
+            let result = s.command(&GroundCommand::Stop)?;
             if result != MavResult::MAV_RESULT_ACCEPTED {
                 return outcome("stop", result);
             }
@@ -415,16 +177,11 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
                 return Ok(ExitCode::SUCCESS);
             };
             StartParameters::new(suffix, "manual").map_err(anyhow::Error::msg)?;
-            s.log_list(timeout)?;
-            let newest = s
-                .link
-                .log_entries
-                .values()
-                .filter(|e| e.id > 0)
-                .max_by_key(|e| (e.time_utc, e.id))
-                .map(|e| e.id)
-                .context("the vehicle has no log to save")?;
-            s.download(newest, &dir.join(format!("flight_{suffix}.mcap")), timeout)?;
+            download(
+                &mut s,
+                Which::Newest,
+                &dir.join(format!("flight_{suffix}.mcap")),
+            )?;
             Ok(ExitCode::SUCCESS)
         }
         GroundAction::Status { seconds } => {
@@ -432,7 +189,7 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
             let Some((_, hb)) = s.link.heartbeat.clone() else {
                 bail!(
                     "no heartbeat from {} (is `heli vehicle --link` running, with the same key?)",
-                    s.vehicle
+                    args.link
                 );
             };
             let states = [
@@ -461,7 +218,7 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
         }
         GroundAction::Params { set } => match set.as_slice() {
             [] => {
-                s.param_list(timeout)?;
+                s.params()?;
                 for (name, (value, _, _)) in &s.link.params {
                     println!("{name:<16} {value}");
                 }
@@ -471,7 +228,7 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
                 let v: f32 = value
                     .parse()
                     .with_context(|| format!("param {name}: '{value}' is not a number"))?;
-                let kept = s.param_set(name, v, timeout)?;
+                let kept = s.param_set(name, v)?;
                 if kept == v {
                     println!("{name} = {kept}");
                     Ok(ExitCode::SUCCESS)
@@ -484,8 +241,7 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
             _ => bail!("expected `params` or `params set NAME VALUE`"),
         },
         GroundAction::Logs => {
-            s.log_list(timeout)?;
-            let logs: Vec<_> = s.link.log_entries.values().filter(|e| e.id > 0).collect();
+            let logs = s.logs()?;
             if logs.is_empty() {
                 println!("no logs on the vehicle");
             }
@@ -495,7 +251,7 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         GroundAction::Download { id, out } => {
-            s.download(*id, out, timeout)?;
+            download(&mut s, Which::Id(*id), out)?;
             Ok(ExitCode::SUCCESS)
         }
     }
@@ -520,7 +276,7 @@ fn display(args: &GroundArgs, http: SocketAddr) -> Result<ExitCode> {
         None => (heli_ground::pack_log::PackLog::default(), None),
     };
     let config = heli_ground::server::ServerConfig {
-        vehicle: parse_link(&args.link)?,
+        vehicle: parse_address(&args.link)?,
         http,
         station: heli_ground::station::StationConfig {
             save_root: args.save_root.clone(),

@@ -6,15 +6,15 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, anyhow};
-use heli_sim::hil_replay::{self, Recording, ReplayOptions};
-use heli_sim::replay_compare::{CHANNELS, Tolerance};
+use heli_sim::replay::compare::{CHANNELS, Tolerance};
+use heli_sim::replay::hil::{self as hil_replay, Recording, ReplayOptions};
 
 /// Replays `flight`; exit 0 when the commands match, 1 when they differ.
 pub fn replay(args: &crate::hilsim_cmd::HilsimArgs, flight: &Path) -> Result<ExitCode> {
     let bytes = std::fs::read(flight).with_context(|| format!("{}", flight.display()))?;
     let contents = heli_log::read(&bytes);
-    let setup =
-        crate::replay_cmd::setup_of(&contents).with_context(|| format!("{}", flight.display()))?;
+    let setup = heli_sim::replay::setup::setup_of(&contents)
+        .with_context(|| format!("{}", flight.display()))?;
     let rec = Recording::from_log(&contents)
         .map_err(|e| anyhow!(e))
         .with_context(|| format!("{}", flight.display()))?;

@@ -91,7 +91,7 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
     let name = scenario.name.clone();
     let (feed, mut cockpit) = match args.view {
         Some(addr) => {
-            let (feed, cockpit) = crate::hilsim_view::serve(addr, &scenario, args.pilot)?;
+            let (feed, cockpit) = heli_sim::view::cockpit::serve(addr, &scenario, args.pilot)?;
             (Some(feed), cockpit)
         }
         None => (None, None),
@@ -102,10 +102,10 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
             c.apply(sim);
         }
         if let Some(feed) = &feed
-            && last_frame.is_none_or(|t| t.elapsed() >= crate::hilsim_view::FRAME_EVERY)
+            && last_frame.is_none_or(|t| t.elapsed() >= heli_sim::view::cockpit::FRAME_EVERY)
         {
             last_frame = Some(std::time::Instant::now());
-            crate::hilsim_view::publish(feed, sim, cockpit.as_ref());
+            heli_sim::view::cockpit::publish(feed, sim, cockpit.as_ref());
         }
     };
     let summary = hil::run(
@@ -127,7 +127,7 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
-        crate::print_table(&summary);
+        print!("{}", heli_sim::summary::table(&summary));
     }
     Ok(if summary.outcome == Outcome::Pass {
         ExitCode::SUCCESS

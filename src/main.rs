@@ -3,19 +3,14 @@
 //! The binary only parses arguments and wires the library crates together; the work is in
 //! `heli-sim`, `heli-fsw` and the others.
 
-mod bench_hil;
-mod bench_link;
 mod campaign_cmd;
 mod ground_cmd;
 mod hil_replay_cmd;
 mod hilsim_cmd;
-mod hilsim_view;
-mod library_cmd;
 mod link_cmd;
 mod log_cmd;
 mod model_cmd;
 mod replay_cmd;
-mod sim_ui;
 mod suite_cmd;
 
 use std::io::IsTerminal;
@@ -23,11 +18,9 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
-use heli_log::FlightLog;
 use heli_scenario as scenario;
-use heli_sim::lockstep::{RunOptions, Simulation};
-use heli_sim::logging::StreamLogger;
-use heli_sim::summary::{Outcome, Summary};
+use heli_sim::lockstep::RunOptions;
+use heli_sim::summary::Outcome;
 
 /// Avionics of MIT's X-Cell 60 acrobatic helicopter, rebuilt: flight software, ground
 /// station and hardware-in-the-loop simulator.
@@ -259,17 +252,7 @@ fn main() -> ExitCode {
         Command::Sim(args) => sim(args),
         Command::Model(args) => model_cmd::model(args),
         Command::Log { action } => log_cmd::log(action),
-        Command::Bench {
-            json, link: true, ..
-        } => bench_link::command(json),
-        Command::Bench {
-            json, hil: None, ..
-        } => bench(json),
-        Command::Bench {
-            json,
-            hil: Some(seconds),
-            ..
-        } => bench_hil::command(seconds, json),
+        Command::Bench { json, hil, link } => bench(json, hil, link),
         Command::Hilsim(args) => hilsim_cmd::hilsim(&args),
         Command::Vehicle { bootstrap, ctl } => heli_vehicle::cli::vehicle(&bootstrap, ctl.as_ref()),
         Command::Ground(args) => ground_cmd::ground(&args),
@@ -295,14 +278,20 @@ fn main() -> ExitCode {
 
 fn sim(args: SimArgs) -> Result<ExitCode> {
     if args.ui {
-        return sim_ui::run(&sim_ui::UiOptions {
+        return Ok(heli_sim::system::run(&heli_sim::system::UiOptions {
+            program: std::env::current_exe().context("finding this program")?,
             scenario: args.scenario.unwrap_or_else(|| "demo".into()),
             http: args.http,
             calibration_s: args.calibration_s,
-        });
+        })?);
     }
     if let Some(dir) = &args.library {
-        return library_cmd::record(dir);
+        let passed = heli_sim::library::record(dir, &mut |line| println!("{line}"))?;
+        return Ok(if passed {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::FAILURE
+        });
     }
     if args.list {
         for s in scenario::builtins() {
@@ -340,7 +329,7 @@ fn fly(scenario: scenario::Scenario, args: &SimArgs) -> Result<ExitCode> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
-        print_table(&summary);
+        print!("{}", heli_sim::summary::table(&summary));
     }
     Ok(if summary.outcome == Outcome::Pass {
         ExitCode::SUCCESS
@@ -349,10 +338,9 @@ fn fly(scenario: scenario::Scenario, args: &SimArgs) -> Result<ExitCode> {
     })
 }
 
-/// Flies `scenario` in lockstep, logging to `log` when given (with the device inputs, so
-/// that `heli log replay` and `heli hilsim --replay` can play it again).
+/// Flies `scenario` in lockstep, logging to `log` when given, with a progress bar.
 pub(crate) fn run_flight(
-    scenario: scenario::Scenario,
+    scenario: heli_scenario::Scenario,
     options: RunOptions,
     log: Option<&std::path::Path>,
     show_progress: bool,
@@ -366,83 +354,44 @@ pub(crate) fn run_flight(
         bar
     });
     let name = scenario.name.clone();
-    let mut logger = match log {
-        Some(path) => {
-            let mut log = FlightLog::create(path)
-                .with_context(|| format!("creating the flight log {}", path.display()))?;
-            // What flew, when, and the whole scenario, so that the flight can be flown again.
-            let parameters = [
-                ("scenario".to_string(), scenario.name.clone()),
-                ("seed".to_string(), scenario.seed.to_string()),
-                ("scenario_toml".to_string(), toml::to_string(&scenario)?),
-            ];
-            let software = concat!("heli ", env!("CARGO_PKG_VERSION"));
-            let entries =
-                heli_log::metadata::flight(software, std::time::SystemTime::now(), parameters);
-            log.write_metadata(heli_log::metadata::FLIGHT, &entries)
-                .with_context(|| format!("writing the flight log {}", path.display()))?;
-            Some(StreamLogger::new(log))
+    let summary = heli_sim::logging::fly(scenario, options, log, |t, total| {
+        if let Some(bar) = &bar {
+            bar.set_position((t / total * 1000.0) as u64);
+            bar.set_message(format!("{name} t={t:>6.1} s"));
         }
-        None => None,
-    };
-    let mut log_error = None;
-    let mut simulation = Simulation::new(scenario)?;
-    if logger.is_some() {
-        // So that the log can be replayed (`heli log replay`).
-        simulation.log_device_inputs();
-    }
-    let mut summary = simulation.run_observed(
-        options,
-        |t, total| {
-            if let Some(bar) = &bar {
-                bar.set_position((t / total * 1000.0) as u64);
-                bar.set_message(format!("{name} t={t:>6.1} s"));
-            }
-        },
-        |sim| {
-            if let (Some(l), None) = (logger.as_mut(), &log_error) {
-                log_error = l.drain(sim).err();
-            }
-        },
-    );
-    if let (Some(l), Some(path)) = (logger, log) {
-        match log_error.map_or_else(|| l.finish().map(|_| ()), Err) {
-            Ok(()) => summary.log = Some(path.display().to_string()),
-            // The flight went on; only its log is lost. Say so, never hide it.
-            Err(e) => eprintln!("heli: the flight log {} is incomplete: {e}", path.display()),
-        }
-    }
+    })?;
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
     Ok(summary)
 }
 
-fn bench(json: bool) -> Result<ExitCode> {
-    let report = heli_sim::bench::run();
+/// Prints a measurement as JSON, or with its own table.
+fn report<T: serde::Serialize>(value: &T, json: bool, table: fn(&T)) -> Result<ExitCode> {
     if json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-        return Ok(ExitCode::SUCCESS);
-    }
-    println!("parsers (8 MB of back-to-back frames through the flight software's drivers)");
-    for p in &report.parsers {
-        println!(
-            "  {:<8} {:>8.1} MB/s  ({} frames)",
-            p.device, p.mb_per_s, p.frames
-        );
-    }
-    let c = &report.control_step;
-    println!(
-        "control step (hover, {} steps with the estimator running): median {:.1} us, p99 {:.1} us, max {:.1} us (budget 20 000 us)",
-        c.steps, c.median_us, c.p99_us, c.max_us
-    );
-    for (name, rtf) in &report.realtime_factor {
-        println!("lockstep {name:<6} {rtf:.0}x real time");
-    }
-    if let Some(mib) = report.peak_rss_mib {
-        println!("peak memory {mib:.1} MiB");
+        println!("{}", serde_json::to_string_pretty(value)?);
+    } else {
+        table(value);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `heli bench`: the lockstep benchmarks, or `--link` the link's, or `--hil SECONDS` the
+/// HIL path against this program's flight process.
+fn bench(json: bool, hil: Option<f64>, link: bool) -> Result<ExitCode> {
+    if link {
+        return report(
+            &heli_ground::bench::measure()?,
+            json,
+            heli_ground::bench::print,
+        );
+    }
+    if let Some(seconds) = hil {
+        let exe = std::env::current_exe().context("finding this program")?;
+        let b = heli_sim::bench::hil::run(seconds, &[exe.into_os_string(), "flight".into()])?;
+        return report(&b, json, heli_sim::bench::hil::print);
+    }
+    report(&heli_sim::bench::run(), json, heli_sim::bench::print)
 }
 
 /// Writes to standard output; a reader that stops early (`| head`) is not an error.
@@ -452,92 +401,4 @@ fn write_stdout(text: &str) -> Result<()> {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         other => Ok(other?),
     }
-}
-
-/// A measured value with `decimals` decimals, or `-` when it was not measured.
-pub(crate) fn shown(value: Option<f64>, decimals: usize) -> String {
-    value.map_or_else(|| "-".to_string(), |v| format!("{v:.decimals$}"))
-}
-
-pub(crate) fn print_table(s: &Summary) {
-    println!("scenario   {} (seed {})", s.scenario, s.seed);
-    println!(
-        "simulated  {:.1} s in {:.2} s wall time: {:.0}x real time",
-        s.sim_time_s, s.wall_time_s, s.realtime_factor
-    );
-    println!();
-    println!(
-        "{:<28} {:>10} {:>10}  result",
-        "criterion", "value", "limit"
-    );
-    for c in &s.criteria {
-        println!(
-            "{:<28} {:>10} {:>10.3}  {}",
-            c.name,
-            shown(c.value, 3),
-            c.limit,
-            if c.pass { "pass" } else { "FAIL" }
-        );
-    }
-    println!();
-    if let Some(h) = &s.hil {
-        // Hardware in the loop: the flight software is elsewhere; only what crossed the
-        // wires is known here.
-        let l = &h.latency_us;
-        println!(
-            "flight computer  {} servo packets; IMU written -> servo readable p50 {:.0} us, p99 {:.0} us, p99.9 {:.0} us, max {:.0} us",
-            h.servo_packets, l.p50, l.p99, l.p999, l.max
-        );
-        if h.dropped_writes > 0 {
-            println!("devices    {} writes found no reader", h.dropped_writes);
-        }
-        println!("battery    min {} V", shown(s.devices.battery_min_v, 2));
-    } else {
-        let e = &s.estimator;
-        println!(
-            "estimator  attitude error rms {} deg (max {}), position rms {} m, velocity rms {} m/s",
-            shown(e.att_err_rms_deg, 2),
-            shown(e.att_err_max_deg, 2),
-            shown(e.pos_err_rms_m, 2),
-            shown(e.vel_err_rms_mps, 2)
-        );
-        let l = &s.loop_;
-        println!(
-            "main loop  {} IMU packets ({} dropped), {} watchdog fires, {} control steps, slowest step {:.0} us",
-            l.imu_samples, l.imu_dropped, l.watchdog_fires, l.control_steps, l.step_time_max_us
-        );
-        println!(
-            "links      imu {} frames / {} bad, uplink {} / {}, gps {} / {}, altimeter {} readings ({}), battery min {} V",
-            s.devices.imu.frames,
-            s.devices.imu.checksum_errors,
-            s.devices.uplink.frames,
-            s.devices.uplink.checksum_errors,
-            s.devices.gps.frames,
-            s.devices.gps.checksum_errors,
-            s.devices.baro_readings,
-            s.devices.baro_link,
-            shown(s.devices.battery_min_v, 2)
-        );
-    }
-    let watchdog_events = s
-        .events
-        .iter()
-        .filter(|e| e.ends_with("watchdog fired"))
-        .count();
-    for event in s.events.iter().filter(|e| !e.ends_with("watchdog fired")) {
-        println!("event      {event}");
-    }
-    if watchdog_events > 0 {
-        println!("event      watchdog fired {watchdog_events} times (each listed in --json)");
-    }
-    if let Some(crash) = &s.crash {
-        println!("CRASH      {crash}");
-    }
-    println!();
-    let outcome = match s.outcome {
-        Outcome::Pass => "PASS",
-        Outcome::Fail => "FAIL",
-        Outcome::Crash => "CRASH",
-    };
-    println!("outcome    {outcome}");
 }

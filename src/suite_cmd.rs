@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
-use heli_campaign::{Campaign, Report, Shard};
+use heli_campaign::{Report, Shard};
 
 /// The arguments of `heli campaign suite`.
 #[derive(clap::Args)]
@@ -32,113 +32,33 @@ pub(crate) fn suite(args: &SuiteArgs) -> Result<ExitCode> {
             args.min_pass_rate
         );
     }
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&args.dir)
-        .with_context(|| format!("reading {}", args.dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .collect();
-    files.sort();
-    if files.is_empty() {
-        bail!("no campaign files (*.toml) in {}", args.dir.display());
-    }
-    // Every file is checked before any flight is flown.
-    let campaigns = files
-        .iter()
-        .map(|f| Campaign::load(f).map_err(anyhow::Error::from))
-        .collect::<Result<Vec<_>>>()?;
+    let campaigns = heli_campaign::suite::load(&args.dir)?;
     let mut reports: Vec<Report> = Vec::new();
-    for (campaign, file) in campaigns.iter().zip(&files) {
+    for (file, campaign) in &campaigns {
         let report = crate::campaign_cmd::fly_campaign(campaign, Shard::ALL, args.jobs)?;
         // By file, not by campaign name: two files may share a name.
         let stem = file.file_stem().map(|s| s.to_string_lossy().into_owned());
-        let out = args
-            .out
-            .as_ref()
-            .map(|d| d.join(stem.unwrap_or_else(|| campaign.name.clone())));
-        crate::campaign_cmd::write_report(&report, out.as_deref())?;
+        if let Some(dir) = &args.out {
+            let out = dir.join(stem.unwrap_or_else(|| campaign.name.clone()));
+            heli_campaign::files::write_report(&report, &out)?;
+        }
         eprintln!(
             "{}: {} of {} passed",
             campaign.name, report.totals.pass, report.totals.flights
         );
         reports.push(report);
     }
-    let (flights, pass, crash, error) = reports.iter().fold((0, 0, 0, 0), |acc, r| {
-        let t = &r.totals;
-        (
-            acc.0 + t.flights,
-            acc.1 + t.pass,
-            acc.2 + t.crash,
-            acc.3 + t.error,
-        )
-    });
-    let rate = if flights > 0 {
-        100.0 * pass as f64 / flights as f64
-    } else {
-        0.0
-    };
-    println!(
-        "{:<16} {:>8} {:>6} {:>6} {:>6} {:>6}  pass rate",
-        "campaign", "flights", "pass", "fail", "crash", "error"
-    );
-    for r in &reports {
-        let t = &r.totals;
-        println!(
-            "{:<16} {:>8} {:>6} {:>6} {:>6} {:>6}  {:>6.1} %",
-            r.campaign,
-            t.flights,
-            t.pass,
-            t.fail,
-            t.crash,
-            t.error,
-            t.pass_rate.unwrap_or(0.0) * 100.0
-        );
-    }
-    println!(
-        "{:<16} {:>8} {:>6} {:>6} {:>6} {:>6}  {:>6.1} %",
-        "all",
-        flights,
-        pass,
-        flights - pass - crash - error,
-        crash,
-        error,
-        rate
-    );
-    let passed = crash == 0 && error == 0 && rate >= args.min_pass_rate;
+    let verdict = heli_campaign::suite::judge(&reports, args.min_pass_rate);
+    print!("{}", verdict.table());
     if let Some(dir) = &args.out {
-        let rows: Vec<serde_json::Value> = reports
-            .iter()
-            .map(|r| serde_json::json!({ "campaign": r.campaign, "file": r.file, "totals": r.totals }))
-            .collect();
-        let json = serde_json::json!({
-            "campaigns": rows,
-            "flights": flights,
-            "pass": pass,
-            "crash": crash,
-            "error": error,
-            "pass_rate_percent": rate,
-            "min_pass_rate_percent": args.min_pass_rate,
-            "passed": passed,
-        });
         std::fs::create_dir_all(dir)?;
         let path = dir.join("suite.json");
-        std::fs::write(&path, serde_json::to_string_pretty(&json)? + "\n")
+        std::fs::write(&path, serde_json::to_string_pretty(&verdict)? + "\n")
             .with_context(|| format!("writing {}", path.display()))?;
         println!("wrote      {}", path.display());
     }
-    println!(
-        "outcome    {}",
-        if passed {
-            format!(
-                "suite passed ({rate:.1} % ≥ {} %, no crash)",
-                args.min_pass_rate
-            )
-        } else {
-            format!(
-                "suite FAILED ({rate:.1} % of {flights} flights passed, {crash} crashed, {error} could not be flown)"
-            )
-        }
-    );
-    Ok(if passed {
+    println!("outcome    {}", verdict.outcome());
+    Ok(if verdict.passed {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE

@@ -26,10 +26,14 @@
 //!   the worst cases (ranked by a score: the worst criterion against its limit) with the
 //!   command that flies each again; [`merge()`] joins shard reports into the report one
 //!   whole run would have written.
-//! - [`plot`]: outcomes against each varied value (SVG, PNG).
+//! - [`plot`]: outcomes against each varied value (SVG, PNG); [`files`] writes them with the
+//!   report, [`table`] prints it.
+//! - [`suite`]: every campaign file of a directory flown and judged together against a
+//!   floor (the robustness suite).
 
 mod checks;
 pub mod file;
+pub mod files;
 mod keys;
 pub mod log_plot;
 mod merge;
@@ -38,13 +42,15 @@ pub mod report;
 pub mod runner;
 pub mod sample;
 mod score;
+pub mod suite;
+pub mod table;
 
 #[cfg(test)]
 mod tests;
 
 pub use file::{Campaign, Draw, Vary};
 pub use merge::merge;
-pub use report::{FlightOutcome, FlightRecord, Report};
+pub use report::{FlightOutcome, FlightRecord, Report, Totals};
 pub use runner::{RunConfig, Shard, run};
 pub use sample::Flight;
 

@@ -25,7 +25,10 @@
     )
 )]
 
+pub mod bench;
 pub mod checks;
+pub mod client;
+pub mod command;
 pub mod display;
 pub mod facts;
 pub mod operators;
@@ -38,5 +41,4 @@ pub mod station;
 #[cfg(test)]
 mod station_tests;
 pub mod transfer;
-pub mod truth_view;
 pub mod view;

@@ -16,8 +16,8 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use axum::Router;
 use axum::extract::State;
 use axum::extract::ws::{Message as WsMessage, WebSocket, WebSocketUpgrade};
-use axum::http::{StatusCode, Uri, header};
-use axum::response::{IntoResponse, Response};
+use axum::http::Uri;
+use axum::response::Response;
 use axum::routing::get;
 use include_dir::{Dir, include_dir};
 use tokio::net::UdpSocket;
@@ -27,6 +27,12 @@ use crate::station::{Output, Station, StationConfig};
 
 /// The page's files.
 static WEB: Dir<'_> = include_dir!("$CARGO_MANIFEST_DIR/web");
+
+/// The display's site: its page, then the files all pages share.
+static SITE: heli_web::Site = heli_web::Site {
+    own: &WEB,
+    name: "ground station",
+};
 
 /// How often the station steps (commands, transfer, heartbeat).
 const TICK: Duration = Duration::from_millis(20);
@@ -251,32 +257,9 @@ fn save(path: &Path, bytes: &[u8]) -> Result<PathBuf, String> {
     Err("99 logs of that name already: choose another suffix".into())
 }
 
-pub(crate) async fn asset(uri: Uri) -> Response {
-    let path = uri.path().trim_start_matches('/');
-    let path = if path.is_empty() { "index.html" } else { path };
-    let Some(file) = WEB.get_file(path) else {
-        return (
-            StatusCode::NOT_FOUND,
-            format!("no {path} on this ground station"),
-        )
-            .into_response();
-    };
-    let mime = match path.rsplit('.').next() {
-        Some("html") => "text/html; charset=utf-8",
-        Some("js") => "text/javascript; charset=utf-8",
-        Some("css") => "text/css; charset=utf-8",
-        Some("svg") => "image/svg+xml",
-        Some("png") => "image/png",
-        _ => "application/octet-stream",
-    };
-    (
-        [
-            (header::CONTENT_TYPE, mime),
-            (header::CACHE_CONTROL, "no-cache"),
-        ],
-        file.contents(),
-    )
-        .into_response()
+/// The display's files (its own, then the shared ones).
+async fn asset(uri: Uri) -> Response {
+    SITE.file(&uri)
 }
 
 async fn ws(
@@ -285,18 +268,9 @@ async fn ws(
     State(state): State<AppState>,
 ) -> Response {
     // Only the display's own pages: a page of another site the operator has open must not
-    // drive the vehicle through this socket (browsers always send Origin on a WebSocket).
-    let host = headers.get(header::HOST).and_then(|h| h.to_str().ok());
-    let origin = headers.get(header::ORIGIN).and_then(|h| h.to_str().ok());
-    if let Some(origin) = origin {
-        let origin_host = origin.split("://").nth(1).unwrap_or("");
-        if host != Some(origin_host) {
-            return (
-                StatusCode::FORBIDDEN,
-                format!("WebSocket from {origin} refused: only this display's pages"),
-            )
-                .into_response();
-        }
+    // drive the vehicle through this socket.
+    if let Err(refusal) = heli_web::same_origin(&headers, "this display's pages") {
+        return *refusal;
     }
     upgrade
         .max_message_size(MAX_REQUEST_BYTES)

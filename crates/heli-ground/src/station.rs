@@ -8,8 +8,8 @@
 use std::collections::VecDeque;
 use std::path::{Component, Path, PathBuf};
 
-use heli_link::command::{PLANS, command_long};
-use heli_link::ground::{COMMAND_RETRY_US, GroundLink};
+use heli_link::command::PLANS;
+use heli_link::ground::GroundLink;
 use heli_link::signing::Key;
 use heli_link::status::{BootstrapState, VehicleStatus};
 use heli_link::{GroundCommand, StartParameters};
@@ -18,6 +18,7 @@ use mavlink::dialects::common::*;
 use serde::Deserialize;
 
 use crate::checks::BatteryCurve;
+use crate::command::{InFlight, Progress};
 use crate::operators::{ClientId, Operators};
 use crate::panel::{Panel, PanelState};
 use crate::transfer::Transfer;
@@ -25,8 +26,6 @@ use crate::view::Message;
 
 /// A command with no final answer for this long (µs) is given up.
 pub const COMMAND_TIMEOUT_US: u64 = 30_000_000;
-/// After `IN_PROGRESS`, a command is sent again this often (µs), to recover a lost answer.
-const IN_PROGRESS_RETRY_US: u64 = 2_000_000;
 /// The ground's heartbeat period (µs).
 const HEARTBEAT_US: u64 = 1_000_000;
 /// No heartbeat from the vehicle for this long (µs): the panel forgets its state.
@@ -111,12 +110,8 @@ pub enum Op {
 /// A command on its way.
 #[derive(Clone, Debug)]
 pub(crate) struct Pending {
-    long: COMMAND_LONG_DATA,
+    command: InFlight,
     name: &'static str,
-    first_us: u64,
-    sent_us: u64,
-    in_progress: bool,
-    acks_from: usize,
     /// For Stop: where the log goes.
     dest: Option<PathBuf>,
 }
@@ -298,48 +293,23 @@ impl Station {
         let Some(mut p) = self.pending.take() else {
             return;
         };
-        let answers: Vec<MavResult> = self
-            .link
-            .acks
-            .iter()
-            .skip(p.acks_from)
-            .filter(|(c, _)| *c == p.long.command)
-            .map(|(_, r)| *r)
-            .collect();
-        p.acks_from = self.link.acks.len();
-        for r in answers {
-            if r == MavResult::MAV_RESULT_IN_PROGRESS {
-                p.in_progress = true;
-            } else {
-                self.answered(&p, r, now_us);
-                return;
+        let (progress, retry) = p.command.tick(&mut self.link, now_us);
+        out.extend(retry.map(Output::Send));
+        match progress {
+            Progress::Answered(r) => self.answered(&p, r, now_us),
+            Progress::TimedOut => {
+                self.panel.answered();
+                self.note(
+                    "error",
+                    format!(
+                        "{}: no answer from the vehicle in {} s",
+                        p.name,
+                        COMMAND_TIMEOUT_US / 1_000_000
+                    ),
+                );
             }
+            Progress::Waiting => self.pending = Some(p),
         }
-        if now_us.saturating_sub(p.first_us) > COMMAND_TIMEOUT_US {
-            self.panel.answered();
-            self.note(
-                "error",
-                format!(
-                    "{}: no answer from the vehicle in {} s",
-                    p.name,
-                    COMMAND_TIMEOUT_US / 1_000_000
-                ),
-            );
-            return;
-        }
-        let retry = if p.in_progress {
-            IN_PROGRESS_RETRY_US
-        } else {
-            COMMAND_RETRY_US
-        };
-        if now_us.saturating_sub(p.sent_us) >= retry {
-            p.long.confirmation = p.long.confirmation.saturating_add(1);
-            out.push(Output::Send(
-                self.link.command_frame(p.long.clone(), now_us),
-            ));
-            p.sent_us = now_us;
-        }
-        self.pending = Some(p);
     }
 
     fn answered(&mut self, p: &Pending, result: MavResult, now_us: u64) {
@@ -546,17 +516,12 @@ impl Station {
                 ));
             }
         };
-        let long = command_long(&command, (1, 1))
+        let (sent, frame) = InFlight::send(&mut self.link, &command, COMMAND_TIMEOUT_US, now_us)
             .ok_or("the parameters cannot go over the link (a suffix is at most 15 characters)")?;
         self.note("info", format!("{name}: sent"));
-        let frame = self.link.command_frame(long.clone(), now_us);
         self.pending = Some(Pending {
-            long,
+            command: sent,
             name,
-            first_us: now_us,
-            sent_us: now_us,
-            in_progress: false,
-            acks_from: self.link.acks.len(),
             dest,
         });
         self.panel.sent(meanwhile);

@@ -1,7 +1,10 @@
-//! The ground's side of the thesis's cleanup routine (§4.1.7): after Stop, with the final
-//! parameters the operator gave (base directory, file suffix), the flight's log — the newest
-//! on the vehicle — is listed, downloaded over the link's log protocol and handed to the
-//! runtime to save as `BASE/flight_SUFFIX.mcap`, with progress for the message area.
+//! A log's transfer from the vehicle, sans-I/O: the log list is asked for until it is whole,
+//! then the log is downloaded over the link's log protocol and handed to the runtime to save,
+//! with progress for the message area; nothing new for the timeout gives it up.
+//!
+//! The thesis's cleanup routine (§4.1.7) is one: after Stop, with the final parameters the
+//! operator gave (base directory, file suffix), the flight's log — the newest on the vehicle
+//! — goes to `BASE/flight_SUFFIX.mcap`. `heli ground download ID` is another.
 
 use std::path::PathBuf;
 
@@ -11,6 +14,15 @@ use heli_link::ground::GroundLink;
 pub const TRANSFER_TIMEOUT_US: u64 = 30_000_000;
 /// The log list is asked for again this often (µs) until it is whole.
 const LIST_RETRY_US: u64 = 1_000_000;
+
+/// Which log a transfer fetches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Which {
+    /// The newest on the vehicle (the flight just stopped).
+    Newest,
+    /// The log of this id in the vehicle's list.
+    Id(u16),
+}
 
 /// Where a transfer is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,6 +52,8 @@ pub struct Step {
 #[derive(Clone, Debug)]
 pub struct Transfer {
     dest: PathBuf,
+    which: Which,
+    timeout_us: u64,
     stage: Stage,
     asked_us: u64,
     progress_us: u64,
@@ -50,8 +64,15 @@ pub struct Transfer {
 impl Transfer {
     /// A transfer of the newest log to `dest`, started at `now_us`.
     pub fn new(dest: PathBuf, now_us: u64) -> Self {
+        Self::of(Which::Newest, dest, TRANSFER_TIMEOUT_US, now_us)
+    }
+
+    /// A transfer of log `which` to `dest`, given up after `timeout_us` without progress.
+    pub fn of(which: Which, dest: PathBuf, timeout_us: u64, now_us: u64) -> Self {
         Self {
             dest,
+            which,
+            timeout_us,
             stage: Stage::Listing,
             asked_us: 0,
             progress_us: now_us,
@@ -78,11 +99,11 @@ impl Transfer {
     /// One step at `now_us`.
     pub fn tick(&mut self, link: &mut GroundLink, now_us: u64) -> Step {
         let mut step = Step::default();
-        if now_us.saturating_sub(self.progress_us) > TRANSFER_TIMEOUT_US {
+        if now_us.saturating_sub(self.progress_us) > self.timeout_us {
             step.notes.push(format!(
                 "log transfer to {} given up: nothing new for {} s",
                 self.dest.display(),
-                TRANSFER_TIMEOUT_US / 1_000_000
+                self.timeout_us / 1_000_000
             ));
             step.done = true;
             step.failed = true;
@@ -104,15 +125,16 @@ impl Transfer {
             .map(|e| usize::from(e.num_logs));
         let have = link.log_entries.values().filter(|e| e.id > 0).count();
         if want.is_some_and(|n| have >= n) {
-            let Some(newest) = link
-                .log_entries
-                .values()
-                .filter(|e| e.id > 0)
-                .max_by_key(|e| (e.time_utc, e.id))
-                .cloned()
-            else {
-                step.notes
-                    .push("log transfer: the vehicle has no log".into());
+            let mut logs = link.log_entries.values().filter(|e| e.id > 0);
+            let chosen = match self.which {
+                Which::Newest => logs.max_by_key(|e| (e.time_utc, e.id)).cloned(),
+                Which::Id(id) => logs.find(|e| e.id == id).cloned(),
+            };
+            let Some(newest) = chosen else {
+                step.notes.push(match self.which {
+                    Which::Newest => "log transfer: the vehicle has no log".into(),
+                    Which::Id(id) => format!("log transfer: the vehicle has no log {id}"),
+                });
                 step.done = true;
                 step.failed = true;
                 return;

@@ -1,6 +1,7 @@
 //! What the display shows, as one value the web page draws: [`View`], made by
 //! [`Station::view`] and sent to every page several times a second.
 
+use heli_link::mission::{PlanPoint, plan_points};
 use mavlink::MessageData;
 use mavlink::dialects::common::*;
 use serde::Serialize;
@@ -110,36 +111,6 @@ pub struct Instruments {
     pub pos_ned_m: Option<[f64; 3]>,
     /// Servo commands (−1..1): aileron, elevator, rudder, collective, throttle.
     pub servo: Option<[f64; 5]>,
-}
-
-/// A point of the flight plan, for the track and the 3D view.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct PlanPoint {
-    /// takeoff, hold, waypoint, rolls or land.
-    pub kind: &'static str,
-    /// North, east (m) and height (m) above the take-off point.
-    pub point: [f64; 3],
-}
-
-/// The plan's points from its mission items (speed changes are not points).
-pub fn plan_points(items: &[MISSION_ITEM_INT_DATA]) -> Vec<PlanPoint> {
-    items
-        .iter()
-        .filter_map(|i| {
-            let kind = match i.command {
-                MavCmd::MAV_CMD_NAV_TAKEOFF_LOCAL => "takeoff",
-                MavCmd::MAV_CMD_NAV_LOITER_TIME | MavCmd::MAV_CMD_NAV_LOITER_UNLIM => "hold",
-                MavCmd::MAV_CMD_NAV_WAYPOINT => "waypoint",
-                MavCmd::MAV_CMD_NAV_LAND_LOCAL => "land",
-                c if c == heli_link::mission::CMD_ROLLS => "rolls",
-                _ => return None,
-            };
-            Some(PlanPoint {
-                kind,
-                point: heli_link::mission::item_point(i),
-            })
-        })
-        .collect()
 }
 
 /// The operators.

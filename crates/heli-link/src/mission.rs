@@ -19,6 +19,7 @@
 
 use heli_types::Leg;
 use mavlink::dialects::common::*;
+use serde::Serialize;
 
 /// The mission command for aileron rolls (no standard command exists).
 pub const CMD_ROLLS: MavCmd = MavCmd::MAV_CMD_USER_4;
@@ -115,6 +116,36 @@ pub fn item_point(item: &MISSION_ITEM_INT_DATA) -> [f64; 3] {
         f64::from(item.y) / 1e4,
         -f64::from(item.z),
     ]
+}
+
+/// A point of the flight plan, for the track and the 3D view.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PlanPoint {
+    /// takeoff, hold, waypoint, rolls or land.
+    pub kind: &'static str,
+    /// North, east (m) and height (m) above the take-off point.
+    pub point: [f64; 3],
+}
+
+/// The plan's points from its mission items (speed changes are not points).
+pub fn plan_points(items: &[MISSION_ITEM_INT_DATA]) -> Vec<PlanPoint> {
+    items
+        .iter()
+        .filter_map(|i| {
+            let kind = match i.command {
+                MavCmd::MAV_CMD_NAV_TAKEOFF_LOCAL => "takeoff",
+                MavCmd::MAV_CMD_NAV_LOITER_TIME | MavCmd::MAV_CMD_NAV_LOITER_UNLIM => "hold",
+                MavCmd::MAV_CMD_NAV_WAYPOINT => "waypoint",
+                MavCmd::MAV_CMD_NAV_LAND_LOCAL => "land",
+                c if c == CMD_ROLLS => "rolls",
+                _ => return None,
+            };
+            Some(PlanPoint {
+                kind,
+                point: item_point(i),
+            })
+        })
+        .collect()
 }
 
 /// The vehicle's side: the items of the flight under way, served on request.

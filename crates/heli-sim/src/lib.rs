@@ -4,11 +4,14 @@
 //! at their real rates, and read the servo board's commands back ([`devices`]); the lockstep
 //! runner that flies the flight software against the model (`heli-model`) and a scenario
 //! (`heli-scenario`) on one virtual clock ([`lockstep`]), with the summary it measures
-//! ([`summary`]) and its log ([`logging`]); the same simulation in real time against a
+//! ([`summary`]) and its log ([`logging`]), and every built-in flight kept as a library of
+//! recorded flights ([`library`]); the same simulation in real time against a
 //! flight computer outside, its devices on pseudo-terminals and IIO-style ADC files
-//! ([`hil`], `heli hilsim --ptys`); the playback of a recorded flight's inputs to one
-//! ([`hil_replay`]) and the comparison of its commands ([`replay_compare`]); and the
-//! simulator's benchmarks ([`bench`]).
+//! ([`hil`], `heli hilsim --ptys`); the replay of recorded flights, in this process or to a
+//! flight computer outside, and the comparison of what it commands ([`replay`]); the page that
+//! shows the simulator's truth in 3D and lets a pilot fly it ([`view`]); and the
+//! simulator's benchmarks ([`bench`]); and the whole system as separate processes, the
+//! HILSim, the vehicle and the ground station's display ([`system`], `heli sim --ui`).
 //!
 //! What it is not: flight software, the model, or the scenarios. It drives `heli-fsw` from
 //! the outside, through device bytes only; the flight code never knows it is simulated.
@@ -16,11 +19,13 @@
 pub mod bench;
 pub mod devices;
 pub mod hil;
-pub mod hil_replay;
+pub mod library;
 pub mod lockstep;
 pub mod logging;
-pub mod replay_compare;
+pub mod replay;
 pub mod summary;
+pub mod system;
+pub mod view;
 
 pub use heli_scenario::Scenario;
 pub use lockstep::{RunOptions, Simulation, run};

@@ -3,9 +3,100 @@
 //! and events into log messages is heli-log's ([`heli_log::records`], [`heli_log::events`]),
 //! shared with the vehicle runtime.
 
+use std::path::Path;
+
 use heli_fsw::streams::Record;
 use heli_log::records::record_time;
 use heli_log::{FlightLog, LogError, LogFile};
+use heli_scenario::{Scenario, ScenarioError};
+
+use crate::lockstep::{RunOptions, Simulation};
+use crate::summary::Summary;
+
+/// Why a flight could not be flown or its log begun.
+#[derive(Debug)]
+pub enum FlyError {
+    /// The scenario cannot be flown.
+    Scenario(ScenarioError),
+    /// The scenario cannot be written into the log's metadata.
+    Toml(toml::ser::Error),
+    /// The log could not be created or its metadata written.
+    Log {
+        /// The log file.
+        path: std::path::PathBuf,
+        /// What went wrong.
+        error: LogError,
+    },
+}
+
+impl std::fmt::Display for FlyError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FlyError::Scenario(e) => write!(f, "{e}"),
+            FlyError::Toml(e) => write!(f, "the scenario as TOML: {e}"),
+            FlyError::Log { path, error } => {
+                write!(f, "the flight log {}: {error}", path.display())
+            }
+        }
+    }
+}
+
+impl std::error::Error for FlyError {}
+
+/// Flies `scenario` in lockstep, logging to `log` when given — with the device inputs, so
+/// that `heli log replay` and `heli hilsim --replay` can play it again, and the whole
+/// scenario in the metadata, so that the flight can be flown again. `progress` is told the
+/// simulated time and the scenario's length as it goes. A log that fails part-way is said
+/// on standard error and left out of the summary; the flight goes on.
+pub fn fly(
+    scenario: Scenario,
+    options: RunOptions,
+    log: Option<&Path>,
+    mut progress: impl FnMut(f64, f64),
+) -> Result<Summary, FlyError> {
+    let mut logger = match log {
+        Some(path) => {
+            let error = |error| FlyError::Log {
+                path: path.to_path_buf(),
+                error,
+            };
+            let mut log = FlightLog::create(path).map_err(error)?;
+            // What flew, when, and the whole scenario, so that the flight can be flown again.
+            let scenario_toml = toml::to_string(&scenario).map_err(FlyError::Toml)?;
+            let parameters = [
+                ("scenario".to_string(), scenario.name.clone()),
+                ("seed".to_string(), scenario.seed.to_string()),
+                ("scenario_toml".to_string(), scenario_toml),
+            ];
+            let software = concat!("heli ", env!("CARGO_PKG_VERSION"));
+            let entries =
+                heli_log::metadata::flight(software, std::time::SystemTime::now(), parameters);
+            log.write_metadata(heli_log::metadata::FLIGHT, &entries)
+                .map_err(error)?;
+            Some(StreamLogger::new(log))
+        }
+        None => None,
+    };
+    let mut log_error = None;
+    let mut simulation = Simulation::new(scenario).map_err(FlyError::Scenario)?;
+    if logger.is_some() {
+        // So that the log can be replayed (`heli log replay`).
+        simulation.log_device_inputs();
+    }
+    let mut summary = simulation.run_observed(options, &mut progress, |sim| {
+        if let (Some(l), None) = (logger.as_mut(), &log_error) {
+            log_error = l.drain(sim).err();
+        }
+    });
+    if let (Some(l), Some(path)) = (logger, log) {
+        match log_error.map_or_else(|| l.finish().map(|_| ()), Err) {
+            Ok(()) => summary.log = Some(path.display().to_string()),
+            // The flight went on; only its log is lost. Say so, never hide it.
+            Err(e) => eprintln!("heli: the flight log {} is incomplete: {e}", path.display()),
+        }
+    }
+    Ok(summary)
+}
 
 /// The flight logger. It only reads; it can fall behind by as much as the streams keep (10 s
 /// here) before it misses anything, and counts what it missed. Each record keeps its

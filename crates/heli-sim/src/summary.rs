@@ -1,5 +1,7 @@
 //! What a run measured, and the JSON object `heli sim --json` prints.
 
+use std::fmt::Write as _;
+
 use serde::Serialize;
 
 /// How the run ended.
@@ -338,4 +340,113 @@ impl Rms {
     pub fn count(&self) -> u64 {
         self.n
     }
+}
+
+/// A measured value with `decimals` decimals, or `-` when it was not measured.
+pub fn shown(value: Option<f64>, decimals: usize) -> String {
+    value.map_or_else(|| "-".to_string(), |v| format!("{v:.decimals$}"))
+}
+
+/// The summary as the table `heli sim` prints.
+pub fn table(s: &Summary) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "scenario   {} (seed {})", s.scenario, s.seed);
+    let _ = writeln!(
+        out,
+        "simulated  {:.1} s in {:.2} s wall time: {:.0}x real time",
+        s.sim_time_s, s.wall_time_s, s.realtime_factor
+    );
+    let _ = writeln!(out);
+    let _ = writeln!(
+        out,
+        "{:<28} {:>10} {:>10}  result",
+        "criterion", "value", "limit"
+    );
+    for c in &s.criteria {
+        let _ = writeln!(
+            out,
+            "{:<28} {:>10} {:>10.3}  {}",
+            c.name,
+            shown(c.value, 3),
+            c.limit,
+            if c.pass { "pass" } else { "FAIL" }
+        );
+    }
+    let _ = writeln!(out);
+    if let Some(h) = &s.hil {
+        // Hardware in the loop: the flight software is elsewhere; only what crossed the
+        // wires is known here.
+        let l = &h.latency_us;
+        let _ = writeln!(
+            out,
+            "flight computer  {} servo packets; IMU written -> servo readable p50 {:.0} us, p99 {:.0} us, p99.9 {:.0} us, max {:.0} us",
+            h.servo_packets, l.p50, l.p99, l.p999, l.max
+        );
+        if h.dropped_writes > 0 {
+            let _ = writeln!(
+                out,
+                "devices    {} writes found no reader",
+                h.dropped_writes
+            );
+        }
+        let _ = writeln!(
+            out,
+            "battery    min {} V",
+            shown(s.devices.battery_min_v, 2)
+        );
+    } else {
+        let e = &s.estimator;
+        let _ = writeln!(
+            out,
+            "estimator  attitude error rms {} deg (max {}), position rms {} m, velocity rms {} m/s",
+            shown(e.att_err_rms_deg, 2),
+            shown(e.att_err_max_deg, 2),
+            shown(e.pos_err_rms_m, 2),
+            shown(e.vel_err_rms_mps, 2)
+        );
+        let l = &s.loop_;
+        let _ = writeln!(
+            out,
+            "main loop  {} IMU packets ({} dropped), {} watchdog fires, {} control steps, slowest step {:.0} us",
+            l.imu_samples, l.imu_dropped, l.watchdog_fires, l.control_steps, l.step_time_max_us
+        );
+        let _ = writeln!(
+            out,
+            "links      imu {} frames / {} bad, uplink {} / {}, gps {} / {}, altimeter {} readings ({}), battery min {} V",
+            s.devices.imu.frames,
+            s.devices.imu.checksum_errors,
+            s.devices.uplink.frames,
+            s.devices.uplink.checksum_errors,
+            s.devices.gps.frames,
+            s.devices.gps.checksum_errors,
+            s.devices.baro_readings,
+            s.devices.baro_link,
+            shown(s.devices.battery_min_v, 2)
+        );
+    }
+    let watchdog_events = s
+        .events
+        .iter()
+        .filter(|e| e.ends_with("watchdog fired"))
+        .count();
+    for event in s.events.iter().filter(|e| !e.ends_with("watchdog fired")) {
+        let _ = writeln!(out, "event      {event}");
+    }
+    if watchdog_events > 0 {
+        let _ = writeln!(
+            out,
+            "event      watchdog fired {watchdog_events} times (each listed in --json)"
+        );
+    }
+    if let Some(crash) = &s.crash {
+        let _ = writeln!(out, "CRASH      {crash}");
+    }
+    let _ = writeln!(out);
+    let outcome = match s.outcome {
+        Outcome::Pass => "PASS",
+        Outcome::Fail => "FAIL",
+        Outcome::Crash => "CRASH",
+    };
+    let _ = writeln!(out, "outcome    {outcome}");
+    out
 }

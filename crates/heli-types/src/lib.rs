@@ -3,7 +3,8 @@
 //! What it is: the words every side of the system uses for the same things, defined once —
 //! the flight mode the operator picks ([`mode`]), the autonomous flight plan and its legs
 //! ([`plan`]) and the lab's library of named plans ([`library`]), the devices the flight
-//! software watches and the serial ports they speak on ([`device`]). The vehicle, the
+//! software watches and the serial ports they speak on ([`device`]), the pilot's
+//! transmitter ([`transmitter`]). The vehicle, the
 //! simulator, the link and the ground station all speak of these with these types, so none
 //! of them has to link another to agree on a word.
 //!
@@ -24,7 +25,9 @@ pub mod device;
 pub mod library;
 pub mod mode;
 pub mod plan;
+pub mod transmitter;
 
 pub use device::{Device, Port};
 pub use mode::{AugmentedMode, FlightMode};
 pub use plan::{Leg, MAX_LEGS, Plan, PlanError};
+pub use transmitter::Transmitter;

@@ -46,7 +46,6 @@ pub mod logger;
 pub mod params;
 pub mod plans;
 pub mod port;
-pub mod replay;
 pub mod rt;
 pub mod standalone;
 pub mod streams;

@@ -3,7 +3,8 @@
 //! serving the signed MAVLink link on loopback (`heli vehicle --link`), and the ground
 //! station's display (`heli ground --http`) — with the URL of the display printed, and all
 //! of it stopped cleanly on Ctrl-C. Each process's output goes to a file in the run's
-//! directory.
+//! directory. The processes are the workstation program's own subcommands
+//! ([`UiOptions::program`]).
 
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
@@ -13,10 +14,17 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, channel};
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result, bail};
+use std::io::{Error, Result};
+
+/// Adds what was being done to an error.
+fn context(what: impl std::fmt::Display) -> impl FnOnce(Error) -> Error {
+    move |e| Error::new(e.kind(), format!("{what}: {e}"))
+}
 
 /// What `heli sim --ui` runs.
 pub struct UiOptions {
+    /// The workstation program whose subcommands are the processes (`heli`).
+    pub program: PathBuf,
     /// The HILSim's scenario (the world, the pilot, the faults).
     pub scenario: String,
     /// Where the display is served.
@@ -39,20 +47,19 @@ struct Proc {
 impl Proc {
     /// Starts `heli ARGS` in its own process group (Ctrl-C reaches only `heli sim --ui`,
     /// which stops the others in order), its output copied to `DIR/NAME.log`.
-    fn spawn(name: &'static str, dir: &Path, args: &[String]) -> Result<Self> {
+    fn spawn(program: &Path, name: &'static str, dir: &Path, args: &[String]) -> Result<Self> {
         use std::os::unix::process::CommandExt;
-        let exe = std::env::current_exe().context("finding the heli program")?;
         let log = dir.join(format!("{name}.log"));
         let mut file =
-            std::fs::File::create(&log).with_context(|| format!("creating {}", log.display()))?;
-        let mut child = Command::new(exe)
+            std::fs::File::create(&log).map_err(context(format!("creating {}", log.display())))?;
+        let mut child = Command::new(program)
             .args(args)
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .process_group(0)
             .spawn()
-            .with_context(|| format!("starting heli {name}"))?;
+            .map_err(context(format!("starting heli {name}")))?;
         let (tx, lines) = channel();
         let out = child.stdout.take();
         let err = child.stderr.take();
@@ -86,31 +93,37 @@ impl Proc {
     fn wait_for(&mut self, needle: &str, timeout: Duration, stop: &AtomicBool) -> Result<String> {
         let end = Instant::now() + timeout;
         let Some(lines) = self.lines.take() else {
-            bail!("heli {}: its output is no longer read", self.name);
+            return Err(Error::other(format!(
+                "heli {}: its output is no longer read",
+                self.name
+            )));
         };
         while Instant::now() < end {
             if stop.load(Ordering::Relaxed) {
-                bail!("interrupted while heli {} was starting", self.name);
+                return Err(Error::other(format!(
+                    "interrupted while heli {} was starting",
+                    self.name
+                )));
             }
             match lines.recv_timeout(Duration::from_millis(100)) {
                 Ok(line) if line.contains(needle) => return Ok(line),
                 Ok(line) => self.seen.push(line),
                 Err(_) => {
                     if let Some(status) = self.child.try_wait()? {
-                        bail!(
+                        return Err(Error::other(format!(
                             "heli {} ended ({status}) before it was ready: see {}",
                             self.name,
                             self.log.display()
-                        );
+                        )));
                     }
                 }
             }
         }
-        bail!(
+        Err(Error::other(format!(
             "heli {} was not ready within {timeout:?}: see {}",
             self.name,
             self.log.display()
-        )
+        )))
     }
 
     /// Sends SIGTERM and waits up to `grace` before killing it.
@@ -157,37 +170,34 @@ fn strings(args: &[&str]) -> Vec<String> {
 /// Runs the whole system until Ctrl-C (or SIGTERM), or until one of its processes ends.
 pub fn run(options: &UiOptions) -> Result<ExitCode> {
     if !(options.calibration_s.is_finite() && (1.0..=600.0).contains(&options.calibration_s)) {
-        bail!("--calibration-s must be between 1 and 600 s");
+        return Err(Error::other("--calibration-s must be between 1 and 600 s"));
     }
+    let program = options.program.as_path();
     let stop = Arc::new(AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(signal, Arc::clone(&stop))
-            .context("installing the signal handler")?;
+            .map_err(context("installing the signal handler"))?;
     }
     // A fresh directory of our own (it holds the link's key): made here, not found.
     let dir = std::env::temp_dir().join(format!("heli-ui-{}", std::process::id()));
-    std::fs::create_dir(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    std::fs::create_dir(&dir).map_err(context(format!("creating {}", dir.display())))?;
     {
         use std::os::unix::fs::PermissionsExt;
         std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700))
-            .with_context(|| format!("restricting {}", dir.display()))?;
+            .map_err(context(format!("restricting {}", dir.display())))?;
     }
-    std::fs::create_dir(dir.join("logs")).with_context(|| format!("creating {}", dir.display()))?;
+    std::fs::create_dir(dir.join("logs"))
+        .map_err(context(format!("creating {}", dir.display())))?;
     let dir_s = dir.display().to_string();
     let key = dir.join("link.key");
     let key_s = key.display().to_string();
-    let status = Command::new(std::env::current_exe()?)
-        .args(["link", "keygen", "--out", &key_s])
-        .stdout(Stdio::null())
-        .status()?;
-    if !status.success() {
-        bail!("could not make the link's signing key");
-    }
+    heli_link::setup::keygen(&key, false).map_err(Error::other)?;
     let link = format!("udp:127.0.0.1:{}", free_udp_port()?);
     let dev = format!("{dir_s}/dev");
     let mut procs: Vec<Proc> = Vec::new();
     let started = (|| -> Result<(String, String)> {
         let mut hil = Proc::spawn(
+            program,
             "hilsim",
             &dir,
             &strings(&[
@@ -214,6 +224,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
         procs.push(hil);
         let calibration = options.calibration_s.to_string();
         let mut vehicle = Proc::spawn(
+            program,
             "vehicle",
             &dir,
             &strings(&[
@@ -235,6 +246,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
         vehicle.wait_for("bootstrap: listening", Duration::from_secs(20), &stop)?;
         procs.push(vehicle);
         let mut ground = Proc::spawn(
+            program,
             "ground",
             &dir,
             &strings(&[
@@ -265,7 +277,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
     let (url, view_url) = match started {
         Ok(urls) => urls,
         Err(e) => {
-            shut_down(&mut procs, &dir_s);
+            shut_down(program, &mut procs, &dir_s);
             return Err(e);
         }
     };
@@ -302,17 +314,17 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
         }
         std::thread::sleep(Duration::from_millis(100));
     }
-    shut_down(&mut procs, &dir_s);
+    shut_down(program, &mut procs, &dir_s);
     Ok(code)
 }
 
 /// Stops the display, then the vehicle (its flight process ends and closes its log), then
 /// the HILSim.
-fn shut_down(procs: &mut [Proc], dir: &str) {
+fn shut_down(program: &Path, procs: &mut [Proc], dir: &str) {
     println!("heli sim --ui: stopping");
     for p in procs.iter_mut().rev() {
         if p.name == "vehicle" && p.child.try_wait().ok().flatten().is_none() {
-            let _ = Command::new(std::env::current_exe().unwrap_or_else(|_| "heli".into()))
+            let _ = Command::new(program)
                 .args([
                     "vehicle",
                     "ctl",

@@ -1,21 +1,24 @@
 //! `heli bench --hil SECONDS`: the end-to-end HIL path and the flight process's load, on this
-//! machine. The HILSim runs in this process; the flight process (`heli flight`, as the
-//! bootstrap would start it) runs beside it on the HILSim's pseudo-terminals.
+//! machine. The HILSim runs in this process; the flight process (the onboard program's
+//! `flight`, as the bootstrap would start it) runs beside it on the HILSim's
+//! pseudo-terminals.
 //!
 //! - Latency: from the HILSim writing the last byte of an IMU packet to its terminal until a
 //!   whole servo packet can be read back from the servo board's terminal.
 //! - Load: the flight process's CPU time over the flight's wall time (from
 //!   `/proc/PID/stat`), and its resident memory (`VmRSS`, peak `VmHWM`).
 
-use std::io::Write;
+use std::ffi::OsString;
+use std::io::{Error, Result, Write};
 use std::process::{Command, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result, bail};
-use heli_sim::hil::{self, HilOptions};
+use heli_vehicle::supervisor::ToFlight;
 use serde::Serialize;
+
+use crate::hil::{self, HilOptions};
 
 /// What `heli bench --hil` measured.
 #[derive(Serialize)]
@@ -27,7 +30,7 @@ pub struct HilBench {
     /// Servo packets read back.
     pub servo_packets: u64,
     /// IMU write → servo packet readable (µs).
-    pub latency_us: heli_sim::summary::Percentiles,
+    pub latency_us: crate::summary::Percentiles,
     /// The flight process's CPU time over wall time (%, of one core).
     pub flight_cpu_percent: f64,
     /// Its resident memory at the end (MiB).
@@ -43,10 +46,14 @@ fn cpu_seconds(pid: u32) -> Result<f64> {
     let rest = stat
         .rsplit_once(')')
         .map(|(_, r)| r)
-        .context("odd /proc stat")?;
+        .ok_or_else(|| Error::other("odd /proc stat"))?;
     let fields: Vec<&str> = rest.split_whitespace().collect();
     let tick = |i: usize| -> Result<f64> {
-        Ok(fields.get(i).context("short /proc stat")?.parse::<f64>()? / 100.0)
+        fields
+            .get(i)
+            .and_then(|f| f.parse::<f64>().ok())
+            .map(|t| t / 100.0)
+            .ok_or_else(|| Error::other("short /proc stat"))
     };
     // utime and stime are fields 14 and 15 of stat, 11 and 12 after the name.
     Ok(tick(11)? + tick(12)?)
@@ -59,19 +66,26 @@ fn status_mib(pid: u32, key: &str) -> Result<f64> {
         .lines()
         .find_map(|l| l.strip_prefix(key))
         .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-        .with_context(|| format!("no {key} in /proc/{pid}/status"))?;
+        .ok_or_else(|| Error::other(format!("no {key} in /proc/{pid}/status")))?;
     Ok(kb / 1024.0)
 }
 
-/// Flies the hover scenario for `seconds` in real time and measures.
-pub fn run(seconds: f64) -> Result<HilBench> {
+/// Flies the hover scenario for `seconds` in real time against the flight process that
+/// `flight` starts (the program and its first arguments: `heli-vehicle flight`), and
+/// measures.
+pub fn run(seconds: f64, flight: &[OsString]) -> Result<HilBench> {
     if !(seconds.is_finite() && (10.0..=3600.0).contains(&seconds)) {
-        bail!("--hil {seconds}: give 10 to 3600 seconds");
+        return Err(Error::other(format!(
+            "--hil {seconds}: give 10 to 3600 seconds"
+        )));
     }
+    let (program, first_args) = flight
+        .split_first()
+        .ok_or_else(|| Error::other("no flight process program"))?;
     let dir = std::env::temp_dir().join(format!("heli-bench-hil-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let dev = dir.join("dev");
-    let scenario = heli_scenario::load("hover")?;
+    let scenario = heli_scenario::load("hover").map_err(Error::other)?;
     let stop = Arc::new(AtomicBool::new(false));
     let (ready_tx, ready_rx) = std::sync::mpsc::channel();
     let sim = {
@@ -96,10 +110,10 @@ pub fn run(seconds: f64) -> Result<HilBench> {
     };
     ready_rx
         .recv_timeout(Duration::from_secs(10))
-        .context("the HILSim did not start")?;
-    let exe = std::env::current_exe()?;
-    let mut child = Command::new(exe)
-        .args(["flight", "--hilsim"])
+        .map_err(|_| Error::other("the HILSim did not start"))?;
+    let mut child = Command::new(program)
+        .args(first_args)
+        .arg("--hilsim")
         .arg(&dev)
         .arg("--log-dir")
         .arg(&dir)
@@ -108,21 +122,26 @@ pub fn run(seconds: f64) -> Result<HilBench> {
         .stdout(Stdio::null())
         .stderr(Stdio::inherit())
         .spawn()
-        .context("starting the flight process")?;
+        .map_err(|e| Error::new(e.kind(), format!("starting the flight process: {e}")))?;
     let pid = child.id();
-    let mut stdin = child.stdin.take().context("no stdin")?;
-    writeln!(stdin, "start bench autonomous hover")?;
+    let mut stdin = child
+        .stdin
+        .take()
+        .ok_or_else(|| Error::other("the flight process has no stdin"))?;
+    let mut start = heli_link::StartParameters::new("bench", "autonomous").map_err(Error::other)?;
+    start.plan = Some("hover".into());
+    writeln!(stdin, "{}", ToFlight::Start(start))?;
     let started = Instant::now();
     let cpu_start = cpu_seconds(pid)?;
     let summary = sim
         .join()
-        .map_err(|_| anyhow::anyhow!("the HILSim thread panicked"))?
-        .map_err(anyhow::Error::msg)?;
+        .map_err(|_| Error::other("the HILSim thread panicked"))?
+        .map_err(Error::other)?;
     let wall = started.elapsed().as_secs_f64();
     let cpu = cpu_seconds(pid)? - cpu_start;
     let rss = status_mib(pid, "VmRSS:")?;
     let peak = status_mib(pid, "VmHWM:")?;
-    let _ = writeln!(stdin, "stop");
+    let _ = writeln!(stdin, "{}", ToFlight::Stop);
     drop(stdin);
     let _ = child.wait();
     stop.store(true, Ordering::Release);
@@ -137,17 +156,6 @@ pub fn run(seconds: f64) -> Result<HilBench> {
         flight_rss_mib: rss,
         flight_peak_rss_mib: peak,
     })
-}
-
-/// `heli bench --hil SECONDS [--json]`.
-pub fn command(seconds: f64, json: bool) -> Result<std::process::ExitCode> {
-    let b = run(seconds)?;
-    if json {
-        println!("{}", serde_json::to_string_pretty(&b)?);
-    } else {
-        print(&b);
-    }
-    Ok(std::process::ExitCode::SUCCESS)
 }
 
 /// Prints the measurement as a table.

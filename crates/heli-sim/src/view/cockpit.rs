@@ -1,19 +1,20 @@
-//! `heli hilsim --view ADDR [--pilot]`: the simulator's truth to the view's pages
-//! (`heli_ground::truth_view`), with the scenario's flight plan; with `--pilot`, the pages'
-//! transmitter and the trainer's failures back into the simulation.
+//! The simulator's side of the view (`heli hilsim --view ADDR [--pilot]`): its truth to the
+//! view's pages, with the scenario's flight plan; with `--pilot`, the pages' transmitter and
+//! the trainer's failures back into the simulation.
 
 use std::collections::VecDeque;
 use std::net::SocketAddr;
 use std::sync::mpsc::{Receiver, channel};
 use std::time::{Duration, Instant};
 
-use anyhow::{Result, anyhow};
-use heli_ground::truth_view::{self, PilotFrame, TruthFeed, ViewInput};
 use heli_proto::scb::Controls;
+use heli_scenario::Scenario;
 use heli_scenario::trainer::TrainerFault;
-use heli_sim::Scenario;
-use heli_sim::devices::scb::PilotCommand;
-use heli_sim::lockstep::Simulation;
+use heli_types::Transmitter;
+
+use super::{TruthFeed, ViewInput};
+use crate::devices::scb::PilotCommand;
+use crate::lockstep::Simulation;
 
 /// How often a frame is taken from the simulation (wall clock): the pages get 30 a second.
 pub const FRAME_EVERY: Duration = Duration::from_millis(30);
@@ -31,9 +32,9 @@ pub fn serve(
     addr: SocketAddr,
     scenario: &Scenario,
     pilot: bool,
-) -> Result<(TruthFeed, Option<Cockpit>)> {
+) -> std::io::Result<(TruthFeed, Option<Cockpit>)> {
     // The plan's legs, into the points the display draws.
-    let plan = heli_ground::view::plan_points(&heli_link::mission::mission_items(&scenario.plan));
+    let plan = heli_link::mission::plan_points(&heli_link::mission::mission_items(&scenario.plan));
     let setup = serde_json::json!({
         "type": "setup",
         "scenario": scenario.name,
@@ -46,8 +47,7 @@ pub fn serve(
     });
     let (tx, rx) = channel();
     let control = pilot.then_some(tx);
-    let (bound, feed) =
-        truth_view::spawn(addr, setup.to_string(), control).map_err(|e| anyhow!(e))?;
+    let (bound, feed) = super::spawn(addr, setup.to_string(), control)?;
     println!("hilsim: view http://{bound}/ (the simulator's truth)");
     if pilot {
         println!("hilsim: pilot in the loop: fly from the view's page (gamepad or keyboard)");
@@ -87,7 +87,7 @@ pub struct Cockpit {
     log: VecDeque<(f64, String)>,
 }
 
-fn command(f: &PilotFrame) -> PilotCommand {
+fn command(f: &Transmitter) -> PilotCommand {
     PilotCommand {
         sticks: Controls {
             aileron: f.aileron,

@@ -28,6 +28,34 @@ pub struct ReplaySetup {
     pub restart_from: Option<heli_fsw::core::WarmStart>,
 }
 
+/// Why a log cannot be replayed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ReplayError {
+    /// The log holds no device inputs: it was written without them.
+    NoInputs,
+    /// A recorded device input is malformed.
+    BadInput {
+        /// Its time (s of the flight clock).
+        t_s: f64,
+        /// What is wrong with it.
+        why: String,
+    },
+}
+
+impl std::fmt::Display for ReplayError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ReplayError::NoInputs => write!(
+                f,
+                "the log holds no device inputs (channel 'device'): it was written without them and cannot be replayed"
+            ),
+            ReplayError::BadInput { t_s, why } => write!(f, "device input at t={t_s:.6} s: {why}"),
+        }
+    }
+}
+
+impl std::error::Error for ReplayError {}
+
 /// The first place where the replay and the log disagree.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Difference {
@@ -63,7 +91,7 @@ impl ReplayOutcome {
 
 /// Replays `contents` with `setup`. `Err` when the log holds no device inputs (it cannot
 /// be replayed) or one of them is malformed.
-pub fn replay(setup: &ReplaySetup, contents: &LogContents) -> Result<ReplayOutcome, String> {
+pub fn replay(setup: &ReplaySetup, contents: &LogContents) -> Result<ReplayOutcome, ReplayError> {
     let mut computer = match setup.restart_from {
         Some(warm) => {
             FlightComputer::restarted(setup.config, setup.params, setup.baro_rate_hz, warm)
@@ -79,8 +107,10 @@ pub fn replay(setup: &ReplaySetup, contents: &LogContents) -> Result<ReplayOutco
         .iter()
         .filter(|m| m.topic == inputs::CHANNEL)
     {
-        let logged = inputs::logged_from_json(&m.value)
-            .map_err(|e| format!("device input at t={:.6} s: {e}", m.t_us as f64 * 1e-6))?;
+        let logged = inputs::logged_from_json(&m.value).map_err(|why| ReplayError::BadInput {
+            t_s: m.t_us as f64 * 1e-6,
+            why: why.to_string(),
+        })?;
         actions.clear();
         match logged {
             Logged::Start => {
@@ -102,10 +132,7 @@ pub fn replay(setup: &ReplaySetup, contents: &LogContents) -> Result<ReplayOutco
         }
     }
     if !started && outcome.inputs == 0 {
-        return Err(
-            "the log holds no device inputs (channel 'device'): it was written without them and cannot be replayed"
-                .into(),
-        );
+        return Err(ReplayError::NoInputs);
     }
     for channel in COMPARED {
         let logged: Vec<&LoggedMessage> = contents
@@ -368,13 +395,13 @@ mod tests {
         // Nothing to feed.
         let mut bare = flown(&setup());
         bare.messages.retain(|m| m.topic != inputs::CHANNEL);
-        let e = replay(&setup(), &bare).unwrap_err();
+        let e = replay(&setup(), &bare).unwrap_err().to_string();
         assert!(e.contains("no device inputs"), "{e}");
         // An input that cannot be read is named with its time.
         let mut bad = flown(&setup());
         let i = index_of(&bad, inputs::CHANNEL, 3);
         bad.messages[i].value = serde_json::json!({"kind": "bytes", "port": "modem", "hex": ""});
-        let e = replay(&setup(), &bad).unwrap_err();
+        let e = replay(&setup(), &bad).unwrap_err().to_string();
         assert!(e.starts_with("device input at t=0.030000 s"), "{e}");
         // Compared nothing (no record of either channel): not exact.
         let mut silent = flown(&setup());

@@ -14,6 +14,8 @@ use crate::devices::Bytes;
 use crate::lockstep::{RunOptions, Simulation};
 use heli_scenario as scenario;
 
+pub mod hil;
+
 /// Throughput of one device parser.
 #[derive(Clone, Debug, Serialize)]
 pub struct ParserBench {
@@ -152,5 +154,27 @@ pub fn run() -> BenchReport {
             ("demo".into(), demo.realtime_factor),
         ],
         peak_rss_mib: peak_rss_mib(),
+    }
+}
+
+/// Prints the report as `heli bench` does.
+pub fn print(report: &BenchReport) {
+    println!("parsers (8 MB of back-to-back frames through the flight software's drivers)");
+    for p in &report.parsers {
+        println!(
+            "  {:<8} {:>8.1} MB/s  ({} frames)",
+            p.device, p.mb_per_s, p.frames
+        );
+    }
+    let c = &report.control_step;
+    println!(
+        "control step (hover, {} steps with the estimator running): median {:.1} us, p99 {:.1} us, max {:.1} us (budget 20 000 us)",
+        c.steps, c.median_us, c.p99_us, c.max_us
+    );
+    for (name, rtf) in &report.realtime_factor {
+        println!("lockstep {name:<6} {rtf:.0}x real time");
+    }
+    if let Some(mib) = report.peak_rss_mib {
+        println!("peak memory {mib:.1} MiB");
     }
 }

@@ -12,14 +12,14 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result, bail};
+use crate::client::unix_us;
 use heli_link::ground::GroundLink;
 use heli_link::logs::MemoryStore;
 use heli_link::signing::Key;
 use heli_link::vehicle::{VehicleLink, VehicleStatus};
-use heli_vehicle::link::unix_us;
 use mavlink::dialects::common::{COMMAND_LONG_DATA, MavCmd, MavResult};
 use serde::Serialize;
+use std::io::{Error, Result};
 
 /// Bytes of the benchmark's log.
 const LOG_BYTES: usize = 8 << 20;
@@ -48,7 +48,8 @@ pub fn measure() -> Result<LinkBench> {
     let store = MemoryStore {
         logs: vec![("bench.mcap".into(), log.clone())],
     };
-    let vehicle_socket = UdpSocket::bind("127.0.0.1:0").context("binding the vehicle's socket")?;
+    let vehicle_socket = UdpSocket::bind("127.0.0.1:0")
+        .map_err(|e| Error::new(e.kind(), format!("binding the vehicle's socket: {e}")))?;
     let vehicle_addr = vehicle_socket.local_addr()?;
     vehicle_socket.set_read_timeout(Some(Duration::from_millis(10)))?;
     let stop = Arc::new(AtomicBool::new(false));
@@ -105,12 +106,15 @@ pub fn measure() -> Result<LinkBench> {
         socket.send_to(&frame, vehicle_addr)?;
         while ground.acks.len() == before {
             if t0.elapsed() > Duration::from_secs(2) {
-                bail!("no acknowledgement in 2 s");
+                return Err(Error::other("no acknowledgement in 2 s"));
             }
             pump(&mut ground);
         }
         if ground.acks.last().map(|a| a.1) != Some(MavResult::MAV_RESULT_ACCEPTED) {
-            bail!("command refused: {:?}", ground.acks.last());
+            return Err(Error::other(format!(
+                "command refused: {:?}",
+                ground.acks.last()
+            )));
         }
         rtts.push(t0.elapsed().as_secs_f64() * 1e6);
     }
@@ -137,15 +141,18 @@ pub fn measure() -> Result<LinkBench> {
             break;
         }
         if t0.elapsed() > Duration::from_secs(300) {
-            bail!("the download did not finish in 300 s");
+            return Err(Error::other("the download did not finish in 300 s"));
         }
     }
     let download_s = t0.elapsed().as_secs_f64();
     stop.store(true, Ordering::Release);
     let _ = vehicle.join();
-    let dl = ground.download.take().context("no download")?;
+    let dl = ground
+        .download
+        .take()
+        .ok_or_else(|| Error::other("no download"))?;
     if dl.bytes != log {
-        bail!("the downloaded log differs");
+        return Err(Error::other("the downloaded log differs"));
     }
     Ok(LinkBench {
         log_bytes: LOG_BYTES,
@@ -156,23 +163,17 @@ pub fn measure() -> Result<LinkBench> {
     })
 }
 
-/// `heli bench --link`.
-pub fn command(json: bool) -> Result<std::process::ExitCode> {
-    let b = measure()?;
-    if json {
-        println!("{}", serde_json::to_string_pretty(&b)?);
-    } else {
-        println!(
-            "log download   {:.1} MiB in {:.2} s: {:.2} MB/s, signed, byte-exact ({} requests)",
-            b.log_bytes as f64 / 1048576.0,
-            b.download_s,
-            b.download_mb_per_s,
-            b.download_requests
-        );
-        println!(
-            "command RTT    p50 {:.0} us, p99 {:.0} us, max {:.0} us ({ROUND_TRIPS} SET_MESSAGE_INTERVAL round trips)",
-            b.command_rtt_us[0], b.command_rtt_us[1], b.command_rtt_us[2]
-        );
-    }
-    Ok(std::process::ExitCode::SUCCESS)
+/// Prints the measurement.
+pub fn print(b: &LinkBench) {
+    println!(
+        "log download   {:.1} MiB in {:.2} s: {:.2} MB/s, signed, byte-exact ({} requests)",
+        b.log_bytes as f64 / 1048576.0,
+        b.download_s,
+        b.download_mb_per_s,
+        b.download_requests
+    );
+    println!(
+        "command RTT    p50 {:.0} us, p99 {:.0} us, max {:.0} us ({ROUND_TRIPS} SET_MESSAGE_INTERVAL round trips)",
+        b.command_rtt_us[0], b.command_rtt_us[1], b.command_rtt_us[2]
+    );
 }

@@ -6,12 +6,14 @@
 //!
 //! The simulator publishes a frame (JSON) whenever it likes ([`TruthFeed::publish`]); each
 //! page gets the setup (the plan, the scenario's name) once and then the newest frame at most
-//! 30 times a second, whatever the simulation's speed. The page's files are embedded like
-//! the display's.
+//! 30 times a second, whatever the simulation's speed. The page's files (`web/`) are
+//! embedded like the display's, with the instruments all pages share (`heli-web`).
+//! [`cockpit`] is the simulator's side: what it publishes, and the pages' transmitter and
+//! the trainer's failures taken into the simulation.
 //!
 //! Served read-only, nothing a page sends reaches the simulator. Served with a control
 //! channel (`heli hilsim --pilot`), a page may hold the transmitter — its sticks and
-//! switches, [`PilotFrame`], checked here — hand it back, and trigger failures (passed on as
+//! switches, a [`Transmitter`], checked here — hand it back, and trigger failures (passed on as
 //! the page wrote them, for the simulator to check). What is refused is answered with an
 //! `error` message naming why.
 
@@ -25,7 +27,12 @@ use axum::extract::ws::{Message as WsMessage, WebSocket, WebSocketUpgrade};
 use axum::http::Uri;
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
+use heli_types::Transmitter;
+use heli_types::transmitter::OutOfRange;
+use include_dir::{Dir, include_dir};
 use tokio::sync::watch;
+
+pub mod cockpit;
 
 /// Longest between two frames to a page.
 const FRAME_EVERY: Duration = Duration::from_millis(33);
@@ -34,55 +41,48 @@ const FRAME_EVERY: Duration = Duration::from_millis(33);
 #[derive(Clone, Debug, PartialEq)]
 pub enum ViewInput {
     /// The page holds the transmitter: its sticks and switches now.
-    Pilot(PilotFrame),
+    Pilot(Transmitter),
     /// The page hands the transmitter back to the scenario's pilot.
     Release,
     /// Trigger a failure: the request as the page wrote it (JSON with a `kind`).
     Fault(String),
 }
 
-/// A transmitter's sticks and switches as a page sends them.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PilotFrame {
-    /// Lateral cyclic, −1..1 (right positive).
-    pub aileron: f64,
-    /// Longitudinal cyclic, −1..1 (aft positive).
-    pub elevator: f64,
-    /// Tail, −1..1.
-    pub rudder: f64,
-    /// Collective, −1..1.
-    pub collective: f64,
-    /// Throttle, 0..1.
-    pub throttle: f64,
-    /// The auto switch.
-    pub auto: bool,
-    /// The emergency bypass switch.
-    pub bypass: bool,
+/// Why a page's message is refused.
+#[derive(Debug)]
+pub enum InputError {
+    /// Not JSON at all (the start of the text).
+    NotJson(serde_json::Error, String),
+    /// A pilot message whose fields are wrong.
+    Pilot(serde_json::Error),
+    /// A pilot message with a channel out of its range.
+    OutOfRange(OutOfRange),
+    /// A fault message without its `fault` object.
+    NoFault,
+    /// A message of no known type.
+    UnknownType(String),
 }
 
-impl PilotFrame {
-    /// Checks every channel is a number in its range, naming the first that is not.
-    pub fn check(&self) -> Result<(), String> {
-        for (name, v, lo) in [
-            ("aileron", self.aileron, -1.0),
-            ("elevator", self.elevator, -1.0),
-            ("rudder", self.rudder, -1.0),
-            ("collective", self.collective, -1.0),
-            ("throttle", self.throttle, 0.0),
-        ] {
-            if !(v.is_finite() && (lo..=1.0).contains(&v)) {
-                return Err(format!("pilot {name} {v}: must be within {lo}..1"));
+impl std::fmt::Display for InputError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            InputError::NotJson(e, text) => write!(f, "not JSON ({e}): {text:.80}"),
+            InputError::Pilot(e) => write!(f, "pilot message: {e}"),
+            InputError::OutOfRange(e) => write!(f, "{e}"),
+            InputError::NoFault => write!(f, "fault message: no `fault` object"),
+            InputError::UnknownType(t) => {
+                write!(f, "unknown message type '{t}' (pilot, release, fault)")
             }
         }
-        Ok(())
     }
 }
 
+impl std::error::Error for InputError {}
+
 /// Reads one message from a page: what it asks, or why it is refused.
-pub fn parse_input(text: &str) -> Result<ViewInput, String> {
-    let value: serde_json::Value =
-        serde_json::from_str(text).map_err(|e| format!("not JSON ({e}): {text:.80}"))?;
+pub fn parse_input(text: &str) -> Result<ViewInput, InputError> {
+    let value: serde_json::Value = serde_json::from_str(text)
+        .map_err(|e| InputError::NotJson(e, text.chars().take(80).collect()))?;
     let kind = value.get("type").and_then(|t| t.as_str()).unwrap_or("");
     match kind {
         "pilot" => {
@@ -90,19 +90,16 @@ pub fn parse_input(text: &str) -> Result<ViewInput, String> {
             if let Some(map) = fields.as_object_mut() {
                 map.remove("type");
             }
-            let frame: PilotFrame =
-                serde_json::from_value(fields).map_err(|e| format!("pilot message: {e}"))?;
-            frame.check()?;
+            let frame: Transmitter = serde_json::from_value(fields).map_err(InputError::Pilot)?;
+            frame.check().map_err(InputError::OutOfRange)?;
             Ok(ViewInput::Pilot(frame))
         }
         "release" => Ok(ViewInput::Release),
         "fault" => match value.get("fault") {
             Some(fault) if fault.is_object() => Ok(ViewInput::Fault(fault.to_string())),
-            _ => Err("fault message: no `fault` object".into()),
+            _ => Err(InputError::NoFault),
         },
-        other => Err(format!(
-            "unknown message type '{other}' (pilot, release, fault)"
-        )),
+        other => Err(InputError::UnknownType(other.to_string())),
     }
 }
 
@@ -133,7 +130,10 @@ pub fn spawn(
     addr: SocketAddr,
     setup_json: String,
     control: Option<std::sync::mpsc::Sender<ViewInput>>,
-) -> Result<(SocketAddr, TruthFeed), String> {
+) -> std::io::Result<(SocketAddr, TruthFeed)> {
+    let context = |what: String| {
+        move |e: std::io::Error| std::io::Error::new(e.kind(), format!("{what}: {e}"))
+    };
     let (frames, rx) = watch::channel(Arc::<str>::from(""));
     let state = ViewState {
         setup: Arc::from(setup_json),
@@ -150,7 +150,7 @@ pub fn spawn(
             {
                 Ok(rt) => rt,
                 Err(e) => {
-                    let _ = bound_tx.send(Err(format!("starting the view's runtime: {e}")));
+                    let _ = bound_tx.send(Err(context("starting the view's runtime".into())(e)));
                     return;
                 }
             };
@@ -158,32 +158,46 @@ pub fn spawn(
                 let listener = match tokio::net::TcpListener::bind(addr).await {
                     Ok(l) => l,
                     Err(e) => {
-                        let _ = bound_tx.send(Err(format!("serving the view on {addr}: {e}")));
+                        let _ =
+                            bound_tx.send(Err(context(format!("serving the view on {addr}"))(e)));
                         return;
                     }
                 };
                 let _ = bound_tx.send(
                     listener
                         .local_addr()
-                        .map_err(|e| format!("serving the view: {e}")),
+                        .map_err(context("serving the view".into())),
                 );
                 let app = Router::new()
                     .route("/", get(page))
                     .route("/ws", get(ws))
-                    .fallback(crate::server::asset)
+                    .fallback(asset)
                     .with_state(state);
                 let _ = axum::serve(listener, app).await;
             });
         })
-        .map_err(|e| format!("starting the view's thread: {e}"))?;
+        .map_err(context("starting the view's thread".into()))?;
     let bound = bound_rx
         .recv()
-        .map_err(|_| "the view's thread ended before serving".to_string())??;
+        .map_err(|_| std::io::Error::other("the view's thread ended before serving"))??;
     Ok((bound, TruthFeed { frames }))
 }
 
+/// The page's files.
+static WEB: Dir<'_> = include_dir!("$CARGO_MANIFEST_DIR/web");
+
+/// The view's site: its page, then the files all pages share.
+static SITE: heli_web::Site = heli_web::Site {
+    own: &WEB,
+    name: "simulator view",
+};
+
 async fn page() -> Response {
-    crate::server::asset(Uri::from_static("/truth.html")).await
+    SITE.file(&Uri::from_static("/truth.html"))
+}
+
+async fn asset(uri: Uri) -> Response {
+    SITE.file(&uri)
 }
 
 async fn ws(upgrade: WebSocketUpgrade, State(state): State<ViewState>) -> Response {
@@ -229,7 +243,7 @@ async fn feed(mut socket: WebSocket, mut state: ViewState) {
                     (None, _) => Some(
                         "this view is read-only: start heli hilsim with --pilot to fly".into(),
                     ),
-                    (Some(_), Err(e)) => Some(e),
+                    (Some(_), Err(e)) => Some(e.to_string()),
                     (Some(control), Ok(input)) => control
                         .send(input)
                         .err()
@@ -264,10 +278,13 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
-        assert_eq!(parse_input(r#"{"type":"release"}"#), Ok(ViewInput::Release));
         assert_eq!(
-            parse_input(r#"{"type":"fault","fault":{"kind":"engine-failure"}}"#),
-            Ok(ViewInput::Fault(r#"{"kind":"engine-failure"}"#.into()))
+            parse_input(r#"{"type":"release"}"#).ok(),
+            Some(ViewInput::Release)
+        );
+        assert_eq!(
+            parse_input(r#"{"type":"fault","fault":{"kind":"engine-failure"}}"#).ok(),
+            Some(ViewInput::Fault(r#"{"kind":"engine-failure"}"#.into()))
         );
         for (bad, says) in [
             (
@@ -287,7 +304,7 @@ mod tests {
             (r#"{"type":"launch"}"#, "unknown message type 'launch'"),
             ("{]", "not JSON"),
         ] {
-            let err = parse_input(bad).unwrap_err();
+            let err = parse_input(bad).unwrap_err().to_string();
             assert!(err.contains(says), "{bad}: {err}");
         }
     }

@@ -7,7 +7,7 @@
 //! [`crate::hil`]'s, at their recorded times (times `speed`). Nothing is simulated: the
 //! helicopter does not answer the new commands, so any difference in them comes from the
 //! software. The flight computer's servo commands are read back from the servo board's
-//! terminal and compared with the recorded ones ([`crate::replay_compare`]).
+//! terminal and compared with the recorded ones ([`crate::replay::compare`]).
 //!
 //! The playback starts when the computer first writes to a device (its flight process
 //! starting: the altimeter's handshake), lined up with the recorded flight's start.
@@ -27,7 +27,7 @@ use heli_proto::scb::{Controls, Pulses, ServoFramer, ServoPacket};
 use heli_types::Port;
 
 use crate::hil::{HilDevices, expose, spawn_readers, write_adc};
-use crate::replay_compare::{Comparison, Tolerance, compare};
+use crate::replay::compare::{Comparison, Tolerance, compare};
 
 /// A recorded flight, as the replay needs it.
 #[derive(Clone, Debug, Default)]

@@ -1,0 +1,158 @@
+//! What the workstation's web pages share: the operator's display (`heli-ground`) and the
+//! simulator's truth and pilot page (`heli-sim`).
+//!
+//! What it is: a page's files served from the binary ([`Site`]: the page's own directory,
+//! then the shared one), the shared files themselves (`web/`: the 3D instruments and the
+//! style), and the check that a WebSocket comes from the page's own origin
+//! ([`same_origin`]).
+//!
+//! What it is not: a page. Each crate embeds its own HTML and scripts and serves them with
+//! its own routes; nothing is fetched from elsewhere, at build or run time.
+
+use axum::http::{HeaderMap, StatusCode, Uri, header};
+use axum::response::{IntoResponse, Response};
+use include_dir::{Dir, include_dir};
+
+/// The files every page may load: `instruments.js` (the 3D view, the attitude and the
+/// compass) and `style.css`.
+pub static SHARED: Dir<'_> = include_dir!("$CARGO_MANIFEST_DIR/web");
+
+/// A page's files: its own directory, then [`SHARED`].
+#[derive(Clone, Copy, Debug)]
+pub struct Site {
+    /// The page's own files.
+    pub own: &'static Dir<'static>,
+    /// What the page is, for a "not found" answer (`ground station`, `simulator view`).
+    pub name: &'static str,
+}
+
+impl Site {
+    /// The file at `uri`'s path (`/` is `index.html`), with its content type and no
+    /// caching, or 404 naming what is missing.
+    pub fn file(&self, uri: &Uri) -> Response {
+        let path = uri.path().trim_start_matches('/');
+        let path = if path.is_empty() { "index.html" } else { path };
+        let Some(file) = self.own.get_file(path).or_else(|| SHARED.get_file(path)) else {
+            return (
+                StatusCode::NOT_FOUND,
+                format!("no {path} on this {}", self.name),
+            )
+                .into_response();
+        };
+        (
+            [
+                (header::CONTENT_TYPE, content_type(path)),
+                (header::CACHE_CONTROL, "no-cache"),
+            ],
+            file.contents(),
+        )
+            .into_response()
+    }
+}
+
+/// The content type of a file by its name.
+pub fn content_type(path: &str) -> &'static str {
+    match path.rsplit('.').next() {
+        Some("html") => "text/html; charset=utf-8",
+        Some("js") => "text/javascript; charset=utf-8",
+        Some("css") => "text/css; charset=utf-8",
+        Some("svg") => "image/svg+xml",
+        Some("png") => "image/png",
+        _ => "application/octet-stream",
+    }
+}
+
+/// Whether a WebSocket's handshake comes from a page of this server: its `Origin`'s host
+/// must be the `Host` it asked (browsers always send `Origin` on a WebSocket). `Err` is the
+/// refusal to answer with.
+pub fn same_origin(headers: &HeaderMap, what: &str) -> Result<(), Box<Response>> {
+    let host = headers.get(header::HOST).and_then(|h| h.to_str().ok());
+    let origin = headers.get(header::ORIGIN).and_then(|h| h.to_str().ok());
+    if let Some(origin) = origin {
+        let origin_host = origin.split("://").nth(1).unwrap_or("");
+        if host != Some(origin_host) {
+            return Err(Box::new(
+                (
+                    StatusCode::FORBIDDEN,
+                    format!("WebSocket from {origin} refused: only {what}"),
+                )
+                    .into_response(),
+            ));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use axum::body::to_bytes;
+    use axum::http::HeaderValue;
+
+    static NONE: Dir<'_> = include_dir!("$CARGO_MANIFEST_DIR/src");
+
+    fn body(r: Response) -> (StatusCode, String, String) {
+        let status = r.status();
+        let kind = r
+            .headers()
+            .get(header::CONTENT_TYPE)
+            .and_then(|v| v.to_str().ok())
+            .unwrap_or("")
+            .to_string();
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
+        let bytes = rt.block_on(to_bytes(r.into_body(), 1 << 20)).unwrap();
+        (status, kind, String::from_utf8_lossy(&bytes).into_owned())
+    }
+
+    #[test]
+    fn a_page_gets_its_own_files_then_the_shared_ones_and_a_404_names_the_site() {
+        let site = Site {
+            own: &NONE,
+            name: "test page",
+        };
+        let (status, kind, text) = body(site.file(&Uri::from_static("/lib.rs")));
+        assert_eq!(
+            (status, kind.as_str()),
+            (StatusCode::OK, "application/octet-stream")
+        );
+        assert!(text.contains("What the workstation's web pages share"));
+        let (status, kind, _) = body(site.file(&Uri::from_static("/instruments.js")));
+        assert_eq!(
+            (status, kind.as_str()),
+            (StatusCode::OK, "text/javascript; charset=utf-8")
+        );
+        let (status, _, text) = body(site.file(&Uri::from_static("/")));
+        assert_eq!(status, StatusCode::NOT_FOUND);
+        assert_eq!(text, "no index.html on this test page");
+        assert_eq!(content_type("a.css"), "text/css; charset=utf-8");
+        assert_eq!(content_type("a.html"), "text/html; charset=utf-8");
+    }
+
+    #[test]
+    fn a_websocket_from_another_origin_is_refused() {
+        let mut headers = HeaderMap::new();
+        headers.insert(header::HOST, HeaderValue::from_static("127.0.0.1:8080"));
+        assert!(
+            same_origin(&headers, "x").is_ok(),
+            "no Origin: not a browser's"
+        );
+        headers.insert(
+            header::ORIGIN,
+            HeaderValue::from_static("http://127.0.0.1:8080"),
+        );
+        assert!(same_origin(&headers, "x").is_ok());
+        headers.insert(
+            header::ORIGIN,
+            HeaderValue::from_static("http://evil.example"),
+        );
+        let refused = same_origin(&headers, "this display's pages").unwrap_err();
+        let (status, _, text) = body(*refused);
+        assert_eq!(status, StatusCode::FORBIDDEN);
+        assert_eq!(
+            text,
+            "WebSocket from http://evil.example refused: only this display's pages"
+        );
+    }
+}
