@@ -101,7 +101,7 @@ fn open(args: &GroundArgs, timeout: Duration) -> Result<Client> {
     let on_text = Box::new(|severity, text: &str| {
         eprintln!(
             "vehicle [{}]: {text}",
-            heli_ground::view::severity_word(severity)
+            heli_ground::messages::severity_word(severity)
         );
     });
     Ok(Client::open(vehicle, key, timeout, on_text)?)

@@ -3,15 +3,17 @@
 //! FLIGHT.mcap`, a recorded flight's device inputs instead of the simulator's, and the
 //! computer's servo commands compared with the recorded ones.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result, anyhow, bail};
 use heli_scenario as scenario;
 use heli_sim::hil::{self, HilOptions};
 use heli_sim::lockstep::Simulation;
+use heli_sim::replay::compare::{CHANNELS, Tolerance};
+use heli_sim::replay::hil::{self as hil_replay, Recording, ReplayOptions};
 use heli_sim::summary::Outcome;
 
 /// Arguments of `heli hilsim`.
@@ -65,7 +67,7 @@ pub struct HilsimArgs {
 /// Runs the HILSim until its duration, a crash, or SIGINT / SIGTERM.
 pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
     if let Some(flight) = &args.replay {
-        return crate::hil_replay_cmd::replay(args, flight);
+        return replay(args, flight);
     }
     let mut scenario = scenario::load(&args.scenario)
         .with_context(|| format!("loading scenario '{}'", args.scenario))?;
@@ -162,4 +164,113 @@ pub(crate) fn print_devices(devices: &hil::HilDevices, compass_cal: &std::path::
     );
     println!("hilsim: compass calibration {}", compass_cal.display());
     println!("hilsim: ready");
+}
+
+/// Replays `flight`; exit 0 when the commands match, 1 when they differ.
+pub fn replay(args: &HilsimArgs, flight: &Path) -> Result<ExitCode> {
+    let bytes = std::fs::read(flight).with_context(|| format!("{}", flight.display()))?;
+    let contents = heli_log::read(&bytes);
+    let setup = heli_sim::replay::setup::setup_of(&contents)
+        .with_context(|| format!("{}", flight.display()))?;
+    let rec = Recording::from_log(&contents)
+        .map_err(|e| anyhow!(e))
+        .with_context(|| format!("{}", flight.display()))?;
+    if !(args.wait_s.is_finite() && args.wait_s > 0.0) {
+        anyhow::bail!(
+            "--wait-s must be a positive number of seconds, not {}",
+            args.wait_s
+        );
+    }
+    // A lockstep flight names its scenario (whose plan the vehicle knows by that name); a
+    // vehicle's flight names its plan.
+    let flight_entry = |key: &str| {
+        contents
+            .metadata
+            .iter()
+            .filter(|m| m.name == heli_log::metadata::FLIGHT)
+            .find_map(|m| m.entries.get(key).cloned())
+    };
+    let plan_name = flight_entry("plan")
+        .or_else(|| flight_entry("scenario"))
+        .unwrap_or_else(|| "(not recorded)".into());
+    let stop = stop_on_signals()?;
+    let options = ReplayOptions {
+        speed: args.speed,
+        wait_s: args.wait_s,
+        tolerance: Tolerance {
+            pulse_us: args.tolerance_us,
+            share: args.tolerance_share,
+            ..Tolerance::default()
+        },
+    };
+    let report = hil_replay::run(&rec, &args.ptys, options, &stop, |devices| {
+        let cal = devices.dir.join(heli_vehicle::compass_file::HIL_FILE_NAME);
+        if let Err(e) = heli_vehicle::compass_file::write(&cal, &setup.config.compass) {
+            eprintln!("heli hilsim: {e:#}");
+        }
+        println!(
+            "hilsim: replaying {} ({:.1} s of device inputs, {} servo commands), {}x real time",
+            flight.display(),
+            rec.duration_s(),
+            rec.servo.len(),
+            args.speed
+        );
+        println!(
+            "hilsim: recorded with calibration {} s, warm-up {} s, mode {}, plan {}: start the flight computer the same way",
+            setup.config.calibration_s,
+            setup.config.imu_warm_up_s,
+            setup.params.mode.name(),
+            plan_name
+        );
+        print_devices(devices, &cal);
+    })
+    .map_err(|e| anyhow!(e))?;
+    let c = &report.comparison;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!(
+            "played      {} device inputs over {:.1} s",
+            report.inputs_played, report.played_s
+        );
+        println!(
+            "compared    {} of {} recorded servo commands paired ({} sent), largest time offset {:.1} ms, {} on the other IMU samples",
+            c.paired,
+            c.recorded,
+            c.replayed,
+            c.max_offset_us as f64 * 1e-3,
+            c.shifted
+        );
+        for (name, ch) in CHANNELS.iter().zip(&c.channels) {
+            println!(
+                "  {name:<10} largest difference {:>4} us at t={:.2} s, rms {:.2} us",
+                ch.max_us, ch.at_s, ch.rms_us
+            );
+        }
+        println!(
+            "tolerance   {} us and {} ms; {} commands out of it ({:.2} %, {:.1} % allowed), first at {}",
+            c.tolerance.pulse_us,
+            c.tolerance.window_us / 1000,
+            c.out_of_tolerance,
+            100.0 * c.out_of_tolerance as f64 / (c.recorded.max(1)) as f64,
+            100.0 * c.tolerance.share,
+            c.first_difference_s
+                .map_or("none".to_string(), |t| format!("t={t:.2} s"))
+        );
+        println!(
+            "outcome     {}",
+            if c.matches() {
+                "MATCH: the flight software gives the recorded commands"
+            } else if c.recorded == 0 {
+                "NOTHING COMPARED: the log has no servo commands"
+            } else {
+                "DIFFERENT"
+            }
+        );
+    }
+    Ok(if c.matches() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
 }

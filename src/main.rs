@@ -5,13 +5,11 @@
 
 mod campaign_cmd;
 mod ground_cmd;
-mod hil_replay_cmd;
 mod hilsim_cmd;
 mod link_cmd;
 mod log_cmd;
 mod model_cmd;
 mod replay_cmd;
-mod suite_cmd;
 
 use std::io::IsTerminal;
 use std::process::ExitCode;
@@ -263,7 +261,7 @@ fn main() -> ExitCode {
         Command::Driver(args) => heli_vehicle::cli::driver(&args),
         Command::Campaign { run, merge } => match merge {
             Some(campaign_cmd::MergeCommand::Merge(args)) => campaign_cmd::merge(&args),
-            Some(campaign_cmd::MergeCommand::Suite(args)) => suite_cmd::suite(&args),
+            Some(campaign_cmd::MergeCommand::Suite(args)) => campaign_cmd::suite(&args),
             None => campaign_cmd::campaign(&run),
         },
     };

@@ -2,8 +2,8 @@
 
 use toml::{Table, Value};
 
-use super::file::{Draw, MAX_LIST, Target, Vary, VaryToml, resolve};
 use super::keys::{self, Segment};
+use super::vary::{Draw, MAX_LIST, Target, Vary, VaryToml, edits, resolve};
 use heli_scenario::validate::MAX_DURATION_S;
 
 fn finite(name: &str, x: f64) -> Result<f64, String> {
@@ -217,7 +217,7 @@ pub(crate) fn check_ends(v: &Vary, start: &Table, resolved: &Table) -> Result<()
     };
     for (which, value) in ends {
         let mut file = start.clone();
-        for (path, x) in super::sample::edits(v, &value) {
+        for (path, x) in edits(v, &value) {
             keys::set(&mut file, resolved, &path, x)?;
         }
         resolve(&file)

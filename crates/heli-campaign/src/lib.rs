@@ -42,17 +42,21 @@ pub mod report;
 pub mod runner;
 pub mod sample;
 mod score;
+pub mod shard;
 pub mod suite;
 pub mod table;
+pub mod vary;
 
 #[cfg(test)]
 mod tests;
 
-pub use file::{Campaign, Draw, Vary};
+pub use file::Campaign;
 pub use merge::merge;
 pub use report::{FlightOutcome, FlightRecord, Report, Totals};
-pub use runner::{RunConfig, Shard, run};
+pub use runner::{RunConfig, run};
 pub use sample::Flight;
+pub use shard::Shard;
+pub use vary::{Draw, Vary};
 
 /// Why a campaign could not be loaded, run or merged. The text names the file, and where it
 /// applies the key, the flight or the allowed range.

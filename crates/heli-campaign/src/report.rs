@@ -10,17 +10,14 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use super::Campaign;
-use super::runner::Shard;
 use super::sample::Flight;
+pub use super::score::SCORE_CAP;
 use super::score::score;
+use super::shard::Shard;
 use heli_sim::summary::{Outcome, Summary};
 
 /// Worst cases a report lists.
 pub const WORST_CASES: usize = 10;
-
-/// A ranking score at or above this is written as this: an unmeasured criterion, or a
-/// ratio against a limit of zero.
-pub const SCORE_CAP: f64 = 10.0;
 
 /// How one flight ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

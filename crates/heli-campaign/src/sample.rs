@@ -15,8 +15,9 @@ use rand_distr::{Distribution, StandardNormal};
 use toml::{Table, Value};
 
 use super::CampaignError;
-use super::file::{Campaign, Draw, Target, Vary};
+use super::file::Campaign;
 use super::keys::{self, Segment};
+use super::vary::{Draw, Target, edits};
 use heli_scenario::{self as scenario, Scenario};
 
 /// Draws from a truncated normal before it is clamped instead.
@@ -171,42 +172,6 @@ impl Flight {
         let body = toml::to_string(&table).map_err(|e| e.to_string())?;
         let base = Value::String(base.to_string());
         Ok(format!("{header}base = {base}\n{body}"))
-    }
-}
-
-/// What writing `value` for `v` changes in the scenario file: the key itself, and for a
-/// window its end (`length_s` after the value).
-pub(crate) fn edits(v: &Vary, value: &Value) -> Vec<(Vec<Segment>, Value)> {
-    let number = match value {
-        Value::Integer(i) => Some(*i as f64),
-        Value::Float(f) => Some(*f),
-        _ => None,
-    };
-    let length = v.length_s.unwrap_or(0.0);
-    match (v.target, number) {
-        (Target::Window, Some(start)) => vec![(
-            v.path.clone(),
-            Value::Array(vec![Value::Float(start), Value::Float(start + length)]),
-        )],
-        (Target::StartEnd, Some(start)) => {
-            let mut end = v.path.clone();
-            end.pop();
-            end.push(Segment::Field("end_s".into()));
-            vec![
-                (v.path.clone(), Value::Float(start)),
-                (end, Value::Float(start + length)),
-            ]
-        }
-        (Target::Number { integer: true }, Some(x)) => {
-            let whole = match value {
-                Value::Integer(i) => Value::Integer(*i),
-                // Rounded (and held within an i64, which the scenario's checks then judge).
-                _ => Value::Integer(x.round() as i64),
-            };
-            vec![(v.path.clone(), whole)]
-        }
-        (Target::Number { integer: false }, Some(x)) => vec![(v.path.clone(), Value::Float(x))],
-        _ => vec![(v.path.clone(), value.clone())],
     }
 }
 

@@ -1,7 +1,10 @@
 //! A flight's ranking score: how far past (or how close to) its limits it came.
 
-use super::report::SCORE_CAP;
 use heli_sim::summary::Criterion;
+
+/// A ranking score at or above this is written as this: an unmeasured criterion, or a
+/// ratio against a limit of zero.
+pub const SCORE_CAP: f64 = 10.0;
 
 /// A flight's ranking score and the criterion that gives it (see [`super::FlightRecord::score`]).
 pub(crate) fn score(criteria: &[Criterion]) -> (f64, Option<String>) {

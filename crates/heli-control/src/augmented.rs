@@ -7,7 +7,8 @@ use heli_proto::scb::Controls;
 use heli_types::AugmentedMode;
 use nalgebra::Vector3;
 
-use crate::hover::{HoverController, sanitize_dt};
+use crate::hover::HoverController;
+use crate::sanitize_dt;
 use crate::{GOVERNED_THROTTLE, limit};
 
 /// Full-stick values of the augmented modes.

@@ -39,7 +39,8 @@ use heli_nav::navigator::NavState;
 use heli_proto::scb::Controls;
 use nalgebra::Vector3;
 
-use crate::hover::{HoverController, accel_to_attitude, sanitize_dt};
+use crate::hover::{HoverController, accel_to_attitude};
+use crate::sanitize_dt;
 use crate::{GOVERNED_THROTTLE, limit};
 
 /// Gains and limits of the autorotation.

@@ -9,7 +9,7 @@
 
 use heli_nav::navigator::wrap_pi;
 
-use crate::hover::sanitize_dt;
+use crate::sanitize_dt;
 
 /// Largest lead of the reference over the heading (rad): 20 deg.
 pub const HEADING_LEASH_RAD: f64 = 0.35;

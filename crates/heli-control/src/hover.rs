@@ -7,6 +7,7 @@ use heli_proto::scb::Controls;
 use nalgebra::Vector3;
 
 use crate::heading_lock::HeadingLock;
+use crate::sanitize_dt;
 use crate::{GOVERNED_THROTTLE, limit};
 
 /// How much of the tail's travel the yaw integrator may hold (normalised): in a strong
@@ -123,15 +124,6 @@ impl Target {
             vel_ned_mps: Vector3::zeros(),
             yaw_rad,
         }
-    }
-}
-
-/// A step time made safe: not finite becomes 0, and at most 0.1 s.
-pub fn sanitize_dt(dt_s: f64) -> f64 {
-    if dt_s.is_finite() {
-        dt_s.clamp(0.0, 0.1)
-    } else {
-        0.0
     }
 }
 

@@ -52,3 +52,12 @@ pub fn limit(value: f64, limit: f64) -> f64 {
         0.0
     }
 }
+
+/// A step time made safe: not finite becomes 0, and at most 0.1 s.
+pub fn sanitize_dt(dt_s: f64) -> f64 {
+    if dt_s.is_finite() {
+        dt_s.clamp(0.0, 0.1)
+    } else {
+        0.0
+    }
+}

@@ -12,7 +12,8 @@
     clippy::arithmetic_side_effects
 )]
 
-use heli_control::hover::{HoverController, HoverGains, Target, YAW_TRIM_AUTHORITY, sanitize_dt};
+use heli_control::hover::{HoverController, HoverGains, Target, YAW_TRIM_AUTHORITY};
+use heli_control::sanitize_dt;
 use heli_control::{GOVERNED_THROTTLE, limit};
 use heli_nav::{GRAVITY_MPS2, NavState};
 use nalgebra::{UnitQuaternion, Vector3};

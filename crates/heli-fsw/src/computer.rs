@@ -384,7 +384,7 @@ mod tests {
             trim: None,
         };
         let fc = FlightComputer::restarted(CoreConfig::default(), FlightParams::default(), 5, warm);
-        assert_eq!(fc.core().phase(), crate::core::Phase::BlindDescent);
+        assert_eq!(fc.core().phase(), crate::phase::Phase::BlindDescent);
         let cold = FlightComputer::restarted(
             CoreConfig::default(),
             FlightParams::default(),
@@ -394,7 +394,7 @@ mod tests {
                 ..warm
             },
         );
-        assert_eq!(cold.core().phase(), crate::core::Phase::Calibrating);
+        assert_eq!(cold.core().phase(), crate::phase::Phase::Calibrating);
     }
 
     #[test]

@@ -19,7 +19,8 @@ use heli_nav::navigator::Covariance;
 use heli_nav::{NavState, Navigator};
 use heli_proto::scb::Controls;
 
-use crate::core::{Action, CoreEvent, CoreStats, FlightCore, Phase};
+use crate::core::{Action, CoreEvent, CoreStats, FlightCore};
+use crate::phase::Phase;
 use crate::streams::Record;
 
 /// How far a quaternion's norm may stray from one.

@@ -36,8 +36,10 @@ pub mod core;
 pub mod drivers;
 pub mod health;
 pub mod invariants;
+pub mod phase;
 pub mod streams;
 
 pub use crate::computer::{DeviceInput, FlightComputer, RecordedInput};
-pub use crate::core::{Action, CoreConfig, CoreStats, FlightCore, FlightParams, Input, Phase};
+pub use crate::core::{Action, CoreConfig, CoreStats, FlightCore, FlightParams, Input};
+pub use crate::phase::Phase;
 pub use crate::streams::{Record, Stamped, Streams};

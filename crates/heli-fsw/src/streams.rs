@@ -17,7 +17,7 @@ use heli_proto::gps::GpsNav;
 use heli_proto::imu::ImuRepr;
 use heli_proto::scb::{Controls, PilotUplink};
 
-use crate::core::Phase;
+use crate::phase::Phase;
 
 /// A value with the time it was received or produced (µs on the vehicle's monotonic clock).
 #[derive(Clone, Copy, Debug, PartialEq)]

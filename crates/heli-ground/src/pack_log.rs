@@ -204,26 +204,6 @@ impl PackLog {
     }
 }
 
-impl crate::station::Station {
-    /// Start Logging names flight pack `pack`: refused if the packs file does not have it.
-    pub(crate) fn packs_begin(&mut self, pack: Option<&str>) -> Result<(), String> {
-        self.packs.begin(pack)
-    }
-
-    /// Stop: the flight's times from the vehicle's hot-swap log are added to its packs, and
-    /// the totals saved.
-    pub(crate) fn packs_end(&mut self) {
-        let named = |name: &str| self.link.named.get(name).map(|(_, v)| f64::from(*v));
-        let (flight_s, ground_s) = (named("PWR_FLT_S"), named("PWR_GND_S"));
-        if let Some(text) = self.packs.end(flight_s, ground_s) {
-            self.note("info", text);
-            if let Some(path) = self.config.packs_totals.clone() {
-                self.writes.push((path, self.packs.totals_json()));
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,7 +5,6 @@
 //! datagrams to send, files to save and a [`View`] come out. The web server
 //! ([`crate::server`]) is only its I/O.
 
-use std::collections::VecDeque;
 use std::path::{Component, Path, PathBuf};
 
 use heli_link::command::PLANS;
@@ -19,10 +18,10 @@ use serde::Deserialize;
 
 use crate::checks::BatteryCurve;
 use crate::command::{InFlight, Progress};
+use crate::messages::MessageArea;
 use crate::operators::{ClientId, Operators};
 use crate::panel::{Panel, PanelState};
 use crate::transfer::Transfer;
-use crate::view::Message;
 
 /// A command with no final answer for this long (µs) is given up.
 pub const COMMAND_TIMEOUT_US: u64 = 30_000_000;
@@ -30,8 +29,6 @@ pub const COMMAND_TIMEOUT_US: u64 = 30_000_000;
 const HEARTBEAT_US: u64 = 1_000_000;
 /// No heartbeat from the vehicle for this long (µs): the panel forgets its state.
 const VEHICLE_LOST_US: u64 = 5_000_000;
-/// Lines kept in the message area.
-pub const MESSAGES_KEPT: usize = 300;
 
 /// How the station is set up.
 #[derive(Clone, Debug)]
@@ -125,8 +122,7 @@ pub struct Station {
     pub(crate) operators: Operators,
     pub(crate) pending: Option<Pending>,
     pub(crate) transfer: Option<Transfer>,
-    pub(crate) messages: VecDeque<Message>,
-    next_message: u64,
+    pub(crate) messages: MessageArea,
     texts_seen: usize,
     pub(crate) chosen: FlightMode,
     heartbeat_sent_us: Option<u64>,
@@ -155,8 +151,7 @@ impl Station {
             operators: Operators::default(),
             pending: None,
             transfer: None,
-            messages: VecDeque::new(),
-            next_message: 0,
+            messages: MessageArea::default(),
             texts_seen: 0,
             chosen: FlightMode::Manual,
             heartbeat_sent_us: None,
@@ -169,16 +164,7 @@ impl Station {
 
     /// Adds a line to the message area.
     pub fn note(&mut self, severity: &'static str, text: impl Into<String>) {
-        self.next_message = self.next_message.saturating_add(1);
-        self.messages.push_back(Message {
-            seq: self.next_message,
-            severity,
-            source: "ground",
-            text: text.into(),
-        });
-        while self.messages.len() > MESSAGES_KEPT {
-            self.messages.pop_front();
-        }
+        self.messages.push(severity, "ground", text.into());
     }
 
     /// A datagram from the vehicle.
@@ -199,16 +185,8 @@ impl Station {
         self.texts_seen = self.link.texts.len();
         for (severity, text) in new {
             self.field_rule.see(&text);
-            self.next_message = self.next_message.saturating_add(1);
-            self.messages.push_back(Message {
-                seq: self.next_message,
-                severity: crate::view::severity_word(severity),
-                source: "vehicle",
-                text,
-            });
-        }
-        while self.messages.len() > MESSAGES_KEPT {
-            self.messages.pop_front();
+            self.messages
+                .push(crate::messages::severity_word(severity), "vehicle", text);
         }
     }
 
@@ -571,5 +549,25 @@ impl Station {
     /// Frames a request produced, to send now.
     pub fn take_outbox(&mut self) -> Vec<Vec<u8>> {
         std::mem::take(&mut self.outbox)
+    }
+}
+
+impl Station {
+    /// Start Logging names flight pack `pack`: refused if the packs file does not have it.
+    pub(crate) fn packs_begin(&mut self, pack: Option<&str>) -> Result<(), String> {
+        self.packs.begin(pack)
+    }
+
+    /// Stop: the flight's times from the vehicle's hot-swap log are added to its packs, and
+    /// the totals saved.
+    pub(crate) fn packs_end(&mut self) {
+        let named = |name: &str| self.link.named.get(name).map(|(_, v)| f64::from(*v));
+        let (flight_s, ground_s) = (named("PWR_FLT_S"), named("PWR_GND_S"));
+        if let Some(text) = self.packs.end(flight_s, ground_s) {
+            self.note("info", text);
+            if let Some(path) = self.config.packs_totals.clone() {
+                self.writes.push((path, self.packs.totals_json()));
+            }
+        }
     }
 }

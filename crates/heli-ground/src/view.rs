@@ -9,6 +9,7 @@ use serde::Serialize;
 use crate::checks::{battery_meter, gps_ok};
 use crate::display::uplink_labels;
 use crate::facts::{SafetyView, facts, safety_view};
+use crate::messages::Message;
 use crate::operators::ClientId;
 use crate::panel::PanelState;
 use crate::rows::{Rows, rows};
@@ -17,31 +18,6 @@ use crate::station::Station;
 /// Lines of the message area sent with each view (ten a second): a page opened late
 /// starts with these.
 pub const MESSAGES_IN_VIEW: usize = 80;
-
-/// One line of the message area.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Message {
-    /// Rises with every line (the page shows each once).
-    pub seq: u64,
-    /// critical, error, warning, notice or info.
-    pub severity: &'static str,
-    /// "vehicle" (its status texts) or "ground".
-    pub source: &'static str,
-    /// The line.
-    pub text: String,
-}
-
-/// The word for a MAVLink severity.
-pub fn severity_word(s: MavSeverity) -> &'static str {
-    use MavSeverity::*;
-    match s {
-        MAV_SEVERITY_EMERGENCY | MAV_SEVERITY_ALERT | MAV_SEVERITY_CRITICAL => "critical",
-        MAV_SEVERITY_ERROR => "error",
-        MAV_SEVERITY_WARNING => "warning",
-        MAV_SEVERITY_NOTICE => "notice",
-        MAV_SEVERITY_INFO | MAV_SEVERITY_DEBUG => "info",
-    }
-}
 
 /// The panel of §2.4.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -291,12 +267,7 @@ impl Station {
                 }
             }),
             // The newest lines only: a page keeps what it has seen (by sequence number).
-            messages: self
-                .messages
-                .iter()
-                .skip(self.messages.len().saturating_sub(MESSAGES_IN_VIEW))
-                .cloned()
-                .collect(),
+            messages: self.messages.newest(MESSAGES_IN_VIEW),
         }
     }
 }

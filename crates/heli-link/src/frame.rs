@@ -14,8 +14,6 @@ use std::fmt;
 use mavlink::dialects::common::MavMessage;
 use mavlink::{MavlinkVersion, Message};
 
-use crate::signing::{SIGNATURE_LEN, Signer};
-
 /// First byte of every MAVLink 2 frame.
 pub const STX_V2: u8 = 0xFD;
 /// Incompatibility flag of a signed frame.
@@ -35,6 +33,21 @@ pub struct Sender {
     /// Component id (the autopilot is 1, a ground station 190).
     pub component: u8,
 }
+
+/// The vehicle's system and component ids.
+pub const VEHICLE: Sender = Sender {
+    system: 1,
+    component: 1,
+};
+
+/// The ground's system and component ids (a ground control station's usual ones).
+pub const GROUND: Sender = Sender {
+    system: 255,
+    component: 190,
+};
+
+/// Bytes a signature adds to a frame.
+pub const SIGNATURE_LEN: usize = 13;
 
 /// One frame of a datagram, checked for length and checksum but not yet for its signature.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -136,82 +149,6 @@ pub(crate) fn checksum(header_and_payload: &[u8], message_id: u32) -> u16 {
     crc_accumulate(crc, &[MavMessage::extra_crc(message_id)])
 }
 
-/// Encodes `message` from `sender` with `sequence`, signed by `signer` at `timestamp` (10 µs
-/// since the MAVLink epoch) when one is given.
-pub fn encode(
-    sender: Sender,
-    sequence: u8,
-    message: &MavMessage,
-    signer: Option<(&mut Signer, u64)>,
-) -> Vec<u8> {
-    let mut payload = [0u8; MAX_PAYLOAD];
-    let written = message
-        .ser(MavlinkVersion::V2, &mut payload)
-        .min(MAX_PAYLOAD);
-    // MAVLink 2 cuts the payload's trailing zeros, but never its first byte.
-    let mut len = written;
-    while len > 1 && payload.get(len.saturating_sub(1)) == Some(&0) {
-        len = len.saturating_sub(1);
-    }
-    let id = message.message_id();
-    let [id0, id1, id2, _] = id.to_le_bytes();
-    let flags = if signer.is_some() { IFLAG_SIGNED } else { 0 };
-    let mut bytes = Vec::with_capacity(HEADER_LEN + MAX_PAYLOAD + CRC_LEN + SIGNATURE_LEN);
-    bytes.extend_from_slice(&[
-        STX_V2,
-        len as u8,
-        flags,
-        0,
-        sequence,
-        sender.system,
-        sender.component,
-        id0,
-        id1,
-        id2,
-    ]);
-    bytes.extend_from_slice(payload.get(..len).unwrap_or(&[]));
-    let crc = checksum(bytes.get(1..).unwrap_or(&[]), id);
-    bytes.extend_from_slice(&crc.to_le_bytes());
-    if let Some((signer, timestamp)) = signer {
-        signer.sign(&mut bytes, timestamp);
-    }
-    bytes
-}
-
-/// One sender's outgoing frames: its ids, its sequence number, and its signer when a key is
-/// set. Both ends of the link send through one.
-#[derive(Clone, Debug)]
-pub struct Outgoing {
-    from: Sender,
-    sequence: u8,
-    signer: Option<Signer>,
-}
-
-impl Outgoing {
-    /// Frames from `from`, signed by `signer` when one is given.
-    pub fn new(from: Sender, signer: Option<Signer>) -> Self {
-        Self {
-            from,
-            sequence: 0,
-            signer,
-        }
-    }
-
-    /// The bytes of `message`, next in the sequence, signed at `now_us` (Unix µs) if a key is
-    /// set.
-    pub fn encode(&mut self, message: &MavMessage, now_us: u64) -> Vec<u8> {
-        let ts = crate::signing::timestamp_from_unix_us(now_us);
-        let bytes = encode(
-            self.from,
-            self.sequence,
-            message,
-            self.signer.as_mut().map(|s| (s, ts)),
-        );
-        self.sequence = self.sequence.wrapping_add(1);
-        bytes
-    }
-}
-
 /// Splits a datagram into frames. Bytes between frames are reported as garbage and skipped;
 /// a frame with a bad checksum is reported and the search goes on after its start byte, so
 /// one damaged frame costs only itself.
@@ -288,6 +225,7 @@ fn frame_at(bytes: &[u8]) -> Result<RawFrame, FrameError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::outgoing::encode;
     use mavlink::dialects::common::*;
 
     fn heartbeat() -> MavMessage {

@@ -8,16 +8,11 @@ use std::collections::BTreeMap;
 
 use mavlink::dialects::common::*;
 
-use crate::frame::{self, Sender};
+use crate::frame::{self, VEHICLE};
 use crate::logs::LOG_DATA_LEN;
 use crate::signing::{Key, Signer, Verifier, timestamp_from_unix_us};
-use crate::vehicle::VEHICLE;
 
-/// The ground's system and component ids (a ground control station's usual ones).
-pub const GROUND: Sender = Sender {
-    system: 255,
-    component: 190,
-};
+pub use crate::frame::GROUND;
 /// A command not acknowledged within this time (µs) is sent again.
 pub const COMMAND_RETRY_US: u64 = 500_000;
 /// Largest log the ground downloads (bytes): it holds the log in memory.
@@ -120,7 +115,7 @@ impl Download {
 
 /// The ground's link.
 pub struct GroundLink {
-    out: frame::Outgoing,
+    out: crate::outgoing::Outgoing,
     verifier: Verifier,
     /// The vehicle's last heartbeat and when it came (µs).
     pub heartbeat: Option<(u64, HEARTBEAT_DATA)>,
@@ -160,7 +155,7 @@ impl GroundLink {
     /// A ground link signing with `key` (and refusing what the vehicle did not sign with it).
     pub fn new(key: Option<Key>) -> Self {
         Self {
-            out: frame::Outgoing::new(GROUND, key.clone().map(|k| Signer::new(k, 1))),
+            out: crate::outgoing::Outgoing::new(GROUND, key.clone().map(|k| Signer::new(k, 1))),
             verifier: Verifier::new(key),
             heartbeat: None,
             latest: BTreeMap::new(),

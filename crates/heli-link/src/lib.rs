@@ -32,6 +32,7 @@ pub mod ground;
 pub mod logs;
 pub mod messages;
 pub mod mission;
+pub mod outgoing;
 pub mod params;
 pub mod setup;
 pub mod signing;

@@ -54,8 +54,8 @@ pub fn mission_items(legs: &[Leg]) -> Vec<MISSION_ITEM_INT_DATA> {
             z: -(at.2 as f32),
             seq,
             command,
-            target_system: crate::ground::GROUND.system,
-            target_component: crate::ground::GROUND.component,
+            target_system: crate::frame::GROUND.system,
+            target_component: crate::frame::GROUND.component,
             frame: MavFrame::MAV_FRAME_LOCAL_NED,
             current: u8::from(seq == 0),
             autocontinue: 1,
@@ -172,8 +172,8 @@ impl MissionServer {
     pub fn answer(&self, message: &MavMessage) -> Option<MavMessage> {
         let ack = |mavtype| {
             MavMessage::MISSION_ACK(MISSION_ACK_DATA {
-                target_system: crate::ground::GROUND.system,
-                target_component: crate::ground::GROUND.component,
+                target_system: crate::frame::GROUND.system,
+                target_component: crate::frame::GROUND.component,
                 mavtype,
             })
         };
@@ -185,8 +185,8 @@ impl MissionServer {
             MavMessage::MISSION_REQUEST_LIST(_) => {
                 Some(MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
                     count: u16::try_from(self.items.len()).unwrap_or(u16::MAX),
-                    target_system: crate::ground::GROUND.system,
-                    target_component: crate::ground::GROUND.component,
+                    target_system: crate::frame::GROUND.system,
+                    target_component: crate::frame::GROUND.component,
                 }))
             }
             MavMessage::MISSION_REQUEST_INT(r) => Some(item(r.seq)),
@@ -255,8 +255,8 @@ impl MissionClient {
             return None;
         }
         self.asked_us = Some(now_us);
-        let target_system = crate::vehicle::VEHICLE.system;
-        let target_component = crate::vehicle::VEHICLE.component;
+        let target_system = crate::frame::VEHICLE.system;
+        let target_component = crate::frame::VEHICLE.component;
         Some(match self.count {
             None => MavMessage::MISSION_REQUEST_LIST(MISSION_REQUEST_LIST_DATA {
                 target_system,

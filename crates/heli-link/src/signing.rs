@@ -14,10 +14,9 @@ use std::fmt;
 
 use sha2::{Digest, Sha256};
 
+pub use crate::frame::SIGNATURE_LEN;
 use crate::frame::{IFLAG_SIGNED, RawFrame};
 
-/// Bytes a signature adds to a frame.
-pub const SIGNATURE_LEN: usize = 13;
 /// Unix time of the MAVLink epoch, 2015-01-01 00:00:00 UTC (s).
 pub const MAVLINK_EPOCH_UNIX_S: u64 = 1_420_070_400;
 /// How far a new stream's first timestamp may lag the receiver's clock (10 µs units): one
@@ -264,7 +263,8 @@ impl Verifier {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::frame::{Sender, encode, split};
+    use crate::frame::{Sender, split};
+    use crate::outgoing::encode;
     use mavlink::dialects::common::*;
 
     const NOW: u64 = 300_000_000_000;

@@ -20,11 +20,7 @@ use crate::telemetry::{self, DEFAULT_INTERVAL_US, TELEMETRY_MESSAGES, Telemetry}
 
 pub use crate::status::{BootstrapState, VehicleStatus, chunks, heartbeat};
 
-/// The vehicle's system and component ids.
-pub const VEHICLE: Sender = Sender {
-    system: 1,
-    component: 1,
-};
+pub use crate::frame::VEHICLE;
 /// Heartbeat period (µs).
 pub const HEARTBEAT_US: u64 = 1_000_000;
 /// A ground silent this long (µs) has lost the link.
@@ -90,7 +86,7 @@ pub struct LinkStats {
 
 /// The vehicle's link.
 pub struct VehicleLink {
-    out: frame::Outgoing,
+    out: crate::outgoing::Outgoing,
     verifier: Verifier,
     started_us: u64,
     intervals: BTreeMap<u32, Option<u64>>,
@@ -122,7 +118,7 @@ impl VehicleLink {
             .map(|&id| (id, Some(DEFAULT_INTERVAL_US)))
             .collect();
         Self {
-            out: frame::Outgoing::new(VEHICLE, key.clone().map(|k| Signer::new(k, 0))),
+            out: crate::outgoing::Outgoing::new(VEHICLE, key.clone().map(|k| Signer::new(k, 0))),
             verifier: Verifier::new(key),
             started_us: now_us,
             intervals,

@@ -247,7 +247,7 @@ pub fn parse_event_text(text: &str) -> Option<(u64, EventLevel)> {
         ),
         (
             "phase ",
-            CoreEvent::PhaseChanged(heli_fsw::core::Phase::Manual),
+            CoreEvent::PhaseChanged(heli_fsw::phase::Phase::Manual),
         ),
         (
             "estimate degraded",
@@ -345,7 +345,7 @@ pub fn level_of(message: &Value) -> EventLevel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use heli_fsw::core::Phase;
+    use heli_fsw::phase::Phase;
 
     fn every_kind() -> Vec<CoreEvent> {
         let mut events = vec![

@@ -4,7 +4,8 @@
 //! must end upright before the hover; a flight computer that browns out in the air must
 //! come back and hold.
 
-use crate::scenario::{Limits, Scenario, hover, manual_sweep, rc_loss, rolls};
+use crate::flights::{hover, manual_sweep, rc_loss, rolls};
+use crate::scenario::{Limits, Scenario};
 
 /// `uplink-silent`: the servo board's line goes quiet while flying a path, which is
 /// transmitter loss: hover within 2 s where it is.

@@ -9,7 +9,8 @@
 //! over 100 seeds: `campaigns/autorotation/`.
 
 use crate::faults::EngineFault;
-use crate::scenario::{Limits, Scenario, hover, rolls};
+use crate::flights::{hover, rolls};
+use crate::scenario::{Limits, Scenario};
 
 /// What every engine-failure scenario judges: a touchdown at most 1.5 m/s down, near level
 /// (no rollover), the rotor above 60 % of its governed speed until the cushion.
@@ -44,7 +45,7 @@ fn engine_failure(
     s.name = name.into();
     s.description = description.into();
     s.duration_s = duration_s;
-    s.plan = crate::scenario::library_plan(name);
+    s.plan = crate::flights::library_plan(name);
     s.faults.engine = engine_off(fail_at_s);
     s.limits = autorotation_limits();
     s.expect_events = vec!["engine failure".into(), "phase autorotation".into()];

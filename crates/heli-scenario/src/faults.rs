@@ -545,7 +545,7 @@ mod tests {
 
     #[test]
     fn wind_changes_over_time_and_with_height() {
-        let mut s = crate::scenario::hover();
+        let mut s = crate::hover();
         s.wind_ned_mps = [2.0, 0.0, 0.0];
         s.wind_shear_mps_per_m = [0.1, 0.0, 0.0];
         s.wind_changes = vec![

@@ -10,13 +10,19 @@
 //!
 //! What it is not: the simulation. It describes flights; `heli-sim` flies them.
 
+mod builtin;
 pub mod device_faults;
 pub mod engine_failures;
 pub mod faults;
+mod file;
+mod flights;
 pub mod pilot;
 pub mod power_scenarios;
 mod scenario;
 pub mod trainer;
 pub mod validate;
 
+pub use builtin::{builtin, builtins};
+pub use file::{ScenarioError, from_toml, load};
+pub use flights::{augmented, demo, gps_outage, hover, manual_sweep, rc_loss, rolls};
 pub use scenario::*;

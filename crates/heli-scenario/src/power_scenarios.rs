@@ -3,7 +3,8 @@
 //! the air (the return-and-land failsafe), and a drain no one planned (the field rule).
 
 use crate::faults::{Battery, BatteryDrain, PackName};
-use crate::scenario::{Limits, Scenario, hover};
+use crate::flights::hover;
+use crate::scenario::{Limits, Scenario};
 
 /// `battery-swap`: the ground battery powers the avionics for the first minute of the
 /// calibration, then the operator swaps to the flight batteries; both times are logged.
@@ -37,7 +38,7 @@ pub fn weak_battery() -> Scenario {
         health: 0.35,
         ..Battery::default()
     };
-    s.plan = crate::scenario::library_plan("weak-battery");
+    s.plan = crate::flights::library_plan("weak-battery");
     s.limits = Limits {
         touchdown_distance_max_m: Some(3.0),
         touchdown_sink_max_mps: Some(1.0),

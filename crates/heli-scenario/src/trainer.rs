@@ -237,7 +237,7 @@ mod tests {
 
     #[test]
     fn a_request_becomes_a_fault_of_the_catalog_from_now_on() {
-        let mut s = crate::scenario::hover();
+        let mut s = crate::hover();
         let f = TrainerFault::parse(r#"{"kind":"gps-outage","seconds":5}"#).unwrap();
         assert_eq!(f.apply(&mut s, 100.0).unwrap(), "GPS outage for 5 s");
         assert_eq!(s.faults.gps_outages, vec![[100.0, 105.0]]);

@@ -316,7 +316,7 @@ pub fn airframe(a: &Airframe) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scenario::{builtins, from_toml};
+    use crate::{builtins, from_toml};
 
     #[test]
     fn every_builtin_scenario_is_valid() {

@@ -296,7 +296,7 @@ fn the_hold_after_the_rolls_stops_ahead_and_does_not_fly_back() {
     let mut worst_back = 0.0_f64;
     while sim.advance(end_us) {
         let rolled = sim.core().stats().rolls_completed == 3;
-        let holding = matches!(sim.core().phase(), heli_fsw::core::Phase::Holding { .. });
+        let holding = matches!(sim.core().phase(), heli_fsw::phase::Phase::Holding { .. });
         if !(rolled && holding) {
             continue;
         }

@@ -25,8 +25,9 @@ use std::time::{Duration, Instant};
 
 use heli_fsw::core::Severity;
 use heli_link::{GroundCommand, StartParameters};
+use heli_types::{FlightMode, Leg};
 
-use crate::ctl::{Reply, Request};
+use crate::ctl::{Reply, Request, RequestHandle};
 use crate::supervisor::{FromFlight, ProtocolError, ToFlight, VERSION};
 
 mod child;
@@ -143,6 +144,19 @@ impl std::fmt::Display for Said {
     }
 }
 
+/// What the bootstrap keeps told of its state and of the flight's telemetry and plan, and
+/// asks whether a ground is heard: the MAVLink link's side (`crate::link::LinkShared`).
+pub trait LinkPort: Send + Sync {
+    /// The bootstrap's state changed; `flying` is the mode of the flight under way.
+    fn set_state(&self, state: State, flying: Option<FlightMode>);
+    /// The flight process's telemetry snapshot.
+    fn set_telemetry(&self, values: &serde_json::Value);
+    /// The flight process's plan.
+    fn set_plan(&self, legs: &[Leg]);
+    /// Whether a ground station has been heard in the last few seconds.
+    fn ground_fresh(&self) -> bool;
+}
+
 /// A human reading of an exit status: `exit code 0`, `signal 9 (SIGKILL)`.
 pub fn describe_exit(status: ExitStatus) -> String {
     match (status.code(), status.signal()) {
@@ -198,27 +212,11 @@ pub struct Bootstrap {
     /// When flight processes were started again, for [`MAX_RESTARTS`].
     restarts: Vec<Instant>,
     /// The MAVLink link's view of the bootstrap, when it serves one.
-    link: Option<std::sync::Arc<crate::link::LinkShared>>,
+    link: Option<std::sync::Arc<dyn LinkPort>>,
     /// How long Connect and Start Logging wait for the flight process's answer.
     ready_timeout: Duration,
     /// How long Stop waits for the flight process to exit before killing it.
     stop_timeout: Duration,
-}
-
-/// Sends requests to a running bootstrap from another thread (the link's); each reply
-/// arrives on the returned receiver.
-#[derive(Clone)]
-pub struct RequestHandle {
-    tx: Sender<Msg>,
-}
-
-impl RequestHandle {
-    /// Sends `request`; its reply comes on the receiver.
-    pub fn send(&self, request: Request) -> Receiver<Reply> {
-        let (tx, rx) = channel();
-        let _ = self.tx.send(Msg::Request(request, tx));
-        rx
-    }
 }
 
 impl Bootstrap {
@@ -258,16 +256,17 @@ impl Bootstrap {
     }
 
     /// Keeps `shared` told of the state and the telemetry, for the MAVLink link.
-    pub fn with_link(mut self, shared: std::sync::Arc<crate::link::LinkShared>) -> Self {
+    pub fn with_link(mut self, shared: std::sync::Arc<dyn LinkPort>) -> Self {
         self.link = Some(shared);
         self
     }
 
     /// A handle to send this bootstrap requests from another thread.
     pub fn requests(&self) -> RequestHandle {
-        RequestHandle {
-            tx: self.tx.clone(),
-        }
+        let tx = self.tx.clone();
+        RequestHandle::new(move |request, reply| {
+            let _ = tx.send(Msg::Request(request, reply));
+        })
     }
 
     /// Listens on the control socket and serves until `quit`.

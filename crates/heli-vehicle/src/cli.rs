@@ -211,7 +211,7 @@ pub fn bootstrap(args: &BootstrapArgs) -> Result<ExitCode> {
     let mut bootstrap = Bootstrap::new(config, report);
     let stop = Arc::new(AtomicBool::new(false));
     if let Some(addr) = link_addr {
-        bootstrap = bootstrap.with_link(Arc::clone(&shared));
+        bootstrap = bootstrap.with_link(Arc::clone(&shared) as Arc<dyn crate::bootstrap::LinkPort>);
         let say_shared = Arc::clone(&shared);
         let to_ground = Arc::new(move |said: &Said| {
             say(&said.to_string());

@@ -206,6 +206,31 @@ impl fmt::Display for CtlError {
 
 impl std::error::Error for CtlError {}
 
+/// Sends requests to a running bootstrap from another thread (the control socket's, the
+/// link's); each reply arrives on the receiver [`RequestHandle::send`] returns.
+#[derive(Clone)]
+pub struct RequestHandle {
+    send: std::sync::Arc<dyn Fn(Request, std::sync::mpsc::Sender<Reply>) + Send + Sync>,
+}
+
+impl RequestHandle {
+    /// A handle that hands each request, with where its reply goes, to `send`.
+    pub fn new(
+        send: impl Fn(Request, std::sync::mpsc::Sender<Reply>) + Send + Sync + 'static,
+    ) -> Self {
+        Self {
+            send: std::sync::Arc::new(send),
+        }
+    }
+
+    /// Sends `request`; its reply comes on the receiver.
+    pub fn send(&self, request: Request) -> std::sync::mpsc::Receiver<Reply> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        (self.send)(request, tx);
+        rx
+    }
+}
+
 /// Sends `request` to the bootstrap listening on `socket` and returns its reply line. An
 /// error when the bootstrap cannot be reached or answered `error`.
 pub fn send(socket: &Path, request: &Request) -> Result<String, CtlError> {
@@ -232,7 +257,7 @@ pub fn send(socket: &Path, request: &Request) -> Result<String, CtlError> {
 /// Accepts control connections on the bootstrap's socket: one request line, one reply line.
 pub fn serve(
     listener: &std::os::unix::net::UnixListener,
-    bootstrap: &crate::bootstrap::RequestHandle,
+    bootstrap: &RequestHandle,
     written: &std::sync::mpsc::Sender<()>,
 ) {
     for stream in listener.incoming() {
@@ -249,7 +274,7 @@ pub fn serve(
 /// One control connection: one request line, one reply line.
 fn serve_one(
     mut stream: UnixStream,
-    bootstrap: &crate::bootstrap::RequestHandle,
+    bootstrap: &RequestHandle,
     written: &std::sync::mpsc::Sender<()>,
 ) {
     let _ = stream.set_read_timeout(Some(Duration::from_secs(2)));

@@ -105,6 +105,51 @@ impl fmt::Display for DevicesError {
 
 impl std::error::Error for DevicesError {}
 
+/// Where the hot-swap's line is.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum HotSwapLine {
+    /// A GPIO character device and the line's offset on it.
+    Chip {
+        /// The chip (`/dev/gpiochipN`).
+        chip: PathBuf,
+        /// The line's offset.
+        offset: u32,
+    },
+    /// A file holding the line's value, `0` or `1`.
+    ValueFile(PathBuf),
+}
+
+impl HotSwapLine {
+    /// `gpiochipN:OFFSET` or `/dev/gpiochipN:OFFSET` is a character-device line; anything
+    /// else is a value file's path.
+    pub fn parse(spec: &str) -> Result<Self, String> {
+        let spec = spec.trim();
+        if spec.is_empty() {
+            return Err("hotswap: an empty line name".into());
+        }
+        let chip_part = spec.rsplit_once(':').filter(|(chip, _)| {
+            Path::new(chip)
+                .file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("gpiochip"))
+        });
+        match chip_part {
+            Some((chip, offset)) => {
+                let offset: u32 = offset.parse().map_err(|_| {
+                    format!("hotswap '{spec}': the line offset '{offset}' is not a number")
+                })?;
+                let chip = if chip.contains('/') {
+                    PathBuf::from(chip)
+                } else {
+                    Path::new("/dev").join(chip)
+                };
+                Ok(HotSwapLine::Chip { chip, offset })
+            }
+            None => Ok(HotSwapLine::ValueFile(PathBuf::from(spec))),
+        }
+    }
+}
+
 impl Devices {
     /// Reads a devices file.
     pub fn from_file(path: &Path) -> Result<Self, DevicesError> {
@@ -116,7 +161,7 @@ impl Devices {
     pub fn from_toml(text: &str) -> Result<Self, String> {
         let devices: Devices = toml::from_str(text).map_err(|e| e.to_string())?;
         if let Some(line) = &devices.gpio.hotswap {
-            crate::hotswap::HotSwapLine::parse(line).map_err(|e| format!("gpio: {e}"))?;
+            HotSwapLine::parse(line).map_err(|e| format!("gpio: {e}"))?;
         }
         let mut channels: Vec<u8> = devices.adc.compass.to_vec();
         channels.push(devices.adc.battery);

@@ -9,7 +9,6 @@
 //!
 //! High (1) is the flight batteries, low (0) the ground battery.
 
-use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Sender;
@@ -18,55 +17,13 @@ use std::time::Duration;
 
 use heli_fsw::RecordedInput;
 
+pub use crate::devices::HotSwapLine;
 use crate::threads::{Clock, LoopMsg, sleep_unless_stopped};
 
 /// How often the line is read.
 pub const HOTSWAP_PERIOD: Duration = Duration::from_millis(100);
 
-/// Where the hot-swap's line is.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum HotSwapLine {
-    /// A GPIO character device and the line's offset on it.
-    Chip {
-        /// The chip (`/dev/gpiochipN`).
-        chip: PathBuf,
-        /// The line's offset.
-        offset: u32,
-    },
-    /// A file holding the line's value, `0` or `1`.
-    ValueFile(PathBuf),
-}
-
 impl HotSwapLine {
-    /// `gpiochipN:OFFSET` or `/dev/gpiochipN:OFFSET` is a character-device line; anything
-    /// else is a value file's path.
-    pub fn parse(spec: &str) -> Result<Self, String> {
-        let spec = spec.trim();
-        if spec.is_empty() {
-            return Err("hotswap: an empty line name".into());
-        }
-        let chip_part = spec.rsplit_once(':').filter(|(chip, _)| {
-            Path::new(chip)
-                .file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n.starts_with("gpiochip"))
-        });
-        match chip_part {
-            Some((chip, offset)) => {
-                let offset: u32 = offset.parse().map_err(|_| {
-                    format!("hotswap '{spec}': the line offset '{offset}' is not a number")
-                })?;
-                let chip = if chip.contains('/') {
-                    PathBuf::from(chip)
-                } else {
-                    Path::new("/dev").join(chip)
-                };
-                Ok(HotSwapLine::Chip { chip, offset })
-            }
-            None => Ok(HotSwapLine::ValueFile(PathBuf::from(spec))),
-        }
-    }
-
     /// Reads the line once: `true` when high.
     pub fn read(&self) -> Result<bool, String> {
         LineReader::new(self.clone()).read()

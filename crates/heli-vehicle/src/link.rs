@@ -25,8 +25,8 @@ use heli_fsw::core::Severity;
 use heli_types::{FlightMode, Leg};
 use serde::Deserialize;
 
-use crate::bootstrap::{RequestHandle, Said, State};
-use crate::ctl::{Reply, Request};
+use crate::bootstrap::{LinkPort, Said, State};
+use crate::ctl::{Reply, Request, RequestHandle};
 use crate::supervisor::FromFlight;
 
 /// A ground not heard for this long is no longer sent to.
@@ -65,8 +65,27 @@ impl LinkShared {
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
+    /// Whether a ground station has been heard in the last few seconds (the link thread
+    /// says so; the bootstrap tells the flight process).
+    pub fn set_ground_fresh(&self, fresh: bool) {
+        self.lock().ground_fresh = fresh;
+    }
+
+    /// What the bootstrap reported, to go to the ground as a status text.
+    pub fn said(&self, said: &Said) {
+        let severity = mav_severity(said);
+        let text = said.to_string();
+        let mut shared = self.lock();
+        if shared.texts.len() >= MAX_QUEUED_TEXTS {
+            shared.texts.pop_front();
+        }
+        shared.texts.push_back((severity, text));
+    }
+}
+
+impl LinkPort for LinkShared {
     /// The bootstrap's state changed; `flying` is the mode of the flight under way.
-    pub fn set_state(&self, state: State, flying: Option<FlightMode>) {
+    fn set_state(&self, state: State, flying: Option<FlightMode>) {
         let state = match state {
             State::Idle => BootstrapState::Idle,
             State::Connecting => BootstrapState::Connecting,
@@ -88,24 +107,18 @@ impl LinkShared {
     }
 
     /// Whether a ground station has been heard in the last few seconds.
-    pub fn ground_fresh(&self) -> bool {
+    fn ground_fresh(&self) -> bool {
         self.lock().ground_fresh
     }
 
-    /// Whether a ground station has been heard in the last few seconds (the link thread
-    /// says so; the bootstrap tells the flight process).
-    pub fn set_ground_fresh(&self, fresh: bool) {
-        self.lock().ground_fresh = fresh;
-    }
-
     /// The flight process's plan: served over the mission protocol.
-    pub fn set_plan(&self, legs: &[Leg]) {
+    fn set_plan(&self, legs: &[Leg]) {
         self.lock().mission = Some(heli_link::mission::mission_items(legs));
     }
 
     /// The flight process's telemetry snapshot; one the link cannot read is said, once
     /// per flight process, and not sent.
-    pub fn set_telemetry(&self, values: &serde_json::Value) {
+    fn set_telemetry(&self, values: &serde_json::Value) {
         match Telemetry::deserialize(values) {
             Ok(t) => self.lock().telemetry = Some(t),
             Err(e) => {
@@ -120,17 +133,6 @@ impl LinkShared {
                 }
             }
         }
-    }
-
-    /// What the bootstrap reported, to go to the ground as a status text.
-    pub fn said(&self, said: &Said) {
-        let severity = mav_severity(said);
-        let text = said.to_string();
-        let mut shared = self.lock();
-        if shared.texts.len() >= MAX_QUEUED_TEXTS {
-            shared.texts.pop_front();
-        }
-        shared.texts.push_back((severity, text));
     }
 }
 

@@ -255,7 +255,8 @@ pub fn spawn_telemetry(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use heli_fsw::core::{CoreConfig, FlightCore, FlightParams, Input, Phase};
+    use heli_fsw::core::{CoreConfig, FlightCore, FlightParams, Input};
+    use heli_fsw::phase::Phase;
     use heli_fsw::streams::{BaroRecord, CompassRecord, ImuRecord, ServoRecord, StateRecord};
     use heli_proto::compass::{CompassAdc, MagField};
     use heli_proto::gps::{FixType, GpsNav};

@@ -18,9 +18,7 @@ pub mod engine;
 mod event;
 pub mod gps;
 mod main_loop;
-pub mod mission;
 pub mod mode_check;
-mod phase;
 pub mod power;
 pub mod preflight;
 pub mod restart;
@@ -34,7 +32,6 @@ pub use event::{CoreEvent, Severity};
 pub use gps::Implausible;
 pub use heli_nav::calibration::Motion;
 pub use mode_check::ModeRefusal;
-pub use phase::Phase;
 pub use preflight::Refusal;
 pub use restart::WarmStart;
 
@@ -51,10 +48,10 @@ use heli_types::{AugmentedMode, Device, FlightMode, Leg, Plan};
 use nalgebra::Vector3;
 
 use crate::health::{Health, HealthState, IMU_FIRES_TO_INVALID};
+use crate::phase::{Phase, RollStage};
 use crate::streams::{
     BaroRecord, CompassRecord, ImuRecord, Record, ServoRecord, Stamped, StateRecord,
 };
-use mission::RollStage;
 use watchdog::{WATCHDOG_PERIOD_US, Watchdog};
 
 /// Longest the roll maneuver waits to settle on its trim speed before giving up (s).

@@ -2,8 +2,8 @@
 //! reported as what it is.
 
 use super::*;
-use crate::core::Phase;
 use crate::core::{CoreConfig, FlightParams, Input};
+use crate::phase::Phase;
 use crate::streams::{ImuRecord, Stamped};
 use heli_proto::imu::ImuRepr;
 
@@ -324,8 +324,8 @@ fn a_change_of_roll_stage_or_of_pilot_mode_is_a_change_of_phase() {
         stage,
         rolls_done: 0,
     };
-    let accelerate = maneuver(crate::core::mission::RollStage::Accelerate { since_us: 0 });
-    let pull_up = maneuver(crate::core::mission::RollStage::PullUp { since_us: 0 });
+    let accelerate = maneuver(crate::phase::RollStage::Accelerate { since_us: 0 });
+    let pull_up = maneuver(crate::phase::RollStage::PullUp { since_us: 0 });
     assert_eq!(
         check_phase_events(&accelerate, &pull_up, &[pull_up]),
         Ok(())

@@ -29,7 +29,8 @@ use std::time::{Duration, Instant};
 pub use truth::TruthFrame;
 
 use heli_fsw::computer::{DeviceInput, FlightComputer, RecordedInput};
-use heli_fsw::core::{Action, CoreConfig, CoreEvent, FlightCore, FlightParams, Phase};
+use heli_fsw::core::{Action, CoreConfig, CoreEvent, FlightCore, FlightParams};
+use heli_fsw::phase::Phase;
 use heli_fsw::streams::{Record, StateRecord, Streams};
 use heli_nav::GeoOrigin;
 use heli_nav::compass_cal::fit_hard_iron;
@@ -51,7 +52,7 @@ use crate::summary::{
     Criterion, DeviceSummary, EstimatorSummary, HoldSummary, InvariantSummary, LinkSummary,
     LoopSummary, ManeuverSummary, Outcome, Rms, Summary,
 };
-use heli_fsw::core::mission::RollStage;
+use heli_fsw::phase::RollStage;
 use heli_model::actuators::{Actuators, ServoParams, control_inputs};
 use heli_model::model::{Environment, Helicopter};
 use heli_model::turbulence::Turbulence;

@@ -1,6 +1,9 @@
-//! What the flight software is doing: the phases of a flight.
+//! What the flight software is doing: the phases of a flight, and the stages of the roll
+//! maneuver. The phase is part of every state record (`crate::streams`).
 
-use super::*;
+use heli_control::Target;
+use heli_types::AugmentedMode;
+use nalgebra::Vector3;
 
 /// What the flight software is doing.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -13,7 +16,7 @@ pub enum Phase {
     /// collective flat, throttle closed, until the pilot's signal returns.
     GroundFailsafe,
     /// The pilot asked for an autonomous take-off; on the skids, rotor governed, waiting up
-    /// to [`super::preflight::CHECK_WAIT_S`] for the pre-flight checks to pass.
+    /// to [`crate::core::preflight::CHECK_WAIT_S`] for the pre-flight checks to pass.
     PreflightCheck {
         /// Since when it has waited (µs).
         since_us: u64,
@@ -116,12 +119,51 @@ impl Phase {
     }
 
     /// Same kind of phase (a moving target or a turning roll does not count as a change).
-    pub(super) fn same_kind(&self, other: &Phase) -> bool {
+    pub(crate) fn same_kind(&self, other: &Phase) -> bool {
         match (self, other) {
             (Phase::Maneuver { stage: a, .. }, Phase::Maneuver { stage: b, .. }) => {
                 core::mem::discriminant(a) == core::mem::discriminant(b)
             }
             _ => core::mem::discriminant(self) == core::mem::discriminant(other),
+        }
+    }
+}
+
+/// Where a roll maneuver is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RollStage {
+    /// Accelerating to the trim speed along the heading, since `since_us`.
+    Accelerate {
+        /// Stage start (µs).
+        since_us: u64,
+    },
+    /// Climbing into the roll.
+    PullUp {
+        /// Stage start (µs).
+        since_us: u64,
+    },
+    /// Rolling; `angle_rad` turned so far.
+    Rolling {
+        /// Roll angle turned (rad).
+        angle_rad: f64,
+        /// Stage start (µs).
+        since_us: u64,
+    },
+    /// Back on the trim trajectory.
+    Recover {
+        /// Stage start (µs).
+        since_us: u64,
+    },
+}
+
+impl RollStage {
+    /// Short name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            RollStage::Accelerate { .. } => "accelerate",
+            RollStage::PullUp { .. } => "pull-up",
+            RollStage::Rolling { .. } => "rolling",
+            RollStage::Recover { .. } => "recover",
         }
     }
 }

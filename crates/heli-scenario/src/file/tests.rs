@@ -1,4 +1,5 @@
 use super::*;
+use crate::*;
 
 #[test]
 fn file_overrides_its_base() {
