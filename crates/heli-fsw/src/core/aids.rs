@@ -3,32 +3,26 @@
 //! estimate without that aid as surely as a silent device, yet its watchdog sees it healthy.
 //! Each is raised as an event once its readings have been refused for [`AID_REFUSED_AFTER_S`]
 //! and again when one is fused (as PX4 reports an innovation-check failure of a sensor).
-//! The GPS has its own events (`GpsLost`, `GpsReset`).
+//! The GPS has its own events, raised here too: a fix refused before the filter sees it
+//! (`crate::core::gps`: off the globe, or a jump no helicopter makes), the filter's reset
+//! onto a fix, its outage and its return.
+//!
+//! A component: it owns what it last raised and the last good fix; the core hands it the
+//! filter (`heli_nav::Navigator`) with each fix and each control step, and it raises.
 
-use super::*;
+use heli_nav::{FilterHealth, Navigator};
+use heli_proto::gps::GpsNav;
+
+use super::event::CoreEvent;
+use super::gps;
+use super::{Action, Stamped};
 
 /// How long an aid's readings must all have been refused before it is reported (s): longer
 /// than a gust or a manoeuvre that a single refused reading may be.
 pub const AID_REFUSED_AFTER_S: f64 = 3.0;
 
-/// An aid of the filter other than the GPS.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Aid {
-    /// The barometric altimeter.
-    Altimeter,
-    /// The magnetic compass.
-    Compass,
-}
+pub use super::event::Aid;
 
-impl Aid {
-    /// Short name for messages.
-    pub fn name(self) -> &'static str {
-        match self {
-            Aid::Altimeter => "altimeter",
-            Aid::Compass => "compass",
-        }
-    }
-}
 
 /// An aid whose last reading failed the gate (test ratio above one) and none of whose
 /// readings was fused for [`AID_REFUSED_AFTER_S`] (or ever).
@@ -38,28 +32,34 @@ fn refused(test_ratio: f64, since_fused_s: Option<f64>) -> bool {
 
 /// Which aids are being reported as refused.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(super) struct RefusedAids {
+struct RefusedAids {
     altimeter: bool,
     compass: bool,
 }
 
-impl FlightCore {
+/// The aids' watch.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Aiding {
+    /// The altimeter and compass as reported refused by the filter's gate.
+    refused: RefusedAids,
+    /// The GPS outage as last reported.
+    gps_lost: bool,
+    /// The last GPS fix that passed the plausibility check, with its time.
+    pub(super) last_good_fix: Option<(u64, GpsNav)>,
+}
+
+impl Aiding {
     /// Raises an event when an aid starts or stops being refused by the filter's gate.
-    pub(super) fn watch_aids(&mut self, now_us: u64, out: &mut Vec<Action>) {
-        if self.nav.state().is_none() {
+    pub fn watch(&mut self, nav: &Navigator, now_us: u64, out: &mut Vec<Action>) {
+        if nav.state().is_none() {
             return;
         }
-        let health = self.nav.health(now_us);
-        self.judge_aids(&health, now_us, out);
+        let health = nav.health(now_us);
+        self.judge(&health, now_us, out);
     }
 
-    /// [`FlightCore::watch_aids`] on the filter's health as it is now.
-    pub(super) fn judge_aids(
-        &mut self,
-        health: &heli_nav::FilterHealth,
-        now_us: u64,
-        out: &mut Vec<Action>,
-    ) {
+    /// [`Aiding::watch`] on a health of the filter given.
+    pub fn judge(&mut self, health: &FilterHealth, now_us: u64, out: &mut Vec<Action>) {
         for (aid, now_refused, ratio) in [
             (
                 Aid::Altimeter,
@@ -73,8 +73,8 @@ impl FlightCore {
             ),
         ] {
             let was = match aid {
-                Aid::Altimeter => &mut self.refused_aids.altimeter,
-                Aid::Compass => &mut self.refused_aids.compass,
+                Aid::Altimeter => &mut self.refused.altimeter,
+                Aid::Compass => &mut self.refused.compass,
             };
             if *was == now_refused {
                 continue;
@@ -91,11 +91,58 @@ impl FlightCore {
             out.push(Action::Event(Stamped::new(now_us, event)));
         }
     }
+
+    /// A GPS fix at `now_us`: checked before the filter sees it — a fix off the globe, or one
+    /// that jumps faster than any helicopter flies from the last good one, is refused and
+    /// raised (true: refused); a good one is fused, and the filter's reset onto it raised.
+    pub fn gps(
+        &mut self,
+        nav: &mut Navigator,
+        fix: &GpsNav,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) -> bool {
+        if let Some(why) = gps::implausible(fix, self.last_good_fix, now_us) {
+            out.push(Action::Event(Stamped::new(
+                now_us,
+                CoreEvent::GpsImplausible(why),
+            )));
+            return true;
+        }
+        self.last_good_fix = Some((now_us, *fix));
+        let resets = nav.stats().gps_resets;
+        nav.fuse_gps(now_us, fix);
+        if nav.stats().gps_resets != resets {
+            out.push(Action::Event(Stamped::new(now_us, CoreEvent::GpsReset)));
+        }
+        false
+    }
+
+    /// The filter's GPS outage at a control step with an estimate: its start and its end
+    /// raised.
+    pub fn gps_outage(&mut self, nav: &Navigator, now_us: u64, out: &mut Vec<Action>) {
+        let gps_lost = nav.gps_outage(now_us);
+        if gps_lost != self.gps_lost {
+            self.gps_lost = gps_lost;
+            let event = if gps_lost {
+                CoreEvent::GpsLost
+            } else {
+                CoreEvent::GpsRegained
+            };
+            out.push(Action::Event(Stamped::new(now_us, event)));
+        }
+    }
+
+    /// The last fix that passed the plausibility check, with its time.
+    pub fn last_good_fix(&self) -> Option<(u64, GpsNav)> {
+        self.last_good_fix
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Vector3;
 
     #[test]
     fn an_aid_is_refused_after_three_seconds_of_failing_the_gate() {
@@ -110,14 +157,15 @@ mod tests {
 
     #[test]
     fn the_watch_reads_the_filters_health_once_it_runs() {
-        let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
+        let mut aiding = Aiding::default();
+        let mut nav = Navigator::new(heli_nav::NavConfig::default());
         let mut out = Vec::new();
-        core.watch_aids(0, &mut out);
+        aiding.watch(&nav, 0, &mut out);
         assert!(out.is_empty(), "no estimate yet");
         for _ in 0..5 {
-            core.nav.fuse_baro(1013.25);
+            nav.fuse_baro(1013.25);
         }
-        core.nav.initialise(
+        nav.initialise(
             0,
             &heli_nav::ImuBiases {
                 gyro_rps: Vector3::zeros(),
@@ -127,9 +175,9 @@ mod tests {
         );
         // An altimeter reading far off the estimate is refused by the gate...
         for _ in 0..40 {
-            core.nav.fuse_baro(900.0);
+            nav.fuse_baro(900.0);
         }
-        core.watch_aids(10_000_000, &mut out);
+        aiding.watch(&nav, 10_000_000, &mut out);
         assert!(out.iter().any(|a| matches!(
             a,
             Action::Event(e) if matches!(e.value, CoreEvent::AidRefused { aid: Aid::Altimeter, .. })
@@ -138,7 +186,7 @@ mod tests {
 
     #[test]
     fn refused_and_accepted_are_raised_once_each_per_aid() {
-        let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
+        let mut aiding = Aiding::default();
         let health = |baro: f64, compass: f64| heli_nav::FilterHealth {
             gps_test_ratio: 0.0,
             baro_test_ratio: baro,
@@ -148,7 +196,7 @@ mod tests {
             since_compass_s: Some(1.0),
         };
         let mut out = Vec::new();
-        core.judge_aids(&health(2.0, 2.0), 5, &mut out);
+        aiding.judge(&health(2.0, 2.0), 5, &mut out);
         // The compass was fused a second ago: not yet refused.
         assert_eq!(
             out,
@@ -161,9 +209,9 @@ mod tests {
             ))]
         );
         out.clear();
-        core.judge_aids(&health(3.0, 2.0), 6, &mut out);
+        aiding.judge(&health(3.0, 2.0), 6, &mut out);
         assert!(out.is_empty(), "raised once");
-        core.judge_aids(&health(0.5, 2.0), 7, &mut out);
+        aiding.judge(&health(0.5, 2.0), 7, &mut out);
         assert_eq!(
             out,
             vec![Action::Event(Stamped::new(
@@ -174,7 +222,7 @@ mod tests {
         out.clear();
         let mut compass = health(0.5, 2.0);
         compass.since_compass_s = None;
-        core.judge_aids(&compass, 8, &mut out);
+        aiding.judge(&compass, 8, &mut out);
         assert_eq!(
             out,
             vec![Action::Event(Stamped::new(

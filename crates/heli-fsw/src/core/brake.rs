@@ -3,7 +3,9 @@
 //! set rate, then holds where it stopped — rather than holding a point it has already
 //! passed and crawling back, or chasing a stopping point that rides along with it.
 
-use super::*;
+use heli_control::Target;
+use heli_nav::{NavState, seconds_between};
+use nalgebra::Vector3;
 
 /// Deceleration of a stop (m/s²): under the hover controller's acceleration limit, so that
 /// the profile can be flown with room to correct.
@@ -18,7 +20,7 @@ pub const BRAKE_SETTLED_MPS: f64 = 0.3;
 
 /// A stop under way.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Brake {
+pub struct Brake {
     start_us: u64,
     from_ned_m: Vector3<f64>,
     /// Horizontal velocity when the stop began (m/s, NED).
@@ -27,7 +29,7 @@ pub(super) struct Brake {
 
 impl Brake {
     /// A stop from the estimate's position and horizontal velocity, if it is moving.
-    pub(super) fn begin(now_us: u64, est: &NavState) -> Option<Self> {
+    pub fn begin(now_us: u64, est: &NavState) -> Option<Self> {
         let vel0 = Vector3::new(est.vel_ned_mps.x, est.vel_ned_mps.y, 0.0);
         (vel0.norm() > BRAKE_ABOVE_MPS).then_some(Self {
             start_us: now_us,
@@ -42,7 +44,7 @@ impl Brake {
 
     /// Where the stop ends for a helicopter at `pos_ned_m`: the profile's end, or further
     /// along the way if it ran past it (it is held where it stopped, never flown back).
-    pub(super) fn stop_for(&self, pos_ned_m: &Vector3<f64>) -> Vector3<f64> {
+    pub fn stop_for(&self, pos_ned_m: &Vector3<f64>) -> Vector3<f64> {
         let dir = self.vel0_ned_mps / self.vel0_ned_mps.norm().max(1e-9);
         let end = self.stopping_point();
         let beyond = (pos_ned_m - end).dot(&dir).max(0.0);
@@ -50,14 +52,14 @@ impl Brake {
     }
 
     /// Where the stop's profile ends (horizontal; m, NED).
-    pub(super) fn stopping_point(&self) -> Vector3<f64> {
+    pub fn stopping_point(&self) -> Vector3<f64> {
         // v0 · t_stop / 2 along the way: v0² / 2a.
         self.from_ned_m + self.vel0_ned_mps * (0.5 * self.stop_time_s())
     }
 
     /// The target at `now_us`: along the deceleration profile, at the height and heading
     /// of `hold`; `None` once the profile has reached its stop.
-    pub(super) fn target(&self, now_us: u64, hold: &Target) -> Option<Target> {
+    pub fn target(&self, now_us: u64, hold: &Target) -> Option<Target> {
         let t = seconds_between(self.start_us, now_us);
         let t_stop = self.stop_time_s();
         if t >= t_stop {
@@ -73,27 +75,6 @@ impl Brake {
             vel_ned_mps: dir * (v0 - BRAKE_DECEL_MPS2 * t),
             yaw_rad: hold.yaw_rad,
         })
-    }
-}
-
-impl FlightCore {
-    /// The hold's target while a stop is under way; at its end the hold is moved to where
-    /// the helicopter stopped (the profile's end, or beyond it if it ran on), and stays.
-    pub(super) fn braking_target(&mut self, target: Target, now_us: u64, est: &NavState) -> Target {
-        let Some(brake) = self.braking else {
-            return target;
-        };
-        match brake.target(now_us, &target) {
-            Some(on_the_way) => on_the_way,
-            None => {
-                let mut stop = brake.stop_for(&est.pos_ned_m);
-                stop.z = target.pos_ned_m.z;
-                if est.vel_ned_mps.xy().norm() < BRAKE_SETTLED_MPS {
-                    self.braking = None;
-                }
-                Target::hold(stop, target.yaw_rad)
-            }
-        }
     }
 }
 
@@ -156,7 +137,8 @@ mod tests {
 
     #[test]
     fn at_the_end_of_the_stop_the_hold_moves_to_where_it_stopped_and_stays_once_still() {
-        let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
+        let mut core =
+            super::super::sequencer::Sequencer::new(super::super::FlightParams::default());
         let est = moving(Vector3::new(0.0, 6.0, 0.0));
         core.braking = Brake::begin(0, &est);
         let hold = Target::hold(Vector3::new(0.0, 0.0, -25.0), 0.3);

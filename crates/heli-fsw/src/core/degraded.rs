@@ -6,45 +6,18 @@
 //! health (test ratios, time since each aid was fused, `heli_nav::FilterHealth`) is what is
 //! judged.
 
-use super::*;
+use heli_control::Target;
+use heli_nav::NavState;
+use nalgebra::Vector3;
+
+use crate::phase::Phase;
 
 /// Longest an autonomous flight goes on with no GPS fix fused before it lands (s): twice
 /// the longest outage the filter is tested to coast through (10 s within 5 m).
 pub const GPS_LOSS_LAND_AFTER_S: f64 = 20.0;
 
-impl FlightCore {
-    /// The landing a degraded estimate calls for, once, if the phase is an autonomous one
-    /// in the air.
-    pub(super) fn land_if_degraded(
-        &mut self,
-        est: &NavState,
-        now_us: u64,
-        out: &mut Vec<Action>,
-    ) -> Option<Phase> {
-        if !self.airborne_once
-            || !matches!(
-                self.phase,
-                Phase::Holding { .. } | Phase::Flying { .. } | Phase::TakingOff { .. }
-            )
-        {
-            return None;
-        }
-        let since_gps_s = self.nav.health(now_us).since_gps_s?;
-        if since_gps_s <= GPS_LOSS_LAND_AFTER_S {
-            return None;
-        }
-        self.plan_abandoned = true;
-        self.braking = None;
-        out.push(Action::Event(Stamped::new(
-            now_us,
-            CoreEvent::EstimateDegraded { since_gps_s },
-        )));
-        Some(land_where_it_is(est))
-    }
-}
-
-/// A slow landing (0.5 m/s) where the helicopter is, on its heading.
-pub(super) fn land_where_it_is(est: &NavState) -> Phase {
+/// Down where it is: a slow vertical landing, heading kept.
+pub fn land_where_it_is(est: &NavState) -> Phase {
     let (_, _, yaw) = est.euler_rad();
     Phase::Landing {
         settled_since_us: None,
@@ -53,5 +26,27 @@ pub(super) fn land_where_it_is(est: &NavState) -> Phase {
             vel_ned_mps: Vector3::new(0.0, 0.0, 0.5),
             yaw_rad: yaw,
         },
+    }
+}
+
+/// Whether an autonomous flight (in the air once, holding, flying a path or climbing) must
+/// land for want of GPS: the seconds since the last fix was fused (asked of the filter only
+/// then), when more than [`GPS_LOSS_LAND_AFTER_S`].
+pub fn landing_due(
+    airborne_once: bool,
+    phase: &Phase,
+    since_gps_s: impl FnOnce() -> Option<f64>,
+) -> Option<f64> {
+    if !airborne_once
+        || !matches!(
+            phase,
+            Phase::Holding { .. } | Phase::Flying { .. } | Phase::TakingOff { .. }
+        )
+    {
+        return None;
+    }
+    match since_gps_s() {
+        Some(s) if s <= GPS_LOSS_LAND_AFTER_S => None,
+        other => other,
     }
 }

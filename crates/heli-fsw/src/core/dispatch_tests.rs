@@ -53,8 +53,8 @@ fn core_in(phase: Phase, mode: FlightMode) -> FlightCore {
             plan: Plan::hover(10.0, 60.0),
         },
     );
-    core.home_ned_m = Some(Vector3::zeros());
-    core.pilot = Some(PilotUplink {
+    core.seq.home_ned_m = Some(Vector3::zeros());
+    core.devices.pilot = Some(PilotUplink {
         rotor_rpm: 1500,
         pulses: Pulses::from_controls(&sticks()),
         auto_mode: true,
@@ -62,7 +62,7 @@ fn core_in(phase: Phase, mode: FlightMode) -> FlightCore {
         receiver_batt_v: 5.0,
         servo_batt_v: 5.0,
     });
-    core.phase = phase;
+    core.seq.phase = phase;
     core
 }
 
@@ -166,7 +166,7 @@ fn an_autorotation_begun_close_to_the_ground_is_a_hovering_one() {
     };
     assert_eq!(u, law(2.0));
     assert_ne!(u, law(30.0));
-    assert!(core.autorotation.is_some_and(|a| a.hovering()));
+    assert!(core.engine.autorotation.is_some_and(|a| a.hovering()));
 }
 
 #[test]
@@ -178,7 +178,7 @@ fn the_augmented_modes_fly_the_sticks_through_their_law() {
     ] {
         for (height, airborne) in [(8.0, true), (0.3, false)] {
             let mut core = core_in(Phase::Augmented(mode), FlightMode::Augmented(mode));
-            core.has_flown = true;
+            core.seq.has_flown = true;
             let e = est(height);
             let u = core.phase_controls(Some(e), &imu(), DT);
             let mut hover = HoverController::new(core.config.hover);
@@ -208,7 +208,7 @@ fn velocity_mode_idles_on_the_skids_until_the_climb_stick_lifts_it() {
     // The climb stick above a tenth: it flies.
     let mut lifted = sticks();
     lifted.collective = 0.3;
-    core.pilot = core.pilot.map(|p| PilotUplink {
+    core.devices.pilot = core.devices.pilot.map(|p| PilotUplink {
         pulses: Pulses::from_controls(&lifted),
         ..p
     });
@@ -216,12 +216,12 @@ fn velocity_mode_idles_on_the_skids_until_the_climb_stick_lifts_it() {
     // Once it has been more than a metre up, low down is flight, not idle.
     let mut core = core_in(Phase::Augmented(velocity), FlightMode::Augmented(velocity));
     core.phase_controls(Some(est(1.2)), &imu(), DT);
-    assert!(core.has_flown);
+    assert!(core.seq.has_flown);
     assert_ne!(core.phase_controls(Some(est(0.0)), &imu(), DT), idle);
     for height in [0.9, 1.0] {
         let mut core = core_in(Phase::Augmented(velocity), FlightMode::Augmented(velocity));
         core.phase_controls(Some(est(height)), &imu(), DT);
-        assert!(!core.has_flown, "{height} m is not more than a metre");
+        assert!(!core.seq.has_flown, "{height} m is not more than a metre");
     }
     // The rate mode never idles.
     let rate = AugmentedMode::Rate;
@@ -279,11 +279,11 @@ fn the_pilot_flies_with_yaw_damping_from_the_best_rate_there_is() {
     let u = core.phase_controls(None, &imu(), DT);
     assert_eq!(u, manual_with_yaw_damping(&pilot_sticks(), 0.3, &damper));
     // With the estimate declared invalid, the last sample is stale: no damping.
-    core.estimate_valid = false;
+    core.main_loop.estimate_valid = false;
     let u = core.phase_controls(None, &imu(), DT);
     assert_eq!(u, manual_with_yaw_damping(&pilot_sticks(), 0.0, &damper));
     // A silent uplink's sticks count as none.
-    core.uplink_lost = true;
+    core.devices.uplink_lost = true;
     let u = core.phase_controls(None, &imu(), DT);
     assert_eq!(
         u,
@@ -320,7 +320,7 @@ fn only_autonomous_flight_in_the_air_goes_into_the_trim() {
         ),
     ] {
         let mut core = core_in(phase, FlightMode::Autonomous);
-        core.airborne_once = airborne_once;
+        core.seq.airborne_once = airborne_once;
         assert_eq!(core.averages_trim(), averages, "{phase:?} {airborne_once}");
     }
 }

@@ -19,7 +19,7 @@ fn watching(height_m: f64, airborne_once: bool) -> (FlightCore, NavState) {
         true,
         S,
     );
-    core.airborne_once = airborne_once;
+    core.seq.airborne_once = airborne_once;
     (core, est(height_m, 0.0, Vector3::zeros()))
 }
 
@@ -27,7 +27,7 @@ fn watching(height_m: f64, airborne_once: bool) -> (FlightCore, NavState) {
 fn rotor(core: &mut FlightCore, e: &NavState, rpm: u16, times_us: &[u64]) -> bool {
     let mut out = Vec::new();
     for &t in times_us {
-        core.pilot = Some(PilotUplink {
+        core.devices.pilot = Some(PilotUplink {
             rotor_rpm: rpm,
             ..uplink(true, false)
         });
@@ -80,8 +80,8 @@ fn only_a_helicopter_in_the_air_now_and_once_can_lose_its_engine() {
 fn an_autorotation_is_landed_only_below_half_a_metre_and_sinking_under_0_3_mps() {
     let settling = |height_m: f64, sink_mps: f64| {
         let (mut core, _) = watching(height_m, true);
-        core.engine_failed = true;
-        core.phase = Phase::Autorotation {
+        core.engine.failed = true;
+        core.seq.phase = Phase::Autorotation {
             settled_since_us: None,
         };
         let e = est(height_m, 0.0, Vector3::new(0.0, 0.0, sink_mps));
@@ -103,13 +103,16 @@ fn an_autorotation_is_landed_only_below_half_a_metre_and_sinking_under_0_3_mps()
 fn a_stop_under_way_ends_below_0_3_mps_not_at_it() {
     let (mut core, _) = watching(10.0, true);
     let moving = est(10.0, 0.0, Vector3::new(6.0, 0.0, 0.0));
-    core.braking = brake::Brake::begin(0, &moving);
+    core.seq.braking = brake::Brake::begin(0, &moving);
     let hold = Target::hold(Vector3::new(0.0, 0.0, -10.0), 0.3);
     let at = |v: f64| est(10.0, 9.0, Vector3::new(v, 0.0, 0.0));
     core.braking_target(hold, 4 * S, &at(0.3));
-    assert!(core.braking.is_some(), "exactly 0.3 m/s: still stopping");
+    assert!(
+        core.seq.braking.is_some(),
+        "exactly 0.3 m/s: still stopping"
+    );
     core.braking_target(hold, 4 * S, &at(0.299));
-    assert!(core.braking.is_none());
+    assert!(core.seq.braking.is_none());
 }
 
 #[test]
@@ -136,7 +139,7 @@ fn a_path_is_arrived_inside_1_5_m_and_under_1_mps_not_on_them() {
     };
     for (north, speed, arrived) in [(18.5, 0.5, false), (19.0, 1.0, false), (18.75, 0.75, true)] {
         let mut core = core_in(stopped_at, FlightMode::Autonomous, true, S);
-        core.leg = 2;
+        core.seq.leg = 2;
         let phase = next(
             &mut core,
             &est(10.0, north, Vector3::new(speed, 0.0, 0.0)),
@@ -273,7 +276,7 @@ fn gps_lost_and_regained_are_raised_once_each_and_only_with_an_estimate() {
             samples: 100,
         },
     );
-    core.estimate_valid = true;
+    core.main_loop.estimate_valid = true;
     core.control_step(still_imu(), still_imu(), 10 * S + 20_000, &mut out);
     core.control_step(still_imu(), still_imu(), 10 * S + 40_000, &mut out);
     let lost = |out: &[Action]| {
@@ -309,10 +312,10 @@ fn a_helicopter_exactly_at_the_airborne_height_has_not_yet_flown() {
                 samples: 100,
             },
         );
-        core.estimate_valid = true;
-        core.home_ned_m = Some(Vector3::new(0.0, 0.0, home_z));
+        core.main_loop.estimate_valid = true;
+        core.seq.home_ned_m = Some(Vector3::new(0.0, 0.0, home_z));
         core.control_step(level, level, 20_000, &mut Vec::new());
         assert_eq!(core.nav.state().map(|s| s.pos_ned_m.z), Some(0.0));
-        assert_eq!(core.airborne_once, flown, "{home_z}");
+        assert_eq!(core.seq.airborne_once, flown, "{home_z}");
     }
 }

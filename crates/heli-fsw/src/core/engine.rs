@@ -7,9 +7,21 @@
 //! the helicopter by the shortest way first. A pilot
 //! flying by hand (auto switch off, or the bypass) is told and keeps flying: autorotating a
 //! helicopter is what the thesis's safety pilot trained for.
+//!
+//! A component: it owns the rotor's recent speeds, the failure once raised and the
+//! autorotation under way; the core hands it the rotor's speed at each control step, the
+//! phase and the estimate, and it raises the failure and says what to fly.
 
-use super::*;
-use heli_control::autorotation::Autorotation;
+use std::collections::VecDeque;
+
+use heli_control::HoverController;
+use heli_control::autorotation::{Autorotation, AutorotationGains};
+use heli_nav::{NavState, seconds_between};
+use heli_proto::scb::Controls;
+
+use super::event::CoreEvent;
+use super::{Action, Stamped};
+use crate::phase::Phase;
 
 /// When the rotor speed means the engine has failed: falling fast below a first fraction
 /// of the governed speed (the engine's power gone, the rotor spends its energy at hover
@@ -55,21 +67,65 @@ impl Default for EngineWatch {
     }
 }
 
-impl FlightCore {
-    /// Watches the rotor speed in the air; raises the engine failure once.
+/// What the autorotation asks of the sequencer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Autorotate {
+    /// The phase to fly.
+    pub phase: Phase,
+    /// The flight plan is given up (the autorotation began, or ended on the ground).
+    pub abandon_plan: bool,
+}
+
+/// The engine's watch and the autorotation.
+#[derive(Clone, Debug)]
+pub struct Engine {
+    /// Since when the rotor has been below the watch's threshold in the air.
+    low_since_us: Option<u64>,
+    /// The rotor speeds of the last control steps (µs, rpm), oldest first.
+    rotor_history: VecDeque<(u64, f64)>,
+    /// The engine failure was raised: autorotation for the rest of the flight.
+    pub(super) failed: bool,
+    /// The autorotation under way.
+    pub(super) autorotation: Option<Autorotation>,
+}
+
+impl Default for Engine {
+    fn default() -> Self {
+        Self {
+            low_since_us: None,
+            rotor_history: VecDeque::with_capacity(16),
+            failed: false,
+            autorotation: None,
+        }
+    }
+}
+
+impl Engine {
+    /// Whether the engine failure was raised.
+    pub fn failed(&self) -> bool {
+        self.failed
+    }
+
+    /// One control step's rotor speed (`None` without a live uplink): in the air
+    /// (`airborne`), a fast fall below the watch's first fraction, or a speed held below the
+    /// second for its confirmation time, raises the engine failure (once).
     #[expect(
         clippy::cast_possible_truncation,
         clippy::cast_sign_loss,
         reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
     )]
-    pub(super) fn watch_engine(&mut self, est: &NavState, now_us: u64, out: &mut Vec<Action>) {
-        let w = self.config.engine;
-        let rpm = match self.pilot {
-            Some(p) if !self.uplink_lost && !self.engine_failed => f64::from(p.rotor_rpm),
+    pub fn watch(
+        &mut self,
+        w: &EngineWatch,
+        rotor_rpm: Option<f64>,
+        airborne: bool,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) {
+        let rpm = match rotor_rpm {
+            Some(rpm) if !self.failed => rpm,
             _ => return,
         };
-        let airborne =
-            self.airborne_once && self.height_above_home(est) > self.config.airborne_height_m;
         // The rotor speed over the last `falling_over_s` (a few control steps).
         let history = &mut self.rotor_history;
         while history
@@ -89,12 +145,12 @@ impl FlightCore {
             && fall_rpm_per_s.is_some_and(|f| f > w.falling_rpm_per_s);
         let low = rpm < w.governed_rpm * w.failure_fraction;
         if !(airborne && (falling || low)) {
-            self.engine_low_since_us = None;
+            self.low_since_us = None;
             return;
         }
-        let since = *self.engine_low_since_us.get_or_insert(now_us);
+        let since = *self.low_since_us.get_or_insert(now_us);
         if falling || seconds_between(since, now_us) >= w.confirm_s {
-            self.engine_failed = true;
+            self.failed = true;
             out.push(Action::Event(Stamped::new(
                 now_us,
                 CoreEvent::EngineFailure {
@@ -104,62 +160,75 @@ impl FlightCore {
         }
     }
 
-    /// The phase after an engine failure, when the computer flies: `None` when the engine
-    /// is fine (the other rules decide); after a failure, an autorotation in the air and
-    /// an unpowered phase on the ground.
-    pub(super) fn autorotate(
+    /// After the engine failure, what to fly instead of `phase` (`None` before one): the
+    /// autorotation in the air, from whatever the phase; on the ground, idle.
+    #[allow(clippy::too_many_arguments)]
+    pub fn autorotate(
         &mut self,
+        w: &EngineWatch,
+        gains: AutorotationGains,
+        phase: Phase,
         est: &NavState,
+        height_m: f64,
         on_ground: bool,
         signal_lost: bool,
         now_us: u64,
-    ) -> Option<Phase> {
-        if !self.engine_failed {
+    ) -> Option<Autorotate> {
+        if !self.failed {
             return None;
         }
-        match self.phase {
+        let stay = |phase| Autorotate {
+            phase,
+            abandon_plan: false,
+        };
+        match phase {
             Phase::Autorotation { settled_since_us } => {
-                let w = self.config.engine;
-                let settled = self.height_above_home(est) < w.landed_height_m
-                    && est.vel_ned_mps.z.abs() < w.landed_sink_mps;
+                let settled =
+                    height_m < w.landed_height_m && est.vel_ned_mps.z.abs() < w.landed_sink_mps;
                 let since = settled.then(|| settled_since_us.unwrap_or(now_us));
                 if since.is_some_and(|t| seconds_between(t, now_us) >= w.landed_after_s) {
                     self.autorotation = None;
-                    self.plan_abandoned = true;
-                    return Some(Phase::Landed);
+                    return Some(Autorotate {
+                        phase: Phase::Landed,
+                        abandon_plan: true,
+                    });
                 }
-                Some(Phase::Autorotation {
+                Some(stay(Phase::Autorotation {
                     settled_since_us: since,
-                })
+                }))
             }
             // On the ground the engine is never flown on again: no pre-flight check, no
             // take-off, no hold a lost transmitter would ask for. The idle phases stay, a
             // lost transmitter idles, anything else is landed.
-            Phase::GroundFailsafe | Phase::TakeoffRefused if on_ground => Some(self.phase),
-            _ if on_ground && signal_lost => Some(Phase::GroundFailsafe),
-            _ if on_ground => Some(Phase::Landed),
+            Phase::GroundFailsafe | Phase::TakeoffRefused if on_ground => Some(stay(phase)),
+            _ if on_ground && signal_lost => Some(stay(Phase::GroundFailsafe)),
+            _ if on_ground => Some(stay(Phase::Landed)),
             // In the air, from whatever the phase (a landed helicopter the estimate sees
             // climbing again included): autorotate.
-            _ => Some(self.begin_autorotation(est)),
+            _ => {
+                self.autorotation = Some(Autorotation::begin(gains, est, height_m));
+                Some(Autorotate {
+                    phase: Phase::Autorotation {
+                        settled_since_us: None,
+                    },
+                    abandon_plan: true,
+                })
+            }
         }
     }
 
-    fn begin_autorotation(&mut self, est: &NavState) -> Phase {
-        self.plan_abandoned = true;
-        let height = self.height_above_home(est);
-        self.autorotation = Some(Autorotation::begin(self.config.autorotation, est, height));
-        Phase::Autorotation {
-            settled_since_us: None,
-        }
-    }
-
-    /// The autorotation's servo commands.
-    pub(super) fn autorotation_controls(&mut self, est: &NavState, dt_s: f64) -> Controls {
-        let height = self.height_above_home(est);
-        let rpm = self.pilot.map_or(f64::NAN, |p| f64::from(p.rotor_rpm));
-        let gains = self.config.autorotation;
+    /// The autorotation's servo command for this step (begun here if it was not).
+    pub fn controls(
+        &mut self,
+        gains: AutorotationGains,
+        hover: &mut HoverController,
+        est: &NavState,
+        height_m: f64,
+        rotor_rpm: f64,
+        dt_s: f64,
+    ) -> Controls {
         self.autorotation
-            .get_or_insert_with(|| Autorotation::begin(gains, est, height))
-            .update(&mut self.hover, est, height, rpm, dt_s)
+            .get_or_insert_with(|| Autorotation::begin(gains, est, height_m))
+            .update(hover, est, height_m, rotor_rpm, dt_s)
     }
 }

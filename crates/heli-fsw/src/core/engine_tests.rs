@@ -279,7 +279,7 @@ fn close_to_the_ground_the_autorotation_is_a_hovering_one() {
     for (height_m, hovering_expected) in [(2.0, true), (8.0, false)] {
         let (core, out, _) = engine_fails_in_a_hold(height_m);
         assert_eq!(failures(&out), 1, "{height_m} m");
-        let autorotation = core.autorotation.as_ref().map(|a| a.hovering());
+        let autorotation = core.engine.autorotation.as_ref().map(|a| a.hovering());
         assert_eq!(autorotation, Some(hovering_expected), "{height_m} m");
     }
 }
@@ -351,9 +351,9 @@ fn at(height_m: f64, sink_mps: f64) -> NavState {
 
 fn failed_in(phase: Phase) -> FlightCore {
     let mut core = core_with(FlightMode::Autonomous);
-    core.home_ned_m = Some(Vector3::zeros());
-    core.engine_failed = true;
-    core.phase = phase;
+    core.seq.home_ned_m = Some(Vector3::zeros());
+    core.engine.failed = true;
+    core.seq.phase = phase;
     core
 }
 
@@ -378,16 +378,16 @@ fn an_autorotation_is_landed_after_half_a_second_still_on_the_ground() {
             settled_since_us: Some(s)
         })
     );
-    core.phase = settling.unwrap();
+    core.seq.phase = settling.unwrap();
     assert_eq!(
         core.autorotate(&at(0.2, 0.1), true, false, s + 400_000),
-        core.phase.into()
+        core.seq.phase.into()
     );
     assert_eq!(
         core.autorotate(&at(0.2, 0.1), true, false, s + 500_000),
         Some(Phase::Landed)
     );
-    assert!(core.autorotation.is_none());
+    assert!(core.engine.autorotation.is_none());
     // Settled above the landed height is no landing.
     let mut core = failed_in(Phase::Autorotation {
         settled_since_us: Some(0),
@@ -423,6 +423,6 @@ fn after_an_engine_failure_the_idle_phases_stay_on_the_ground() {
     );
     // A good engine leaves the choice to the other rules.
     let mut core = failed_in(Phase::Manual);
-    core.engine_failed = false;
+    core.engine.failed = false;
     assert_eq!(core.autorotate(&at(5.0, 0.0), false, false, 0), None);
 }

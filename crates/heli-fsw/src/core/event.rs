@@ -3,7 +3,8 @@
 
 use super::Phase;
 use crate::health::HealthState;
-use heli_types::Device;
+use heli_control::safety::Verdict;
+use heli_types::{Device, FlightMode};
 
 /// How much an event matters (F´'s event severities).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -46,6 +47,74 @@ impl Severity {
     /// The severity named `name` (as [`Severity::name`] writes it).
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+}
+
+/// An aid of the filter other than the GPS.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Aid {
+    /// The barometric altimeter.
+    Altimeter,
+    /// The magnetic compass.
+    Compass,
+}
+
+impl Aid {
+    /// Short name for messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Aid::Altimeter => "altimeter",
+            Aid::Compass => "compass",
+        }
+    }
+}
+
+/// A mode the pilot's switch asked for and the rule refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ModeRefusal {
+    /// The mode asked for.
+    pub mode: FlightMode,
+    /// What failed.
+    pub verdict: Verdict,
+}
+
+impl ModeRefusal {
+    /// What it says on the ground display.
+    pub fn text(&self) -> String {
+        format!("{} flight refused: {}", self.mode.name(), self.verdict)
+    }
+}
+
+/// One of the batteries the computer watches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Battery {
+    /// The flight battery: the computer, IMU, GPS, altimeter and compass.
+    Flight,
+    /// The servo board's logic and receiver battery (the uplink's RTXB).
+    Receiver,
+    /// The servo battery (the uplink's Sbat).
+    Servo,
+}
+
+impl Battery {
+    /// Every battery, in the display's order.
+    pub const ALL: [Battery; 3] = [Battery::Flight, Battery::Receiver, Battery::Servo];
+
+    /// Name for messages and displays.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Battery::Flight => "flight battery",
+            Battery::Receiver => "receiver battery",
+            Battery::Servo => "servo battery",
+        }
+    }
+
+    pub(crate) const fn index(self) -> usize {
+        match self {
+            Battery::Flight => 0,
+            Battery::Receiver => 1,
+            Battery::Servo => 2,
+        }
     }
 }
 
@@ -114,14 +183,14 @@ pub enum CoreEvent {
     /// [`super::aids::AID_REFUSED_AFTER_S`]: the estimate goes on without it.
     AidRefused {
         /// Which aid.
-        aid: super::aids::Aid,
+        aid: Aid,
         /// Its last innovation test ratio (above 1: refused).
         test_ratio: f64,
     },
     /// A reading of an aid reported refused was fused again.
-    AidAccepted(super::aids::Aid),
+    AidAccepted(Aid),
     /// The mode the pilot's switch asked for is refused by the safety rule.
-    ModeRefused(super::mode_check::ModeRefusal),
+    ModeRefused(ModeRefusal),
     /// The rotor stayed below the engine watch's fraction of its governed speed in the air:
     /// the engine has failed (autorotation when the computer flies).
     EngineFailure {
@@ -131,7 +200,7 @@ pub enum CoreEvent {
     /// A battery reached a worse level (`core::power`).
     BatteryLevel {
         /// Which battery.
-        battery: super::power::Battery,
+        battery: Battery,
         /// The level reached.
         level: heli_power::Level,
         /// Its charge left (%).
@@ -143,7 +212,7 @@ pub enum CoreEvent {
     /// the flight test.
     BatteryDrainingAbnormally {
         /// Which battery.
-        battery: super::power::Battery,
+        battery: Battery,
     },
     /// The hot-swap changed what powers the avionics.
     PowerSource {

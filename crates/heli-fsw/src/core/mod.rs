@@ -9,21 +9,40 @@
 //! The caller feeds [`Input`]s with the time they arrived and collects [`Action`]s; it must
 //! also deliver [`Input::Timer`] at [`FlightCore::poll_at`] so the watchdog can fire. The
 //! core's whole state is a plain value: clone it to snapshot, compare to check replay.
+//!
+//! F´-style components, each owning its state, each in one file with its tests, and a thin
+//! core ([`FlightCore`] here, the loop's routing in `step`) that routes between them:
+//!
+//! | component | owns | takes | gives |
+//! |---|---|---|---|
+//! | [`main_loop::MainLoop`] | the watchdog, the last sample, the step clock | IMU samples, the timer | the loop's iterations, the watchdog's fires, the estimate declared invalid |
+//! | [`calibration::GroundCalibration`] | the 80 s bias calibration, the heading watch | real samples, compass headings | the biases, restarts |
+//! | [`devices::DeviceWatch`] | every device's watchdog, the pilot, the link | samples heard, failures, the timer | health events, transmitter loss, the sticks |
+//! | [`aids::Aiding`] | the aids refused, the GPS outage, the last good fix | GPS fixes, the filter's health | refused fixes, aid and GPS events |
+//! | [`sequencer::Sequencer`] | the phase, the plan and its leg, home, the stop | the estimate and its crew | the phase, plan events |
+//! | [`roll`] | (the stage travels in the phase) | the stage, the estimate | the next stage or leg, the roll's end |
+//! | [`mode_check::ModeCheck`] | the refusal standing | the safety facts, the switch | refusals |
+//! | [`engine::Engine`] | the rotor's speeds, the failure, the autorotation | the rotor speed, the phase | the failure, the autorotation's phase and commands |
+//! | [`power::Power`] | the gauges, the levels raised and acted on, the hot-swap's log | voltages, the hot-swap | battery events, the failsafe due |
+//! | [`restart::Restart`] | the in-air alignment, the trim | samples while aligning, commands | the estimate started in the air, the trim |
 
 pub mod aids;
 mod brake;
+pub mod calibration;
 mod degraded;
-mod dispatch;
+pub mod devices;
 pub mod engine;
 mod event;
 pub mod gps;
-mod main_loop;
+pub mod legs;
+pub mod main_loop;
 pub mod mode_check;
 pub mod power;
 pub mod preflight;
 pub mod restart;
-mod roll;
-mod sequencer;
+pub mod roll;
+pub mod sequencer;
+mod step;
 pub mod watchdog;
 mod weathervane;
 
@@ -35,24 +54,39 @@ pub use mode_check::ModeRefusal;
 pub use preflight::Refusal;
 pub use restart::WarmStart;
 
-use heli_control::{
-    HoverController, HoverGains, RollGains, StickScales, Target, YawDamper, augmented_controls,
-    manual_with_yaw_damping, rolling_controls,
-};
-use heli_nav::{BiasCalibration, NavConfig, NavState, Navigator, seconds_between};
+use heli_control::{HoverController, HoverGains, RollGains, StickScales, YawDamper};
+use heli_nav::{NavConfig, Navigator};
 use heli_proto::compass::{CompassAdc, CompassCalibration, heading_rad};
 use heli_proto::gps::GpsNav;
 use heli_proto::imu::ImuRepr;
 use heli_proto::scb::{Controls, PilotUplink};
-use heli_types::{AugmentedMode, Device, FlightMode, Leg, Plan};
+use heli_types::{Device, FlightMode, Plan};
 use nalgebra::Vector3;
 
-use crate::health::{Health, HealthState, IMU_FIRES_TO_INVALID};
-use crate::phase::{Phase, RollStage};
-use crate::streams::{
-    BaroRecord, CompassRecord, ImuRecord, Record, ServoRecord, Stamped, StateRecord,
+use crate::health::Health;
+use crate::phase::Phase;
+use crate::streams::Stamped;
+use crate::streams::{BaroRecord, CompassRecord, Record};
+use aids::Aiding;
+use calibration::GroundCalibration;
+use devices::DeviceWatch;
+use engine::Engine;
+use main_loop::MainLoop;
+use mode_check::ModeCheck;
+use power::Power;
+use restart::Restart;
+use sequencer::Sequencer;
+use watchdog::WATCHDOG_PERIOD_US;
+
+// What the core's component tests name through `use super::*`.
+#[cfg(test)]
+use {
+    crate::health::HealthState,
+    crate::phase::RollStage,
+    heli_control::{Target, augmented_controls, manual_with_yaw_damping, rolling_controls},
+    heli_nav::NavState,
+    heli_types::{AugmentedMode, Leg},
 };
-use watchdog::{WATCHDOG_PERIOD_US, Watchdog};
 
 /// Longest the roll maneuver waits to settle on its trim speed before giving up (s).
 pub const ACCELERATE_TIMEOUT_S: f64 = 20.0;
@@ -207,69 +241,36 @@ pub struct CoreStats {
     pub rolls_completed: u32,
 }
 
-/// The main control process.
+/// The main control process: a thin core that routes each input to the components that own
+/// the state it concerns, and each control step through them in order. Each component
+/// lives in a file of its own, with its tests.
 #[derive(Clone, Debug)]
 pub struct FlightCore {
     config: CoreConfig,
-    params: FlightParams,
-    watchdog: Watchdog,
-    calibration: BiasCalibration,
+    /// The loop's timing: the watchdog, the last sample, the step clock (`main_loop`).
+    main_loop: MainLoop,
+    /// The ground calibration of the IMU biases (`calibration`).
+    calibration: GroundCalibration,
+    /// The navigation filter (`heli_nav`).
     nav: Navigator,
+    /// The aids' and the GPS fixes' watch (`aids`).
+    aiding: Aiding,
+    /// The devices' watchdogs and the pilot (`devices`).
+    devices: DeviceWatch,
+    /// The phase, the plan and where it is in it (`sequencer`).
+    seq: Sequencer,
+    /// The safety rule at the pilot's switch (`mode_check`).
+    modes: ModeCheck,
+    /// The engine's watch and the autorotation (`engine`).
+    engine: Engine,
+    /// The batteries' gauges and the hot-swap's log (`power`).
+    power: Power,
+    /// The alignment after a restart in the air, and the trim kept for one (`restart`).
+    restart: Restart,
+    /// The hover controller's state (its integrators), kept across phases that fly it.
     hover: HoverController,
-    phase: Phase,
-    home_ned_m: Option<Vector3<f64>>,
-    pilot: Option<PilotUplink>,
-    last_imu: Option<ImuRepr>,
-    odd_sample: bool,
-    last_control_us: Option<u64>,
-    last_input_us: u64,
-    /// Index of the plan leg being flown.
-    leg: usize,
-    plan_done: bool,
-    /// The plan was given up (transmitter lost in the air); it is not resumed.
-    plan_abandoned: bool,
-    gps_lost: bool,
-    /// The altimeter and compass as reported refused by the filter's gate.
-    refused_aids: aids::RefusedAids,
-    /// The helicopter has been more than a metre up in this flight.
-    has_flown: bool,
-    /// A hold begun in motion is still braking to a stop.
-    braking: Option<brake::Brake>,
-    health: Health,
-    /// Watchdog fires since the last real IMU packet.
-    imu_fires_in_row: u32,
-    /// False once the IMU stayed silent too long: the estimate is not used again.
-    estimate_valid: bool,
-    /// The servo board's uplink is silent (or its driver failed): transmitter loss.
-    uplink_lost: bool,
-    /// The helicopter has been airborne (above `airborne_height_m`) in this flight.
-    airborne_once: bool,
-    /// The last GPS fix that passed the plausibility check, with its time.
-    last_good_fix: Option<(u64, GpsNav)>,
-    /// An in-air alignment after a restart, instead of the ground calibration.
-    alignment: Option<restart::Alignment>,
-    /// The average servo command of autonomous flight in the air (for a restart).
-    trim: Option<Controls>,
-    /// During the calibration window: the compass heading when it opened, and the
-    /// readings' running average (rad).
-    calibration_heading: Option<(f64, f64)>,
-    /// A refusal standing in the air until the pilot's switch goes off (`mode_check`).
-    refused_in_air: Option<ModeRefusal>,
-    /// Since when the rotor has been below the engine watch's threshold in the air.
-    engine_low_since_us: Option<u64>,
-    /// The rotor speeds of the last control steps (µs, rpm), oldest first.
-    rotor_history: std::collections::VecDeque<(u64, f64)>,
-    /// The engine failure was raised: autorotation for the rest of the flight.
-    engine_failed: bool,
-    /// The autorotation under way.
-    autorotation: Option<heli_control::autorotation::Autorotation>,
-    /// What was raised while the switch has been on (the failing conditions so far).
-    refusal_raised: Option<ModeRefusal>,
-    /// The batteries' gauges and the hot-swap's log.
-    power: power::Power,
-    /// Whether the bootstrap hears a ground, on a vehicle with a link.
-    ground_link: Option<bool>,
     stats: CoreStats,
+    last_input_us: u64,
 }
 
 impl FlightCore {
@@ -277,44 +278,39 @@ impl FlightCore {
     pub fn new(config: CoreConfig, params: FlightParams) -> Self {
         Self {
             config,
-            params,
-            watchdog: Watchdog::new(config.watchdog_us),
-            calibration: BiasCalibration::new(config.imu_warm_up_s, config.calibration_s),
+            main_loop: MainLoop::new(config.watchdog_us),
+            calibration: GroundCalibration::new(config.imu_warm_up_s, config.calibration_s),
             nav: Navigator::new(config.nav),
-            hover: HoverController::new(config.hover),
-            phase: Phase::Calibrating,
-            home_ned_m: None,
-            pilot: None,
-            last_imu: None,
-            odd_sample: false,
-            last_control_us: None,
-            last_input_us: 0,
-            leg: 0,
-            plan_done: false,
-            plan_abandoned: false,
-            gps_lost: false,
-            refused_aids: aids::RefusedAids::default(),
-            has_flown: false,
-            braking: None,
-            health: Health::default(),
-            imu_fires_in_row: 0,
-            estimate_valid: true,
-            uplink_lost: false,
-            airborne_once: false,
-            last_good_fix: None,
-            alignment: None,
-            trim: None,
-            calibration_heading: None,
-            refused_in_air: None,
-            engine_low_since_us: None,
-            rotor_history: std::collections::VecDeque::with_capacity(16),
-            engine_failed: false,
-            autorotation: None,
-            refusal_raised: None,
+            aiding: Aiding::default(),
+            devices: DeviceWatch::default(),
+            seq: Sequencer::new(params),
+            modes: ModeCheck::default(),
+            engine: Engine::default(),
             power: power::Power::new(&config.power),
-            ground_link: None,
+            restart: Restart::default(),
+            hover: HoverController::new(config.hover),
             stats: CoreStats::default(),
+            last_input_us: 0,
         }
+    }
+
+    /// A core started again in the air from what the process before it left. A record
+    /// from a helicopter that never flew gives an ordinary start, calibration included.
+    pub fn restarted(config: CoreConfig, params: FlightParams, warm: WarmStart) -> Self {
+        let mut core = Self::new(config, params);
+        if !warm.airborne {
+            return core;
+        }
+        if let Some(origin) = warm.origin {
+            core.nav.set_origin(origin);
+        }
+        core.seq.home_ned_m = warm.home_ned_m.map(Vector3::from);
+        core.seq.airborne_once = true;
+        core.seq.has_flown = true;
+        core.seq.plan_abandoned = true;
+        core.restart = Restart::aligning_from(warm);
+        core.seq.phase = Phase::BlindDescent;
+        core
     }
 
     /// Arms the watchdog at start-up (the thesis sets it up before entering the main loop),
@@ -325,10 +321,8 @@ impl FlightCore {
     /// silent after its timeout (`crate::health`).
     pub fn start(&mut self, now_us: u64) {
         self.last_input_us = self.last_input_us.max(now_us);
-        self.watchdog.kick(now_us);
-        for device in Device::ALL {
-            self.health.monitor_mut(device).arm(now_us);
-        }
+        self.main_loop.start(now_us);
+        self.devices.start(now_us);
     }
 
     /// The configuration it runs with.
@@ -338,30 +332,30 @@ impl FlightCore {
 
     /// Every device's watchdog.
     pub fn health(&self) -> &Health {
-        &self.health
+        self.devices.health()
     }
 
     /// False once the IMU stayed silent for too long and the estimate was declared invalid.
     pub fn estimate_valid(&self) -> bool {
-        self.estimate_valid
+        self.main_loop.estimate_valid()
     }
 
     /// Loop counters.
     pub fn stats(&self) -> CoreStats {
         CoreStats {
-            watchdog_fires: self.watchdog.fires(),
+            watchdog_fires: self.main_loop.fires(),
             ..self.stats
         }
     }
 
     /// Current phase.
     pub fn phase(&self) -> Phase {
-        self.phase
+        self.seq.phase()
     }
 
     /// True once the last leg of the flight plan is done.
     pub fn plan_complete(&self) -> bool {
-        self.plan_done
+        self.seq.plan_complete()
     }
 
     /// The batteries' gauges and the hot-swap's log.
@@ -377,49 +371,54 @@ impl FlightCore {
     /// The loop watchdog's deadline (µs): one period after the last IMU packet or fire, or
     /// `None` before it is armed.
     pub fn watchdog_deadline_us(&self) -> Option<u64> {
-        self.watchdog.deadline_us()
+        self.main_loop.deadline_us()
     }
 
     /// When the caller must deliver [`Input::Timer`] next: the loop watchdog's deadline or
     /// a device watchdog's, whichever comes first.
     pub fn poll_at(&self) -> Option<u64> {
-        match (self.watchdog.deadline_us(), self.health.deadline_us()) {
+        match (
+            self.main_loop.deadline_us(),
+            self.devices.health().deadline_us(),
+        ) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
         }
     }
 
-    /// A device delivered a sample at `now_us`.
-    fn heard(&mut self, device: Device, now_us: u64, out: &mut Vec<Action>) {
-        let before = self.health.state(device);
-        if let Some(state) = self.health.monitor_mut(device).sample(now_us) {
-            // A device's first word after start-up is no news; any other change is.
-            self.health_changed(device, state, before != HealthState::Waiting, now_us, out);
-        }
+    /// The safety rule's conditions as the core observes them now (the same rule the
+    /// ground display shows).
+    pub fn safety_facts(&self) -> heli_control::safety::Facts {
+        mode_check::safety_facts(
+            self.seq.phase,
+            self.main_loop.estimate_valid(),
+            &self.devices,
+            &self.aiding,
+            &self.power,
+        )
     }
 
-    /// Raises a device's change of state (when `raise`) and acts on it.
-    fn health_changed(
-        &mut self,
-        device: Device,
-        state: HealthState,
-        raise: bool,
-        now_us: u64,
-        out: &mut Vec<Action>,
-    ) {
-        if raise {
-            out.push(Action::Event(Stamped::new(
-                now_us,
-                CoreEvent::DeviceHealth { device, state },
-            )));
-        }
-        if device == Device::Uplink {
-            let lost = matches!(state, HealthState::Silent | HealthState::Failed);
-            if lost && !self.uplink_lost {
-                out.push(Action::Event(Stamped::new(now_us, CoreEvent::UplinkLost)));
-            }
-            self.uplink_lost = lost;
-        }
+    /// A refusal of the safety rule standing in the air, if any.
+    pub fn mode_refusal(&self) -> Option<ModeRefusal> {
+        self.modes.refused_in_air()
+    }
+
+    /// True while an in-air alignment is under way.
+    pub fn aligning(&self) -> bool {
+        self.restart.aligning()
+    }
+
+    /// What this process would leave its successor now (`None` before the calibration).
+    pub fn warm_start(&self) -> Option<WarmStart> {
+        let state = self.nav.state()?;
+        let b = state.gyro_bias_rps;
+        Some(WarmStart {
+            gyro_bias_rps: [b.x, b.y, b.z],
+            origin: self.nav.origin(),
+            home_ned_m: self.seq.home_ned_m.map(|h| [h.x, h.y, h.z]),
+            airborne: self.seq.airborne_once,
+            trim: self.restart.trim(),
+        })
     }
 
     /// Handles one input that arrived at `now_us`, appending what to do to `out`.
@@ -432,89 +431,56 @@ impl FlightCore {
         match input {
             Input::Imu(sample) => {
                 self.stats.imu_samples = self.stats.imu_samples.saturating_add(1);
-                self.heard(Device::Imu, now_us, out);
-                self.imu_fires_in_row = 0;
-                self.watchdog.kick(now_us);
+                self.devices.heard(Device::Imu, now_us, out);
+                self.main_loop.imu(now_us);
                 self.loop_iteration(sample, false, now_us, out);
             }
-            Input::DeviceFailed(device) => {
-                if let Some(state) = self.health.monitor_mut(device).fail() {
-                    self.health_changed(device, state, true, now_us, out);
-                }
-            }
+            Input::DeviceFailed(device) => self.devices.failed(device, now_us, out),
             Input::Timer => {
-                for (device, state) in self.health.check(now_us).into_iter().flatten() {
-                    self.health_changed(device, state, true, now_us, out);
-                }
-                if self.watchdog.expired(now_us) {
-                    self.watchdog.kick(now_us);
-                    // An IMU that has not spoken yet (a port still opening, a slow boot) has
-                    // no estimate to invalidate: only fires after a first sample count.
-                    if self.last_imu.is_some() {
-                        self.imu_fires_in_row = self.imu_fires_in_row.saturating_add(1);
-                    }
+                self.devices.check(now_us, out);
+                if let Some(fire) = self.main_loop.timer(now_us) {
                     out.push(Action::Event(Stamped::new(
                         now_us,
                         CoreEvent::WatchdogFired,
                     )));
-                    if self.imu_fires_in_row >= IMU_FIRES_TO_INVALID && self.estimate_valid {
-                        self.estimate_valid = false;
+                    if fire.estimate_invalidated {
                         out.push(Action::Event(Stamped::new(
                             now_us,
                             CoreEvent::EstimateInvalid,
                         )));
                     }
-                    if let Some(last) = self.last_imu {
+                    if let Some(last) = fire.repeat {
                         self.loop_iteration(last, true, now_us, out);
                     }
                 }
             }
             Input::Uplink(uplink) => {
                 self.stats.uplinks = self.stats.uplinks.saturating_add(1);
-                self.heard(Device::Uplink, now_us, out);
-                let was_lost = self.pilot.is_some_and(|p| p.signal_lost());
-                if uplink.signal_lost() && !was_lost {
-                    out.push(Action::Event(Stamped::new(
-                        now_us,
-                        CoreEvent::PilotSignalLost,
-                    )));
-                }
-                self.pilot = Some(uplink);
-                self.read_battery(
+                self.devices.heard(Device::Uplink, now_us, out);
+                self.devices.uplink(uplink, now_us, out);
+                self.power.read_battery(
                     power::Battery::Receiver,
                     uplink.receiver_batt_v,
                     now_us,
                     out,
                 );
-                self.read_battery(power::Battery::Servo, uplink.servo_batt_v, now_us, out);
+                self.power
+                    .read_battery(power::Battery::Servo, uplink.servo_batt_v, now_us, out);
                 out.push(Action::Publish(Record::Uplink(Stamped::new(
                     now_us, uplink,
                 ))));
             }
             Input::Gps(fix) => {
                 self.stats.gps_fixes = self.stats.gps_fixes.saturating_add(1);
-                self.heard(Device::Gps, now_us, out);
-                // Checked before the filter sees it: a fix off the globe, or one that
-                // jumps faster than any helicopter flies from the last good one, is refused.
-                if let Some(why) = gps::implausible(&fix, self.last_good_fix, now_us) {
+                self.devices.heard(Device::Gps, now_us, out);
+                if self.aiding.gps(&mut self.nav, &fix, now_us, out) {
                     self.stats.gps_implausible = self.stats.gps_implausible.saturating_add(1);
-                    out.push(Action::Event(Stamped::new(
-                        now_us,
-                        CoreEvent::GpsImplausible(why),
-                    )));
-                } else {
-                    self.last_good_fix = Some((now_us, fix));
-                    let resets = self.nav.stats().gps_resets;
-                    self.nav.fuse_gps(now_us, &fix);
-                    if self.nav.stats().gps_resets != resets {
-                        out.push(Action::Event(Stamped::new(now_us, CoreEvent::GpsReset)));
-                    }
                 }
                 out.push(Action::Publish(Record::Gps(Stamped::new(now_us, fix))));
             }
             Input::Baro { pressure_mbar } => {
                 self.stats.baro_readings = self.stats.baro_readings.saturating_add(1);
-                self.heard(Device::Baro, now_us, out);
+                self.devices.heard(Device::Baro, now_us, out);
                 self.nav.fuse_baro(pressure_mbar);
                 let alt_m = self
                     .nav
@@ -530,7 +496,7 @@ impl FlightCore {
             }
             Input::Compass(adc) => {
                 self.stats.compass_readings = self.stats.compass_readings.saturating_add(1);
-                self.heard(Device::Compass, now_us, out);
+                self.devices.heard(Device::Compass, now_us, out);
                 let field = self.config.compass.apply(&adc.raw_field());
                 self.nav.fuse_compass(&field);
                 let (roll, pitch) = self.nav.state().map_or((0.0, 0.0), |s| {
@@ -551,10 +517,23 @@ impl FlightCore {
                 ))));
             }
             Input::Battery { volts } => {
-                self.read_battery(power::Battery::Flight, volts, now_us, out);
+                self.power
+                    .read_battery(power::Battery::Flight, volts, now_us, out);
             }
-            Input::PowerSource(source) => self.read_power_source(source, now_us, out),
-            Input::GroundLink { fresh } => self.ground_link = Some(fresh),
+            Input::PowerSource(source) => self.power.read_power_source(source, now_us, out),
+            Input::GroundLink { fresh } => self.devices.ground_link(fresh),
+        }
+    }
+
+    /// A compass heading, for the calibration's watch of a turning fuselage.
+    pub(super) fn watch_calibration_heading(
+        &mut self,
+        now_us: u64,
+        heading_rad: f64,
+        out: &mut Vec<Action>,
+    ) {
+        if let Some(event) = self.calibration.heading(now_us, heading_rad) {
+            out.push(Action::Event(Stamped::new(now_us, event)));
         }
     }
 }
@@ -601,5 +580,7 @@ mod restart_tests;
 mod roll_tests;
 #[cfg(test)]
 mod sequencer_tests;
+#[cfg(test)]
+mod test_routes;
 #[cfg(test)]
 mod tests;

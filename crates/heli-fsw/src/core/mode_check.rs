@@ -15,25 +15,24 @@
 //!   discharge curve), the ground link from what the bootstrap says of it. Until the first
 //!   reading, and on a vehicle with no link, each is passed as "not judged here".
 
+//!
+//! A component: it owns the refusal standing in the air and what was raised while the
+//! switch has been on; the core hands it the facts ([`safety_facts`], from the devices,
+//! the aids, the loop and the batteries) and what the pilot asks.
+
 use heli_control::safety::{AUGMENTED, AUTOMATIC, Condition, Facts, Rule, Verdict};
+use heli_types::{Device, FlightMode};
 
-use super::*;
+use super::aids::Aiding;
+use super::devices::DeviceWatch;
+use super::event::CoreEvent;
+use super::power::Power;
+use super::preflight::MIN_SATELLITES;
+use super::{Action, Stamped};
+use crate::phase::Phase;
 
-/// A mode the pilot's switch asked for and the rule refused.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ModeRefusal {
-    /// The mode asked for.
-    pub mode: FlightMode,
-    /// What failed.
-    pub verdict: Verdict,
-}
+pub use super::event::ModeRefusal;
 
-impl ModeRefusal {
-    /// What it says on the ground display.
-    pub fn text(&self) -> String {
-        format!("{} flight refused: {}", self.mode.name(), self.verdict)
-    }
-}
 
 /// The rule a mode needs, if any.
 pub fn rule_for(mode: FlightMode) -> Option<Rule> {
@@ -44,53 +43,71 @@ pub fn rule_for(mode: FlightMode) -> Option<Rule> {
     }
 }
 
-impl FlightCore {
-    /// What the flight core observes of the safety rule's conditions now.
-    pub fn safety_facts(&self) -> Facts {
-        let ok = |d| self.health.state(d) == HealthState::Ok;
-        let satellites = self
-            .last_good_fix
-            .is_some_and(|(_, fix)| fix.satellites >= preflight::MIN_SATELLITES);
-        let facts = Facts::none()
-            .with(
-                Condition::Calibrated,
-                self.estimate_valid && self.phase != Phase::Calibrating,
-            )
-            .with(Condition::Imu, ok(Device::Imu))
-            .with(Condition::Uplink, ok(Device::Uplink) && !self.uplink_lost)
-            .with(Condition::Gps, ok(Device::Gps))
-            .with(Condition::Satellites, satellites)
-            .with(Condition::Altimeter, ok(Device::Baro))
-            .with(Condition::Compass, ok(Device::Compass))
-            .with(Condition::Bypass, self.pilot.is_some_and(|p| p.bypass));
-        // Judged once a battery has been read: every battery read above its warning level.
-        let facts = if self.power.any_read() {
-            facts.with(
-                Condition::Battery,
-                self.power.worst() == heli_power::Level::Good,
-            )
-        } else {
-            facts
-        };
-        match self.ground_link {
-            Some(fresh) => facts.with(Condition::Link, fresh),
-            None => facts,
-        }
+/// The conditions of the safety rule the core observes: calibrated (the estimate valid and
+/// the calibration over), each device on time, the transmitter heard, five satellites in
+/// the last good fix, the bypass switch; the batteries once one has been read (every one
+/// above its warning level); the ground link on a vehicle with one.
+pub fn safety_facts(
+    phase: Phase,
+    estimate_valid: bool,
+    devices: &DeviceWatch,
+    aiding: &Aiding,
+    power: &Power,
+) -> Facts {
+    let ok = |d| devices.ok(d);
+    let satellites = aiding
+        .last_good_fix()
+        .is_some_and(|(_, fix)| fix.satellites >= MIN_SATELLITES);
+    let facts = Facts::none()
+        .with(
+            Condition::Calibrated,
+            estimate_valid && phase != Phase::Calibrating,
+        )
+        .with(Condition::Imu, ok(Device::Imu))
+        .with(
+            Condition::Uplink,
+            ok(Device::Uplink) && !devices.uplink_lost(),
+        )
+        .with(Condition::Gps, ok(Device::Gps))
+        .with(Condition::Satellites, satellites)
+        .with(Condition::Altimeter, ok(Device::Baro))
+        .with(Condition::Compass, ok(Device::Compass))
+        .with(Condition::Bypass, devices.pilot().is_some_and(|p| p.bypass));
+    // Judged once a battery has been read: every battery read above its warning level.
+    let facts = if power.any_read() {
+        facts.with(Condition::Battery, power.worst() == heli_power::Level::Good)
+    } else {
+        facts
+    };
+    match devices.ground_heard() {
+        Some(fresh) => facts.with(Condition::Link, fresh),
+        None => facts,
     }
+}
 
+/// The verdict on automatic flight, the calibration taken as done.
+pub fn automatic_verdict(facts: Facts) -> Verdict {
+    AUTOMATIC.judge(facts.with(Condition::Calibrated, true))
+}
+
+/// The mode check.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ModeCheck {
+    /// A refusal standing in the air until the pilot's switch goes off.
+    pub(super) refused_in_air: Option<ModeRefusal>,
+    /// What was raised while the switch has been on (the failing conditions so far).
+    pub(super) refusal_raised: Option<ModeRefusal>,
+}
+
+impl ModeCheck {
     /// The refusal standing in the air, if any.
-    pub fn mode_refusal(&self) -> Option<ModeRefusal> {
+    pub fn refused_in_air(&self) -> Option<ModeRefusal> {
         self.refused_in_air
     }
 
-    /// Raises `refusal` unless what fails was already raised while the switch has been on:
-    /// a condition that comes and goes raises one event, a new reason raises another.
-    pub(super) fn raise_refusal(
-        &mut self,
-        refusal: ModeRefusal,
-        now_us: u64,
-        out: &mut Vec<Action>,
-    ) {
+    /// Raises `refusal` unless the same conditions were raised while the switch has been on;
+    /// a new failing condition is raised with the ones before.
+    pub fn raise(&mut self, refusal: ModeRefusal, now_us: u64, out: &mut Vec<Action>) {
         let v = refusal.verdict;
         let known = self.refusal_raised.is_some_and(|r| {
             r.mode == refusal.mode
@@ -112,16 +129,22 @@ impl FlightCore {
         self.refusal_raised = Some(raised);
     }
 
-    /// While calibrating with the auto switch on: the mode asked for is refused, raised once.
-    pub(super) fn refuse_while_calibrating(&mut self, now_us: u64, out: &mut Vec<Action>) {
-        let asked = self
-            .pilot
-            .is_some_and(|p| p.auto_mode && !p.signal_lost() && !p.bypass);
+    /// While calibrating, with the switch asking for `mode` (`asked`): the rule's verdict on
+    /// `facts` raised once, so that the pilot knows before the calibration ends. The switch
+    /// off forgets it.
+    pub fn while_calibrating(
+        &mut self,
+        asked: bool,
+        mode: FlightMode,
+        facts: impl FnOnce() -> Facts,
+        now_us: u64,
+        out: &mut Vec<Action>,
+    ) {
         if !asked {
-            self.clear_refusal();
+            self.clear();
             return;
         }
-        let Some(rule) = rule_for(self.params.mode) else {
+        let Some(rule) = rule_for(mode) else {
             return;
         };
         // Raised once while the switch stays on: the devices coming up one by one during
@@ -129,27 +152,24 @@ impl FlightCore {
         if self.refusal_raised.is_some() {
             return;
         }
-        let verdict = rule.judge(self.safety_facts());
+        let verdict = rule.judge(facts());
         if !verdict.allowed {
-            let refusal = ModeRefusal {
-                mode: self.params.mode,
-                verdict,
-            };
-            self.raise_refusal(refusal, now_us, out);
+            let refusal = ModeRefusal { mode, verdict };
+            self.raise(refusal, now_us, out);
         }
     }
 
-    /// Whether the mode the pilot's switch asks for is refused now (`on_ground`: judged
-    /// afresh each step; in the air a refusal stands until the switch goes off, whatever
-    /// happens meanwhile: a failsafe hover that ends with the switch still on does not let
-    /// the refused mode in).
-    pub(super) fn refuse_mode(
+    /// Whether entering `mode` from `phase` is refused on `facts` (raised when it is); in
+    /// the air the refusal stands until the switch goes off.
+    pub fn refuse(
         &mut self,
+        mode: FlightMode,
+        phase: Phase,
         on_ground: bool,
+        facts: impl FnOnce() -> Facts,
         now_us: u64,
         out: &mut Vec<Action>,
     ) -> bool {
-        let mode = self.params.mode;
         let Some(rule) = rule_for(mode) else {
             return false;
         };
@@ -157,7 +177,7 @@ impl FlightCore {
             return true;
         }
         let entering = matches!(
-            self.phase,
+            phase,
             Phase::Manual | Phase::Calibrating | Phase::GroundFailsafe | Phase::BlindDescent
         );
         // A mode already flown is left by the failsafes, not here; an autonomous take-off
@@ -166,27 +186,21 @@ impl FlightCore {
             return false;
         }
         // Called with an estimate: the calibration is done.
-        let verdict = rule.judge(self.safety_facts().with(Condition::Calibrated, true));
+        let verdict = rule.judge(facts().with(Condition::Calibrated, true));
         if verdict.allowed {
             return false;
         }
         let refusal = ModeRefusal { mode, verdict };
-        self.raise_refusal(refusal, now_us, out);
+        self.raise(refusal, now_us, out);
         if !on_ground {
             self.refused_in_air = Some(refusal);
         }
         true
     }
 
-    /// The pilot took the auto switch off: a standing refusal is over, and the next request
-    /// is judged and raised afresh.
-    pub(super) fn clear_refusal(&mut self) {
+    /// The switch went off: nothing is refused, nothing raised stands.
+    pub fn clear(&mut self) {
         self.refused_in_air = None;
         self.refusal_raised = None;
-    }
-
-    /// The automatic rule's verdict for a take-off (used by the pre-flight check).
-    pub(super) fn automatic_verdict(&self) -> Verdict {
-        AUTOMATIC.judge(self.safety_facts().with(Condition::Calibrated, true))
     }
 }

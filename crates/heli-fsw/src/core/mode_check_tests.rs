@@ -92,7 +92,7 @@ fn augmented_flight_waits_on_the_ground_for_five_satellites() {
 fn in_the_air_a_refusal_stands_until_the_switch_goes_off() {
     // Hovering by hand at 8 m with no GPS at all: the augmented mode needs satellites.
     let mut core_out = settled(8.0, uplink(false, false));
-    core_out.0.params.mode = RATE;
+    core_out.0.seq.params.mode = RATE;
     let (mut core, mut out, t) = core_out;
     out.clear();
     let t = switched(&mut core, &mut out, t, 200_000, true);
@@ -208,7 +208,7 @@ fn with_a_ground_heard_the_same_take_off_goes() {
 #[test]
 fn a_refusal_in_the_air_outlasts_a_transmitter_loss_with_the_switch_still_on() {
     let (mut core, mut out, t) = settled(8.0, uplink(false, false));
-    core.params.mode = RATE;
+    core.seq.params.mode = RATE;
     let t = switched(&mut core, &mut out, t, 200_000, true);
     assert!(core.mode_refusal().is_some(), "no satellites: refused");
     // The transmitter is lost (the failsafe hover), then comes back with the switch on.

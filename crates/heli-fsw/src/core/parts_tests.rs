@@ -94,12 +94,12 @@ fn a_degraded_estimate_lands_an_autonomous_flight_after_twenty_seconds_without_g
     let limit_us = FIX_US + (degraded::GPS_LOSS_LAND_AFTER_S * 1e6) as u64;
     let mut out = Vec::new();
     let mut core = core_with_a_fix();
-    core.airborne_once = true;
-    core.phase = hold;
+    core.seq.airborne_once = true;
+    core.seq.phase = hold;
     assert_eq!(core.land_if_degraded(&est(10.0), limit_us, &mut out), None);
     let landing = core.land_if_degraded(&est(10.0), limit_us + 1, &mut out);
     assert_eq!(landing, Some(degraded::land_where_it_is(&est(10.0))));
-    assert!(core.plan_abandoned);
+    assert!(core.seq.plan_abandoned);
     assert!(matches!(
         out.last(),
         Some(Action::Event(e)) if matches!(e.value, CoreEvent::EstimateDegraded { .. })
@@ -107,13 +107,13 @@ fn a_degraded_estimate_lands_an_autonomous_flight_after_twenty_seconds_without_g
     // Not flown yet, or the pilot flying, or no fix ever: not this rule's to land.
     for (airborne, phase) in [(false, hold), (true, Phase::Manual)] {
         let mut core = core_with_a_fix();
-        core.airborne_once = airborne;
-        core.phase = phase;
+        core.seq.airborne_once = airborne;
+        core.seq.phase = phase;
         assert_eq!(core.land_if_degraded(&est(10.0), 60 * S, &mut out), None);
     }
     let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
-    core.airborne_once = true;
-    core.phase = hold;
+    core.seq.airborne_once = true;
+    core.seq.phase = hold;
     assert_eq!(core.land_if_degraded(&est(10.0), 60 * S, &mut out), None);
     // The landing itself: slowly down where it is, on its heading.
     match degraded::land_where_it_is(&est(10.0)) {
@@ -134,9 +134,9 @@ fn the_pre_flight_check_wants_a_fresh_fix_from_enough_satellites() {
     let mut core = core_with_a_fix();
     assert_eq!(core.preflight(0), Some(preflight::Refusal::ImuNotHealthy));
     for device in Device::ALL {
-        core.health.monitor_mut(device).sample(0);
+        core.devices.health.monitor_mut(device).sample(0);
     }
-    core.last_good_fix = Some((0, gps_fix(8)));
+    core.aiding.last_good_fix = Some((0, gps_fix(8)));
     let fresh_us = FIX_US + (preflight::GPS_FRESH_S * 1e6) as u64;
     assert!(
         !matches!(core.preflight(fresh_us), Some(preflight::Refusal::GpsStale)),
@@ -147,14 +147,14 @@ fn the_pre_flight_check_wants_a_fresh_fix_from_enough_satellites() {
         core.preflight(fresh_us + 1),
         Some(preflight::Refusal::GpsStale)
     );
-    core.last_good_fix = Some((0, gps_fix(preflight::MIN_SATELLITES - 1)));
+    core.aiding.last_good_fix = Some((0, gps_fix(preflight::MIN_SATELLITES - 1)));
     assert_eq!(
         core.preflight(0),
         Some(preflight::Refusal::TooFewSatellites(
             preflight::MIN_SATELLITES - 1
         ))
     );
-    core.last_good_fix = Some((0, gps_fix(preflight::MIN_SATELLITES)));
+    core.aiding.last_good_fix = Some((0, gps_fix(preflight::MIN_SATELLITES)));
     assert!(!matches!(
         core.preflight(0),
         Some(preflight::Refusal::TooFewSatellites(_))
@@ -162,7 +162,7 @@ fn the_pre_flight_check_wants_a_fresh_fix_from_enough_satellites() {
     let no_fix = FlightCore::new(CoreConfig::default(), FlightParams::default());
     let mut no_fix = no_fix;
     for device in Device::ALL {
-        no_fix.health.monitor_mut(device).sample(0);
+        no_fix.devices.health.monitor_mut(device).sample(0);
     }
     assert_eq!(no_fix.preflight(0), Some(preflight::Refusal::NoGpsFix));
 }
@@ -179,11 +179,11 @@ fn while_calibrating_the_switch_on_is_refused_once_and_forgotten_when_off() {
     let mut out = Vec::new();
     // Switch off, or no pilot: nothing.
     core.refuse_while_calibrating(0, &mut out);
-    core.pilot = Some(uplink(false, false));
+    core.devices.pilot = Some(uplink(false, false));
     core.refuse_while_calibrating(0, &mut out);
     assert!(out.is_empty());
     // Switch on: refused, naming the calibration; once.
-    core.pilot = Some(uplink(true, false));
+    core.devices.pilot = Some(uplink(true, false));
     core.refuse_while_calibrating(1, &mut out);
     core.refuse_while_calibrating(2, &mut out);
     let refused: Vec<_> = out
@@ -211,16 +211,16 @@ fn while_calibrating_the_switch_on_is_refused_once_and_forgotten_when_off() {
             ..uplink(true, false)
         },
     ] {
-        core.pilot = Some(pilot);
+        core.devices.pilot = Some(pilot);
         core.refuse_while_calibrating(3, &mut out);
-        assert_eq!(core.refusal_raised, None);
-        core.pilot = Some(uplink(true, false));
+        assert_eq!(core.modes.refusal_raised, None);
+        core.devices.pilot = Some(uplink(true, false));
         core.refuse_while_calibrating(4, &mut out);
-        assert!(core.refusal_raised.is_some());
+        assert!(core.modes.refusal_raised.is_some());
     }
     // The manual mode asks for nothing to refuse.
     let mut manual = FlightCore::new(CoreConfig::default(), FlightParams::default());
-    manual.pilot = Some(uplink(true, false));
+    manual.devices.pilot = Some(uplink(true, false));
     let mut out = Vec::new();
     manual.refuse_while_calibrating(0, &mut out);
     assert!(out.is_empty());
@@ -229,9 +229,9 @@ fn while_calibrating_the_switch_on_is_refused_once_and_forgotten_when_off() {
 #[test]
 fn the_uplink_condition_is_a_healthy_board_that_is_not_lost() {
     let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
-    core.health.monitor_mut(Device::Uplink).sample(0);
+    core.devices.health.monitor_mut(Device::Uplink).sample(0);
     assert_eq!(core.safety_facts().get(Condition::Uplink), Some(true));
-    core.uplink_lost = true;
+    core.devices.uplink_lost = true;
     assert_eq!(core.safety_facts().get(Condition::Uplink), Some(false));
 }
 
@@ -458,21 +458,21 @@ fn a_compass_heading_creeping_five_degrees_restarts_the_window() {
         core.watch_calibration_heading(S, 1.0, &mut out);
     }
     assert!(!restarted(&out), "a steady heading");
-    assert_eq!(core.calibration_heading, Some((1.0, 1.0)));
+    assert_eq!(core.calibration.heading, Some((1.0, 1.0)));
     // Jumped to 1.3 rad: the average moves a twentieth of the way each reading, and the turn
     // passes 0.087 rad on the seventh (0.3 × (1 − 0.95⁷) = 0.090).
     for _ in 0..6 {
         core.watch_calibration_heading(S, 1.3, &mut out);
     }
     assert!(!restarted(&out));
-    let (_, smoothed) = core.calibration_heading.unwrap();
+    let (_, smoothed) = core.calibration.heading.unwrap();
     assert!(
         (smoothed - (1.3 - 0.3 * 0.95f64.powi(6))).abs() < 1e-9,
         "{smoothed}"
     );
     core.watch_calibration_heading(S, 1.3, &mut out);
     assert!(restarted(&out));
-    assert_eq!(core.calibration_heading, None);
+    assert_eq!(core.calibration.heading, None);
     // Across north the turn is measured the short way.
     let mut core = accumulating();
     let mut out = Vec::new();
@@ -483,10 +483,10 @@ fn a_compass_heading_creeping_five_degrees_restarts_the_window() {
     assert!(!restarted(&out), "0.08 rad the short way round");
     // A reading that is not a number, or outside the window, forgets the reference.
     core.watch_calibration_heading(S, f64::NAN, &mut out);
-    assert_eq!(core.calibration_heading, None);
+    assert_eq!(core.calibration.heading, None);
     let mut idle = FlightCore::new(CoreConfig::default(), FlightParams::default());
     idle.watch_calibration_heading(S, 1.0, &mut out);
-    assert_eq!(idle.calibration_heading, None);
+    assert_eq!(idle.calibration.heading, None);
 }
 
 #[test]
@@ -540,9 +540,9 @@ fn a_failed_board_is_a_transmitter_loss_raised_once() {
         .filter(|a| matches!(a, Action::Event(e) if e.value == CoreEvent::UplinkLost))
         .count();
     assert_eq!(lost, 1);
-    assert!(core.uplink_lost);
+    assert!(core.devices.uplink_lost);
     // Another device failing is not the board.
     let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
     core.handle(Input::DeviceFailed(Device::Gps), 10, &mut out);
-    assert!(!core.uplink_lost);
+    assert!(!core.devices.uplink_lost);
 }

@@ -14,41 +14,19 @@
 //! (manual, augmented) is told and decides. On the ground battery the flight battery's
 //! channel is not judged (the flight pack is off the bus).
 
-use super::*;
+//!
+//! A component: it owns the gauges, the levels raised and acted on and the hot-swap's log;
+//! the core hands it each reading and the hot-swap's input, and asks it whether a failsafe
+//! is due.
+
 use heli_power::{FuelGauge, GaugeConfig, GaugeState, Level, PowerSource, Reading, SwapLog};
 
-/// One of the batteries the computer watches.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Battery {
-    /// The flight battery: the computer, IMU, GPS, altimeter and compass.
-    Flight,
-    /// The servo board's logic and receiver battery (the uplink's RTXB).
-    Receiver,
-    /// The servo battery (the uplink's Sbat).
-    Servo,
-}
+use super::event::CoreEvent;
+use super::{Action, Stamped};
+use crate::phase::{Phase, RollStage};
 
-impl Battery {
-    /// Every battery, in the display's order.
-    pub const ALL: [Battery; 3] = [Battery::Flight, Battery::Receiver, Battery::Servo];
+pub use super::event::Battery;
 
-    /// Name for messages and displays.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Battery::Flight => "flight battery",
-            Battery::Receiver => "receiver battery",
-            Battery::Servo => "servo battery",
-        }
-    }
-
-    const fn index(self) -> usize {
-        match self {
-            Battery::Flight => 0,
-            Battery::Receiver => 1,
-            Battery::Servo => 2,
-        }
-    }
-}
 
 /// What the computer knows of its batteries.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -143,15 +121,41 @@ impl Power {
     }
 }
 
-impl FlightCore {
-    /// A reading of `battery`'s voltage at `now_us`: gauged, and a new level or an abnormal
-    /// drain raised.
+/// The battery failsafe a level asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Failsafe {
+    /// Back to the take-off point at this height, and down there (the warning level).
+    ReturnAndLand,
+    /// Down where it is (the critical level).
+    LandHere,
+}
+
+/// The warning level's plan: back to the take-off point at `height_m` (at least 2 m) at
+/// `speed_mps`, then down.
+pub fn return_plan(
+    height_m: f64,
+    speed_mps: f64,
+) -> Result<heli_types::Plan, heli_types::PlanError> {
+    heli_types::Plan::new(&[
+        heli_types::Leg::Fly {
+            north_m: 0.0,
+            east_m: 0.0,
+            alt_m: height_m.max(2.0),
+            speed_mps,
+        },
+        heli_types::Leg::Land,
+    ])
+}
+
+impl Power {
+    /// A battery's voltage read at `now_us`: its gauge updated, a level reached or an
+    /// abnormal drain raised (once each).
     #[expect(
         clippy::cast_possible_truncation,
         clippy::cast_sign_loss,
         reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
     )]
-    pub(super) fn read_battery(
+    pub fn read_battery(
         &mut self,
         battery: Battery,
         volts: f64,
@@ -159,11 +163,11 @@ impl FlightCore {
         out: &mut Vec<Action>,
     ) {
         // On the ground battery the flight pack is off the bus: nothing to judge.
-        if battery == Battery::Flight && self.power.source() == Some(PowerSource::Ground) {
+        if battery == Battery::Flight && self.source() == Some(PowerSource::Ground) {
             return;
         }
         let i = battery.index();
-        let Some(gauge) = self.power.gauges.get_mut(i) else {
+        let Some(gauge) = self.gauges.get_mut(i) else {
             return;
         };
         let reading = Reading {
@@ -177,7 +181,7 @@ impl FlightCore {
         let Ok(state) = gauge.update(reading) else {
             return;
         };
-        if let Some(raised) = self.power.raised.get_mut(i)
+        if let Some(raised) = self.raised.get_mut(i)
             && state.level > *raised
         {
             *raised = state.level;
@@ -191,7 +195,7 @@ impl FlightCore {
                 },
             )));
         }
-        if let Some(drain) = self.power.drain_raised.get_mut(i)
+        if let Some(drain) = self.drain_raised.get_mut(i)
             && state.draining_abnormally
             && !*drain
         {
@@ -203,29 +207,20 @@ impl FlightCore {
         }
     }
 
-    /// The hot-swap's input at `now_us`: a change of source raised with the times.
-    pub(super) fn read_power_source(
-        &mut self,
-        source: PowerSource,
-        now_us: u64,
-        out: &mut Vec<Action>,
-    ) {
-        let before = self.power.source();
-        if self
-            .power
-            .swap
-            .update(now_us as f64 * 1e-6, source)
-            .is_none()
-        {
+    /// The hot-swap's input read at `now_us`: a change of source raised with the time on
+    /// each; the flight pack back on the bus starts its gauge again from its voltage.
+    pub fn read_power_source(&mut self, source: PowerSource, now_us: u64, out: &mut Vec<Action>) {
+        let before = self.source();
+        if self.swap.update(now_us as f64 * 1e-6, source).is_none() {
             return;
         }
         if source == PowerSource::Flight && before == Some(PowerSource::Ground) {
             // The flight pack is on the bus again: its gauge starts from its voltage.
-            if let Some(g) = self.power.gauges.get_mut(Battery::Flight.index()) {
+            if let Some(g) = self.gauges.get_mut(Battery::Flight.index()) {
                 g.restart();
             }
         }
-        let (flight_s, ground_s) = self.power.times(now_us);
+        let (flight_s, ground_s) = self.times(now_us);
         out.push(Action::Event(Stamped::new(
             now_us,
             CoreEvent::PowerSource {
@@ -236,27 +231,24 @@ impl FlightCore {
         )));
     }
 
-    /// The battery failsafe, once per level, in autonomous flight in the air: return and
-    /// land at the warning level, land here at the critical one.
-    pub(super) fn battery_failsafe(
-        &mut self,
-        est: &NavState,
-        now_us: u64,
-        out: &mut Vec<Action>,
-    ) -> Option<Phase> {
-        let worst = self.power.worst();
+    /// The battery failsafe, once per level, in autonomous flight in the air (`phase`,
+    /// having been `airborne_once`): return and land at the warning level, land here at
+    /// the critical one. A roll under way is finished first; a landing under way goes on
+    /// where it meant to (the level is taken as acted on).
+    pub fn failsafe(&mut self, phase: &Phase, airborne_once: bool) -> Option<Failsafe> {
+        let worst = self.worst();
         let rolling = matches!(
-            self.phase,
+            phase,
             Phase::Maneuver {
                 stage: RollStage::Rolling { .. },
                 ..
             }
         );
-        if worst <= self.power.acted
+        if worst <= self.acted
             || rolling
-            || !self.airborne_once
+            || !airborne_once
             || !matches!(
-                self.phase,
+                phase,
                 Phase::TakingOff { .. }
                     | Phase::Holding { .. }
                     | Phase::Flying { .. }
@@ -266,39 +258,15 @@ impl FlightCore {
         {
             return None;
         }
-        self.power.acted = worst;
+        self.acted = worst;
         // Already landing: it goes on where it meant to.
-        if matches!(self.phase, Phase::Landing { .. }) {
+        if matches!(phase, Phase::Landing { .. }) {
             return None;
         }
-        self.plan_abandoned = true;
-        self.braking = None;
-        let land_here = super::degraded::land_where_it_is(est);
-        if worst == Level::Critical {
-            return Some(land_here);
-        }
-        // No take-off point known to go back to: down here.
-        let Some(home) = self.home_ned_m else {
-            return Some(land_here);
-        };
-        // Warning: back to the take-off point at this height, then down.
-        let height_m = home.z - est.pos_ned_m.z;
-        let back = [
-            heli_types::Leg::Fly {
-                north_m: 0.0,
-                east_m: 0.0,
-                alt_m: height_m.max(2.0),
-                speed_mps: self.config.power.return_speed_mps,
-            },
-            heli_types::Leg::Land,
-        ];
-        match heli_types::Plan::new(&back) {
-            Ok(plan) => {
-                self.params.plan = plan;
-                self.leg = 0;
-                Some(self.start_leg(est, now_us, out))
-            }
-            Err(_) => Some(land_here),
-        }
+        Some(if worst == Level::Critical {
+            Failsafe::LandHere
+        } else {
+            Failsafe::ReturnAndLand
+        })
     }
 }

@@ -155,9 +155,9 @@ fn holding_with(level: Level) -> (FlightCore, NavState) {
         gyro_bias_rps: Vector3::zeros(),
         accel_bias_mps2: Vector3::zeros(),
     };
-    core.home_ned_m = Some(Vector3::zeros());
-    core.airborne_once = true;
-    core.phase = Phase::Holding {
+    core.seq.home_ned_m = Some(Vector3::zeros());
+    core.seq.airborne_once = true;
+    core.seq.phase = Phase::Holding {
         target: Target::hold(est.pos_ned_m, 0.5),
         since_us: 0,
     };
@@ -188,8 +188,8 @@ fn at_the_warning_level_it_flies_home_at_this_height_and_lands_there() {
         }
         other => panic!("{other:?}"),
     }
-    assert_eq!(core.params.plan.get(1), Some(Leg::Land));
-    assert!(core.plan_abandoned);
+    assert_eq!(core.seq.params.plan.get(1), Some(Leg::Land));
+    assert!(core.seq.plan_abandoned);
     // Acted on once.
     assert_eq!(core.battery_failsafe(&est, 1001 * S, &mut out), None);
 }
@@ -210,7 +210,7 @@ fn at_the_critical_level_it_lands_where_it_is() {
 #[test]
 fn without_a_take_off_point_the_warning_lands_where_it_is() {
     let (mut core, est) = holding_with(Level::Warning);
-    core.home_ned_m = None;
+    core.seq.home_ned_m = None;
     let mut out = Vec::new();
     assert!(matches!(
         core.battery_failsafe(&est, 1000 * S, &mut out),
@@ -227,7 +227,7 @@ fn the_failsafe_waits_for_a_roll_and_leaves_the_pilot_and_the_ground_alone() {
     assert_eq!(good.battery_failsafe(&est, 1000 * S, &mut out), None);
     // Rolling: finished first.
     let target = Target::hold(est.pos_ned_m, 0.5);
-    core.phase = Phase::Maneuver {
+    core.seq.phase = Phase::Maneuver {
         target,
         stage: RollStage::Rolling {
             angle_rad: 1.0,
@@ -237,7 +237,7 @@ fn the_failsafe_waits_for_a_roll_and_leaves_the_pilot_and_the_ground_alone() {
     };
     assert_eq!(core.battery_failsafe(&est, 1000 * S, &mut out), None);
     // Out of the roll (recovering): acted on.
-    core.phase = Phase::Maneuver {
+    core.seq.phase = Phase::Maneuver {
         target,
         stage: RollStage::Recover { since_us: 0 },
         rolls_done: 1,
@@ -245,17 +245,17 @@ fn the_failsafe_waits_for_a_roll_and_leaves_the_pilot_and_the_ground_alone() {
     assert!(core.battery_failsafe(&est, 1000 * S, &mut out).is_some());
     // The pilot flies: told, not acted on.
     let (mut core, est) = holding_with(Level::Warning);
-    core.phase = Phase::Manual;
+    core.seq.phase = Phase::Manual;
     assert_eq!(core.battery_failsafe(&est, 1000 * S, &mut out), None);
     // Never airborne: not acted on.
     let (mut core, est) = holding_with(Level::Warning);
-    core.airborne_once = false;
+    core.seq.airborne_once = false;
     assert_eq!(core.battery_failsafe(&est, 1000 * S, &mut out), None);
     // Already landing: goes on, and the level counts as acted on.
     let (mut core, est) = holding_with(Level::Critical);
-    core.phase = degraded::land_where_it_is(&est);
+    core.seq.phase = degraded::land_where_it_is(&est);
     assert_eq!(core.battery_failsafe(&est, 1000 * S, &mut out), None);
-    core.phase = Phase::Holding {
+    core.seq.phase = Phase::Holding {
         target,
         since_us: 0,
     };

@@ -11,7 +11,8 @@
 //! - an IMU whose watchdog says it is on time;
 //! - and then the whole safety rule for automatic flight (`heli_control::safety`).
 
-use super::*;
+use heli_nav::{NavSensorStats, seconds_between};
+use heli_proto::gps::GpsNav;
 
 /// Longest wait for the checks to pass before a take-off is refused (s): longer than a
 /// receiver's satellite drop-outs (up to 15 s) and a short GPS outage, which pass.
@@ -52,26 +53,31 @@ impl Refusal {
     }
 }
 
-impl FlightCore {
-    /// Why an autonomous take-off may not start now, if it may not.
-    pub(super) fn preflight(&self, now_us: u64) -> Option<Refusal> {
-        if self.health.state(Device::Imu) != HealthState::Ok {
-            return Some(Refusal::ImuNotHealthy);
-        }
-        let nav = self.nav.stats();
-        if nav.gps_fused == 0 {
-            return Some(Refusal::NoGpsFix);
-        }
-        if seconds_between(nav.last_gps_fused_us, now_us) > GPS_FRESH_S {
-            return Some(Refusal::GpsStale);
-        }
-        match self.last_good_fix {
-            Some((_, fix)) if fix.satellites < MIN_SATELLITES => {
-                return Some(Refusal::TooFewSatellites(fix.satellites));
-            }
-            _ => {}
-        }
-        let verdict = self.automatic_verdict();
-        (!verdict.allowed).then_some(Refusal::Unsafe(verdict))
+/// The checks at `now_us`: the IMU on time (`imu_ok`), the filter's GPS fusions (`nav`),
+/// the last good fix, then the safety rule's verdict on automatic flight (asked last, only
+/// when everything else passed). `None` when the take-off may go.
+pub fn check(
+    imu_ok: bool,
+    nav: &NavSensorStats,
+    last_good_fix: Option<(u64, GpsNav)>,
+    automatic: impl FnOnce() -> heli_control::safety::Verdict,
+    now_us: u64,
+) -> Option<Refusal> {
+    if !imu_ok {
+        return Some(Refusal::ImuNotHealthy);
     }
+    if nav.gps_fused == 0 {
+        return Some(Refusal::NoGpsFix);
+    }
+    if seconds_between(nav.last_gps_fused_us, now_us) > GPS_FRESH_S {
+        return Some(Refusal::GpsStale);
+    }
+    match last_good_fix {
+        Some((_, fix)) if fix.satellites < MIN_SATELLITES => {
+            return Some(Refusal::TooFewSatellites(fix.satellites));
+        }
+        _ => {}
+    }
+    let verdict = automatic();
+    (!verdict.allowed).then_some(Refusal::Unsafe(verdict))
 }

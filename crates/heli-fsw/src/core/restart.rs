@@ -13,8 +13,20 @@
 //! auto switch is on (the flight plan is not resumed: where it stood is not known for
 //! sure), or hands the helicopter to the pilot if the switch is off, as ArduPilot does after
 //! a watchdog reset in flight.
+//!
+//! A component: it owns the alignment under way and the trim kept for a successor; the
+//! core hands it the real IMU samples while it aligns and each step's command while it
+//! flies autonomously, and it starts the filter in the air when the alignment is done.
 
-use super::*;
+use heli_control::{HoverGains, YawDamper};
+use heli_nav::{Navigator, seconds_between};
+use heli_proto::gps::GpsNav;
+use heli_proto::imu::ImuRepr;
+use heli_proto::scb::Controls;
+use nalgebra::Vector3;
+
+use super::event::CoreEvent;
+use super::{Action, BLIND_DESCENT_COLLECTIVE_MARGIN, Stamped};
 
 /// Accelerometer readings averaged for the attitude of an in-air alignment (s).
 pub const ALIGN_S: f64 = 1.0;
@@ -44,7 +56,7 @@ pub const TRIM_AVERAGE_S: f64 = 2.0;
 
 /// An in-air alignment under way.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Alignment {
+struct Alignment {
     warm: WarmStart,
     since_us: Option<u64>,
     accel_sum_mps2: Vector3<f64>,
@@ -52,47 +64,37 @@ pub(super) struct Alignment {
     gps_seen: bool,
 }
 
-impl FlightCore {
-    /// A core started again in the air from what the process before it left. A record
-    /// from a helicopter that never flew gives an ordinary start, calibration included.
-    pub fn restarted(config: CoreConfig, params: FlightParams, warm: WarmStart) -> Self {
-        let mut core = Self::new(config, params);
-        if !warm.airborne {
-            return core;
+/// The restart's side of the core.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Restart {
+    /// An in-air alignment after a restart, instead of the ground calibration.
+    alignment: Option<Alignment>,
+    /// The average servo command of autonomous flight in the air (for a restart).
+    pub(super) trim: Option<Controls>,
+}
+
+impl Restart {
+    /// A restart from `warm`: an alignment in the air to come.
+    pub fn aligning_from(warm: WarmStart) -> Self {
+        Self {
+            alignment: Some(Alignment {
+                warm,
+                since_us: None,
+                accel_sum_mps2: Vector3::zeros(),
+                samples: 0,
+                gps_seen: false,
+            }),
+            trim: None,
         }
-        if let Some(origin) = warm.origin {
-            core.nav.set_origin(origin);
-        }
-        core.home_ned_m = warm.home_ned_m.map(Vector3::from);
-        core.airborne_once = true;
-        core.has_flown = true;
-        core.plan_abandoned = true;
-        core.alignment = Some(Alignment {
-            warm,
-            since_us: None,
-            accel_sum_mps2: Vector3::zeros(),
-            samples: 0,
-            gps_seen: false,
-        });
-        core.phase = Phase::BlindDescent;
-        core
     }
 
-    /// What this process would leave its successor now (`None` before the calibration).
-    pub fn warm_start(&self) -> Option<WarmStart> {
-        let state = self.nav.state()?;
-        let b = state.gyro_bias_rps;
-        Some(WarmStart {
-            gyro_bias_rps: [b.x, b.y, b.z],
-            origin: self.nav.origin(),
-            home_ned_m: self.home_ned_m.map(|h| [h.x, h.y, h.z]),
-            airborne: self.airborne_once,
-            trim: self.trim,
-        })
+    /// The trim kept so far.
+    pub fn trim(&self) -> Option<Controls> {
+        self.trim
     }
 
     /// Keeps the average of the servo commands of autonomous flight in the air.
-    pub(super) fn average_trim(&mut self, controls: &Controls, dt_s: f64) {
+    pub fn average_trim(&mut self, controls: &Controls, dt_s: f64) {
         let k = (dt_s / TRIM_AVERAGE_S).clamp(0.0, 1.0);
         let avg = |a: f64, b: f64| a + k * (b - a);
         self.trim = Some(match self.trim {
@@ -110,10 +112,14 @@ impl FlightCore {
     /// What a restarted process flies while it aligns: the trim its predecessor left, with
     /// the tail damping the yaw rate the gyro measures less its known bias; without a trim,
     /// the blind failsafe with yaw damping.
-    pub(super) fn aligning_controls(&self, gyro_z_rps: f64) -> Option<Controls> {
+    pub fn aligning_controls(
+        &self,
+        damper: &YawDamper,
+        hover: &HoverGains,
+        gyro_z_rps: f64,
+    ) -> Option<Controls> {
         let a = self.alignment.as_ref()?;
         let yaw_rate = gyro_z_rps - a.warm.gyro_bias_rps[2];
-        let damper = &self.config.yaw_damper;
         Some(match a.warm.trim {
             Some(trim) => Controls {
                 rudder: trim.rudder - damper.gain * yaw_rate,
@@ -121,7 +127,7 @@ impl FlightCore {
             }
             .clamped(),
             None => Controls {
-                collective: self.config.hover.hover_collective - BLIND_DESCENT_COLLECTIVE_MARGIN,
+                collective: hover.hover_collective - BLIND_DESCENT_COLLECTIVE_MARGIN,
                 rudder: damper.trim - damper.gain * yaw_rate,
                 throttle: heli_control::GOVERNED_THROTTLE,
                 ..Controls::default()
@@ -135,8 +141,16 @@ impl FlightCore {
         self.alignment.is_some()
     }
 
-    /// One real IMU sample of the in-air alignment; at its end the estimate starts.
-    pub(super) fn align(&mut self, now_us: u64, sample: &ImuRepr, out: &mut Vec<Action>) {
+    /// One real IMU sample of the in-air alignment; at its end the filter `nav` starts in
+    /// the air, on the GPS velocity of the last good fix when one came.
+    pub fn align(
+        &mut self,
+        nav: &mut Navigator,
+        last_good_fix: Option<(u64, GpsNav)>,
+        now_us: u64,
+        sample: &ImuRepr,
+        out: &mut Vec<Action>,
+    ) {
         let Some(a) = self.alignment.as_mut() else {
             return;
         };
@@ -153,7 +167,7 @@ impl FlightCore {
         };
         a.accel_sum_mps2 += Vector3::from(sample.accel_mps2);
         a.samples = a.samples.saturating_add(1);
-        a.gps_seen |= self.nav.origin().is_some() && self.last_good_fix.is_some();
+        a.gps_seen |= nav.origin().is_some() && last_good_fix.is_some();
         let elapsed = seconds_between(since, now_us);
         if elapsed < ALIGN_S || (!a.gps_seen && elapsed < ALIGN_GPS_WAIT_S) {
             return;
@@ -165,11 +179,10 @@ impl FlightCore {
         };
         let gps = a.gps_seen;
         self.alignment = None;
-        let gps_vel = self
-            .last_good_fix
+        let gps_vel = last_good_fix
             .filter(|_| gps)
             .map(|(_, fix)| Vector3::from(fix.vel_ned_mps));
-        self.nav.initialise_in_air(now_us, &biases, gps_vel);
+        nav.initialise_in_air(now_us, &biases, gps_vel);
         out.push(Action::Event(Stamped::new(
             now_us,
             CoreEvent::AlignedInAir { gps },

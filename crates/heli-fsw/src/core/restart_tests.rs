@@ -33,7 +33,11 @@ fn the_trim_is_a_two_second_average_of_the_commands() {
     let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
     let first = trim();
     core.average_trim(&first, 0.02);
-    assert_eq!(core.trim, Some(first), "the first command is the average");
+    assert_eq!(
+        core.restart.trim,
+        Some(first),
+        "the first command is the average"
+    );
     let next = Controls {
         aileron: 0.12,
         elevator: 0.07,
@@ -43,7 +47,7 @@ fn the_trim_is_a_two_second_average_of_the_commands() {
     };
     core.average_trim(&next, 0.5);
     let k = 0.5 / restart::TRIM_AVERAGE_S;
-    let t = core.trim.unwrap();
+    let t = core.restart.trim.unwrap();
     let close = |a: f64, b: f64| assert!((a - b).abs() < 1e-12, "{a} {b}");
     close(t.aileron, 0.02 + k * 0.1);
     close(t.elevator, -0.03 + k * 0.1);
@@ -53,7 +57,7 @@ fn the_trim_is_a_two_second_average_of_the_commands() {
     close(t.throttle, 0.9);
     // A step longer than the window replaces it.
     core.average_trim(&first, 5.0);
-    assert_eq!(core.trim, Some(first));
+    assert_eq!(core.restart.trim, Some(first));
 }
 
 #[test]
@@ -72,9 +76,9 @@ fn the_record_left_for_a_successor() {
             samples: 100,
         },
     );
-    core.home_ned_m = Some(Vector3::new(1.0, 2.0, 3.0));
-    core.airborne_once = true;
-    core.trim = Some(trim());
+    core.seq.home_ned_m = Some(Vector3::new(1.0, 2.0, 3.0));
+    core.seq.airborne_once = true;
+    core.restart.trim = Some(trim());
     let w = core.warm_start().unwrap();
     assert_eq!(w.gyro_bias_rps, [0.001, 0.002, -0.003]);
     assert_eq!(w.home_ned_m, Some([1.0, 2.0, 3.0]));
@@ -125,7 +129,7 @@ fn the_alignment_waits_for_a_gps_fix_up_to_its_limit() {
         FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm(None));
     let mut out = Vec::new();
     core.handle(Input::Gps(gps_fix(8)), 0, &mut out);
-    assert!(core.nav.origin().is_some() && core.last_good_fix.is_some());
+    assert!(core.nav.origin().is_some() && core.aiding.last_good_fix.is_some());
     let mut t = 0;
     while core.aligning() && t < 5 * S {
         t += 10_000;

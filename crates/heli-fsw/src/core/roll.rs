@@ -1,125 +1,155 @@
 //! The aileron-roll maneuver's stage machine: accelerate to trim speed, pull up, roll,
 //! recover, as many rolls as the plan asks for.
+//!
+//! A component without memory of its own: the stage travels in the phase
+//! ([`Phase::Maneuver`]); one step takes the stage, the estimate and the plan's leg, and
+//! says what comes next — the maneuver's next phase, or the next leg — and the roll it
+//! finished or gave up, if any.
 
-use super::*;
+use heli_control::{RollGains, Target};
+use heli_nav::{NavState, seconds_between};
+use heli_types::Leg;
+use nalgebra::Vector3;
 
-impl FlightCore {
-    /// One step of the roll maneuver's stage machine.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn maneuver(
-        &mut self,
-        est: &NavState,
-        now_us: u64,
-        dt_s: f64,
-        target: Target,
-        stage: RollStage,
-        rolls_done: u32,
-        out: &mut Vec<Action>,
-    ) -> Phase {
-        let g = self.config.roll;
-        let Some(Leg::Rolls { count, speed_mps }) = self.plan_leg() else {
-            return self.next_leg(est, now_us, out);
-        };
-        let dir = Vector3::new(target.yaw_rad.cos(), target.yaw_rad.sin(), 0.0);
-        let trim_vel = dir * speed_mps;
-        // The trim trajectory: straight and level at the trim speed, carried along.
-        let carried = Target {
-            pos_ned_m: target.pos_ned_m + target.vel_ned_mps * dt_s,
-            ..target
-        };
-        let stage = match stage {
-            RollStage::Accelerate { since_us } => {
-                let settled = (est.vel_ned_mps - trim_vel).norm() < 1.0;
-                let elapsed = seconds_between(since_us, now_us);
-                if settled && elapsed > 6.0 {
-                    RollStage::PullUp { since_us: now_us }
-                } else if elapsed > ACCELERATE_TIMEOUT_S {
-                    // Never settled on the trim (a headwind, a weak rotor): no rolls today.
-                    self.phase = Phase::Maneuver {
-                        target: carried,
-                        stage,
-                        rolls_done,
-                    };
-                    return self.next_leg(est, now_us, out);
-                } else {
-                    stage
-                }
+use super::ACCELERATE_TIMEOUT_S;
+use crate::phase::{Phase, RollStage};
+
+/// A roll that ended in this step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RollEnd {
+    /// Turned all the way round.
+    Completed,
+    /// Took more than twice its nominal time: given up.
+    Abandoned,
+}
+
+/// What comes after one step of the maneuver.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RollStep {
+    /// The maneuver goes on in this phase.
+    Fly(Phase),
+    /// The maneuver is over (or no rolls are planned): the plan's next leg, started from
+    /// this phase's target when one is given.
+    NextLeg(Option<Phase>),
+}
+
+/// One step of the roll maneuver on the leg being flown (`leg`), from `stage` with
+/// `rolls_done` rolls behind it.
+#[allow(clippy::too_many_arguments)]
+pub fn step(
+    g: &RollGains,
+    leg: Option<Leg>,
+    est: &NavState,
+    now_us: u64,
+    dt_s: f64,
+    target: Target,
+    stage: RollStage,
+    rolls_done: u32,
+) -> (RollStep, Option<RollEnd>) {
+    let Some(Leg::Rolls { count, speed_mps }) = leg else {
+        return (RollStep::NextLeg(None), None);
+    };
+    let dir = Vector3::new(target.yaw_rad.cos(), target.yaw_rad.sin(), 0.0);
+    let trim_vel = dir * speed_mps;
+    // The trim trajectory: straight and level at the trim speed, carried along.
+    let carried = Target {
+        pos_ned_m: target.pos_ned_m + target.vel_ned_mps * dt_s,
+        ..target
+    };
+    let stage = match stage {
+        RollStage::Accelerate { since_us } => {
+            let settled = (est.vel_ned_mps - trim_vel).norm() < 1.0;
+            let elapsed = seconds_between(since_us, now_us);
+            if settled && elapsed > 6.0 {
+                RollStage::PullUp { since_us: now_us }
+            } else if elapsed > ACCELERATE_TIMEOUT_S {
+                // Never settled on the trim (a headwind, a weak rotor): no rolls today.
+                let phase = Phase::Maneuver {
+                    target: carried,
+                    stage,
+                    rolls_done,
+                };
+                return (RollStep::NextLeg(Some(phase)), None);
+            } else {
+                stage
             }
-            RollStage::PullUp { since_us } => {
-                if seconds_between(since_us, now_us) >= g.pull_up_s {
-                    RollStage::Rolling {
-                        angle_rad: 0.0,
-                        since_us: now_us,
-                    }
-                } else {
-                    stage
+        }
+        RollStage::PullUp { since_us } => {
+            if seconds_between(since_us, now_us) >= g.pull_up_s {
+                RollStage::Rolling {
+                    angle_rad: 0.0,
+                    since_us: now_us,
                 }
+            } else {
+                stage
+            }
+        }
+        RollStage::Rolling {
+            angle_rad,
+            since_us,
+        } => {
+            // Turned in the commanded direction; a roll that takes more than twice its
+            // nominal time is given up and the trim controller takes over.
+            let angle_rad = angle_rad + est.rate_body_rps.x * g.rate_cmd_rps.signum() * dt_s;
+            let nominal_s = 2.0 * core::f64::consts::PI / g.rate_cmd_rps.abs().max(0.5);
+            let turned = angle_rad >= 2.0 * core::f64::consts::PI - g.exit_lead_rad;
+            if turned || seconds_between(since_us, now_us) > 2.0 * nominal_s {
+                let end = if turned {
+                    RollEnd::Completed
+                } else {
+                    RollEnd::Abandoned
+                };
+                // Back on the trim trajectory from here, at this height.
+                let target = Target {
+                    pos_ned_m: est.pos_ned_m,
+                    vel_ned_mps: trim_vel,
+                    ..target
+                };
+                let phase = Phase::Maneuver {
+                    target,
+                    stage: RollStage::Recover { since_us: now_us },
+                    rolls_done: rolls_done.saturating_add(1),
+                };
+                return (RollStep::Fly(phase), Some(end));
             }
             RollStage::Rolling {
                 angle_rad,
                 since_us,
-            } => {
-                // Turned in the commanded direction; a roll that takes more than twice its
-                // nominal time is given up and the trim controller takes over.
-                let angle_rad = angle_rad + est.rate_body_rps.x * g.rate_cmd_rps.signum() * dt_s;
-                let nominal_s = 2.0 * core::f64::consts::PI / g.rate_cmd_rps.abs().max(0.5);
-                let turned = angle_rad >= 2.0 * core::f64::consts::PI - g.exit_lead_rad;
-                if turned || seconds_between(since_us, now_us) > 2.0 * nominal_s {
-                    let event = if turned {
-                        self.stats.rolls_completed = self.stats.rolls_completed.saturating_add(1);
-                        CoreEvent::RollCompleted(self.stats.rolls_completed)
-                    } else {
-                        CoreEvent::RollAbandoned
-                    };
-                    out.push(Action::Event(Stamped::new(now_us, event)));
-                    // Back on the trim trajectory from here, at this height.
-                    let target = Target {
-                        pos_ned_m: est.pos_ned_m,
-                        vel_ned_mps: trim_vel,
-                        ..target
-                    };
-                    return Phase::Maneuver {
-                        target,
-                        stage: RollStage::Recover { since_us: now_us },
-                        rolls_done: rolls_done.saturating_add(1),
-                    };
-                }
-                RollStage::Rolling {
-                    angle_rad,
-                    since_us,
-                }
             }
-            RollStage::Recover { since_us } => {
-                if seconds_between(since_us, now_us) < g.recover_s {
-                    stage
-                } else if rolls_done < count {
-                    RollStage::PullUp { since_us: now_us }
-                } else {
-                    self.phase = Phase::Maneuver {
-                        target: carried,
-                        stage,
-                        rolls_done,
-                    };
-                    return self.next_leg(est, now_us, out);
-                }
-            }
-        };
-        let vel_ned_mps = match stage {
-            RollStage::PullUp { .. } => trim_vel + Vector3::new(0.0, 0.0, -g.pull_up_climb_mps),
-            _ => trim_vel,
-        };
-        let mut target = Target {
-            vel_ned_mps,
-            ..carried
-        };
-        if let RollStage::Rolling { .. } = stage {
-            // While rolling the trajectory only keeps up with the helicopter.
-            target.pos_ned_m = est.pos_ned_m;
         }
-        Phase::Maneuver {
+        RollStage::Recover { since_us } => {
+            if seconds_between(since_us, now_us) < g.recover_s {
+                stage
+            } else if rolls_done < count {
+                RollStage::PullUp { since_us: now_us }
+            } else {
+                let phase = Phase::Maneuver {
+                    target: carried,
+                    stage,
+                    rolls_done,
+                };
+                return (RollStep::NextLeg(Some(phase)), None);
+            }
+        }
+    };
+    let vel_ned_mps = match stage {
+        RollStage::PullUp { .. } => trim_vel + Vector3::new(0.0, 0.0, -g.pull_up_climb_mps),
+        _ => trim_vel,
+    };
+    let mut target = Target {
+        vel_ned_mps,
+        ..carried
+    };
+    if let RollStage::Rolling { .. } = stage {
+        // While rolling the trajectory only keeps up with the helicopter.
+        target.pos_ned_m = est.pos_ned_m;
+    }
+    (
+        RollStep::Fly(Phase::Maneuver {
             target,
             stage,
             rolls_done,
-        }
-    }
+        }),
+        None,
+    )
 }

@@ -26,7 +26,7 @@ fn rolling_core() -> FlightCore {
             plan,
         },
     );
-    core.leg = 1;
+    core.seq.leg = 1;
     core
 }
 
@@ -121,7 +121,7 @@ fn never_settled_it_gives_up_the_rolls_after_the_timeout() {
     );
     let (phase, _) = step(&mut core, &off, at + 1, accelerate, 0);
     assert!(matches!(phase, Phase::Holding { .. }), "{phase:?}");
-    assert_eq!(core.leg, 2);
+    assert_eq!(core.seq.leg, 2);
 }
 
 #[test]
@@ -256,5 +256,5 @@ fn after_recovering_it_rolls_again_until_the_count_then_flies_the_next_leg() {
     );
     let (phase, _) = step(&mut core, &e, end, recover, 2);
     assert!(matches!(phase, Phase::Holding { .. }), "{phase:?}");
-    assert_eq!(core.leg, 2);
+    assert_eq!(core.seq.leg, 2);
 }

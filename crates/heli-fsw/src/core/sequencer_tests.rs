@@ -29,12 +29,12 @@ fn plan() -> Plan {
 pub(super) fn core_in(phase: Phase, mode: FlightMode, auto: bool, now_us: u64) -> FlightCore {
     let mut core = FlightCore::new(CoreConfig::default(), FlightParams { mode, plan: plan() });
     for device in Device::ALL {
-        core.health.monitor_mut(device).sample(now_us);
+        core.devices.health.monitor_mut(device).sample(now_us);
     }
-    core.last_good_fix = Some((now_us, gps_fix(8)));
-    core.home_ned_m = Some(Vector3::zeros());
-    core.pilot = Some(uplink(auto, false));
-    core.phase = phase;
+    core.aiding.last_good_fix = Some((now_us, gps_fix(8)));
+    core.seq.home_ned_m = Some(Vector3::zeros());
+    core.devices.pilot = Some(uplink(auto, false));
+    core.seq.phase = phase;
     core
 }
 
@@ -81,7 +81,7 @@ fn the_auto_switch_in_the_air_holds_where_the_helicopter_can_stop() {
         }
         other => panic!("{other:?}"),
     }
-    assert!(core.braking.is_some());
+    assert!(core.seq.braking.is_some());
 }
 
 #[test]
@@ -90,7 +90,7 @@ fn the_auto_switch_on_the_ground_checks_then_takes_off_or_is_refused() {
     // No GPS fix fused by the filter: the pre-flight check waits.
     let (phase, _) = next(&mut core, &est(0.0, 0.0, Vector3::zeros()), S);
     assert_eq!(phase, Phase::PreflightCheck { since_us: S });
-    core.phase = phase;
+    core.seq.phase = phase;
     let wait = (preflight::CHECK_WAIT_S * 1e6) as u64;
     let (phase, out) = next(&mut core, &est(0.0, 0.0, Vector3::zeros()), S + wait - 1);
     assert_eq!(phase, Phase::PreflightCheck { since_us: S });
@@ -101,13 +101,13 @@ fn the_auto_switch_on_the_ground_checks_then_takes_off_or_is_refused() {
         &out,
         CoreEvent::TakeoffRefused(preflight::Refusal::NoGpsFix)
     ));
-    core.phase = phase;
+    core.seq.phase = phase;
     // Refused stays refused while the switch stays on, and the pilot has it when it is off.
     assert_eq!(
         next(&mut core, &est(0.0, 0.0, Vector3::zeros()), 40 * S).0,
         Phase::TakeoffRefused
     );
-    core.pilot = Some(uplink(false, false));
+    core.devices.pilot = Some(uplink(false, false));
     assert_eq!(
         next(&mut core, &est(0.0, 0.0, Vector3::zeros()), 41 * S).0,
         Phase::Manual
@@ -117,18 +117,18 @@ fn the_auto_switch_on_the_ground_checks_then_takes_off_or_is_refused() {
 #[test]
 fn with_the_plan_done_the_auto_switch_on_the_ground_stays_landed() {
     let mut core = core_in(Phase::Manual, FlightMode::Autonomous, true, S);
-    core.plan_done = true;
+    core.seq.plan_done = true;
     assert_eq!(
         next(&mut core, &est(0.0, 0.0, Vector3::zeros()), S).0,
         Phase::Landed
     );
-    core.phase = Phase::Landed;
+    core.seq.phase = Phase::Landed;
     assert_eq!(
         next(&mut core, &est(0.0, 0.0, Vector3::zeros()), S).0,
         Phase::Landed
     );
     let mut core = core_in(Phase::Manual, FlightMode::Autonomous, true, S);
-    core.plan_abandoned = true;
+    core.seq.plan_abandoned = true;
     assert_eq!(
         next(&mut core, &est(0.2, 0.0, Vector3::zeros()), S).0,
         Phase::Landed
@@ -142,7 +142,10 @@ fn the_bypass_and_the_switch_off_give_the_pilot_the_helicopter() {
         since_us: 0,
     };
     let mut core = core_in(hold, FlightMode::Autonomous, true, S);
-    core.pilot = core.pilot.map(|p| PilotUplink { bypass: true, ..p });
+    core.devices.pilot = core
+        .devices
+        .pilot
+        .map(|p| PilotUplink { bypass: true, ..p });
     assert_eq!(
         next(&mut core, &est(8.0, 0.0, Vector3::zeros()), S).0,
         Phase::Manual
@@ -160,8 +163,11 @@ fn the_bypass_and_the_switch_off_give_the_pilot_the_helicopter() {
     );
     // A silent board's bypass bit is stale: the transmitter is lost, the computer holds.
     let mut core = core_in(hold, FlightMode::Autonomous, true, S);
-    core.pilot = core.pilot.map(|p| PilotUplink { bypass: true, ..p });
-    core.uplink_lost = true;
+    core.devices.pilot = core
+        .devices
+        .pilot
+        .map(|p| PilotUplink { bypass: true, ..p });
+    core.devices.uplink_lost = true;
     assert!(matches!(
         next(&mut core, &est(8.0, 0.0, Vector3::zeros()), S).0,
         Phase::Holding { .. }
@@ -182,20 +188,20 @@ fn the_augmented_modes_fly_when_the_switch_is_on() {
 fn a_lost_transmitter_holds_in_the_air_and_idles_on_the_ground() {
     // In the air, in manual: hover here, the plan given up.
     let mut core = core_in(Phase::Manual, FlightMode::Manual, false, S);
-    core.pilot = Some(uplink(false, true));
+    core.devices.pilot = Some(uplink(false, true));
     let (phase, out) = next(&mut core, &est(8.0, 0.0, Vector3::zeros()), S);
     assert!(
         matches!(phase, Phase::Holding { since_us, .. } if since_us == S),
         "{phase:?}"
     );
-    assert!(core.plan_abandoned);
+    assert!(core.seq.plan_abandoned);
     assert!(out.is_empty());
     // A hold already in place is kept, with its time.
-    core.phase = Phase::Holding {
+    core.seq.phase = Phase::Holding {
         target: Target::hold(Vector3::new(1.0, 1.0, -8.0), 0.3),
         since_us: 7,
     };
-    core.braking = None;
+    core.seq.braking = None;
     let (phase, _) = next(&mut core, &est(8.0, 0.0, Vector3::zeros()), 2 * S);
     assert_eq!(
         phase,
@@ -213,14 +219,14 @@ fn a_lost_transmitter_holds_in_the_air_and_idles_on_the_ground() {
         true,
         S,
     );
-    core.pilot = Some(uplink(true, true));
+    core.devices.pilot = Some(uplink(true, true));
     assert_eq!(
         next(&mut core, &est(0.1, 0.0, Vector3::zeros()), S).0,
         Phase::GroundFailsafe
     );
     // The board gone silent is the same loss.
     let mut core = core_in(Phase::Manual, FlightMode::Manual, false, S);
-    core.uplink_lost = true;
+    core.devices.uplink_lost = true;
     assert!(matches!(
         next(&mut core, &est(8.0, 0.0, Vector3::zeros()), S).0,
         Phase::Holding { .. }
@@ -235,7 +241,7 @@ fn the_climb_ends_within_its_tolerance_of_the_height() {
     assert_eq!(phase, Phase::TakingOff { target });
     let (phase, _) = next(&mut core, &est(9.75, 0.0, Vector3::zeros()), S);
     assert!(matches!(phase, Phase::Holding { .. }), "{phase:?}");
-    assert_eq!(core.leg, 1);
+    assert_eq!(core.seq.leg, 1);
 }
 
 #[test]
@@ -246,7 +252,7 @@ fn a_hold_lasts_its_leg_then_the_path_begins() {
         since_us: S,
     };
     let mut core = core_in(hold, FlightMode::Autonomous, true, S);
-    core.leg = 1;
+    core.seq.leg = 1;
     let (phase, _) = next(&mut core, &est(10.0, 0.0, Vector3::zeros()), 6 * S - 1);
     assert!(matches!(phase, Phase::Holding { since_us, .. } if since_us == S));
     let (phase, _) = next(&mut core, &est(10.0, 0.0, Vector3::zeros()), 6 * S);
@@ -263,11 +269,11 @@ fn a_hold_lasts_its_leg_then_the_path_begins() {
         }
         other => panic!("{other:?}"),
     }
-    assert_eq!(core.leg, 2);
+    assert_eq!(core.seq.leg, 2);
     // A hold the plan gave up (a lost transmitter's) lasts.
     let mut core = core_in(hold, FlightMode::Autonomous, true, S);
-    core.leg = 1;
-    core.plan_abandoned = true;
+    core.seq.leg = 1;
+    core.seq.plan_abandoned = true;
     assert!(matches!(
         next(&mut core, &est(10.0, 0.0, Vector3::zeros()), 60 * S).0,
         Phase::Holding { .. }
@@ -286,7 +292,7 @@ fn the_path_carries_its_target_at_the_speed_and_arrives_when_stopped_there() {
         to_ned_m: to,
     };
     let mut core = core_in(flying(5.0, 4.0), FlightMode::Autonomous, true, S);
-    core.leg = 2;
+    core.seq.leg = 2;
     match next(&mut core, &est(10.0, 5.0, Vector3::new(4.0, 0.0, 0.0)), S).0 {
         Phase::Flying { target, .. } => {
             assert!((target.pos_ned_m.x - (5.0 + 4.0 * DT)).abs() < 1e-12);
@@ -296,7 +302,7 @@ fn the_path_carries_its_target_at_the_speed_and_arrives_when_stopped_there() {
     }
     // The last step reaches the end and stops the target there.
     let mut core = core_in(flying(20.0 - 0.05, 4.0), FlightMode::Autonomous, true, S);
-    core.leg = 2;
+    core.seq.leg = 2;
     match next(&mut core, &est(10.0, 19.0, Vector3::new(4.0, 0.0, 0.0)), S).0 {
         Phase::Flying { target, .. } => {
             assert_eq!(target.pos_ned_m, to);
@@ -307,7 +313,7 @@ fn the_path_carries_its_target_at_the_speed_and_arrives_when_stopped_there() {
     // Arrived: within 1.5 m and under 1 m/s.
     for (north, speed, arrived) in [(19.0, 0.5, true), (18.4, 0.5, false), (19.0, 1.1, false)] {
         let mut core = core_in(flying(20.0, 0.0), FlightMode::Autonomous, true, S);
-        core.leg = 2;
+        core.seq.leg = 2;
         let phase = next(
             &mut core,
             &est(10.0, north, Vector3::new(speed, 0.0, 0.0)),
@@ -333,7 +339,7 @@ fn the_landing_settles_on_the_skids_then_the_plan_is_complete() {
         settled_since_us: settled,
     };
     let mut core = core_in(landing(-5.0, None), FlightMode::Autonomous, true, S);
-    core.leg = 3;
+    core.seq.leg = 3;
     // In the air the target descends at its rate.
     match next(&mut core, &est(5.0, 20.0, Vector3::new(0.0, 0.0, 0.5)), S).0 {
         Phase::Landing {
@@ -344,21 +350,21 @@ fn the_landing_settles_on_the_skids_then_the_plan_is_complete() {
     }
     // Never more than a metre below the helicopter.
     let mut core = core_in(landing(0.5, None), FlightMode::Autonomous, true, S);
-    core.leg = 3;
+    core.seq.leg = 3;
     match next(&mut core, &est(2.0, 20.0, Vector3::new(0.0, 0.0, 0.5)), S).0 {
         Phase::Landing { target, .. } => assert!((target.pos_ned_m.z - (-1.0)).abs() < 1e-12),
         other => panic!("{other:?}"),
     }
     // On the skids (the target 0.6 m below, still): settling, then landed after a second.
     let mut core = core_in(landing(0.6, None), FlightMode::Autonomous, true, S);
-    core.leg = 3;
+    core.seq.leg = 3;
     let still = est(0.0, 20.0, Vector3::new(0.0, 0.0, 0.1));
     assert_eq!(
         next(&mut core, &still, 2 * S).0,
         landing(0.6 + 0.5 * DT, Some(2 * S))
     );
     let mut core = core_in(landing(0.6, Some(S)), FlightMode::Autonomous, true, S);
-    core.leg = 3;
+    core.seq.leg = 3;
     let (phase, out) = next(&mut core, &still, 2 * S - 1);
     assert!(matches!(phase, Phase::Landing { settled_since_us: Some(t), .. } if t == S));
     assert!(out.is_empty());
@@ -369,7 +375,7 @@ fn the_landing_settles_on_the_skids_then_the_plan_is_complete() {
     assert!(raised(&out, CoreEvent::PlanComplete));
     // A landing the plan did not ask for lands without completing it.
     let mut core = core_in(landing(0.6, Some(S)), FlightMode::Autonomous, true, S);
-    core.plan_abandoned = true;
+    core.seq.plan_abandoned = true;
     let (phase, out) = next(&mut core, &still, 2 * S);
     assert_eq!(phase, Phase::Landed);
     assert!(!raised(&out, CoreEvent::PlanComplete));
@@ -400,16 +406,16 @@ fn without_an_estimate_the_pilot_or_the_blind_failsafe_flies() {
     let mut core = core_in(Phase::Calibrating, FlightMode::Autonomous, false, S);
     assert_eq!(core.next_phase(None, S, DT, &mut out), Phase::Calibrating);
     // The estimate lost: the pilot if there is one.
-    core.estimate_valid = false;
+    core.main_loop.estimate_valid = false;
     assert_eq!(core.next_phase(None, S, DT, &mut out), Phase::Manual);
-    core.pilot = Some(uplink(false, true));
+    core.devices.pilot = Some(uplink(false, true));
     assert_eq!(
         core.next_phase(None, S, DT, &mut out),
         Phase::GroundFailsafe
     );
-    core.airborne_once = true;
+    core.seq.airborne_once = true;
     assert_eq!(core.next_phase(None, S, DT, &mut out), Phase::BlindDescent);
-    core.pilot = None;
+    core.devices.pilot = None;
     assert_eq!(core.next_phase(None, S, DT, &mut out), Phase::BlindDescent);
 }
 
@@ -424,15 +430,18 @@ fn aligning_after_a_restart_the_pilot_flies_unless_the_switch_is_on() {
     };
     let mut core = FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm);
     let mut out = Vec::new();
-    core.pilot = Some(uplink(false, false));
+    core.devices.pilot = Some(uplink(false, false));
     assert_eq!(core.next_phase(None, S, DT, &mut out), Phase::Manual);
-    core.pilot = Some(uplink(true, false));
+    core.devices.pilot = Some(uplink(true, false));
     assert_eq!(core.next_phase(None, S, DT, &mut out), Phase::BlindDescent);
-    core.pilot = core.pilot.map(|p| PilotUplink { bypass: true, ..p });
+    core.devices.pilot = core
+        .devices
+        .pilot
+        .map(|p| PilotUplink { bypass: true, ..p });
     assert_eq!(core.next_phase(None, S, DT, &mut out), Phase::Manual);
-    core.pilot = Some(uplink(false, true));
+    core.devices.pilot = Some(uplink(false, true));
     assert_eq!(core.next_phase(None, S, DT, &mut out), Phase::BlindDescent);
-    core.pilot = None;
+    core.devices.pilot = None;
     assert_eq!(core.next_phase(None, S, DT, &mut out), Phase::BlindDescent);
 }
 
@@ -456,8 +465,8 @@ fn a_roll_under_way_is_finished_before_the_pilot_takes_over() {
         rolls_done: 0,
     };
     let mut core = core_in(rolling(1.0), FlightMode::Autonomous, false, S);
-    core.params.plan = plan;
-    core.leg = 1;
+    core.seq.params.plan = plan;
+    core.seq.leg = 1;
     let mut e = est(20.0, 0.0, Vector3::new(5.0, 0.0, 0.0));
     e.rate_body_rps.x = 3.0;
     // The switch is off, but the roll goes on.
@@ -473,13 +482,16 @@ fn a_roll_under_way_is_finished_before_the_pilot_takes_over() {
         "{phase:?}"
     );
     // Upright again: the pilot has it.
-    core.phase = rolling(2.0 * core::f64::consts::PI);
+    core.seq.phase = rolling(2.0 * core::f64::consts::PI);
     let (phase, out) = next(&mut core, &e, 2 * S);
     assert_eq!(phase, Phase::Manual);
     assert!(raised(&out, CoreEvent::RollCompleted(1)));
     // The bypass acts at once, mid-roll.
-    core.phase = rolling(1.0);
-    core.pilot = core.pilot.map(|p| PilotUplink { bypass: true, ..p });
+    core.seq.phase = rolling(1.0);
+    core.devices.pilot = core
+        .devices
+        .pilot
+        .map(|p| PilotUplink { bypass: true, ..p });
     assert_eq!(next(&mut core, &e, 2 * S).0, Phase::Manual);
 }
 
@@ -495,7 +507,7 @@ fn a_rolls_leg_accelerates_along_the_heading_and_the_plans_end_holds() {
     .unwrap();
     let target = Target::hold(Vector3::new(0.0, 0.0, -10.0), 0.3);
     let mut core = core_in(Phase::TakingOff { target }, FlightMode::Autonomous, true, S);
-    core.params.plan = plan;
+    core.seq.params.plan = plan;
     match next(&mut core, &est(10.0, 0.0, Vector3::zeros()), S).0 {
         Phase::Maneuver {
             target: t,
@@ -511,7 +523,7 @@ fn a_rolls_leg_accelerates_along_the_heading_and_the_plans_end_holds() {
     }
     // Past the last leg: the plan is complete, raised once, and it holds where it is.
     let mut core = core_in(Phase::TakingOff { target }, FlightMode::Autonomous, true, S);
-    core.params.plan = Plan::new(&[Leg::Takeoff { alt_m: 10.0 }]).unwrap();
+    core.seq.params.plan = Plan::new(&[Leg::Takeoff { alt_m: 10.0 }]).unwrap();
     let (phase, out) = next(&mut core, &est(10.0, 0.0, Vector3::zeros()), S);
     match phase {
         Phase::Holding {
@@ -550,7 +562,7 @@ fn a_short_path_keeps_the_heading_a_long_one_turns_along_it() {
         (0.0, 20.0, core::f64::consts::FRAC_PI_2),
     ] {
         let mut core = core_in(Phase::TakingOff { target }, FlightMode::Autonomous, true, S);
-        core.params.plan = plan(north, east);
+        core.seq.params.plan = plan(north, east);
         match next(&mut core, &est(10.0, 0.0, Vector3::zeros()), S).0 {
             Phase::Flying { target: t, .. } => {
                 assert!(
@@ -565,7 +577,7 @@ fn a_short_path_keeps_the_heading_a_long_one_turns_along_it() {
     // A path that goes nowhere (a micrometre at most) has no velocity.
     for north in [0.0, 1e-6] {
         let mut core = core_in(Phase::TakingOff { target }, FlightMode::Autonomous, true, S);
-        core.params.plan = plan(north, 0.0);
+        core.seq.params.plan = plan(north, 0.0);
         match next(&mut core, &est(10.0, 0.0, Vector3::zeros()), S).0 {
             Phase::Flying { target: t, .. } => assert_eq!(t.vel_ned_mps, Vector3::zeros()),
             other => panic!("{other:?}"),

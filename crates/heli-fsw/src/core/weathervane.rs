@@ -5,7 +5,8 @@
 //! its velocity integrator holds points into the wind, once the tail rotor's own side force
 //! (which the helicopter leans against in still air, [`TAIL_SIDE_TRIM_MPS2`]) is taken out.
 
-use super::*;
+use heli_control::Target;
+use nalgebra::Vector3;
 
 /// Wind trim (m/s²) above which a hold turns its nose into the wind: about 7 m/s of wind on
 /// the X-Cell 60.
