@@ -20,9 +20,11 @@ use serde::Deserialize;
 use toml::{Table, Value};
 
 use super::checks::{check_ends, check_vary};
+use super::fingerprint;
 use super::keys;
 use super::vary::{Draw, Vary, VaryToml, resolve};
-use super::{CampaignError, fingerprint};
+use crate::checks::VaryError;
+use crate::error::{CampaignError, FileProblem};
 use heli_scenario as scenario;
 
 /// Most flights one campaign may have (grid points × samples).
@@ -84,8 +86,10 @@ impl Campaign {
     /// Reads and checks the campaign file at `path`.
     pub fn load(path: &Path) -> Result<Self, CampaignError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| CampaignError(format!("{file}: cannot read the campaign file: {e}")))?;
+        let text = std::fs::read_to_string(path).map_err(|source| CampaignError::Read {
+            file: file.clone(),
+            source,
+        })?;
         let dir = path.parent().unwrap_or_else(|| Path::new("."));
         Self::from_toml(&text, &file, dir)
     }
@@ -93,16 +97,19 @@ impl Campaign {
     /// Checks a campaign file's `text`; `file` names it in errors and reproduce commands,
     /// `dir` is where a base scenario file is looked for.
     pub fn from_toml(text: &str, file: &str, dir: &Path) -> Result<Self, CampaignError> {
-        let err = |why: String| CampaignError(format!("{file}: {why}"));
-        let raw: FileToml = toml::from_str(text).map_err(|e| err(e.to_string()))?;
+        let err = |problem: FileProblem| CampaignError::File {
+            file: file.to_string(),
+            problem: Box::new(problem),
+        };
+        let raw: FileToml = toml::from_str(text).map_err(|e| err(FileProblem::Toml(e)))?;
         if raw.name.trim().is_empty() {
-            return Err(err("name = \"\": give the campaign a name".into()));
+            return Err(err(FileProblem::NoName));
         }
         if !(1..=MAX_FLIGHTS).contains(&raw.samples) {
-            return Err(err(format!(
-                "samples = {}: must be from 1 to {MAX_FLIGHTS}",
-                raw.samples
-            )));
+            return Err(err(FileProblem::Samples {
+                samples: raw.samples,
+                max: MAX_FLIGHTS,
+            }));
         }
         for (key, why) in [
             ("base", "set base at the top of the campaign file"),
@@ -116,24 +123,30 @@ impl Campaign {
             ),
         ] {
             if raw.scenario.contains_key(key) {
-                return Err(err(format!("scenario.{key} cannot be set here: {why}")));
+                return Err(err(FileProblem::Reserved { key, why }));
             }
         }
         let (mut start, base_text) = base_file(&raw.base, dir).map_err(err)?;
         keys::merge(&mut start, &raw.scenario);
-        let resolved = resolve(&start).map_err(|e| {
-            err(format!(
-                "[scenario] over base \"{}\" is not a valid scenario: {e}",
-                raw.base
-            ))
+        let resolved = resolve(&start).map_err(|error| {
+            err(FileProblem::Scenario {
+                base: raw.base.clone(),
+                error,
+            })
         })?;
         let mut vary: Vec<Vary> = Vec::with_capacity(raw.vary.len());
         for (k, v) in raw.vary.into_iter().enumerate() {
             let key = v.key.clone();
-            let vary_err = |why: String| err(format!("vary[{k}] (key = \"{key}\"): {why}"));
+            let vary_err = |error: VaryError| {
+                err(FileProblem::Vary {
+                    index: k,
+                    key: key.clone(),
+                    error,
+                })
+            };
             let checked = check_vary(v, &resolved).map_err(vary_err)?;
             if vary.iter().any(|other| other.path == checked.path) {
-                return Err(vary_err("this key is varied twice".into()));
+                return Err(vary_err(VaryError::Twice));
             }
             check_ends(&checked, &start, &resolved).map_err(vary_err)?;
             vary.push(checked);
@@ -144,11 +157,7 @@ impl Campaign {
                 flights = flights
                     .checked_mul(values.len() as u64)
                     .filter(|n| *n <= MAX_FLIGHTS)
-                    .ok_or_else(|| {
-                        err(format!(
-                            "grids × samples give more than {MAX_FLIGHTS} flights"
-                        ))
-                    })?;
+                    .ok_or_else(|| err(FileProblem::TooManyFlights { max: MAX_FLIGHTS }))?;
             }
         }
         let fingerprint = fingerprint(&[text.as_bytes(), base_text.as_bytes()]);
@@ -193,22 +202,22 @@ impl Campaign {
 }
 
 /// The base as a sparse scenario file, and the base file's text (empty for a built-in).
-fn base_file(base: &str, dir: &Path) -> Result<(Table, String), String> {
+fn base_file(base: &str, dir: &Path) -> Result<(Table, String), FileProblem> {
     if scenario::builtin(base).is_some() {
         let mut t = Table::new();
         t.insert("base".into(), Value::String(base.into()));
         return Ok((t, String::new()));
     }
     let path = dir.join(base);
-    let text = std::fs::read_to_string(&path).map_err(|e| {
-        format!(
-            "base = \"{base}\": neither a built-in scenario (heli sim --list) nor a readable scenario file ({}: {e})",
-            path.display()
-        )
+    let text = std::fs::read_to_string(&path).map_err(|source| FileProblem::BaseNotFound {
+        base: base.to_string(),
+        path: path.clone(),
+        source,
     })?;
-    let mut table: Table = text
-        .parse()
-        .map_err(|e: toml::de::Error| format!("base scenario file {}: {e}", path.display()))?;
+    let mut table: Table = text.parse().map_err(|source| FileProblem::BaseFile {
+        path: path.clone(),
+        source,
+    })?;
     // Its name and seed are the campaign's to give.
     table.remove("name");
     table.remove("seed");

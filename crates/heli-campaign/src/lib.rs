@@ -32,6 +32,7 @@
 //!   floor (the robustness suite).
 
 mod checks;
+pub mod error;
 pub mod file;
 pub mod files;
 mod keys;
@@ -58,18 +59,10 @@ pub use sample::Flight;
 pub use shard::Shard;
 pub use vary::{Draw, Vary};
 
-/// Why a campaign could not be loaded, run or merged. The text names the file, and where it
-/// applies the key, the flight or the allowed range.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CampaignError(pub String);
-
-impl std::fmt::Display for CampaignError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for CampaignError {}
+pub use checks::VaryError;
+pub use error::{CampaignError, FileProblem, FlightError, MergeProblem, ShardProblem};
+pub use keys::KeyError;
+pub use vary::ResolveError;
 
 /// A 64-bit FNV-1a hash of `parts` (each length-prefixed), as 16 hex digits: the campaign's
 /// fingerprint. Not cryptographic: it keeps reports of different campaign files from being

@@ -4,48 +4,52 @@ use std::collections::BTreeMap;
 
 use super::CampaignError;
 use super::report::{Header, Report, Wall};
+use crate::error::MergeProblem;
 
 /// Joins shard reports (`(name, report)`, the name used in errors) into the report of the
 /// whole campaign. They must be of the same campaign file and software, share no flight,
 /// and together hold every flight.
 pub fn merge(reports: &[(String, Report)]) -> Result<Report, CampaignError> {
     let Some((first_name, first)) = reports.first() else {
-        return Err(CampaignError("merge needs at least one report".into()));
+        return Err(CampaignError::Merge(Box::new(MergeProblem::Nothing)));
     };
     let mut seen: BTreeMap<u64, &str> = BTreeMap::new();
     let mut flights = Vec::new();
     let mut wall = Wall::default();
     for (name, r) in reports {
         if r.fingerprint != first.fingerprint || r.campaign != first.campaign {
-            return Err(CampaignError(format!(
-                "{name}: campaign \"{}\" (fingerprint {}) is not {first_name}'s \"{}\" ({}): reports of different campaign files, or of two versions of one, cannot be merged",
-                r.campaign, r.fingerprint, first.campaign, first.fingerprint
-            )));
+            return Err(CampaignError::Merge(Box::new(MergeProblem::Campaigns {
+                name: name.clone(),
+                campaign: (r.campaign.clone(), r.fingerprint.clone()),
+                first_name: first_name.clone(),
+                first: (first.campaign.clone(), first.fingerprint.clone()),
+            })));
         }
         if r.software != first.software {
-            return Err(CampaignError(format!(
-                "{name} was flown by {}, {first_name} by {}: shards must be flown by the same software",
-                r.software, first.software
-            )));
+            return Err(CampaignError::Merge(Box::new(MergeProblem::Software {
+                name: (name.clone(), r.software.clone()),
+                first: (first_name.clone(), first.software.clone()),
+            })));
         }
         if r.flights_total != first.flights_total {
-            return Err(CampaignError(format!(
-                "{name}: {} flights in the campaign, {first_name}: {}",
-                r.flights_total, first.flights_total
-            )));
+            return Err(CampaignError::Merge(Box::new(MergeProblem::Totals {
+                name: (name.clone(), r.flights_total),
+                first: (first_name.clone(), first.flights_total),
+            })));
         }
         for f in &r.flights {
             if f.index >= r.flights_total {
-                return Err(CampaignError(format!(
-                    "{name}: flight {} is beyond the campaign's {} flights",
-                    f.index, r.flights_total
-                )));
+                return Err(CampaignError::Merge(Box::new(MergeProblem::Beyond {
+                    name: name.clone(),
+                    index: f.index,
+                    total: r.flights_total,
+                })));
             }
             if let Some(other) = seen.insert(f.index, name) {
-                return Err(CampaignError(format!(
-                    "flight {} is in both {other} and {name}: the shards overlap",
-                    f.index
-                )));
+                return Err(CampaignError::Merge(Box::new(MergeProblem::Overlap {
+                    index: f.index,
+                    reports: (other.to_string(), name.clone()),
+                })));
             }
             flights.push(f.clone());
         }
@@ -57,19 +61,12 @@ pub fn merge(reports: &[(String, Report)]) -> Result<Report, CampaignError> {
         .filter(|i| !seen.contains_key(i))
         .collect();
     if !missing.is_empty() {
-        let listed: Vec<String> = missing.iter().take(10).map(u64::to_string).collect();
-        let more = if missing.len() > 10 {
-            format!(" and {} more", missing.len() - 10)
-        } else {
-            String::new()
-        };
         let shards = missing_shards(reports, &missing);
-        return Err(CampaignError(format!(
-            "{} of {} flights are in no report (flights {}{more}){shards}",
-            missing.len(),
-            first.flights_total,
-            listed.join(", ")
-        )));
+        return Err(CampaignError::Merge(Box::new(MergeProblem::Missing {
+            missing,
+            total: first.flights_total,
+            shards,
+        })));
     }
     let header = Header {
         campaign: first.campaign.clone(),

@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use crate::log_plot::ImageFormat;
+use crate::log_plot::{ImageFormat, PlotError};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -38,7 +38,7 @@ struct Panel {
 }
 
 /// Draws the report's outcome plot to `path` in `format`.
-pub fn render(report: &Report, format: ImageFormat, path: &Path) -> Result<(), String> {
+pub fn render(report: &Report, format: ImageFormat, path: &Path) -> Result<(), PlotError> {
     let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
     let span = Span::of(report);
     let panels = panels(report, span);
@@ -60,7 +60,10 @@ pub fn render(report: &Report, format: ImageFormat, path: &Path) -> Result<(), S
                     SVGBackend::with_string(&mut svg, (WIDTH_PX, height)).into_drawing_area();
                 draw(&root, &panels, span, &title)?;
             }
-            std::fs::write(path, svg).map_err(|e| format!("writing {}: {e}", path.display()))
+            std::fs::write(path, svg).map_err(|source| PlotError::Write {
+                path: path.to_path_buf(),
+                source,
+            })
         }
         ImageFormat::Png => {
             let root = BitMapBackend::new(path, (WIDTH_PX, height)).into_drawing_area();
@@ -200,8 +203,8 @@ fn draw<DB: DrawingBackend>(
     panels: &[Panel],
     span: Span,
     title: &str,
-) -> Result<(), String> {
-    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| format!("drawing the plot: {e}");
+) -> Result<(), PlotError> {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::Draw(e.to_string());
     root.fill(&WHITE).map_err(e)?;
     let root = root.titled(title, ("sans-serif", 18)).map_err(e)?;
     let areas = root.split_evenly((panels.len().max(1), 1));
@@ -233,7 +236,7 @@ fn draw<DB: DrawingBackend>(
             .x_label_area_size(36)
             .y_label_area_size(60)
             .build_cartesian_2d(x0..x1, (span.lo..span.hi).log_scale())
-            .map_err(|e| format!("drawing the plot: {e}"))?;
+            .map_err(|e| PlotError::Draw(e.to_string()))?;
         let categories = panel.categories.clone();
         let x_label = move |x: &f64| match &categories {
             Some(names) => {
@@ -255,13 +258,13 @@ fn draw<DB: DrawingBackend>(
             .light_line_style(WHITE.mix(0.0))
             .bold_line_style(BLACK.mix(0.08))
             .draw()
-            .map_err(|e| format!("drawing the plot: {e}"))?;
+            .map_err(|e| PlotError::Draw(e.to_string()))?;
         chart
             .draw_series(std::iter::once(PathElement::new(
                 vec![(x0, 1.0), (x1, 1.0)],
                 RED.mix(0.5).stroke_width(1),
             )))
-            .map_err(|e| format!("drawing the plot: {e}"))?;
+            .map_err(|e| PlotError::Draw(e.to_string()))?;
         for (outcome, colour) in [
             (FlightOutcome::Pass, PASS),
             (FlightOutcome::Fail, FAIL),
@@ -282,7 +285,7 @@ fn draw<DB: DrawingBackend>(
                     dots.into_iter()
                         .map(move |p| Circle::new(p, 3, colour.mix(0.8).filled())),
                 )
-                .map_err(|e| format!("drawing the plot: {e}"))?
+                .map_err(|e| PlotError::Draw(e.to_string()))?
                 .label(outcome.name())
                 .legend(move |(x, y)| Circle::new((x + 6, y), 4, colour.filled()));
         }
@@ -292,7 +295,7 @@ fn draw<DB: DrawingBackend>(
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK.mix(0.3))
             .draw()
-            .map_err(|e| format!("drawing the plot: {e}"))?;
+            .map_err(|e| PlotError::Draw(e.to_string()))?;
     }
-    root.present().map_err(|e| format!("drawing the plot: {e}"))
+    root.present().map_err(|e| PlotError::Draw(e.to_string()))
 }

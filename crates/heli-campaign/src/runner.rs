@@ -19,6 +19,7 @@ use rayon::prelude::*;
 use super::report::{FlightRecord, Report, Wall};
 pub use super::shard::Shard;
 use super::{Campaign, CampaignError};
+use crate::error::FlightError;
 use heli_scenario::Scenario;
 use heli_sim::lockstep::{RunOptions, Simulation};
 use heli_sim::summary::Summary;
@@ -49,12 +50,12 @@ pub fn run(
     on_flight: impl Fn(&FlightRecord) + Sync,
 ) -> Result<Report, CampaignError> {
     if config.jobs == Some(0) {
-        return Err(CampaignError("--jobs must be at least 1".into()));
+        return Err(CampaignError::NoJobs);
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(config.jobs.unwrap_or(0))
         .build()
-        .map_err(|e| CampaignError(format!("cannot start the worker threads: {e}")))?;
+        .map_err(CampaignError::Workers)?;
     let indexes: Vec<u64> = (0..campaign.flights_total())
         .filter(|i| config.shard.contains(*i))
         .collect();
@@ -84,8 +85,8 @@ pub fn run(
 /// panics.
 pub fn fly(campaign: &Campaign, index: u64) -> FlightRecord {
     fly_with(campaign, index, |scenario| {
-        let simulation = Simulation::new(scenario)
-            .map_err(|e| format!("flight {index}: the simulation refused it: {e}"))?;
+        let simulation =
+            Simulation::new(scenario).map_err(|error| FlightError::Simulation { index, error })?;
         Ok(simulation.run(RunOptions::default(), |_, _| {}))
     })
 }
@@ -95,7 +96,7 @@ pub fn fly(campaign: &Campaign, index: u64) -> FlightRecord {
 pub(crate) fn fly_with(
     campaign: &Campaign,
     index: u64,
-    fly: impl FnOnce(Scenario) -> Result<Summary, String>,
+    fly: impl FnOnce(Scenario) -> Result<Summary, FlightError>,
 ) -> FlightRecord {
     let flight = match campaign.flight(index) {
         Ok(f) => f,
@@ -111,7 +112,7 @@ pub(crate) fn fly_with(
     let error = |why| FlightRecord::error(index, flight.seed, flight.values.clone(), why);
     match result {
         Ok(Ok(summary)) => FlightRecord::flown(&flight, &summary),
-        Ok(Err(why)) => error(why),
+        Ok(Err(why)) => error(why.to_string()),
         Err(payload) => {
             let message = LAST_PANIC
                 .with(|p| p.borrow_mut().take())

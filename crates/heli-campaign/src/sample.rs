@@ -18,6 +18,7 @@ use super::CampaignError;
 use super::file::Campaign;
 use super::keys::{self, Segment};
 use super::vary::{Draw, Target, edits};
+use crate::error::FlightError;
 use heli_scenario::{self as scenario, Scenario};
 
 /// Draws from a truncated normal before it is clamped instead.
@@ -41,11 +42,11 @@ impl Campaign {
     pub fn flight(&self, index: u64) -> Result<Flight, CampaignError> {
         let total = self.flights_total();
         if index >= total {
-            return Err(CampaignError(format!(
-                "{}: flight {index} does not exist: the campaign has {total} flights (0 to {})",
-                self.file,
-                total.saturating_sub(1)
-            )));
+            return Err(CampaignError::NoSuchFlight {
+                file: self.file.clone(),
+                index,
+                total,
+            });
         }
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         rng.set_stream(index);
@@ -75,8 +76,13 @@ impl Campaign {
             let mut recorded = None;
             for (path, x) in edits(v, &value) {
                 recorded.get_or_insert_with(|| x.clone());
-                keys::set(&mut file, &self.resolved, &path, x).map_err(|e| {
-                    CampaignError(format!("{}: flight {index}: key {}: {e}", self.file, v.key))
+                keys::set(&mut file, &self.resolved, &path, x).map_err(|error| {
+                    CampaignError::Draw {
+                        file: self.file.clone(),
+                        index,
+                        key: v.key.clone(),
+                        error: Box::new(error),
+                    }
                 })?;
             }
             let recorded = match (v.target, recorded) {
@@ -127,32 +133,25 @@ impl Campaign {
 impl Flight {
     /// The flight's scenario, through the same loading and checks as a scenario file; the
     /// error says which values it drew.
-    pub fn scenario(&self) -> Result<Scenario, String> {
-        let text = toml::to_string(&self.file).map_err(|e| e.to_string())?;
-        scenario::from_toml(&text).map_err(|e| {
-            let drawn: Vec<String> = self
+    pub fn scenario(&self) -> Result<Scenario, FlightError> {
+        let text = toml::to_string(&self.file).map_err(FlightError::Write)?;
+        scenario::from_toml(&text).map_err(|error| FlightError::Scenario {
+            index: self.index,
+            drawn: self
                 .values
                 .iter()
                 .map(|(k, v)| format!("{k} = {v}"))
-                .collect();
-            format!(
-                "flight {} ({}): {e}",
-                self.index,
-                if drawn.is_empty() {
-                    "nothing varied".to_string()
-                } else {
-                    drawn.join(", ")
-                }
-            )
+                .collect(),
+            error,
         })
     }
 
     /// The flight's whole scenario as a scenario file that `heli sim --scenario` flies:
     /// every field written out, over `base` (the built-in at the root of the campaign's
     /// base; listing every field leaves nothing of it but the fields no file can unset).
-    pub fn scenario_file_text(&self, base: &str, header: &str) -> Result<String, String> {
+    pub fn scenario_file_text(&self, base: &str, header: &str) -> Result<String, FlightError> {
         let s = self.scenario()?;
-        let mut table = Table::try_from(&s).map_err(|e| e.to_string())?;
+        let mut table = Table::try_from(&s).map_err(FlightError::Write)?;
         // A limit the base judges and this scenario does not is written "unset" (an absent
         // one would be the base's again).
         if let Some(base_scenario) = scenario::builtin(base) {
@@ -169,7 +168,7 @@ impl Flight {
                 }
             }
         }
-        let body = toml::to_string(&table).map_err(|e| e.to_string())?;
+        let body = toml::to_string(&table).map_err(FlightError::Write)?;
         let base = Value::String(base.to_string());
         Ok(format!("{header}base = {base}\n{body}"))
     }

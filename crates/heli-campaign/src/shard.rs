@@ -6,6 +6,7 @@ use std::str::FromStr;
 use serde::{Deserialize, Serialize};
 
 use super::CampaignError;
+use crate::error::ShardProblem;
 
 /// One of `count` parts of a campaign: the flights whose index is `index` modulo `count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -31,25 +32,26 @@ impl FromStr for Shard {
 
     /// `I/N`, with `0 <= I < N`.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let bad = |why: &str| {
-            CampaignError(format!(
-                "--shard {s}: {why} (write I/N, 0 <= I < N: I is 0-based, as $SLURM_ARRAY_TASK_ID and $JOB_COMPLETION_INDEX are)"
-            ))
+        let bad = |problem| CampaignError::Shard {
+            given: s.to_string(),
+            problem,
         };
-        let (i, n) = s.split_once('/').ok_or_else(|| bad("no '/'"))?;
+        let (i, n) = s
+            .split_once('/')
+            .ok_or_else(|| bad(ShardProblem::NoSlash))?;
         let index: u64 = i
             .trim()
             .parse()
-            .map_err(|_| bad("I is not a whole number"))?;
+            .map_err(|_| bad(ShardProblem::IndexNotWhole))?;
         let count: u64 = n
             .trim()
             .parse()
-            .map_err(|_| bad("N is not a whole number"))?;
+            .map_err(|_| bad(ShardProblem::CountNotWhole))?;
         if count == 0 {
-            return Err(bad("N must be at least 1"));
+            return Err(bad(ShardProblem::NoShards));
         }
         if index >= count {
-            return Err(bad(&format!("I must be from 0 to {}", count - 1)));
+            return Err(bad(ShardProblem::IndexTooLarge { count }));
         }
         Ok(Shard { index, count })
     }

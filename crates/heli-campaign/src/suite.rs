@@ -13,16 +13,16 @@ use crate::{Campaign, CampaignError, Report, Totals};
 /// before any flight is flown.
 pub fn load(dir: &Path) -> Result<Vec<(PathBuf, Campaign)>, CampaignError> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|e| CampaignError(format!("reading {}: {e}", dir.display())))?
+        .map_err(|source| CampaignError::SuiteDirectory {
+            dir: dir.to_path_buf(),
+            source,
+        })?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
         .collect();
     files.sort();
     if files.is_empty() {
-        return Err(CampaignError(format!(
-            "no campaign files (*.toml) in {}",
-            dir.display()
-        )));
+        return Err(CampaignError::EmptySuite(dir.to_path_buf()));
     }
     files
         .into_iter()

@@ -127,8 +127,28 @@ pub(crate) fn edits(v: &Vary, value: &Value) -> Vec<(Vec<Segment>, Value)> {
 }
 
 /// A sparse scenario file resolved through the scenario checks, as a full table.
-pub(crate) fn resolve(file: &Table) -> Result<Table, String> {
-    let text = toml::to_string(file).map_err(|e| e.to_string())?;
-    let s = scenario::from_toml(&text).map_err(|e| e.to_string().trim_end().to_string())?;
-    Table::try_from(&s).map_err(|e| e.to_string())
+pub(crate) fn resolve(file: &Table) -> Result<Table, ResolveError> {
+    let text = toml::to_string(file).map_err(ResolveError::Write)?;
+    let s = scenario::from_toml(&text).map_err(ResolveError::Refused)?;
+    Table::try_from(&s).map_err(ResolveError::Write)
 }
+
+/// A sparse scenario file that does not resolve to a scenario.
+#[derive(Debug)]
+pub enum ResolveError {
+    /// It could not be written out as TOML.
+    Write(toml::ser::Error),
+    /// The scenario checks refuse it.
+    Refused(heli_scenario::ScenarioError),
+}
+
+impl std::fmt::Display for ResolveError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ResolveError::Write(e) => e.fmt(f),
+            ResolveError::Refused(e) => f.write_str(e.to_string().trim_end()),
+        }
+    }
+}
+
+impl std::error::Error for ResolveError {}

@@ -36,6 +36,7 @@ pub mod operators;
 pub mod pack_log;
 pub mod panel;
 pub mod power_view;
+pub mod refusal;
 pub mod rows;
 pub mod server;
 pub mod station;

@@ -18,6 +18,7 @@
 //! file and saves what [`PackLog::totals_json`] gives.
 
 use std::collections::BTreeMap;
+use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
@@ -91,11 +92,60 @@ pub struct PackTotalsView {
     pub in_use: bool,
 }
 
+/// A packs file, its totals or a named pack that cannot be used.
+#[derive(Debug)]
+pub enum PacksError {
+    /// The packs file is not TOML of packs.
+    Toml(toml::de::Error),
+    /// A pack's name is not 1-16 letters, digits, '-' or '_'.
+    BadName(String),
+    /// Two packs have this name.
+    Twice(String),
+    /// More than one pack has the role 'ground'.
+    TwoGround,
+    /// The saved totals are not the totals' JSON.
+    Totals(serde_json::Error),
+    /// Start Logging names a pack the file does not name as a flight pack.
+    UnknownPack {
+        /// The name given.
+        name: String,
+        /// The file's flight packs.
+        flight_packs: Vec<String>,
+    },
+}
+
+impl fmt::Display for PacksError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PacksError::Toml(e) => e.fmt(f),
+            PacksError::BadName(name) => {
+                write!(f, "pack name '{name}': 1-16 letters, digits, '-' or '_'")
+            }
+            PacksError::Twice(name) => write!(f, "pack '{name}' is named twice"),
+            PacksError::TwoGround => {
+                f.write_str("at most one pack has the role 'ground' (the hot-swap's)")
+            }
+            PacksError::Totals(e) => write!(f, "saved totals: {e}"),
+            PacksError::UnknownPack { name, flight_packs } => write!(
+                f,
+                "unknown flight pack '{name}' (the packs file names {})",
+                if flight_packs.is_empty() {
+                    "none".to_string()
+                } else {
+                    flight_packs.join(", ")
+                }
+            ),
+        }
+    }
+}
+
+impl std::error::Error for PacksError {}
+
 impl PackLog {
     /// The logbook of a packs file's text and the saved totals (empty if none yet); an
     /// error names what is wrong.
-    pub fn parse(packs_toml: &str, totals_json: Option<&str>) -> Result<Self, String> {
-        let file: PacksFile = toml::from_str(packs_toml).map_err(|e| e.to_string())?;
+    pub fn parse(packs_toml: &str, totals_json: Option<&str>) -> Result<Self, PacksError> {
+        let file: PacksFile = toml::from_str(packs_toml).map_err(PacksError::Toml)?;
         let mut seen = std::collections::BTreeSet::new();
         for p in &file.pack {
             let ok = !p.name.is_empty()
@@ -104,20 +154,17 @@ impl PackLog {
                     .chars()
                     .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
             if !ok {
-                return Err(format!(
-                    "pack name '{}': 1-16 letters, digits, '-' or '_'",
-                    p.name
-                ));
+                return Err(PacksError::BadName(p.name.clone()));
             }
             if !seen.insert(p.name.clone()) {
-                return Err(format!("pack '{}' is named twice", p.name));
+                return Err(PacksError::Twice(p.name.clone()));
             }
         }
         if file.pack.iter().filter(|p| p.role == Role::Ground).count() > 1 {
-            return Err("at most one pack has the role 'ground' (the hot-swap's)".into());
+            return Err(PacksError::TwoGround);
         }
         let totals = match totals_json {
-            Some(text) => serde_json::from_str(text).map_err(|e| format!("saved totals: {e}"))?,
+            Some(text) => serde_json::from_str(text).map_err(PacksError::Totals)?,
             None => BTreeMap::new(),
         };
         Ok(Self {
@@ -134,7 +181,7 @@ impl PackLog {
 
     /// A flight begins on flight pack `name` (`None`: not said): refused if the file does
     /// not name it as a flight pack.
-    pub fn begin(&mut self, name: Option<&str>) -> Result<(), String> {
+    pub fn begin(&mut self, name: Option<&str>) -> Result<(), PacksError> {
         let Some(name) = name.map(str::trim).filter(|n| !n.is_empty()) else {
             self.flying = None;
             return Ok(());
@@ -146,14 +193,10 @@ impl PackLog {
             .map(|p| p.name.as_str())
             .collect();
         if !flight_packs.contains(&name) {
-            return Err(format!(
-                "unknown flight pack '{name}' (the packs file names {})",
-                if flight_packs.is_empty() {
-                    "none".to_string()
-                } else {
-                    flight_packs.join(", ")
-                }
-            ));
+            return Err(PacksError::UnknownPack {
+                name: name.to_string(),
+                flight_packs: flight_packs.iter().map(|p| (*p).to_string()).collect(),
+            });
         }
         self.flying = Some(name.to_string());
         Ok(())
@@ -226,7 +269,12 @@ role = "ground"
     #[test]
     fn a_flight_adds_its_times_to_its_flight_pack_and_the_ground_pack() {
         let mut log = PackLog::parse(FILE, None).unwrap();
-        assert!(log.begin(Some("F3")).unwrap_err().contains("F1, F2"));
+        assert!(
+            log.begin(Some("F3"))
+                .unwrap_err()
+                .to_string()
+                .contains("F1, F2")
+        );
         log.begin(Some("F1")).unwrap();
         assert!(log.view()[0].in_use);
         let added = log.end(Some(600.0), Some(90.0)).unwrap();
@@ -252,16 +300,23 @@ role = "ground"
     #[test]
     fn a_bad_packs_file_is_refused_with_the_reason() {
         let twice = "[[pack]]\nname='A'\nrole='flight'\n[[pack]]\nname='A'\nrole='servo'\n";
-        assert!(PackLog::parse(twice, None).unwrap_err().contains("twice"));
+        assert!(
+            PackLog::parse(twice, None)
+                .unwrap_err()
+                .to_string()
+                .contains("twice")
+        );
         assert!(
             PackLog::parse("[[pack]]\nname='a b'\nrole='flight'\n", None)
                 .unwrap_err()
+                .to_string()
                 .contains("letters")
         );
         assert!(PackLog::parse("[[pack]]\nname='A'\nrole='spare'\n", None).is_err());
         assert!(
             PackLog::parse("", Some("{"))
                 .unwrap_err()
+                .to_string()
                 .contains("saved totals")
         );
     }

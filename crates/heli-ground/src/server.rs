@@ -23,6 +23,7 @@ use include_dir::{Dir, include_dir};
 use tokio::net::UdpSocket;
 use tokio::sync::broadcast;
 
+use crate::refusal::SaveError;
 use crate::station::{Output, Station, StationConfig};
 
 /// The page's files.
@@ -79,22 +80,45 @@ fn unix_us() -> u64 {
         .unwrap_or(0)
 }
 
+/// The ground station could not be served: what it was doing, and why.
+#[derive(Debug)]
+pub struct ServerError {
+    /// What failed (`opening a UDP socket`, `serving the display on 0.0.0.0:8080`).
+    pub doing: String,
+    /// Why.
+    pub source: std::io::Error,
+}
+
+impl std::fmt::Display for ServerError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.doing, self.source)
+    }
+}
+
+impl std::error::Error for ServerError {}
+
+/// An I/O error while `doing` as a [`ServerError`].
+fn failed(doing: impl Into<String>) -> impl FnOnce(std::io::Error) -> ServerError {
+    let doing = doing.into();
+    move |source| ServerError { doing, source }
+}
+
 fn lock(station: &Shared) -> std::sync::MutexGuard<'_, Station> {
     station.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
 /// Runs the ground station until Ctrl-C or SIGTERM; `ready` is called with the display's
 /// address once it is served.
-pub fn run(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(), String> {
+pub fn run(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(), ServerError> {
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()
-        .map_err(|e| format!("starting the ground's runtime: {e}"))?;
+        .map_err(failed("starting the ground's runtime"))?;
     rt.block_on(serve(config, ready))
 }
 
-async fn serve(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(), String> {
+async fn serve(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(), ServerError> {
     let bind: SocketAddr = if config.vehicle.is_ipv4() {
         SocketAddr::from(([0, 0, 0, 0], 0))
     } else {
@@ -102,17 +126,17 @@ async fn serve(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(
     };
     let udp = UdpSocket::bind(bind)
         .await
-        .map_err(|e| format!("opening a UDP socket: {e}"))?;
+        .map_err(failed("opening a UDP socket"))?;
     udp.connect(config.vehicle)
         .await
-        .map_err(|e| format!("link udp:{}: {e}", config.vehicle))?;
+        .map_err(failed(format!("link udp:{}", config.vehicle)))?;
     let udp = Arc::new(udp);
     let listener = tokio::net::TcpListener::bind(config.http)
         .await
-        .map_err(|e| format!("serving the display on {}: {e}", config.http))?;
+        .map_err(failed(format!("serving the display on {}", config.http)))?;
     let addr = listener
         .local_addr()
-        .map_err(|e| format!("serving the display: {e}"))?;
+        .map_err(failed("serving the display"))?;
     let station: Shared = Arc::new(Mutex::new(Station::new(config.station)));
     let (views, _) = broadcast::channel(16);
     let (frames, outgoing) = tokio::sync::mpsc::unbounded_channel::<Vec<u8>>();
@@ -132,7 +156,7 @@ async fn serve(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(
     axum::serve(listener, app)
         .with_graceful_shutdown(shutdown())
         .await
-        .map_err(|e| format!("the display's server: {e}"))
+        .map_err(failed("the display's server"))
 }
 
 async fn shutdown() {
@@ -223,10 +247,13 @@ async fn step(frames: Frames, station: Shared, views: broadcast::Sender<Arc<str>
 /// Saves a transferred log at `path`, or next to it as `NAME-2.mcap`, `NAME-3.mcap`… when
 /// a file of that name exists: an earlier flight's log is never overwritten. Returns where
 /// it went.
-fn save(path: &Path, bytes: &[u8]) -> Result<PathBuf, String> {
+fn save(path: &Path, bytes: &[u8]) -> Result<PathBuf, SaveError> {
     use std::io::Write;
     if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|source| SaveError::Directory {
+            dir: dir.to_path_buf(),
+            source,
+        })?;
     }
     let stem = path
         .file_stem()
@@ -248,13 +275,13 @@ fn save(path: &Path, bytes: &[u8]) -> Result<PathBuf, String> {
                     .write_all(bytes)
                     .and_then(|()| file.sync_all())
                     .map(|()| candidate)
-                    .map_err(|e| e.to_string());
+                    .map_err(SaveError::Write);
             }
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
-            Err(e) => return Err(e.to_string()),
+            Err(e) => return Err(SaveError::Write(e)),
         }
     }
-    Err("99 logs of that name already: choose another suffix".into())
+    Err(SaveError::NamesTaken)
 }
 
 /// The display's files (its own, then the shared ones).
@@ -344,7 +371,7 @@ async fn request(state: &AppState, id: u64, text: &str) -> String {
     };
     let (ok, text) = match result {
         Ok(t) => (true, t),
-        Err(t) => (false, t),
+        Err(t) => (false, t.to_string()),
     };
     serde_json::json!({"type": "reply", "seq": seq, "ok": ok, "text": text}).to_string()
 }

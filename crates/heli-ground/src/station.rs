@@ -21,6 +21,7 @@ use crate::command::{InFlight, Progress};
 use crate::messages::MessageArea;
 use crate::operators::{ClientId, Operators};
 use crate::panel::{Panel, PanelState};
+use crate::refusal::{FinalProblem, Refusal, SaveError};
 use crate::transfer::Transfer;
 
 /// A command with no final answer for this long (µs) is given up.
@@ -338,7 +339,7 @@ impl Station {
 
     /// The runtime saved (or failed to save) a transferred log asked for at `path`; it says
     /// where it went (another name when a file of that name exists).
-    pub fn saved(&mut self, path: &Path, result: Result<PathBuf, String>) {
+    pub fn saved(&mut self, path: &Path, result: Result<PathBuf, SaveError>) {
         match result {
             Ok(at) if at == path => self.note("info", format!("log saved: {}", at.display())),
             Ok(at) => self.note(
@@ -356,7 +357,12 @@ impl Station {
     /// An operator's request (JSON text) from page `client`: what was done, or why nothing
     /// was. The refusals of the operator in control are noted in the message area too; a
     /// watching page's go only to that page.
-    pub fn request(&mut self, client: ClientId, text: &str, now_us: u64) -> Result<String, String> {
+    pub fn request(
+        &mut self,
+        client: ClientId,
+        text: &str,
+        now_us: u64,
+    ) -> Result<String, Refusal> {
         let result = self.request_inner(client, text, now_us);
         if let Err(e) = &result
             && self.operators.holder() == Some(client)
@@ -380,46 +386,39 @@ impl Station {
         client: ClientId,
         text: &str,
         now_us: u64,
-    ) -> Result<String, String> {
-        let req: Request =
-            serde_json::from_str(text).map_err(|e| format!("malformed request: {e}"))?;
-        self.operators
-            .accept(client, req.seq)
-            .map_err(|e| e.to_string())?;
+    ) -> Result<String, Refusal> {
+        let req: Request = serde_json::from_str(text).map_err(Refusal::Malformed)?;
+        self.operators.accept(client, req.seq)?;
         match req.op {
             Op::Take => self
                 .operators
                 .take(client)
                 .map(|()| "you are in control".to_string())
-                .map_err(|e| e.to_string()),
+                .map_err(Refusal::from),
             Op::Release => {
                 self.operators.release(client);
                 Ok("control released".into())
             }
             Op::Acknowledge => {
-                self.operators
-                    .may_command(client)
-                    .map_err(|e| e.to_string())?;
+                self.operators.may_command(client)?;
                 match self.field_rule.acknowledge() {
                     Some(text) => {
                         self.note("info", format!("acknowledged: {text}"));
                         Ok("acknowledged: Start Logging is allowed again".into())
                     }
-                    None => Err("nothing to acknowledge".into()),
+                    None => Err(Refusal::NothingToAcknowledge),
                 }
             }
             op => {
-                self.operators
-                    .may_command(client)
-                    .map_err(|e| e.to_string())?;
+                self.operators.may_command(client)?;
                 self.command(op, now_us)
             }
         }
     }
 
-    fn command(&mut self, op: Op, now_us: u64) -> Result<String, String> {
+    fn command(&mut self, op: Op, now_us: u64) -> Result<String, Refusal> {
         if self.pending.is_some() {
-            return Err("a command is still on its way: wait for its answer".into());
+            return Err(Refusal::CommandPending);
         }
         let state = self.panel.state();
         let (connect, start, stop) = state.buttons();
@@ -437,19 +436,16 @@ impl Station {
                 pack,
             } if start => {
                 if let Some(why) = self.field_rule.blocks_start() {
-                    return Err(why);
+                    return Err(Refusal::FieldRule(why));
                 }
                 self.packs_begin(pack.as_deref())?;
                 let mut p = StartParameters::new(suffix.trim(), controller.trim())
-                    .map_err(|e| e.to_string())?;
+                    .map_err(Refusal::Parameters)?;
                 let plan = plan.filter(|p| !p.trim().is_empty());
                 if let Some(name) = plan.as_deref()
                     && !PLANS.contains(&name)
                 {
-                    return Err(format!(
-                        "unknown flight plan '{name}' (the vehicle knows {})",
-                        PLANS.join(", ")
-                    ));
+                    return Err(Refusal::UnknownPlan(name.to_string()));
                 }
                 p.plan = plan;
                 self.chosen = p.controller;
@@ -463,10 +459,10 @@ impl Station {
             Op::Stop { base_dir, suffix } if stop => {
                 let dest = self.final_parameters(base_dir, suffix)?;
                 if dest.is_some() && !self.flight_seen {
-                    return Err("final parameters: no flight has flown since this station started (or since the last Stop), so there is no log of it to save; Stop without saving".into());
+                    return Err(Refusal::FinalParameters(FinalProblem::NoFlight));
                 }
                 if dest.is_some() && self.transfer.is_some() {
-                    return Err("final parameters: a log transfer is still under way".into());
+                    return Err(Refusal::FinalParameters(FinalProblem::TransferUnderWay));
                 }
                 if state == PanelState::LoggingFailed
                     && self
@@ -482,20 +478,19 @@ impl Station {
                 (GroundCommand::Stop, "stop", PanelState::Stopping, dest)
             }
             other => {
-                return Err(format!(
-                    "{} is not active now (the panel is {})",
-                    match other {
+                return Err(Refusal::NotActive {
+                    button: match other {
                         Op::Connect => "Connect",
                         Op::Start { .. } => "Start Logging",
                         Op::Acknowledge => "Acknowledge",
                         _ => "Stop",
                     },
-                    state.name()
-                ));
+                    panel: state.name(),
+                });
             }
         };
         let (sent, frame) = InFlight::send(&mut self.link, &command, COMMAND_TIMEOUT_US, now_us)
-            .ok_or("the parameters cannot go over the link (a suffix is at most 15 characters)")?;
+            .ok_or(Refusal::TooLongForTheLink)?;
         self.note("info", format!("{name}: sent"));
         self.pending = Some(Pending {
             command: sent,
@@ -513,30 +508,29 @@ impl Station {
         &self,
         base_dir: Option<String>,
         suffix: Option<String>,
-    ) -> Result<Option<PathBuf>, String> {
+    ) -> Result<Option<PathBuf>, Refusal> {
+        let refuse = |problem| Err(Refusal::FinalParameters(problem));
         let base_dir = base_dir.filter(|s| !s.trim().is_empty());
         let suffix = suffix.filter(|s| !s.trim().is_empty());
         let (base, suffix) = match (base_dir, suffix) {
             (None, None) => return Ok(None),
             (Some(b), Some(s)) => (b, s),
             _ => {
-                return Err(
-                    "final parameters: give both the base directory and the suffix, or neither"
-                        .into(),
-                );
+                return refuse(FinalProblem::OnlyOne);
             }
         };
-        StartParameters::new(suffix.trim(), "manual")
-            .map_err(|e| format!("final parameters: {e}"))?;
+        if let Err(e) = StartParameters::new(suffix.trim(), "manual") {
+            return refuse(FinalProblem::Suffix(e));
+        }
         let rel = Path::new(base.trim());
         if !rel
             .components()
             .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
         {
-            return Err(format!(
-                "final parameters: base directory '{base}' must be a relative path below {} (no '..', no leading '/')",
-                self.config.save_root.display()
-            ));
+            return refuse(FinalProblem::NotBelowRoot {
+                base,
+                root: self.config.save_root.clone(),
+            });
         }
         Ok(Some(
             self.config
@@ -554,8 +548,8 @@ impl Station {
 
 impl Station {
     /// Start Logging names flight pack `pack`: refused if the packs file does not have it.
-    pub(crate) fn packs_begin(&mut self, pack: Option<&str>) -> Result<(), String> {
-        self.packs.begin(pack)
+    pub(crate) fn packs_begin(&mut self, pack: Option<&str>) -> Result<(), Refusal> {
+        self.packs.begin(pack).map_err(Refusal::Pack)
     }
 
     /// Stop: the flight's times from the vehicle's hot-swap log are added to its packs, and

@@ -9,7 +9,7 @@ use heli_link::status::{BootstrapState, VehicleStatus};
 use heli_link::telemetry::{
     CompassRow, DeviceHealth, GpsRow, ImuRow, StateRow, Telemetry, UplinkRow,
 };
-use heli_link::vehicle::{LinkEvent, VehicleLink};
+use heli_link::vehicle::{CommandOutcome, LinkEvent, VehicleLink};
 
 use crate::checks::BatteryCurve;
 use crate::panel::PanelState;
@@ -118,11 +118,11 @@ impl Bench {
                     let result = match command {
                         GroundCommand::Connect => {
                             self.state = BootstrapState::Connected;
-                            Ok("connected".to_string())
+                            CommandOutcome::Accepted("connected".to_string())
                         }
                         GroundCommand::StartLogging(_) if self.fail_start => {
                             self.state = BootstrapState::Idle;
-                            Err("the flight process exited".to_string())
+                            CommandOutcome::Failed("the flight process exited".to_string())
                         }
                         GroundCommand::StartLogging(p) => {
                             self.state = BootstrapState::Flying;
@@ -135,14 +135,14 @@ impl Bench {
                                 .position(|m| *m == p.controller)
                                 .map_or(0, |i| i as u8 + 1);
                             self.telemetry = Some(flying_telemetry("calibrating"));
-                            Ok("flying".to_string())
+                            CommandOutcome::Accepted("flying".to_string())
                         }
                         GroundCommand::Stop => {
                             self.state = BootstrapState::Idle;
                             self.telemetry = None;
-                            Ok("stopped".to_string())
+                            CommandOutcome::Accepted("stopped".to_string())
                         }
-                        _ => Ok(String::new()),
+                        _ => CommandOutcome::Accepted(String::new()),
                     };
                     self.vehicle.finish(token, result, self.t);
                 }
@@ -183,7 +183,7 @@ impl Bench {
         let r = self.station.request(client, json, self.t);
         let frames = self.station.take_outbox();
         self.deliver_up(frames);
-        r
+        r.map_err(|e| e.to_string())
     }
 
     /// A page that took control and connected (its requests 1 and 2).

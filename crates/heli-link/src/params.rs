@@ -137,26 +137,60 @@ impl ParamTable {
 
     /// Takes the values of a text made by [`ParamTable::to_text`]; every line is checked as a
     /// `PARAM_SET` would be, and the first bad one is the error (naming its line).
-    pub fn load_text(&mut self, text: &str) -> Result<(), String> {
+    pub fn load_text(&mut self, text: &str) -> Result<(), LoadError> {
         for (n, line) in text.lines().enumerate() {
             let line = line.trim();
             if line.is_empty() || line.starts_with('#') {
                 continue;
             }
             let at = n.saturating_add(1);
+            let error = |problem| LoadError { line: at, problem };
             let (name, value) = line
                 .split_once('=')
-                .ok_or_else(|| format!("line {at}: expected NAME = value"))?;
+                .ok_or_else(|| error(LoadProblem::NotNameValue))?;
             let value: f32 = value
                 .trim()
                 .parse()
-                .map_err(|_| format!("line {at}: '{}' is not a number", value.trim()))?;
+                .map_err(|_| error(LoadProblem::NotANumber(value.trim().to_string())))?;
             self.set(name.trim(), value)
-                .map_err(|e| format!("line {at}: {e}"))?;
+                .map_err(|e| error(LoadProblem::Refused(e)))?;
         }
         Ok(())
     }
 }
+
+/// A line of a parameters text that cannot be taken.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadError {
+    /// The line's number, from 1.
+    pub line: usize,
+    /// What is wrong with it.
+    pub problem: LoadProblem,
+}
+
+/// What is wrong with a line of a parameters text.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LoadProblem {
+    /// Not `NAME = value`.
+    NotNameValue,
+    /// The value is not a number.
+    NotANumber(String),
+    /// The value is refused as a `PARAM_SET` would be.
+    Refused(ParamError),
+}
+
+impl std::fmt::Display for LoadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let at = self.line;
+        match &self.problem {
+            LoadProblem::NotNameValue => write!(f, "line {at}: expected NAME = value"),
+            LoadProblem::NotANumber(v) => write!(f, "line {at}: '{v}' is not a number"),
+            LoadProblem::Refused(e) => write!(f, "line {at}: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for LoadError {}
 
 /// The name in a `param_id` (NUL-padded).
 pub fn param_name(id: &mavlink::types::CharArray<16>) -> String {
@@ -205,7 +239,8 @@ mod tests {
         assert_eq!(u, t);
         let err = u
             .load_text("HOV_YAW_P = 0.2\nHOV_MAX_TILT_DEG = 90\n")
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(err.starts_with("line 2:"), "{err}");
     }
 

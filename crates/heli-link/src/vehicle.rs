@@ -65,6 +65,15 @@ pub enum LinkEvent {
     },
 }
 
+/// How a command the vehicle took ended.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum CommandOutcome {
+    /// Carried out; what was done.
+    Accepted(String),
+    /// Not carried out; why.
+    Failed(String),
+}
+
 /// A command awaiting its final acknowledgement.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CommandToken {
@@ -459,13 +468,13 @@ impl VehicleLink {
         );
     }
 
-    /// The final acknowledgement of a command: `Ok` accepted, `Err(why)` failed, with a
-    /// status text saying why.
-    pub fn finish(&mut self, token: CommandToken, result: Result<String, String>, now_us: u64) {
+    /// The final acknowledgement of a command, with a status text saying what was done or
+    /// why it failed.
+    pub fn finish(&mut self, token: CommandToken, result: CommandOutcome, now_us: u64) {
         if self.pending == Some(token.command) {
             self.pending = None;
         }
-        let code = if result.is_ok() {
+        let code = if matches!(result, CommandOutcome::Accepted(_)) {
             MavResult::MAV_RESULT_ACCEPTED
         } else {
             MavResult::MAV_RESULT_FAILED
@@ -478,7 +487,7 @@ impl VehicleLink {
             _ => "command",
         };
         match result {
-            Ok(text) => {
+            CommandOutcome::Accepted(text) => {
                 self.status_text(
                     MavSeverity::MAV_SEVERITY_INFO,
                     &format!("{name}: {text}"),
@@ -486,7 +495,7 @@ impl VehicleLink {
                 );
                 self.ack(token.command, MavResult::MAV_RESULT_ACCEPTED, now_us);
             }
-            Err(why) => {
+            CommandOutcome::Failed(why) => {
                 self.status_text(
                     MavSeverity::MAV_SEVERITY_ERROR,
                     &format!("{name}: {why}"),

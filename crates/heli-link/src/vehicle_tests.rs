@@ -120,7 +120,7 @@ fn a_thesis_command_is_handed_on_and_acknowledged_twice() {
         panic!("{events:?}")
     };
     assert_eq!(*command, GroundCommand::StartLogging(start));
-    v.finish(*token, Ok("flying".into()), T0);
+    v.finish(*token, CommandOutcome::Accepted("flying".into()), T0);
     for d in v.take_outgoing() {
         g.receive(&d, T0);
     }
@@ -451,7 +451,11 @@ fn a_retried_command_is_answered_again_never_carried_out_twice() {
     stop.confirmation = 1;
     let retry = g.command_frame(stop.clone(), T0 + 500_000);
     assert_eq!(commands(&v.receive(&retry, T0 + 500_000, &s)), 0);
-    v.finish(token, Ok("stopped (exit code 0)".into()), T0 + 1_000_000);
+    v.finish(
+        token,
+        CommandOutcome::Accepted("stopped (exit code 0)".into()),
+        T0 + 1_000_000,
+    );
     // The final ack was lost: a later retry gets the result again.
     stop.confirmation = 2;
     let again = g.command_frame(stop, T0 + 3_000_000);

@@ -24,13 +24,47 @@ pub enum Logged {
     Input(RecordedInput),
 }
 
+/// What is wrong with a message of the channel.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum InputError {
+    /// No `kind`.
+    NoKind,
+    /// A `kind` that is no input's.
+    UnknownKind(String),
+    /// A port name that is no port's.
+    UnknownPort(String),
+    /// A field the kind needs is missing or not what it must be.
+    Field {
+        /// The kind.
+        kind: &'static str,
+        /// What it needs.
+        needs: &'static str,
+    },
+    /// `hex` that is not bytes in hex.
+    NotHex(String),
+}
+
+impl std::fmt::Display for InputError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            InputError::NoKind => write!(f, "input without 'kind'"),
+            InputError::UnknownKind(k) => write!(f, "unknown input kind '{k}'"),
+            InputError::UnknownPort(p) => write!(f, "unknown port '{p}'"),
+            InputError::Field { kind, needs } => write!(f, "{kind} without {needs}"),
+            InputError::NotHex(hex) => write!(f, "not hex: '{hex:.64}'"),
+        }
+    }
+}
+
+impl std::error::Error for InputError {}
+
 /// The message that marks the flight computer's start.
 pub fn start_json() -> Value {
     json!({"kind": "start"})
 }
 
 /// A message of the channel back; `Err` says what is wrong with it.
-pub fn logged_from_json(value: &Value) -> Result<Logged, String> {
+pub fn logged_from_json(value: &Value) -> Result<Logged, InputError> {
     match value.get("kind").and_then(Value::as_str) {
         Some("start") => Ok(Logged::Start),
         _ => input_from_json(value).map(Logged::Input),
@@ -53,17 +87,20 @@ pub fn input_json(input: &RecordedInput) -> Value {
 }
 
 /// A log message back as an input; `Err` says what is wrong with it.
-pub fn input_from_json(value: &Value) -> Result<RecordedInput, String> {
+pub fn input_from_json(value: &Value) -> Result<RecordedInput, InputError> {
     let port = || {
         let name = value.get("port").and_then(Value::as_str).unwrap_or("");
-        Port::from_name(name).ok_or_else(|| format!("unknown port '{name}'"))
+        Port::from_name(name).ok_or_else(|| InputError::UnknownPort(name.to_string()))
     };
     match value.get("kind").and_then(Value::as_str) {
         Some("bytes") => {
             let hex = value
                 .get("hex")
                 .and_then(Value::as_str)
-                .ok_or("bytes without 'hex'")?;
+                .ok_or(InputError::Field {
+                    kind: "bytes",
+                    needs: "'hex'",
+                })?;
             Ok(RecordedInput::Bytes(port()?, from_hex(hex)?))
         }
         Some("compass") => {
@@ -80,7 +117,10 @@ pub fn input_from_json(value: &Value) -> Result<RecordedInput, String> {
                 [x, y, z] => Ok(RecordedInput::Compass(CompassAdc {
                     counts: [*x, *y, *z],
                 })),
-                _ => Err("compass without three counts".into()),
+                _ => Err(InputError::Field {
+                    kind: "compass",
+                    needs: "three counts",
+                }),
             }
         }
         Some("port_failed") => Ok(RecordedInput::PortFailed(port()?)),
@@ -90,19 +130,28 @@ pub fn input_from_json(value: &Value) -> Result<RecordedInput, String> {
             .and_then(Value::as_u64)
             .and_then(|c| u16::try_from(c).ok())
             .map(|counts| RecordedInput::Battery(BatteryAdc { counts }))
-            .ok_or_else(|| "battery without its 'adc' counts".to_string()),
+            .ok_or(InputError::Field {
+                kind: "battery",
+                needs: "its 'adc' counts",
+            }),
         Some("ground_link") => value
             .get("fresh")
             .and_then(Value::as_bool)
             .map(RecordedInput::GroundLink)
-            .ok_or_else(|| "ground_link without 'fresh'".to_string()),
+            .ok_or(InputError::Field {
+                kind: "ground_link",
+                needs: "'fresh'",
+            }),
         Some("power_line") => value
             .get("high")
             .and_then(Value::as_bool)
             .map(RecordedInput::PowerLine)
-            .ok_or_else(|| "power_line without 'high'".to_string()),
-        Some(other) => Err(format!("unknown input kind '{other}'")),
-        None => Err("input without 'kind'".into()),
+            .ok_or(InputError::Field {
+                kind: "power_line",
+                needs: "'high'",
+            }),
+        Some(other) => Err(InputError::UnknownKind(other.to_string())),
+        None => Err(InputError::NoKind),
     }
 }
 
@@ -119,7 +168,7 @@ fn to_hex(bytes: &[u8]) -> String {
     s
 }
 
-fn from_hex(hex: &str) -> Result<Vec<u8>, String> {
+fn from_hex(hex: &str) -> Result<Vec<u8>, InputError> {
     let digit = |c: u8| match c {
         b'0'..=b'9' => Some(c.wrapping_sub(b'0')),
         b'a'..=b'f' => Some(c.wrapping_sub(b'a').wrapping_add(10)),
@@ -128,16 +177,16 @@ fn from_hex(hex: &str) -> Result<Vec<u8>, String> {
     };
     let bytes = hex.as_bytes();
     if !bytes.len().is_multiple_of(2) {
-        return Err(format!("odd-length hex '{hex}'"));
+        return Err(InputError::NotHex(hex.to_string()));
     }
     bytes
         .chunks(2)
         .map(|pair| match pair {
             [h, l] => match (digit(*h), digit(*l)) {
                 (Some(h), Some(l)) => Ok((h << 4) | l),
-                _ => Err(format!("not hex: '{hex}'")),
+                _ => Err(InputError::NotHex(hex.to_string())),
             },
-            _ => Err(format!("not hex: '{hex}'")),
+            _ => Err(InputError::NotHex(hex.to_string())),
         })
         .collect()
 }
@@ -163,9 +212,19 @@ mod tests {
             assert_eq!(input_from_json(&input_json(i)).as_ref(), Ok(i));
         }
         let bad = json!({"kind": "bytes", "port": "imu", "hex": "0g"});
-        assert!(input_from_json(&bad).unwrap_err().contains("not hex"));
+        assert!(
+            input_from_json(&bad)
+                .unwrap_err()
+                .to_string()
+                .contains("not hex")
+        );
         let bad = json!({"kind": "bytes", "port": "tty", "hex": "00"});
-        assert!(input_from_json(&bad).unwrap_err().contains("tty"));
+        assert!(
+            input_from_json(&bad)
+                .unwrap_err()
+                .to_string()
+                .contains("tty")
+        );
         assert!(input_from_json(&json!({"kind": "x"})).is_err());
         assert!(input_from_json(&json!(3)).is_err());
         assert_eq!(logged_from_json(&start_json()), Ok(Logged::Start));

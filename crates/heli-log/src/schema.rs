@@ -7,6 +7,8 @@
 //! here (`type`, `properties` with no others allowed, `required`, `items`, `minItems`,
 //! `maxItems`, `enum`, `oneOf` of `const`s, `minimum`, `maximum`).
 
+use std::fmt;
+
 use serde_json::{Value, json};
 
 use crate::foxglove;
@@ -338,9 +340,77 @@ fn device_schema() -> ChannelSchema {
     }
 }
 
+/// A value that breaks its schema: where (`state.pos_ned_m[2]`) and how.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SchemaViolation {
+    /// The field's path.
+    pub at: String,
+    /// What is wrong with it.
+    pub problem: Violation,
+}
+
+/// What is wrong with a value.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Violation {
+    /// It is of none of the schema's types.
+    WrongType {
+        /// The value.
+        value: Value,
+        /// The types allowed.
+        kinds: Vec<String>,
+    },
+    /// It is none of the `oneOf` constants.
+    NoneOf(Value),
+    /// It is not one of the `enum` values.
+    NotInEnum {
+        /// The value.
+        value: Value,
+        /// The values allowed.
+        allowed: Vec<Value>,
+    },
+    /// A number below the minimum.
+    BelowMinimum(f64),
+    /// A number above the maximum.
+    AboveMaximum(f64),
+    /// A required field is missing.
+    Missing(String),
+    /// A field the schema does not have.
+    Unknown(String),
+    /// An array with too few or too many items.
+    ItemCount(u64),
+}
+
+impl fmt::Display for SchemaViolation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let at = &self.at;
+        match &self.problem {
+            Violation::WrongType { value, kinds } => {
+                write!(f, "{at}: {value} is not of type {kinds:?}")
+            }
+            Violation::NoneOf(value) => write!(f, "{at}: {value} is none of the allowed values"),
+            Violation::NotInEnum { value, allowed } => {
+                write!(f, "{at}: {value} is not one of {allowed:?}")
+            }
+            Violation::BelowMinimum(x) => write!(f, "{at}: {x} is below the minimum"),
+            Violation::AboveMaximum(x) => write!(f, "{at}: {x} is above the maximum"),
+            Violation::Missing(name) => write!(f, "{at}: required field {name} missing"),
+            Violation::Unknown(name) => write!(f, "{at}: field {name} is not in the schema"),
+            Violation::ItemCount(n) => write!(f, "{at}: {n} items"),
+        }
+    }
+}
+
+impl std::error::Error for SchemaViolation {}
+
 /// Checks `value` against `schema` (the part of JSON Schema this module uses); the error
 /// names the field (`state.pos_ned_m[2]`) and what is wrong with it.
-pub fn validate(schema: &Value, value: &Value, at: &str) -> Result<(), String> {
+pub fn validate(schema: &Value, value: &Value, at: &str) -> Result<(), SchemaViolation> {
+    let fail = |problem| {
+        Err(SchemaViolation {
+            at: at.to_string(),
+            problem,
+        })
+    };
     let type_ok = |kind: &str| match kind {
         "object" => value.is_object(),
         "array" => value.is_array(),
@@ -357,24 +427,30 @@ pub fn validate(schema: &Value, value: &Value, at: &str) -> Result<(), String> {
         _ => Vec::new(),
     };
     if !kinds.is_empty() && !kinds.iter().any(|k| type_ok(k)) {
-        return Err(format!("{at}: {value} is not of type {kinds:?}"));
+        return fail(Violation::WrongType {
+            value: value.clone(),
+            kinds: kinds.iter().map(|k| (*k).to_string()).collect(),
+        });
     }
     if let Some(options) = schema["oneOf"].as_array()
         && !options.iter().any(|o| o["const"] == *value)
     {
-        return Err(format!("{at}: {value} is none of the allowed values"));
+        return fail(Violation::NoneOf(value.clone()));
     }
     if let Some(allowed) = schema["enum"].as_array()
         && !allowed.contains(value)
     {
-        return Err(format!("{at}: {value} is not one of {allowed:?}"));
+        return fail(Violation::NotInEnum {
+            value: value.clone(),
+            allowed: allowed.clone(),
+        });
     }
     if let Some(x) = value.as_f64() {
         if schema["minimum"].as_f64().is_some_and(|min| x < min) {
-            return Err(format!("{at}: {x} is below the minimum"));
+            return fail(Violation::BelowMinimum(x));
         }
         if schema["maximum"].as_f64().is_some_and(|max| x > max) {
-            return Err(format!("{at}: {x} is above the maximum"));
+            return fail(Violation::AboveMaximum(x));
         }
     }
     if let Value::Object(fields) = value {
@@ -382,14 +458,14 @@ pub fn validate(schema: &Value, value: &Value, at: &str) -> Result<(), String> {
         for name in schema["required"].as_array().into_iter().flatten() {
             let name = name.as_str().unwrap_or_default();
             if !fields.contains_key(name) {
-                return Err(format!("{at}: required field {name} missing"));
+                return fail(Violation::Missing(name.to_string()));
             }
         }
         for (name, field) in fields {
             match properties.and_then(|p| p.get(name)) {
                 Some(field_schema) => validate(field_schema, field, &format!("{at}.{name}"))?,
                 None if properties.is_some() => {
-                    return Err(format!("{at}: field {name} is not in the schema"));
+                    return fail(Violation::Unknown(name.clone()));
                 }
                 None => {}
             }
@@ -400,7 +476,7 @@ pub fn validate(schema: &Value, value: &Value, at: &str) -> Result<(), String> {
         if schema["minItems"].as_u64().is_some_and(|min| n < min)
             || schema["maxItems"].as_u64().is_some_and(|max| n > max)
         {
-            return Err(format!("{at}: {n} items"));
+            return fail(Violation::ItemCount(n));
         }
         for (i, item) in items.iter().enumerate() {
             validate(&schema["items"], item, &format!("{at}[{i}]"))?;
@@ -428,7 +504,7 @@ mod tests {
                 assert!(description.len() > 10, "{topic}.{name} needs a description");
                 // A field whose name carries a unit says it in its description too.
                 let unit_suffix = name.rsplit('_').next().unwrap_or_default();
-                if name.contains('_')
+                if name.to_string().contains('_')
                     && [
                         "m", "mps", "rps", "rad", "c", "us", "v", "mbar", "gauss", "mps2", "ms",
                         "deg",
@@ -476,19 +552,19 @@ mod tests {
             Ok(())
         );
         let missing = validate(&schema, &json!({"pressure_mbar": 1013.0}), "baro");
-        assert!(missing.is_err_and(|e| e.contains("alt_m missing")));
+        assert!(missing.is_err_and(|e| e.to_string().contains("alt_m missing")));
         let extra = validate(
             &schema,
             &json!({"pressure_mbar": 1.0, "alt_m": 2.0, "x": 1}),
             "baro",
         );
-        assert!(extra.is_err_and(|e| e.contains("field x")));
+        assert!(extra.is_err_and(|e| e.to_string().contains("field x")));
         let wrong = validate(
             &schema,
             &json!({"pressure_mbar": "high", "alt_m": 2.0}),
             "baro",
         );
-        assert!(wrong.is_err_and(|e| e.contains("baro.pressure_mbar")));
+        assert!(wrong.is_err_and(|e| e.to_string().contains("baro.pressure_mbar")));
         let compass = for_topic("compass").json;
         let short = json!({"counts": [1, 2], "field_gauss": [0.1, 0.2, 0.3], "heading_rad": 0.0});
         assert!(validate(&compass, &short, "compass").is_err());

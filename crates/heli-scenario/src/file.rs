@@ -56,7 +56,7 @@ pub fn from_toml(text: &str) -> Result<Scenario, ScenarioError> {
     let scenario: Scenario = toml::Value::Table(merged)
         .try_into()
         .map_err(|e: toml::de::Error| ScenarioError::Invalid(e.to_string()))?;
-    crate::validate::scenario(&scenario).map_err(ScenarioError::Invalid)?;
+    crate::validate::scenario(&scenario).map_err(|e| ScenarioError::Invalid(e.to_string()))?;
     Ok(scenario)
 }
 

@@ -81,35 +81,77 @@ pub enum TrainerFault {
     },
 }
 
-fn seconds_ok(seconds: f64) -> Result<f64, String> {
-    if seconds.is_finite() && seconds > 0.0 && seconds <= MAX_SECONDS {
-        Ok(seconds)
-    } else {
-        Err(format!(
-            "seconds {seconds}: must be more than 0 and at most {MAX_SECONDS}"
-        ))
+/// Why a trainer's request is refused.
+#[derive(Debug)]
+pub enum TrainerError {
+    /// Not a request (JSON, with a known `kind`).
+    Request {
+        /// The request as the page wrote it (its first 120 characters).
+        json: String,
+        /// What is wrong.
+        error: serde_json::Error,
+    },
+    /// A number out of its range.
+    OutOfRange {
+        /// Its name.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// The range, in words.
+        range: String,
+    },
+}
+
+impl std::fmt::Display for TrainerError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            TrainerError::Request { json, error } => write!(f, "trainer fault {json}: {error}"),
+            TrainerError::OutOfRange { name, value, range } => {
+                write!(f, "{name} {value}: must be {range}")
+            }
+        }
     }
 }
 
-fn within(name: &str, value: f64, limit: f64) -> Result<f64, String> {
+impl std::error::Error for TrainerError {}
+
+fn seconds_ok(seconds: f64) -> Result<f64, TrainerError> {
+    if seconds.is_finite() && seconds > 0.0 && seconds <= MAX_SECONDS {
+        Ok(seconds)
+    } else {
+        Err(TrainerError::OutOfRange {
+            name: "seconds",
+            value: seconds,
+            range: format!("more than 0 and at most {MAX_SECONDS}"),
+        })
+    }
+}
+
+fn within(name: &'static str, value: f64, limit: f64) -> Result<f64, TrainerError> {
     if value.is_finite() && value.abs() <= limit {
         Ok(value)
     } else {
-        Err(format!("{name} {value}: must be within ±{limit}"))
+        Err(TrainerError::OutOfRange {
+            name,
+            value,
+            range: format!("within ±{limit}"),
+        })
     }
 }
 
 impl TrainerFault {
     /// Parses a request (JSON with a `kind`), naming what is wrong.
-    pub fn parse(json: &str) -> Result<Self, String> {
-        let fault: Self =
-            serde_json::from_str(json).map_err(|e| format!("trainer fault {json}: {e}"))?;
+    pub fn parse(json: &str) -> Result<Self, TrainerError> {
+        let fault: Self = serde_json::from_str(json).map_err(|error| TrainerError::Request {
+            json: json.chars().take(120).collect(),
+            error,
+        })?;
         fault.check()?;
         Ok(fault)
     }
 
     /// Checks the numbers: durations, power, sizes.
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), TrainerError> {
         match *self {
             TrainerFault::EngineFailure => Ok(()),
             TrainerFault::EnginePower { power, seconds } => {
@@ -117,7 +159,11 @@ impl TrainerFault {
                 if (0.0..=1.0).contains(&power) {
                     Ok(())
                 } else {
-                    Err(format!("power {power}: must be within 0..1"))
+                    Err(TrainerError::OutOfRange {
+                        name: "power",
+                        value: power,
+                        range: "within 0..1".into(),
+                    })
                 }
             }
             TrainerFault::GpsGlitch {
@@ -149,7 +195,7 @@ impl TrainerFault {
 
     /// Writes the failure into `scenario`'s fault catalog from `now_s` on; returns what was
     /// done, in words.
-    pub fn apply(&self, scenario: &mut Scenario, now_s: f64) -> Result<String, String> {
+    pub fn apply(&self, scenario: &mut Scenario, now_s: f64) -> Result<String, TrainerError> {
         self.check()?;
         let until = |seconds: f64| now_s + seconds;
         let f = &mut scenario.faults;
@@ -288,7 +334,7 @@ mod tests {
             ),
             ("not json", "trainer fault not json"),
         ] {
-            let err = TrainerFault::parse(json).unwrap_err();
+            let err = TrainerFault::parse(json).unwrap_err().to_string();
             assert!(err.contains(says), "{json}: {err}");
         }
     }

@@ -11,6 +11,31 @@ use heli_model::params::Airframe;
 /// Longest scenario (s): a day.
 pub const MAX_DURATION_S: f64 = 86_400.0;
 
+/// What is wrong with a scenario or an airframe: each problem names its key and the
+/// allowed range.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Invalid {
+    /// The problems, in the order of the keys.
+    pub problems: Vec<String>,
+}
+
+impl std::fmt::Display for Invalid {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.problems.join("; "))
+    }
+}
+
+impl std::error::Error for Invalid {}
+
+/// `Ok` without problems, the problems otherwise.
+fn verdict(problems: Vec<String>) -> Result<(), Invalid> {
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        Err(Invalid { problems })
+    }
+}
+
 /// What is wrong with a value.
 fn out_of_range(key: &str, value: f64, min: f64, max: f64) -> String {
     format!("{key} = {value}: must be from {min} to {max}")
@@ -63,8 +88,10 @@ fn range_of(path: &str, name: &str) -> Option<(f64, f64)> {
 }
 
 /// Checks a scenario; the error names the key and the allowed range.
-pub fn scenario(s: &Scenario) -> Result<(), String> {
-    let value = serde_json::to_value(s).map_err(|e| e.to_string())?;
+pub fn scenario(s: &Scenario) -> Result<(), Invalid> {
+    let value = serde_json::to_value(s).map_err(|e| Invalid {
+        problems: vec![e.to_string()],
+    })?;
     let mut errors = Vec::new();
     if let Value::Object(map) = &value {
         for (key, v) in map {
@@ -183,12 +210,9 @@ pub fn scenario(s: &Scenario) -> Result<(), String> {
         }
     }
     if let Err(e) = airframe(&s.airframe) {
-        errors.push(e);
+        errors.extend(e.problems);
     }
-    match errors.first() {
-        None => Ok(()),
-        Some(_) => Err(errors.join("; ")),
-    }
+    verdict(errors)
 }
 
 /// Each device fault's amount, by kind: an error names the fault, the key and the range.
@@ -275,9 +299,12 @@ fn walk(path: &str, name: &str, v: &Value, errors: &mut Vec<String>) {
 
 /// Checks an airframe: every parameter finite, with the sign of the X-Cell 60's, and within
 /// a tenth to ten times its value (a parameter the X-Cell has at 0 may be up to 1 either way).
-pub fn airframe(a: &Airframe) -> Result<(), String> {
-    let given = serde_json::to_value(a).map_err(|e| e.to_string())?;
-    let reference = serde_json::to_value(Airframe::default()).map_err(|e| e.to_string())?;
+pub fn airframe(a: &Airframe) -> Result<(), Invalid> {
+    let problem = |e: serde_json::Error| Invalid {
+        problems: vec![e.to_string()],
+    };
+    let given = serde_json::to_value(a).map_err(problem)?;
+    let reference = serde_json::to_value(Airframe::default()).map_err(problem)?;
     let (Value::Object(given), Value::Object(reference)) = (given, reference) else {
         return Ok(());
     };
@@ -307,10 +334,7 @@ pub fn airframe(a: &Airframe) -> Result<(), String> {
             ));
         }
     }
-    match errors.first() {
-        None => Ok(()),
-        Some(_) => Err(errors.join("; ")),
-    }
+    verdict(errors)
 }
 
 #[cfg(test)]

@@ -26,6 +26,53 @@ use crate::lockstep::{HilOut, Simulation};
 use crate::summary::{HilSummary, Percentiles, Summary};
 use heli_scenario::Scenario;
 
+/// Why the HILSim could not run, or stopped early.
+#[derive(Debug)]
+pub enum HilError {
+    /// A speed out of its range.
+    Speed(f64),
+    /// The scenario cannot be flown.
+    Scenario(heli_scenario::ScenarioError),
+    /// A device could not be made, read or written: what, and the system's answer.
+    Device {
+        /// What was being done.
+        what: String,
+        /// The system's answer.
+        error: std::io::Error,
+    },
+    /// The recording cannot be replayed.
+    Recording(crate::replay::log::ReplayError),
+    /// Stopped before a flight computer started.
+    Stopped,
+    /// No flight computer wrote to the devices within this time (s).
+    NoComputer(f64),
+}
+
+impl std::fmt::Display for HilError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            HilError::Speed(v) => write!(f, "--speed {v}: must be more than 0 and at most 100"),
+            HilError::Scenario(e) => write!(f, "{e}"),
+            HilError::Device { what, error } => write!(f, "{what}: {error}"),
+            HilError::Recording(e) => write!(f, "{e}"),
+            HilError::Stopped => write!(f, "stopped before a flight computer started"),
+            HilError::NoComputer(s) => {
+                write!(f, "no flight computer wrote to the devices in {s} s")
+            }
+        }
+    }
+}
+
+impl std::error::Error for HilError {}
+
+/// A device error saying what was being done.
+pub(crate) fn device(what: impl std::fmt::Display) -> impl FnOnce(std::io::Error) -> HilError {
+    move |error| HilError::Device {
+        what: what.to_string(),
+        error,
+    }
+}
+
 /// The flight computer's reaction time as the HILSim sees it: from the write of an IMU
 /// packet to the first whole servo packet read back after it.
 #[derive(Default)]
@@ -91,28 +138,28 @@ pub(crate) struct PtyPort {
 }
 
 /// Creates the pseudo-terminals and the ADC directory under `dir`.
-pub(crate) fn expose(dir: &Path) -> Result<(Vec<PtyPort>, HilDevices), String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+pub(crate) fn expose(dir: &Path) -> Result<(Vec<PtyPort>, HilDevices), HilError> {
+    std::fs::create_dir_all(dir).map_err(device(dir.display()))?;
     let adc = dir.join("adc");
-    std::fs::create_dir_all(&adc).map_err(|e| format!("{}: {e}", adc.display()))?;
+    std::fs::create_dir_all(&adc).map_err(device(adc.display()))?;
     let mut ptys = Vec::new();
     let mut listed = Vec::new();
     for port in Port::ALL {
-        let (mut master, slave) =
-            TTYPort::pair().map_err(|e| format!("creating a pseudo-terminal: {e}"))?;
+        let (mut master, slave) = TTYPort::pair()
+            .map_err(std::io::Error::from)
+            .map_err(device("creating a pseudo-terminal"))?;
         master
             .set_timeout(Duration::from_millis(1))
-            .map_err(|e| e.to_string())?;
-        let target = slave
-            .name()
-            .map(PathBuf::from)
-            .ok_or("a pseudo-terminal without a name")?;
+            .map_err(std::io::Error::from)
+            .map_err(device("setting a pseudo-terminal's timeout"))?;
+        let target = slave.name().map(PathBuf::from).ok_or_else(|| {
+            device("naming a pseudo-terminal")(std::io::Error::other("it has no name"))
+        })?;
         let link = dir.join(port.name());
         if link.symlink_metadata().is_ok() {
-            std::fs::remove_file(&link).map_err(|e| format!("{}: {e}", link.display()))?;
+            std::fs::remove_file(&link).map_err(device(link.display()))?;
         }
-        std::os::unix::fs::symlink(&target, &link)
-            .map_err(|e| format!("{}: {e}", link.display()))?;
+        std::os::unix::fs::symlink(&target, &link).map_err(device(link.display()))?;
         listed.push((port, link, target));
         ptys.push(PtyPort {
             port,
@@ -150,16 +197,21 @@ pub(crate) fn write_adc(dir: &Path, channel: u8, counts: u16) -> std::io::Result
 pub(crate) fn spawn_readers(
     ptys: &[PtyPort],
     stop: &Arc<AtomicBool>,
-) -> Result<Receiver<(Port, Vec<u8>, Instant)>, String> {
+) -> Result<Receiver<(Port, Vec<u8>, Instant)>, HilError> {
     let (tx, rx) = channel();
     for pty in ptys
         .iter()
         .filter(|p| matches!(p.port, Port::Scb | Port::Baro))
     {
-        let mut master = pty.master.try_clone_native().map_err(|e| e.to_string())?;
+        let mut master = pty
+            .master
+            .try_clone_native()
+            .map_err(std::io::Error::from)
+            .map_err(device("opening a pseudo-terminal again"))?;
         master
             .set_timeout(Duration::from_millis(20))
-            .map_err(|e| e.to_string())?;
+            .map_err(std::io::Error::from)
+            .map_err(device("setting a pseudo-terminal's timeout"))?;
         let tx = tx.clone();
         let stop = Arc::clone(stop);
         let port = pty.port;
@@ -181,7 +233,7 @@ pub(crate) fn spawn_readers(
                     }
                 }
             })
-            .map_err(|e| e.to_string())?;
+            .map_err(device("starting a reader thread"))?;
     }
     Ok(rx)
 }
@@ -197,20 +249,17 @@ pub fn run(
     stop: &Arc<AtomicBool>,
     ready: impl FnOnce(&HilDevices),
     mut watch: impl FnMut(&mut Simulation),
-) -> Result<Summary, String> {
+) -> Result<Summary, HilError> {
     if !(options.speed.is_finite() && options.speed > 0.0 && options.speed <= 100.0) {
-        return Err(format!(
-            "--speed {}: must be more than 0 and at most 100",
-            options.speed
-        ));
+        return Err(HilError::Speed(options.speed));
     }
     let duration_s = options.duration_s.unwrap_or(scenario.duration_s);
-    let mut sim = Simulation::hil(scenario).map_err(|e| e.to_string())?;
+    let mut sim = Simulation::hil(scenario).map_err(HilError::Scenario)?;
     let (mut ptys, devices) = expose(dir)?;
     let from_computer = spawn_readers(&ptys, stop)?;
     // The ADC files exist before anyone looks.
     for channel in 0..=crate::lockstep::HIL_BATTERY_CHANNEL {
-        write_adc(&devices.adc, channel, 0).map_err(|e| e.to_string())?;
+        write_adc(&devices.adc, channel, 0).map_err(device("writing an ADC file"))?;
     }
     ready(&devices);
     let end_us = (duration_s * 1e6) as u64;

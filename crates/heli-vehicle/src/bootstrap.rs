@@ -28,6 +28,7 @@ use heli_link::{GroundCommand, StartParameters};
 use heli_types::{FlightMode, Leg};
 
 use crate::ctl::{Reply, Request, RequestHandle};
+use crate::error::VehicleError;
 use crate::supervisor::{FromFlight, ProtocolError, ToFlight, VERSION};
 
 mod child;
@@ -270,27 +271,32 @@ impl Bootstrap {
     }
 
     /// Listens on the control socket and serves until `quit`.
-    pub fn run(mut self) -> Result<(), String> {
+    pub fn run(mut self) -> Result<(), VehicleError> {
         let socket = &self.config.socket;
         if socket.exists() {
             // A stale socket from a bootstrap that died; a live one would answer.
             if UnixStream::connect(socket).is_ok() {
-                return Err(format!(
-                    "control socket {}: another bootstrap is listening",
-                    socket.display()
-                ));
+                return Err(VehicleError::Socket {
+                    path: socket.clone(),
+                    source: None,
+                });
             }
             let _ = std::fs::remove_file(socket);
         }
-        let listener = UnixListener::bind(socket)
-            .map_err(|e| format!("control socket {}: {e}", socket.display()))?;
+        let listener = UnixListener::bind(socket).map_err(|e| VehicleError::Socket {
+            path: socket.clone(),
+            source: Some(e),
+        })?;
         let handle = self.requests();
         let (written_tx, written_rx) = channel();
         self.written = Some(written_rx);
         std::thread::Builder::new()
             .name("ctl".into())
             .spawn(move || crate::ctl::serve(&listener, &handle, &written_tx))
-            .map_err(|e| e.to_string())?;
+            .map_err(|source| VehicleError::Thread {
+                name: "ctl".into(),
+                source,
+            })?;
         self.say(
             Severity::ActivityHi,
             &format!("listening on {}", self.config.socket.display()),
@@ -345,7 +351,7 @@ impl Bootstrap {
         }
     }
 
-    fn main_loop(&mut self) -> Result<(), String> {
+    fn main_loop(&mut self) -> Result<(), VehicleError> {
         loop {
             self.tell_link_state();
             let msg = match self.rx.recv_timeout(Duration::from_millis(100)) {
@@ -439,7 +445,7 @@ impl Bootstrap {
                 match self.spawn_child() {
                     Ok(()) => self.wait_for(reply, self.ready_timeout, State::Connecting),
                     Err(e) => {
-                        let _ = reply.send(Reply::refused(e));
+                        let _ = reply.send(Reply::refused(e.to_string()));
                     }
                 }
             }

@@ -21,6 +21,7 @@ use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use heli_link::vehicle::CommandOutcome;
 use heli_link::{GroundCommand, StartParameters};
 
 /// How long a client waits for the bootstrap's reply (a Connect waits for the flight
@@ -154,11 +155,11 @@ impl Reply {
         }
     }
 
-    /// What was done (`Ok`), or why not (`Err`): the link's acknowledgement.
-    pub fn outcome(&self) -> Result<String, String> {
+    /// What was done, or why not: the link's acknowledgement.
+    pub fn outcome(&self) -> CommandOutcome {
         match self {
-            Reply::Refused(_) => Err(self.text()),
-            _ => Ok(self.text()),
+            Reply::Refused(_) => CommandOutcome::Failed(self.text()),
+            _ => CommandOutcome::Accepted(self.text()),
         }
     }
 
@@ -404,8 +405,8 @@ mod tests {
             assert_eq!(reply.to_line(), line);
             let text = line.split_once(' ').unwrap().1.to_string();
             match reply {
-                Reply::Refused(_) => assert_eq!(reply.outcome(), Err(text)),
-                _ => assert_eq!(reply.outcome(), Ok(text)),
+                Reply::Refused(_) => assert_eq!(reply.outcome(), CommandOutcome::Failed(text)),
+                _ => assert_eq!(reply.outcome(), CommandOutcome::Accepted(text)),
             }
         }
     }

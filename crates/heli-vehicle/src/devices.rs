@@ -25,6 +25,7 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use crate::error::VehicleError;
 use heli_types::Port;
 use serde::Deserialize;
 
@@ -87,7 +88,7 @@ pub enum DevicesError {
     /// The file could not be read.
     Read(PathBuf, std::io::Error),
     /// The file is not a valid devices description.
-    Parse(PathBuf, String),
+    Parse(PathBuf, VehicleError),
 }
 
 impl fmt::Display for DevicesError {
@@ -122,10 +123,10 @@ pub enum HotSwapLine {
 impl HotSwapLine {
     /// `gpiochipN:OFFSET` or `/dev/gpiochipN:OFFSET` is a character-device line; anything
     /// else is a value file's path.
-    pub fn parse(spec: &str) -> Result<Self, String> {
+    pub fn parse(spec: &str) -> Result<Self, VehicleError> {
         let spec = spec.trim();
         if spec.is_empty() {
-            return Err("hotswap: an empty line name".into());
+            return Err(VehicleError::invalid("hotswap", "an empty line name"));
         }
         let chip_part = spec.rsplit_once(':').filter(|(chip, _)| {
             Path::new(chip)
@@ -136,7 +137,10 @@ impl HotSwapLine {
         match chip_part {
             Some((chip, offset)) => {
                 let offset: u32 = offset.parse().map_err(|_| {
-                    format!("hotswap '{spec}': the line offset '{offset}' is not a number")
+                    VehicleError::invalid(
+                        format!("hotswap '{spec}'"),
+                        format!("the line offset '{offset}' is not a number"),
+                    )
                 })?;
                 let chip = if chip.contains('/') {
                     PathBuf::from(chip)
@@ -158,19 +162,20 @@ impl Devices {
     }
 
     /// Parses a devices description.
-    pub fn from_toml(text: &str) -> Result<Self, String> {
-        let devices: Devices = toml::from_str(text).map_err(|e| e.to_string())?;
+    pub fn from_toml(text: &str) -> Result<Self, VehicleError> {
+        let devices: Devices = toml::from_str(text).map_err(|e| VehicleError::invalid("", e))?;
         if let Some(line) = &devices.gpio.hotswap {
-            HotSwapLine::parse(line).map_err(|e| format!("gpio: {e}"))?;
+            HotSwapLine::parse(line).map_err(|e| e.within("gpio"))?;
         }
         let mut channels: Vec<u8> = devices.adc.compass.to_vec();
         channels.push(devices.adc.battery);
         channels.sort_unstable();
         channels.dedup();
         if channels.len() != 4 {
-            return Err(
-                "adc: the compass and battery channels must be four different channels".to_string(),
-            );
+            return Err(VehicleError::invalid(
+                "adc",
+                "the compass and battery channels must be four different channels",
+            ));
         }
         Ok(devices)
     }
@@ -236,11 +241,17 @@ mod tests {
         let d = Devices::from_toml(good).unwrap();
         assert_eq!(d.port(Port::Gps), Path::new("/dev/ttyS2"));
         let missing = good.replace("baro = \"/dev/ttyS3\"", "");
-        assert!(Devices::from_toml(&missing).unwrap_err().contains("baro"));
+        assert!(
+            Devices::from_toml(&missing)
+                .unwrap_err()
+                .to_string()
+                .contains("baro")
+        );
         let clash = good.replace("battery = 3", "battery = 2");
         assert!(
             Devices::from_toml(&clash)
                 .unwrap_err()
+                .to_string()
                 .contains("different")
         );
         let typo = good.replace("gps =", "gsp =");

@@ -17,6 +17,7 @@ use heli_types::Port;
 use serde_json::Value;
 
 use crate::devices::Devices;
+use crate::error::VehicleError;
 use crate::logger::{self, LogItem, LogReport, LogSender};
 use crate::rt;
 use crate::streams::LiveStreams;
@@ -96,7 +97,7 @@ pub fn run(
     setup: FlightSetup,
     stop: Arc<AtomicBool>,
     report: Arc<dyn Fn(Report) + Send + Sync>,
-) -> Result<FlightSummary, String> {
+) -> Result<FlightSummary, VehicleError> {
     let clock = Clock::with_speed(setup.clock_speed);
     report(Report::Note(rt::lock_memory()));
     let (tx, rx) = channel::<LoopMsg>();
@@ -114,7 +115,10 @@ pub fn run(
         }
         None => (None, None),
     };
-    let spawn_error = |what: &str, e: std::io::Error| format!("starting the {what} thread: {e}");
+    let spawn_error = |what: &str, source: std::io::Error| VehicleError::Thread {
+        name: what.to_string(),
+        source,
+    };
     let mut helpers = Vec::new();
     for port in Port::ALL {
         helpers.push(
@@ -203,7 +207,7 @@ pub fn run(
     let log_dropped = log.as_ref().map_or(0, LogSender::dropped);
     drop(log);
     let log_report = log_thread.and_then(|h| h.join().ok());
-    let (stats, inputs) = outcome.map_err(|_| "the control loop panicked".to_string())?;
+    let (stats, inputs) = outcome.map_err(|_| VehicleError::Panicked("control loop"))?;
     Ok(FlightSummary {
         stats,
         inputs,

@@ -18,6 +18,7 @@ use std::time::Duration;
 use heli_fsw::RecordedInput;
 
 pub use crate::devices::HotSwapLine;
+use crate::error::VehicleError;
 use crate::threads::{Clock, LoopMsg, sleep_unless_stopped};
 
 /// How often the line is read.
@@ -25,7 +26,7 @@ pub const HOTSWAP_PERIOD: Duration = Duration::from_millis(100);
 
 impl HotSwapLine {
     /// Reads the line once: `true` when high.
-    pub fn read(&self) -> Result<bool, String> {
+    pub fn read(&self) -> Result<bool, VehicleError> {
         LineReader::new(self.clone()).read()
     }
 }
@@ -47,22 +48,23 @@ impl LineReader {
 
     /// Reads the line: `true` when high. A failed read gives the request up, to be made
     /// again next time.
-    pub fn read(&mut self) -> Result<bool, String> {
+    pub fn read(&mut self) -> Result<bool, VehicleError> {
         match &self.line {
             HotSwapLine::ValueFile(path) => {
                 let text = std::fs::read_to_string(path)
-                    .map_err(|e| format!("hotswap {}: {e}", path.display()))?;
+                    .map_err(|e| VehicleError::file(path, e).within("hotswap"))?;
                 parse_value(&text).ok_or_else(|| {
-                    format!(
-                        "hotswap {}: '{}' is not 0 or 1",
-                        path.display(),
-                        text.trim()
+                    VehicleError::invalid(
+                        format!("hotswap {}", path.display()),
+                        format!("'{}' is not 0 or 1", text.trim()),
                     )
                 })
             }
             HotSwapLine::Chip { chip, offset } => {
-                let named =
-                    |e: gpiocdev::Error| format!("hotswap {}:{offset}: {e}", chip.display());
+                let named = |source: gpiocdev::Error| VehicleError::Gpio {
+                    line: format!("hotswap {}:{offset}", chip.display()),
+                    source,
+                };
                 let request = match self.request.take() {
                     Some(r) => r,
                     None => gpiocdev::Request::builder()
@@ -127,7 +129,7 @@ pub fn spawn_hotswap(
                     Err(e) => {
                         if !failing {
                             failing = true;
-                            let _ = tx.send(LoopMsg::Note(e));
+                            let _ = tx.send(LoopMsg::Note(e.to_string()));
                         }
                     }
                 }
@@ -149,28 +151,29 @@ mod tests {
     #[test]
     fn a_line_is_named_by_chip_and_offset_or_by_its_value_file() {
         assert_eq!(
-            HotSwapLine::parse("gpiochip0:17"),
-            Ok(HotSwapLine::Chip {
+            HotSwapLine::parse("gpiochip0:17").ok(),
+            Some(HotSwapLine::Chip {
                 chip: "/dev/gpiochip0".into(),
                 offset: 17
             })
         );
         assert_eq!(
-            HotSwapLine::parse("/dev/gpiochip2:5"),
-            Ok(HotSwapLine::Chip {
+            HotSwapLine::parse("/dev/gpiochip2:5").ok(),
+            Some(HotSwapLine::Chip {
                 chip: "/dev/gpiochip2".into(),
                 offset: 5
             })
         );
         assert_eq!(
-            HotSwapLine::parse("/sys/class/gpio/gpio17/value"),
-            Ok(HotSwapLine::ValueFile(
+            HotSwapLine::parse("/sys/class/gpio/gpio17/value").ok(),
+            Some(HotSwapLine::ValueFile(
                 "/sys/class/gpio/gpio17/value".into()
             ))
         );
         assert!(
             HotSwapLine::parse("gpiochip0:x")
                 .unwrap_err()
+                .to_string()
                 .contains("'x'")
         );
         assert!(HotSwapLine::parse(" ").is_err());
@@ -181,13 +184,13 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("hotswap");
         let line = HotSwapLine::ValueFile(path.clone());
-        assert!(line.read().unwrap_err().contains("hotswap"));
+        assert!(line.read().unwrap_err().to_string().contains("hotswap"));
         std::fs::write(&path, "1\n").unwrap();
-        assert_eq!(line.read(), Ok(true));
+        assert_eq!(line.read().ok(), Some(true));
         std::fs::write(&path, "0").unwrap();
-        assert_eq!(line.read(), Ok(false));
+        assert_eq!(line.read().ok(), Some(false));
         std::fs::write(&path, "maybe").unwrap();
-        assert!(line.read().unwrap_err().contains("not 0 or 1"));
+        assert!(line.read().unwrap_err().to_string().contains("not 0 or 1"));
     }
 
     #[test]
@@ -196,6 +199,11 @@ mod tests {
             chip: "/dev/gpiochip-not-here".into(),
             offset: 3,
         };
-        assert!(line.read().unwrap_err().contains("gpiochip-not-here:3"));
+        assert!(
+            line.read()
+                .unwrap_err()
+                .to_string()
+                .contains("gpiochip-not-here:3")
+        );
     }
 }

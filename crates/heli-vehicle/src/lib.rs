@@ -38,6 +38,7 @@ pub mod cli;
 pub mod compass_file;
 pub mod ctl;
 pub mod devices;
+pub mod error;
 pub mod flight;
 pub mod flight_process;
 pub mod hotswap;

@@ -446,7 +446,13 @@ pub fn spawn(
                 }
                 Err(std::sync::mpsc::TryRecvError::Empty) => true,
                 Err(std::sync::mpsc::TryRecvError::Disconnected) => {
-                    link.finish(*token, Err("the bootstrap did not answer".into()), unix_us());
+                    link.finish(
+                        *token,
+                        heli_link::vehicle::CommandOutcome::Failed(
+                            "the bootstrap did not answer".into(),
+                        ),
+                        unix_us(),
+                    );
                     false
                 }
             });

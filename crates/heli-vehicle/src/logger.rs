@@ -23,6 +23,8 @@ use serde_json::json;
 
 use heli_log::inputs;
 
+use crate::error::VehicleError;
+
 /// Items the logger's channel holds before the loop's items are dropped (about 30 s of a
 /// flight's traffic).
 pub const LOG_QUEUE: usize = 32_768;
@@ -123,23 +125,31 @@ pub fn spawn(
     path: &Path,
     metadata: &BTreeMap<String, String>,
     note: Arc<dyn Fn(String) + Send + Sync>,
-) -> Result<(LogSender, JoinHandle<LogReport>), String> {
+) -> Result<(LogSender, JoinHandle<LogReport>), VehicleError> {
+    let named = |source, hint| VehicleError::Log {
+        path: Some(path.to_path_buf()),
+        source,
+        hint,
+    };
     let mut log = FlightLog::create_new(path).map_err(|e| {
         let exists = if path.exists() {
             " (a log of that name exists: choose another suffix)"
         } else {
             ""
         };
-        format!("flight log {}: {e}{exists}", path.display())
+        named(e, exists)
     })?;
     log.write_metadata("flight", metadata)
-        .map_err(|e| format!("flight log {}: {e}", path.display()))?;
+        .map_err(|e| named(e, ""))?;
     let (tx, rx) = std::sync::mpsc::sync_channel(LOG_QUEUE);
     let path = path.to_path_buf();
     let handle = std::thread::Builder::new()
         .name("logger".into())
         .spawn(move || run(log, &rx, path, &*note))
-        .map_err(|e| format!("logger thread: {e}"))?;
+        .map_err(|source| VehicleError::Thread {
+            name: "logger".into(),
+            source,
+        })?;
     Ok((
         LogSender {
             tx,

@@ -7,6 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::error::VehicleError;
 use heli_fsw::core::CoreConfig;
 use heli_link::params::{ParamSpec, ParamTable};
 
@@ -105,26 +106,26 @@ pub fn path_in(log_dir: &Path) -> PathBuf {
 }
 
 /// The table of `log_dir`: the defaults with the file's values (no file: the defaults).
-pub fn load(log_dir: &Path) -> Result<ParamTable, String> {
+pub fn load(log_dir: &Path) -> Result<ParamTable, VehicleError> {
     let path = path_in(log_dir);
     let mut table = defaults();
     match std::fs::read_to_string(&path) {
         Ok(text) => table
             .load_text(&text)
-            .map_err(|e| format!("{}: {e}", path.display()))?,
+            .map_err(|e| VehicleError::invalid(path.display().to_string(), e))?,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => return Err(format!("{}: {e}", path.display())),
+        Err(e) => return Err(VehicleError::file(path, e)),
     }
     Ok(table)
 }
 
 /// Writes the table's text to `log_dir`'s file, whole (a temporary file renamed over it).
-pub fn save(log_dir: &Path, text: &str) -> Result<(), String> {
+pub fn save(log_dir: &Path, text: &str) -> Result<(), VehicleError> {
     let path = path_in(log_dir);
     let tmp = log_dir.join(".params.tmp");
     std::fs::write(&tmp, text)
         .and_then(|()| std::fs::rename(&tmp, &path))
-        .map_err(|e| format!("{}: {e}", path.display()))
+        .map_err(|e| VehicleError::file(path, e))
 }
 
 /// The values of `table` in `config` (a name the table lacks keeps the config's value).
@@ -199,7 +200,7 @@ mod tests {
         apply(&back, &mut config);
         assert!((config.hover.max_tilt_rad - 0.35).abs() < 1e-6);
         std::fs::write(path_in(dir.path()), "HOV_MAX_TILT_RAD = 1.5\n").unwrap();
-        let err = load(dir.path()).unwrap_err();
+        let err = load(dir.path()).unwrap_err().to_string();
         assert!(err.contains("line 1") && err.contains("range"), "{err}");
     }
 
@@ -209,7 +210,7 @@ mod tests {
         let table = load(dir.path()).unwrap();
         assert_eq!(table.get("HOV_MAX_SPEED"), defaults().get("HOV_MAX_SPEED"));
         std::fs::create_dir(path_in(dir.path())).unwrap();
-        let e = load(dir.path()).unwrap_err();
+        let e = load(dir.path()).unwrap_err().to_string();
         assert!(
             e.starts_with(&path_in(dir.path()).display().to_string()),
             "{e}"

@@ -48,7 +48,7 @@ pub enum PlanLoadError {
         /// The file.
         path: PathBuf,
         /// What is wrong.
-        why: String,
+        why: PlanFileProblem,
     },
     /// The legs are out of the flight core's ranges.
     Invalid {
@@ -76,6 +76,36 @@ impl fmt::Display for PlanLoadError {
 }
 
 impl std::error::Error for PlanLoadError {}
+
+/// What is wrong with a plan file.
+#[derive(Debug)]
+pub enum PlanFileProblem {
+    /// The text is not TOML.
+    Toml(toml::de::Error),
+    /// Its `plan` is not a list of legs.
+    Legs(toml::de::Error),
+    /// Its `base` is not a name.
+    BaseNotAName(toml::Value),
+    /// Its `base` names no plan of the library.
+    UnknownBase(String),
+}
+
+impl fmt::Display for PlanFileProblem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            PlanFileProblem::Toml(e) => e.fmt(f),
+            PlanFileProblem::Legs(e) => write!(f, "plan: {e}"),
+            PlanFileProblem::BaseNotAName(other) => {
+                write!(f, "'base' must be a plan's name, not {other}")
+            }
+            PlanFileProblem::UnknownBase(base) => write!(
+                f,
+                "unknown base plan '{base}' (the library: {})",
+                library::names()
+            ),
+        }
+    }
+}
 
 /// The plan named `name` (the default plan without one): the library's, or a plan file's.
 pub fn named(name: Option<&str>) -> Result<FlightPlan, PlanLoadError> {
@@ -105,26 +135,19 @@ pub fn named(name: Option<&str>) -> Result<FlightPlan, PlanLoadError> {
 }
 
 /// The legs of a plan file's text: its `plan`, or its `base`'s.
-fn from_file_text(text: &str) -> Result<Vec<Leg>, String> {
-    let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| e.to_string())?;
+fn from_file_text(text: &str) -> Result<Vec<Leg>, PlanFileProblem> {
+    let mut table: toml::Table = text.parse().map_err(PlanFileProblem::Toml)?;
     if let Some(plan) = table.remove("plan") {
-        return plan
-            .try_into()
-            .map_err(|e: toml::de::Error| format!("plan: {e}"));
+        return plan.try_into().map_err(PlanFileProblem::Legs);
     }
     let base = match table.remove("base") {
         None => DEFAULT_PLAN.to_string(),
         Some(toml::Value::String(s)) => s,
-        Some(other) => return Err(format!("'base' must be a plan's name, not {other}")),
+        Some(other) => return Err(PlanFileProblem::BaseNotAName(other)),
     };
     library::plan(&base)
         .map(|p| p.legs.to_vec())
-        .ok_or_else(|| {
-            format!(
-                "unknown base plan '{base}' (the library: {})",
-                library::names()
-            )
-        })
+        .ok_or(PlanFileProblem::UnknownBase(base))
 }
 
 #[cfg(test)]

@@ -23,6 +23,7 @@ use heli_proto::compass::{CompassAdc, CompassCalibration, heading_rad};
 use heli_types::Port;
 use serialport::TTYPort;
 
+use crate::error::VehicleError;
 use crate::{adc, devices, port};
 use heli_log::inputs;
 
@@ -77,41 +78,47 @@ struct Logger {
 }
 
 impl Logger {
-    fn new(path: Option<&Path>) -> Result<Self, String> {
+    fn new(path: Option<&Path>) -> Result<Self, VehicleError> {
         let log = path
-            .map(|p| FlightLog::create(p).map_err(|e| format!("log {}: {e}", p.display())))
+            .map(|p| {
+                FlightLog::create(p).map_err(|source| VehicleError::Log {
+                    path: Some(p.to_path_buf()),
+                    source,
+                    hint: "",
+                })
+            })
             .transpose()?;
         Ok(Self { log })
     }
 
-    fn input(&mut self, t_us: u64, input: &RecordedInput) -> Result<(), String> {
+    fn input(&mut self, t_us: u64, input: &RecordedInput) -> Result<(), VehicleError> {
         match self.log.as_mut() {
             Some(log) => log
                 .write(inputs::CHANNEL, t_us, &inputs::input_json(input))
-                .map_err(|e| e.to_string()),
+                .map_err(VehicleError::from),
             None => Ok(()),
         }
     }
 
-    fn record(&mut self, record: &Record) -> Result<(), String> {
+    fn record(&mut self, record: &Record) -> Result<(), VehicleError> {
         match self.log.as_mut() {
-            Some(log) => log.write_record(record).map_err(|e| e.to_string()),
+            Some(log) => log.write_record(record).map_err(VehicleError::from),
             None => Ok(()),
         }
     }
 
-    fn value(&mut self, topic: &str, t_us: u64, v: &serde_json::Value) -> Result<(), String> {
+    fn value(&mut self, topic: &str, t_us: u64, v: &serde_json::Value) -> Result<(), VehicleError> {
         match self.log.as_mut() {
-            Some(log) => log.write(topic, t_us, v).map_err(|e| e.to_string()),
+            Some(log) => log.write(topic, t_us, v).map_err(VehicleError::from),
             None => Ok(()),
         }
     }
 
-    fn finish(self) -> Result<u64, String> {
+    fn finish(self) -> Result<u64, VehicleError> {
         match self.log {
             Some(log) => {
                 let n = log.messages();
-                log.finish().map_err(|e| e.to_string())?;
+                log.finish()?;
                 Ok(n)
             }
             None => Ok(0),
@@ -128,7 +135,7 @@ pub fn run(
     max_samples: Option<u64>,
     stop: &AtomicBool,
     print: &mut dyn FnMut(&str),
-) -> Result<DriverReport, String> {
+) -> Result<DriverReport, VehicleError> {
     let clock = crate::threads::Clock::start();
     let mut logger = Logger::new(log_path)?;
     let mut report = DriverReport::default();
@@ -146,7 +153,7 @@ pub fn run(
                     .iter()
                     .map(|n| adc::read_channel(dir, *n))
                     .collect();
-                let counts = counts.map_err(|e| e.to_string())?;
+                let counts = counts?;
                 match (kind, counts.as_slice()) {
                     (DriverKind::Compass, [x, y, z]) => {
                         let adc = CompassAdc {
@@ -181,22 +188,26 @@ pub fn run(
                         ));
                         logger.value("battery", t_us, &serde_json::json!({ "volts": volts }))?;
                     }
-                    _ => return Err("wrong number of ADC channels for this device".into()),
+                    _ => {
+                        return Err(VehicleError::Device(
+                            "wrong number of ADC channels for this device",
+                        ));
+                    }
                 }
                 report.samples = report.samples.saturating_add(1);
                 crate::threads::sleep_unless_stopped(period, stop);
             }
         }
         (DriverKind::Compass | DriverKind::Battery, Source::Port(p)) => {
-            return Err(format!(
-                "{}: the compass and battery are ADC channels: give --adc DIR, not a serial port",
-                p.display()
+            return Err(VehicleError::invalid(
+                p.display().to_string(),
+                "the compass and battery are ADC channels: give --adc DIR, not a serial port",
             ));
         }
         (_, Source::Adc { dir, .. }) => {
-            return Err(format!(
-                "{}: this device is on a serial port: give --port PATH",
-                dir.display()
+            return Err(VehicleError::invalid(
+                dir.display().to_string(),
+                "this device is on a serial port: give --port PATH",
             ));
         }
         (kind, Source::Port(path)) => {
@@ -206,7 +217,7 @@ pub fn run(
                 DriverKind::Gps => Port::Gps,
                 _ => Port::Baro,
             };
-            let mut serial = port::open(path, devices::baud(port)).map_err(|e| e.to_string())?;
+            let mut serial = port::open(path, devices::baud(port))?;
             serial_driver(
                 port,
                 &mut serial,
@@ -235,7 +246,7 @@ fn serial_driver(
     max_samples: Option<u64>,
     stop: &AtomicBool,
     print: &mut dyn FnMut(&str),
-) -> Result<(), String> {
+) -> Result<(), VehicleError> {
     let mut imu = drivers::imu_driver();
     let mut uplink = drivers::uplink_driver();
     let mut gps = drivers::gps_driver();
@@ -253,8 +264,12 @@ fn serial_driver(
         Port::Imu => {
             // Every 12 ms without a packet is a miss: the reads must wake more often than
             // that, not once per port timeout.
-            serialport::SerialPort::set_timeout(serial, Duration::from_millis(2))
-                .map_err(|e| format!("setting the read timeout: {e}"))?;
+            serialport::SerialPort::set_timeout(serial, Duration::from_millis(2)).map_err(|e| {
+                VehicleError::DeviceIo {
+                    doing: "setting the read timeout",
+                    source: e.into(),
+                }
+            })?;
             watchdog.kick(clock.now_us());
         }
         Port::Gps => {}
@@ -262,8 +277,10 @@ fn serial_driver(
     let mut buf = [0u8; 256];
     while !stop.load(Ordering::Acquire) && max_samples.is_none_or(|m| report.samples < m) {
         send(serial, &mut writes)?;
-        let n =
-            port::read_some(serial, &mut buf).map_err(|e| format!("reading the device: {e}"))?;
+        let n = port::read_some(serial, &mut buf).map_err(|source| VehicleError::DeviceIo {
+            doing: "reading the device",
+            source,
+        })?;
         let t_us = clock.now_us();
         let bytes = buf.get(..n).unwrap_or_default();
         if n > 0 {
@@ -333,7 +350,9 @@ fn serial_driver(
                     ));
                 }
                 if baro.state() == BaroLinkState::Failed {
-                    return Err("the altimeter never answered its handshake (3 tries)".into());
+                    return Err(VehicleError::Device(
+                        "the altimeter never answered its handshake (3 tries)",
+                    ));
                 }
             }
         }
@@ -348,9 +367,12 @@ fn serial_driver(
 }
 
 /// Writes what is waiting to go to the device.
-fn send(serial: &mut TTYPort, writes: &mut Vec<Vec<u8>>) -> Result<(), String> {
+fn send(serial: &mut TTYPort, writes: &mut Vec<Vec<u8>>) -> Result<(), VehicleError> {
     for w in writes.drain(..) {
-        port::write_all(serial, &w).map_err(|e| format!("writing to the device: {e}"))?;
+        port::write_all(serial, &w).map_err(|source| VehicleError::DeviceIo {
+            doing: "writing to the device",
+            source,
+        })?;
     }
     Ok(())
 }

@@ -21,6 +21,7 @@ use serialport::TTYPort;
 
 use crate::adc;
 use crate::devices::{Devices, baud};
+use crate::error::VehicleError;
 use crate::port;
 
 /// Wait before a dead driver thread is replaced.
@@ -201,7 +202,10 @@ pub fn spawn_port(
                 };
                 let outcome = match worker {
                     Ok(handle) => handle.join(),
-                    Err(e) => Ok(Err(e.to_string())),
+                    Err(source) => Ok(Err(VehicleError::Thread {
+                        name: format!("{} driver", port.name()),
+                        source,
+                    })),
                 };
                 writers.set(port, None);
                 if stop.load(Ordering::Acquire) {
@@ -209,7 +213,7 @@ pub fn spawn_port(
                 }
                 let why = match outcome {
                     Ok(Ok(())) => "stopped".to_string(),
-                    Ok(Err(e)) => e,
+                    Ok(Err(e)) => e.to_string(),
                     Err(_) => "panicked".to_string(),
                 };
                 let _ = tx.send(LoopMsg::Note(format!(
@@ -228,10 +232,14 @@ fn read_port(
     clock: Clock,
     tx: &Sender<LoopMsg>,
     stop: &AtomicBool,
-) -> Result<(), String> {
+) -> Result<(), VehicleError> {
     let mut buf = [0u8; 256];
     while !stop.load(Ordering::Acquire) {
-        let n = port::read_some(&mut serial, &mut buf).map_err(|e| format!("read: {e}"))?;
+        let n =
+            port::read_some(&mut serial, &mut buf).map_err(|source| VehicleError::DeviceIo {
+                doing: "read",
+                source,
+            })?;
         if n == 0 {
             continue;
         }

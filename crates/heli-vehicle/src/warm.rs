@@ -10,6 +10,7 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::error::VehicleError;
 use heli_fsw::core::WarmStart;
 use heli_link::StartParameters;
 use heli_nav::GeoOrigin;
@@ -78,7 +79,7 @@ impl WarmFile {
     }
 
     /// Reads the file's text; an error names the line and what is wrong with it.
-    pub fn parse(text: &str) -> Result<Self, String> {
+    pub fn parse(text: &str) -> Result<Self, VehicleError> {
         let mut start = None;
         let mut airborne = None;
         let mut gyro = None;
@@ -92,15 +93,23 @@ impl WarmFile {
             let (key, value) = line
                 .split_once('=')
                 .map(|(k, v)| (k.trim(), v.trim()))
-                .ok_or(format!("line {n}: '{line}' is not 'key = value'"))?;
-            let floats = |count: usize| -> Result<Vec<f64>, String> {
+                .ok_or_else(|| {
+                    VehicleError::invalid(
+                        format!("line {n}"),
+                        format!("'{line}' is not 'key = value'"),
+                    )
+                })?;
+            let floats = |count: usize| -> Result<Vec<f64>, VehicleError> {
                 let v: Vec<f64> = value
                     .split_whitespace()
                     .map(str::parse::<f64>)
                     .collect::<Result<_, _>>()
-                    .map_err(|e| format!("line {n}: {key}: {e}"))?;
+                    .map_err(|e| VehicleError::invalid(format!("line {n}: {key}"), e))?;
                 if v.len() != count || !v.iter().all(|x| x.is_finite()) {
-                    return Err(format!("line {n}: {key} needs {count} finite numbers"));
+                    return Err(VehicleError::invalid(
+                        format!("line {n}"),
+                        format!("{key} needs {count} finite numbers"),
+                    ));
                 }
                 Ok(v)
             };
@@ -108,34 +117,37 @@ impl WarmFile {
                 "start" => {
                     start = Some(
                         crate::supervisor::parse_start_words(value)
-                            .map_err(|e| format!("line {n}: start: {e}"))?,
+                            .map_err(|e| VehicleError::invalid(format!("line {n}: start"), e))?,
                     );
                 }
                 "airborne" => {
-                    airborne = Some(
-                        value
-                            .parse::<bool>()
-                            .map_err(|_| format!("line {n}: airborne is true or false"))?,
-                    );
+                    airborne = Some(value.parse::<bool>().map_err(|_| {
+                        VehicleError::invalid(format!("line {n}"), "airborne is true or false")
+                    })?);
                 }
                 "gyro_bias_rps" => gyro = Some(array::<3>(floats(3)?)),
                 "origin" => origin = Some(array::<3>(floats(3)?)),
                 "home_ned_m" => home = Some(array::<3>(floats(3)?)),
                 "trim" => trim = Some(array::<5>(floats(5)?)),
-                _ => return Err(format!("line {n}: unknown key '{key}'")),
+                _ => {
+                    return Err(VehicleError::invalid(
+                        format!("line {n}"),
+                        format!("unknown key '{key}'"),
+                    ));
+                }
             }
         }
         Ok(Self {
-            start: start.ok_or("no 'start' line")?,
+            start: start.ok_or_else(|| missing("start"))?,
             warm: WarmStart {
-                gyro_bias_rps: gyro.ok_or("no 'gyro_bias_rps' line")?,
+                gyro_bias_rps: gyro.ok_or_else(|| missing("gyro_bias_rps"))?,
                 origin: origin.map(|[lat_deg, lon_deg, alt_m]| GeoOrigin {
                     lat_deg,
                     lon_deg,
                     alt_m,
                 }),
                 home_ned_m: home,
-                airborne: airborne.ok_or("no 'airborne' line")?,
+                airborne: airborne.ok_or_else(|| missing("airborne"))?,
                 trim: trim.map(
                     |[aileron, elevator, rudder, collective, throttle]| Controls {
                         aileron,
@@ -157,15 +169,20 @@ impl WarmFile {
     }
 
     /// Reads the file; `Ok(None)` when there is none.
-    pub fn read(path: &Path) -> Result<Option<Self>, String> {
+    pub fn read(path: &Path) -> Result<Option<Self>, VehicleError> {
         match std::fs::read_to_string(path) {
             Ok(text) => Self::parse(&text)
                 .map(Some)
-                .map_err(|e| format!("{}: {e}", path.display())),
+                .map_err(|e| e.within(path.display())),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-            Err(e) => Err(format!("{}: {e}", path.display())),
+            Err(e) => Err(VehicleError::file(path, e)),
         }
     }
+}
+
+/// A line the file must have.
+fn missing(key: &str) -> VehicleError {
+    VehicleError::invalid("", format!("no '{key}' line"))
 }
 
 /// Removes the file (a clean end of the flight); a missing file is no error.
@@ -207,9 +224,9 @@ mod tests {
     fn round_trips_exactly_through_its_file() {
         let dir = tempfile::tempdir().unwrap();
         let path = path_in(dir.path());
-        assert_eq!(WarmFile::read(&path), Ok(None));
+        assert_eq!(WarmFile::read(&path).ok(), Some(None));
         sample().write(&path).unwrap();
-        assert_eq!(WarmFile::read(&path), Ok(Some(sample())));
+        assert_eq!(WarmFile::read(&path).ok(), Some(Some(sample())));
         let bare = WarmFile {
             warm: WarmStart {
                 origin: None,
@@ -219,10 +236,10 @@ mod tests {
             },
             ..sample()
         };
-        assert_eq!(WarmFile::parse(&bare.to_text()), Ok(bare));
+        assert_eq!(WarmFile::parse(&bare.to_text()).ok(), Some(bare));
         remove(&path).unwrap();
         remove(&path).unwrap();
-        assert_eq!(WarmFile::read(&path), Ok(None));
+        assert_eq!(WarmFile::read(&path).ok(), Some(None));
     }
 
     #[test]
@@ -245,7 +262,7 @@ mod tests {
             ),
             ("start = a loop\n", "line 1: start: "),
         ] {
-            let e = WarmFile::parse(text).unwrap_err();
+            let e = WarmFile::parse(text).unwrap_err().to_string();
             assert!(e.contains(expect), "{text:?}: {e}");
         }
     }
@@ -254,7 +271,7 @@ mod tests {
     fn a_missing_record_is_none_and_removing_it_is_no_error_but_others_are() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("warm-start");
-        assert_eq!(WarmFile::read(&path), Ok(None));
+        assert_eq!(WarmFile::read(&path).ok(), Some(None));
         assert!(remove(&path).is_ok());
         // A directory where the file should be: neither read nor removed.
         std::fs::create_dir(&path).unwrap();

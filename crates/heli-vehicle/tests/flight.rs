@@ -118,7 +118,7 @@ fn servo_commands(bytes: &[u8]) -> (usize, u32) {
 struct Flying {
     stop: Arc<AtomicBool>,
     reports: Arc<Mutex<Vec<Report>>>,
-    thread: std::thread::JoinHandle<Result<FlightSummary, String>>,
+    thread: std::thread::JoinHandle<Result<FlightSummary, heli_vehicle::error::VehicleError>>,
     began: Instant,
 }
 

@@ -33,7 +33,7 @@ fn pty() -> (TTYPort, TTYPort, PathBuf) {
 /// A driver running in a thread: what it printed so far, and its end.
 struct Driving {
     lines: std::sync::mpsc::Receiver<String>,
-    thread: std::thread::JoinHandle<Result<DriverReport, String>>,
+    thread: std::thread::JoinHandle<Result<DriverReport, heli_vehicle::error::VehicleError>>,
     seen: Vec<String>,
 }
 
@@ -48,7 +48,12 @@ impl Driving {
         self.thread.is_finished()
     }
 
-    fn end(mut self) -> (Result<DriverReport, String>, Vec<String>) {
+    fn end(
+        mut self,
+    ) -> (
+        Result<DriverReport, heli_vehicle::error::VehicleError>,
+        Vec<String>,
+    ) {
         let report = self.thread.join().unwrap();
         self.seen.extend(self.lines.try_iter());
         (report, self.seen)
@@ -248,7 +253,7 @@ fn an_altimeter_that_never_answers_fails_its_handshake_after_three_tries() {
     let (mut master, _slave, path) = pty();
     let (report, lines) = drive(DriverKind::Baro, Source::Port(path), None, 1).end();
     assert_eq!(
-        report.unwrap_err(),
+        report.unwrap_err().to_string(),
         "the altimeter never answered its handshake (3 tries)"
     );
     assert!(
@@ -333,7 +338,11 @@ fn the_wrong_kind_of_source_is_refused_with_what_to_give() {
         dir: dir.path().to_path_buf(),
         channels: vec![0],
     };
-    let e = drive(DriverKind::Imu, adc, None, 1).end().0.unwrap_err();
+    let e = drive(DriverKind::Imu, adc, None, 1)
+        .end()
+        .0
+        .unwrap_err()
+        .to_string();
     assert!(
         e.ends_with("this device is on a serial port: give --port PATH"),
         "{e}"
@@ -342,7 +351,8 @@ fn the_wrong_kind_of_source_is_refused_with_what_to_give() {
     let e = drive(DriverKind::Compass, port, None, 1)
         .end()
         .0
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("give --adc DIR, not a serial port"), "{e}");
     // Two channels for the battery, or a channel that is not there.
     let two = Source::Adc {
@@ -354,7 +364,8 @@ fn the_wrong_kind_of_source_is_refused_with_what_to_give() {
     let e = drive(DriverKind::Battery, two, None, 1)
         .end()
         .0
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
     assert_eq!(e, "wrong number of ADC channels for this device");
     let missing = Source::Adc {
         dir: dir.path().to_path_buf(),
@@ -363,6 +374,7 @@ fn the_wrong_kind_of_source_is_refused_with_what_to_give() {
     let e = drive(DriverKind::Battery, missing, None, 1)
         .end()
         .0
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("in_voltage7_raw"), "{e}");
 }

@@ -74,7 +74,7 @@ impl ImageFormat {
 }
 
 /// What can go wrong making a plot.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug)]
 pub enum PlotError {
     /// The channel has no messages in the time window.
     NoMessages {
@@ -95,8 +95,16 @@ pub enum PlotError {
     },
     /// The output's extension is neither `.svg` nor `.png`.
     UnknownFormat(String),
-    /// Drawing or writing the image failed.
+    /// Drawing the image failed (the drawing library's error, whose type depends on the
+    /// image format).
     Draw(String),
+    /// The image could not be written.
+    Write {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
 }
 
 impl fmt::Display for PlotError {
@@ -120,6 +128,7 @@ impl fmt::Display for PlotError {
                 )
             }
             PlotError::Draw(why) => write!(f, "drawing the plot: {why}"),
+            PlotError::Write { path, source } => write!(f, "writing {}: {source}", path.display()),
         }
     }
 }
@@ -243,7 +252,10 @@ pub fn render(
                     SVGBackend::with_string(&mut svg, (WIDTH_PX, height)).into_drawing_area();
                 draw(&root, panels, events, title)?;
             }
-            std::fs::write(path, svg).map_err(|e| PlotError::Draw(e.to_string()))
+            std::fs::write(path, svg).map_err(|source| PlotError::Write {
+                path: path.to_path_buf(),
+                source,
+            })
         }
         ImageFormat::Png => {
             let root = BitMapBackend::new(path, (WIDTH_PX, height)).into_drawing_area();

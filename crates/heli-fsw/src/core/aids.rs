@@ -23,7 +23,6 @@ pub const AID_REFUSED_AFTER_S: f64 = 3.0;
 
 pub use super::event::Aid;
 
-
 /// An aid whose last reading failed the gate (test ratio above one) and none of whose
 /// readings was fused for [`AID_REFUSED_AFTER_S`] (or ever).
 fn refused(test_ratio: f64, since_fused_s: Option<f64>) -> bool {

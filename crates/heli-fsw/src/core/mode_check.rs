@@ -33,7 +33,6 @@ use crate::phase::Phase;
 
 pub use super::event::ModeRefusal;
 
-
 /// The rule a mode needs, if any.
 pub fn rule_for(mode: FlightMode) -> Option<Rule> {
     match mode {

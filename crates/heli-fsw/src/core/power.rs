@@ -27,7 +27,6 @@ use crate::phase::{Phase, RollStage};
 
 pub use super::event::Battery;
 
-
 /// What the computer knows of its batteries.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PowerConfig {

@@ -54,7 +54,7 @@ impl Simulation {
     pub fn trigger_fault(
         &mut self,
         fault: &heli_scenario::trainer::TrainerFault,
-    ) -> Result<String, String> {
+    ) -> Result<String, heli_scenario::trainer::TrainerError> {
         let now_s = self.t_s();
         fault.apply(&mut self.scenario, now_s)
     }

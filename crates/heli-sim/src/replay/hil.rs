@@ -26,7 +26,8 @@ use heli_log::inputs::{self, Logged};
 use heli_proto::scb::{Controls, Pulses, ServoFramer, ServoPacket};
 use heli_types::Port;
 
-use crate::hil::{HilDevices, expose, spawn_readers, write_adc};
+use super::log::ReplayError;
+use crate::hil::{HilDevices, HilError, device, expose, spawn_readers, write_adc};
 use crate::replay::compare::{Comparison, Tolerance, compare};
 
 /// A recorded flight, as the replay needs it.
@@ -43,14 +44,15 @@ pub struct Recording {
 impl Recording {
     /// Reads the `device` and `servo` channels of a log. Errors name the message that is
     /// malformed, or say that the log has no device inputs.
-    pub fn from_log(contents: &LogContents) -> Result<Self, String> {
+    pub fn from_log(contents: &LogContents) -> Result<Self, ReplayError> {
         let mut rec = Recording::default();
         let mut started = None;
         for m in &contents.messages {
             if m.topic == inputs::CHANNEL {
-                match inputs::logged_from_json(&m.value)
-                    .map_err(|e| format!("device input at t={:.6} s: {e}", m.t_us as f64 * 1e-6))?
-                {
+                match inputs::logged_from_json(&m.value).map_err(|why| ReplayError::BadInput {
+                    t_s: m.t_us as f64 * 1e-6,
+                    why: why.to_string(),
+                })? {
                     Logged::Start => {
                         started.get_or_insert(m.t_us);
                     }
@@ -61,11 +63,9 @@ impl Recording {
                     m.value
                         .get(name)
                         .and_then(serde_json::Value::as_f64)
-                        .ok_or_else(|| {
-                            format!(
-                                "servo command at t={:.6} s has no number '{name}'",
-                                m.t_us as f64 * 1e-6
-                            )
+                        .ok_or_else(|| ReplayError::BadServo {
+                            t_s: m.t_us as f64 * 1e-6,
+                            field: name.to_string(),
                         })
                 };
                 let controls = Controls {
@@ -79,9 +79,7 @@ impl Recording {
             }
         }
         if rec.inputs.is_empty() {
-            return Err(
-                "the log holds no device inputs (channel 'device'): it cannot be replayed".into(),
-            );
+            return Err(ReplayError::NoInputs);
         }
         rec.inputs.sort_by_key(|(t, _)| *t);
         rec.servo.sort_by_key(|(t, _)| *t);
@@ -148,17 +146,14 @@ pub fn run(
     options: ReplayOptions,
     stop: &Arc<AtomicBool>,
     ready: impl FnOnce(&HilDevices),
-) -> Result<ReplayReport, String> {
+) -> Result<ReplayReport, HilError> {
     if !(options.speed.is_finite() && options.speed > 0.0 && options.speed <= 100.0) {
-        return Err(format!(
-            "--speed {}: must be more than 0 and at most 100",
-            options.speed
-        ));
+        return Err(HilError::Speed(options.speed));
     }
     let (mut ptys, devices) = expose(dir)?;
     let from_computer = spawn_readers(&ptys, stop)?;
     for channel in 0..=crate::lockstep::HIL_BATTERY_CHANNEL {
-        write_adc(&devices.adc, channel, 0).map_err(|e| e.to_string())?;
+        write_adc(&devices.adc, channel, 0).map_err(device("writing an ADC file"))?;
     }
     ready(&devices);
 
@@ -168,7 +163,7 @@ pub fn run(
     let mut replayed = Vec::new();
     let t0 = loop {
         if stop.load(Ordering::Acquire) {
-            return Err("stopped before a flight computer started".into());
+            return Err(HilError::Stopped);
         }
         match from_computer.recv_timeout(Duration::from_millis(50)) {
             Ok((port, bytes, at)) => {
@@ -177,10 +172,7 @@ pub fn run(
                 break at;
             }
             Err(_) if waited.elapsed().as_secs_f64() > options.wait_s => {
-                return Err(format!(
-                    "no flight computer wrote to the devices in {} s",
-                    options.wait_s
-                ));
+                return Err(HilError::NoComputer(options.wait_s));
             }
             Err(_) => {}
         }

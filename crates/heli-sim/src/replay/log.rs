@@ -33,6 +33,13 @@ pub struct ReplaySetup {
 pub enum ReplayError {
     /// The log holds no device inputs: it was written without them.
     NoInputs,
+    /// A recorded servo command lacks a number.
+    BadServo {
+        /// Its time (s of the flight clock).
+        t_s: f64,
+        /// The field missing.
+        field: String,
+    },
     /// A recorded device input is malformed.
     BadInput {
         /// Its time (s of the flight clock).
@@ -50,6 +57,9 @@ impl std::fmt::Display for ReplayError {
                 "the log holds no device inputs (channel 'device'): it was written without them and cannot be replayed"
             ),
             ReplayError::BadInput { t_s, why } => write!(f, "device input at t={t_s:.6} s: {why}"),
+            ReplayError::BadServo { t_s, field } => {
+                write!(f, "servo command at t={t_s:.6} s has no number '{field}'")
+            }
         }
     }
 }

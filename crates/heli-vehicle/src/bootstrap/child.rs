@@ -3,6 +3,7 @@
 //! vehicle powers on with a fresh record of a flight under way.
 
 use super::*;
+use crate::error::ChildProblem;
 
 impl Bootstrap {
     pub(super) fn tell_child(&mut self, message: &ToFlight) -> bool {
@@ -14,12 +15,12 @@ impl Bootstrap {
             .is_ok()
     }
 
-    pub(super) fn spawn_child(&mut self) -> Result<(), String> {
+    pub(super) fn spawn_child(&mut self) -> Result<(), VehicleError> {
         let (program, args) = self
             .config
             .child
             .split_first()
-            .ok_or("no flight process program configured")?;
+            .ok_or(VehicleError::Child(ChildProblem::NoProgram))?;
         // Its own process group: a Ctrl-C or hang-up meant for the bootstrap's terminal must
         // not kill the flight.
         let mut child = Command::new(program)
@@ -29,7 +30,7 @@ impl Bootstrap {
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()
-            .map_err(|e| format!("starting the flight process: {e}"))?;
+            .map_err(|e| VehicleError::Child(ChildProblem::Spawn(e)))?;
         // Each line read is parsed here, on the reader's thread: the bootstrap's loop sees
         // only messages.
         self.generation = self.generation.saturating_add(1);
@@ -57,7 +58,7 @@ impl Bootstrap {
                     let _ = tx.send(Msg::ChildExited(generation, status));
                 }
             })
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| VehicleError::Child(ChildProblem::Reader(e)))?;
         self.child = Some(Child {
             generation,
             pid,
