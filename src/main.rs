@@ -46,6 +46,10 @@ enum Command {
         /// latency and the flight process's CPU share and memory.
         #[arg(long, value_name = "SECONDS")]
         hil: Option<f64>,
+        /// With --hil: the program whose flight process is measured (default: the onboard
+        /// program `heli-vehicle` beside this one; without it, this program's `heli flight`).
+        #[arg(long, value_name = "PATH", requires = "hil")]
+        flight_program: Option<std::path::PathBuf>,
         /// Instead: the MAVLink link on loopback: log download throughput and command
         /// round-trip time.
         #[arg(long, conflicts_with = "hil")]
@@ -250,7 +254,12 @@ fn main() -> ExitCode {
         Command::Sim(args) => sim(args),
         Command::Model(args) => model_cmd::model(args),
         Command::Log { action } => log_cmd::log(action),
-        Command::Bench { json, hil, link } => bench(json, hil, link),
+        Command::Bench {
+            json,
+            hil,
+            link,
+            flight_program,
+        } => bench(json, hil, link, flight_program),
         Command::Hilsim(args) => hilsim_cmd::hilsim(&args),
         Command::Vehicle { bootstrap, ctl } => heli_vehicle::cli::vehicle(&bootstrap, ctl.as_ref()),
         Command::Ground(args) => ground_cmd::ground(&args),
@@ -376,7 +385,12 @@ fn report<T: serde::Serialize>(value: &T, json: bool, table: fn(&T)) -> Result<E
 
 /// `heli bench`: the lockstep benchmarks, or `--link` the link's, or `--hil SECONDS` the
 /// HIL path against this program's flight process.
-fn bench(json: bool, hil: Option<f64>, link: bool) -> Result<ExitCode> {
+fn bench(
+    json: bool,
+    hil: Option<f64>,
+    link: bool,
+    flight_program: Option<std::path::PathBuf>,
+) -> Result<ExitCode> {
     if link {
         return report(
             &heli_ground::bench::measure()?,
@@ -386,7 +400,14 @@ fn bench(json: bool, hil: Option<f64>, link: bool) -> Result<ExitCode> {
     }
     if let Some(seconds) = hil {
         let exe = std::env::current_exe().context("finding this program")?;
-        let b = heli_sim::bench::hil::run(seconds, &[exe.into_os_string(), "flight".into()])?;
+        let onboard = exe.with_file_name("heli-vehicle");
+        let program = match flight_program {
+            Some(p) => p,
+            None if onboard.is_file() => onboard,
+            None => exe,
+        };
+        eprintln!("measuring the flight process of {}", program.display());
+        let b = heli_sim::bench::hil::run(seconds, &[program.into_os_string(), "flight".into()])?;
         return report(&b, json, heli_sim::bench::hil::print);
     }
     report(&heli_sim::bench::run(), json, heli_sim::bench::print)

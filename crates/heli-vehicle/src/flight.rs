@@ -181,8 +181,7 @@ pub fn run(
         let stop = Arc::clone(&stop);
         let report = Arc::clone(&report);
         let log = log.clone();
-        std::thread::Builder::new()
-            .name("control".into())
+        rt::thread("control", rt::CONTROL_STACK_BYTES)
             .spawn(move || {
                 report(Report::Note(rt::realtime_thread(rt::LOOP_PRIORITY)));
                 control_loop(
@@ -381,8 +380,7 @@ struct WarmKeeper {
 impl WarmKeeper {
     fn spawn(path: PathBuf, start: heli_link::StartParameters) -> Self {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Option<heli_fsw::core::WarmStart>>(4);
-        let thread = std::thread::Builder::new()
-            .name("warm-start".into())
+        let thread = rt::thread("warm-start", rt::HELPER_STACK_BYTES)
             .spawn(move || {
                 let mut error = None;
                 for record in rx {

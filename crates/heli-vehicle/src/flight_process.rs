@@ -16,6 +16,7 @@ use heli_fsw::core::{CoreConfig, FlightParams};
 
 use crate::cli::FlightArgs;
 use crate::flight::{self, FlightSetup, Report};
+use crate::rt;
 use crate::supervisor::{FromFlight, ToFlight, VERSION};
 
 /// The bootstrap's next message on standard input (the stdin buffer is shared, so threads may
@@ -49,12 +50,12 @@ fn say(message: FromFlight) {
 /// Where the flight process's lines go: a printer thread, so that no flight thread (the
 /// control loop least of all) ever waits on the pipe to the bootstrap. Lines that do not
 /// fit are counted and the count said when there is room.
-fn reporter() -> impl Fn(FromFlight) + Send + Sync + Clone {
+fn reporter() -> Result<impl Fn(FromFlight) + Send + Sync + Clone> {
     let (tx, rx) = std::sync::mpsc::sync_channel::<FromFlight>(4096);
     let dropped = Arc::new(AtomicU64::new(0));
     {
         let dropped = Arc::clone(&dropped);
-        std::thread::spawn(move || {
+        rt::thread("printer", rt::HELPER_STACK_BYTES).spawn(move || {
             for message in rx {
                 let lost = dropped.swap(0, Ordering::AcqRel);
                 if lost > 0 {
@@ -64,13 +65,13 @@ fn reporter() -> impl Fn(FromFlight) + Send + Sync + Clone {
                 }
                 say(message);
             }
-        });
+        })?;
     }
-    move |message: FromFlight| {
+    Ok(move |message: FromFlight| {
         if tx.try_send(message).is_err() {
             dropped.fetch_add(1, Ordering::AcqRel);
         }
-    }
+    })
 }
 
 /// The flight process: ready, the start, the flight, stopped.
@@ -198,7 +199,7 @@ pub fn run(args: &FlightArgs) -> Result<ExitCode> {
     {
         let stop = Arc::clone(&stop);
         let ground_link = Arc::clone(&ground_link);
-        std::thread::spawn(move || {
+        rt::thread("bootstrap-lines", rt::HELPER_STACK_BYTES).spawn(move || {
             while let Some(message) = next_message(&say) {
                 match message {
                     ToFlight::Stop => break,
@@ -212,9 +213,9 @@ pub fn run(args: &FlightArgs) -> Result<ExitCode> {
             }
             // `stop`, or the bootstrap is gone: clean up either way.
             stop.store(true, Ordering::Release);
-        });
+        })?;
     }
-    let line = reporter();
+    let line = reporter()?;
     let report = Arc::new(move |r: Report| {
         line(match r {
             Report::Started { log } => FromFlight::Started {

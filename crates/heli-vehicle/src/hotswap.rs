@@ -107,35 +107,32 @@ pub fn spawn_hotswap(
     tx: Sender<LoopMsg>,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<JoinHandle<()>> {
-    std::thread::Builder::new()
-        .name("drv-hotswap".into())
-        .spawn(move || {
-            let mut reader = LineReader::new(line);
-            let mut last: Option<bool> = None;
-            let mut failing = false;
-            while !stop.load(Ordering::Acquire) {
-                match reader.read() {
-                    Ok(high) => {
-                        failing = false;
-                        if last != Some(high) {
-                            last = Some(high);
-                            let input =
-                                LoopMsg::Input(clock.now_us(), RecordedInput::PowerLine(high));
-                            if tx.send(input).is_err() {
-                                return;
-                            }
-                        }
-                    }
-                    Err(e) => {
-                        if !failing {
-                            failing = true;
-                            let _ = tx.send(LoopMsg::Note(e.to_string()));
+    crate::rt::thread("drv-hotswap", crate::rt::HELPER_STACK_BYTES).spawn(move || {
+        let mut reader = LineReader::new(line);
+        let mut last: Option<bool> = None;
+        let mut failing = false;
+        while !stop.load(Ordering::Acquire) {
+            match reader.read() {
+                Ok(high) => {
+                    failing = false;
+                    if last != Some(high) {
+                        last = Some(high);
+                        let input = LoopMsg::Input(clock.now_us(), RecordedInput::PowerLine(high));
+                        if tx.send(input).is_err() {
+                            return;
                         }
                     }
                 }
-                sleep_unless_stopped(HOTSWAP_PERIOD, &stop);
+                Err(e) => {
+                    if !failing {
+                        failing = true;
+                        let _ = tx.send(LoopMsg::Note(e.to_string()));
+                    }
+                }
             }
-        })
+            sleep_unless_stopped(HOTSWAP_PERIOD, &stop);
+        }
+    })
 }
 
 #[cfg(test)]

@@ -14,6 +14,29 @@ pub const LOOP_PRIORITY: u8 = 80;
 /// so that a byte read is handed on at once even when the logger is compressing.
 pub const DRIVER_PRIORITY: u8 = 70;
 
+/// Stack of the control thread. The deepest it went in a rolls flight was 52 KiB (a release
+/// build, measured without `mlockall` from the thread's resident stack pages); the room is
+/// for debug builds and for paths a flight did not take.
+pub const CONTROL_STACK_BYTES: usize = 1024 * 1024;
+
+/// Stack of the logger thread (20 KiB measured; the MCAP writer's compressor keeps its state
+/// on the heap).
+pub const LOGGER_STACK_BYTES: usize = 512 * 1024;
+
+/// Stack of every other thread of the flight process: drivers and their supervisors, the
+/// compass, the hot-swap, the battery and telemetry servers, the warm-start keeper, the
+/// printer and the reader of the bootstrap's lines (8-12 KiB measured).
+pub const HELPER_STACK_BYTES: usize = 256 * 1024;
+
+/// A named thread with a stack of `bytes`. The flight process's threads say their stack:
+/// with its memory locked every page of every stack is resident, and the default (2 MiB a
+/// thread) would be most of the process's memory.
+pub fn thread(name: impl Into<String>, bytes: usize) -> std::thread::Builder {
+    std::thread::Builder::new()
+        .name(name.into())
+        .stack_size(bytes)
+}
+
 /// Locks the process's memory so no page fault stalls the loop. Returns a note.
 pub fn lock_memory() -> String {
     use nix::sys::mman::{MlockAllFlags, mlockall};

@@ -43,40 +43,38 @@ pub fn spawn_battery_server(
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<(Sender<BatteryRequest>, JoinHandle<()>)> {
     let (tx, rx): (Sender<BatteryRequest>, Receiver<BatteryRequest>) = channel();
-    let handle = std::thread::Builder::new()
-        .name("battery".into())
-        .spawn(move || {
-            let mut latest: Option<Stamped<f64>> = None;
-            let mut next_read_us = 0u64;
-            let period_us = u64::try_from(BATTERY_PERIOD.as_micros()).unwrap_or(1_000_000);
-            while !stop.load(Ordering::Acquire) {
-                let now = clock.now_us();
-                if now >= next_read_us {
-                    next_read_us = now.saturating_add(period_us);
-                    if let Ok(counts) = adc::read_channel(&dir, adc_channel) {
-                        let _ = to_loop.send(LoopMsg::Input(
-                            now,
-                            RecordedInput::Battery(BatteryAdc { counts }),
-                        ));
-                        let volts = BatteryAdc { counts }.volts();
-                        let reading = Stamped::new(now, volts);
-                        latest = Some(reading);
-                        streams.battery_v.publish(reading);
-                        if let Some(log) = &log {
-                            log.send(LogItem::Battery(now, volts));
-                        }
+    let handle = crate::rt::thread("battery", crate::rt::HELPER_STACK_BYTES).spawn(move || {
+        let mut latest: Option<Stamped<f64>> = None;
+        let mut next_read_us = 0u64;
+        let period_us = u64::try_from(BATTERY_PERIOD.as_micros()).unwrap_or(1_000_000);
+        while !stop.load(Ordering::Acquire) {
+            let now = clock.now_us();
+            if now >= next_read_us {
+                next_read_us = now.saturating_add(period_us);
+                if let Ok(counts) = adc::read_channel(&dir, adc_channel) {
+                    let _ = to_loop.send(LoopMsg::Input(
+                        now,
+                        RecordedInput::Battery(BatteryAdc { counts }),
+                    ));
+                    let volts = BatteryAdc { counts }.volts();
+                    let reading = Stamped::new(now, volts);
+                    latest = Some(reading);
+                    streams.battery_v.publish(reading);
+                    if let Some(log) = &log {
+                        log.send(LogItem::Battery(now, volts));
                     }
-                }
-                // Answer what came in, then wait a little for more.
-                match rx.recv_timeout(Duration::from_millis(50)) {
-                    Ok(reply) => {
-                        let _ = reply.send(latest);
-                    }
-                    Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
-                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => return,
                 }
             }
-        })?;
+            // Answer what came in, then wait a little for more.
+            match rx.recv_timeout(Duration::from_millis(50)) {
+                Ok(reply) => {
+                    let _ = reply.send(latest);
+                }
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => return,
+            }
+        }
+    })?;
     Ok((tx, handle))
 }
 
@@ -241,15 +239,13 @@ pub fn spawn_telemetry(
     report: Arc<dyn Fn(Value) + Send + Sync>,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<JoinHandle<()>> {
-    std::thread::Builder::new()
-        .name("telemetry".into())
-        .spawn(move || {
-            while !stop.load(Ordering::Acquire) {
-                sleep_unless_stopped(TELEMETRY_PERIOD, &stop);
-                let volts = ask_battery(&battery);
-                report(snapshot(&streams, volts, clock.now_us()));
-            }
-        })
+    crate::rt::thread("telemetry", crate::rt::HELPER_STACK_BYTES).spawn(move || {
+        while !stop.load(Ordering::Acquire) {
+            sleep_unless_stopped(TELEMETRY_PERIOD, &stop);
+            let volts = ask_battery(&battery);
+            report(snapshot(&streams, volts, clock.now_us()));
+        }
+    })
 }
 
 #[cfg(test)]

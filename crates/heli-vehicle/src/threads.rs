@@ -149,80 +149,84 @@ pub fn spawn_port(
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<JoinHandle<()>> {
     let path = devices.port(port).to_path_buf();
-    std::thread::Builder::new()
-        .name(format!("sup-{}", port.name()))
-        .spawn(move || {
-            let mut reported_failed = false;
-            let mut generation = 0u32;
-            let mut first = true;
-            while !stop.load(Ordering::Acquire) {
-                let attempt = port::open(&path, baud(port));
-                if attempt.is_ok() {
-                    writers.set(
-                        port,
-                        attempt.as_ref().ok().and_then(|p| port::clone(p).ok()),
-                    );
-                }
-                if std::mem::take(&mut first) {
-                    writers.attempted();
-                }
-                let opened = match attempt {
-                    Ok(p) => p,
-                    Err(e) => {
-                        if !reported_failed {
-                            reported_failed = true;
-                            let _ = tx.send(LoopMsg::Note(format!("{e}")));
-                            let _ = tx.send(LoopMsg::Input(
-                                clock.now_us(),
-                                RecordedInput::PortFailed(port),
-                            ));
-                        }
-                        sleep_unless_stopped(REOPEN_DELAY, &stop);
-                        continue;
-                    }
-                };
-                if reported_failed {
-                    let _ = tx.send(LoopMsg::Note(format!(
-                        "serial port {}: open again",
-                        path.display()
-                    )));
-                    reported_failed = false;
-                }
-                generation = generation.saturating_add(1);
-                let worker = {
-                    let tx = tx.clone();
-                    let stop = Arc::clone(&stop);
-                    std::thread::Builder::new()
-                        .name(format!("drv-{}-{generation}", port.name()))
-                        .spawn(move || {
-                            // Refused without privileges: the loop's note says so already.
-                            let _ = crate::rt::realtime_thread(crate::rt::DRIVER_PRIORITY);
-                            read_port(port, opened, clock, &tx, &stop)
-                        })
-                };
-                let outcome = match worker {
-                    Ok(handle) => handle.join(),
-                    Err(source) => Ok(Err(VehicleError::Thread {
-                        name: format!("{} driver", port.name()),
-                        source,
-                    })),
-                };
-                writers.set(port, None);
-                if stop.load(Ordering::Acquire) {
-                    break;
-                }
-                let why = match outcome {
-                    Ok(Ok(())) => "stopped".to_string(),
-                    Ok(Err(e)) => e.to_string(),
-                    Err(_) => "panicked".to_string(),
-                };
-                let _ = tx.send(LoopMsg::Note(format!(
-                    "driver thread of {} died ({why}); restarting",
-                    port.name()
-                )));
-                sleep_unless_stopped(RESTART_DELAY, &stop);
+    crate::rt::thread(
+        format!("sup-{}", port.name()),
+        crate::rt::HELPER_STACK_BYTES,
+    )
+    .spawn(move || {
+        let mut reported_failed = false;
+        let mut generation = 0u32;
+        let mut first = true;
+        while !stop.load(Ordering::Acquire) {
+            let attempt = port::open(&path, baud(port));
+            if attempt.is_ok() {
+                writers.set(
+                    port,
+                    attempt.as_ref().ok().and_then(|p| port::clone(p).ok()),
+                );
             }
-        })
+            if std::mem::take(&mut first) {
+                writers.attempted();
+            }
+            let opened = match attempt {
+                Ok(p) => p,
+                Err(e) => {
+                    if !reported_failed {
+                        reported_failed = true;
+                        let _ = tx.send(LoopMsg::Note(format!("{e}")));
+                        let _ = tx.send(LoopMsg::Input(
+                            clock.now_us(),
+                            RecordedInput::PortFailed(port),
+                        ));
+                    }
+                    sleep_unless_stopped(REOPEN_DELAY, &stop);
+                    continue;
+                }
+            };
+            if reported_failed {
+                let _ = tx.send(LoopMsg::Note(format!(
+                    "serial port {}: open again",
+                    path.display()
+                )));
+                reported_failed = false;
+            }
+            generation = generation.saturating_add(1);
+            let worker = {
+                let tx = tx.clone();
+                let stop = Arc::clone(&stop);
+                crate::rt::thread(
+                    format!("drv-{}-{generation}", port.name()),
+                    crate::rt::HELPER_STACK_BYTES,
+                )
+                .spawn(move || {
+                    // Refused without privileges: the loop's note says so already.
+                    let _ = crate::rt::realtime_thread(crate::rt::DRIVER_PRIORITY);
+                    read_port(port, opened, clock, &tx, &stop)
+                })
+            };
+            let outcome = match worker {
+                Ok(handle) => handle.join(),
+                Err(source) => Ok(Err(VehicleError::Thread {
+                    name: format!("{} driver", port.name()),
+                    source,
+                })),
+            };
+            writers.set(port, None);
+            if stop.load(Ordering::Acquire) {
+                break;
+            }
+            let why = match outcome {
+                Ok(Ok(())) => "stopped".to_string(),
+                Ok(Err(e)) => e.to_string(),
+                Err(_) => "panicked".to_string(),
+            };
+            let _ = tx.send(LoopMsg::Note(format!(
+                "driver thread of {} died ({why}); restarting",
+                port.name()
+            )));
+            sleep_unless_stopped(RESTART_DELAY, &stop);
+        }
+    })
 }
 
 /// The driver thread proper: read, stamp, hand over, until stopped or the port fails.
@@ -264,47 +268,45 @@ pub fn spawn_compass(
 ) -> std::io::Result<JoinHandle<()>> {
     let dir = devices.adc.dir.clone();
     let channels = devices.adc.compass;
-    std::thread::Builder::new()
-        .name("drv-compass".into())
-        .spawn(move || {
-            let mut next = Instant::now();
-            let mut failing = false;
-            while !stop.load(Ordering::Acquire) {
-                let read: Result<Vec<u16>, _> = channels
-                    .iter()
-                    .map(|n| adc::read_channel(&dir, *n))
-                    .collect();
-                match read.as_deref() {
-                    Ok([x, y, z]) => {
-                        failing = false;
-                        let adc = CompassAdc {
-                            counts: [*x, *y, *z],
-                        };
-                        let input = LoopMsg::Input(clock.now_us(), RecordedInput::Compass(adc));
-                        if tx.send(input).is_err() {
-                            return;
-                        }
-                    }
-                    Ok(_) => {}
-                    Err(e) => {
-                        // Reported once per failing spell; the core's compass watchdog
-                        // raises the silence.
-                        if !failing {
-                            failing = true;
-                            let _ = tx.send(LoopMsg::Note(format!("compass: {e}")));
-                        }
+    crate::rt::thread("drv-compass", crate::rt::HELPER_STACK_BYTES).spawn(move || {
+        let mut next = Instant::now();
+        let mut failing = false;
+        while !stop.load(Ordering::Acquire) {
+            let read: Result<Vec<u16>, _> = channels
+                .iter()
+                .map(|n| adc::read_channel(&dir, *n))
+                .collect();
+            match read.as_deref() {
+                Ok([x, y, z]) => {
+                    failing = false;
+                    let adc = CompassAdc {
+                        counts: [*x, *y, *z],
+                    };
+                    let input = LoopMsg::Input(clock.now_us(), RecordedInput::Compass(adc));
+                    if tx.send(input).is_err() {
+                        return;
                     }
                 }
-                // The period is in flight time (faster than the wall when the clock is sped up).
-                let period_us = u64::try_from(COMPASS_PERIOD.as_micros()).unwrap_or(50_000);
-                next = next.checked_add(clock.wall(period_us)).unwrap_or(next);
-                if let Some(wait) = next.checked_duration_since(Instant::now()) {
-                    std::thread::sleep(wait);
-                } else {
-                    next = Instant::now();
+                Ok(_) => {}
+                Err(e) => {
+                    // Reported once per failing spell; the core's compass watchdog
+                    // raises the silence.
+                    if !failing {
+                        failing = true;
+                        let _ = tx.send(LoopMsg::Note(format!("compass: {e}")));
+                    }
                 }
             }
-        })
+            // The period is in flight time (faster than the wall when the clock is sped up).
+            let period_us = u64::try_from(COMPASS_PERIOD.as_micros()).unwrap_or(50_000);
+            next = next.checked_add(clock.wall(period_us)).unwrap_or(next);
+            if let Some(wait) = next.checked_duration_since(Instant::now()) {
+                std::thread::sleep(wait);
+            } else {
+                next = Instant::now();
+            }
+        }
+    })
 }
 
 /// Sleeps `d`, waking early when `stop` is set.
