@@ -188,6 +188,51 @@ fn a_flight_process_that_crashes_in_the_air_is_restarted_and_holds_the_hover() {
 }
 
 #[test]
+fn a_bootstrap_killed_in_the_air_leaves_the_flight_flying() {
+    let _one = exclusive();
+    let dir = tempfile::tempdir().unwrap();
+    let hil = Hilsim::start(dir.path(), "hover", 1.0, 34.0);
+    let vehicle = Vehicle::start(dir.path(), &hil.dev);
+    assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
+    let reply = vehicle.ctl(&["start-logging", "orphan", "autonomous", "hover"]);
+    assert!(reply.starts_with("ok flying"), "{reply}");
+    vehicle.wait_for_line("phase hold", Duration::from_secs(30));
+    let flight = vehicle.child_pid();
+    // The supervisor dies: its line to the flight process ends.
+    procs::kill9(vehicle.pid());
+    // The HILSim's truth: the hover held to the end of the run, without the bootstrap.
+    let summary = hil.wait_json(Duration::from_secs(40));
+    let alive = std::path::Path::new(&format!("/proc/{flight}")).exists();
+    assert!(
+        alive,
+        "the flight process ended with its bootstrap; it said:\n{}",
+        vehicle.output()
+    );
+    procs::kill9(flight);
+    assert_eq!(
+        summary["outcome"],
+        "pass",
+        "{summary:#}\nthe vehicle said:\n{}",
+        vehicle.output()
+    );
+    // Why its input ended is in its log; the record to resume from is kept.
+    let log = dir.path().join("flight_orphan.mcap");
+    let notes = heli_log::reader::read(&std::fs::read(&log).unwrap())
+        .messages
+        .into_iter()
+        .filter(|m| m.topic == "notes")
+        .filter_map(|m| m.value["text"].as_str().map(str::to_string))
+        .collect::<Vec<_>>();
+    assert!(
+        notes
+            .iter()
+            .any(|t| t.starts_with("the bootstrap's line ended") && t.contains("flying on")),
+        "{notes:#?}"
+    );
+    assert!(dir.path().join("warm-start").exists());
+}
+
+#[test]
 fn every_stand_alone_driver_runs_against_the_hilsim_and_logs() {
     let _one = exclusive();
     let dir = tempfile::tempdir().unwrap();

@@ -246,6 +246,11 @@ impl Vehicle {
         String::from_utf8_lossy(&text).trim().to_string()
     }
 
+    /// The bootstrap's own pid.
+    pub fn pid(&self) -> u32 {
+        self.proc.child.id()
+    }
+
     /// The flight process's pid.
     pub fn child_pid(&self) -> u32 {
         let status = self.ctl(&["status"]);

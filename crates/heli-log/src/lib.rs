@@ -69,6 +69,12 @@ pub enum LogError {
     Encode(serde_json::Error),
     /// The log was already finished (or its writer failed while finishing).
     Finished,
+    /// A message was dropped: the file has refused writes and the records kept for it fill
+    /// the writer's backlog ([`writer::MAX_BACKLOG_BYTES`]).
+    Dropped {
+        /// Bytes of records waiting for the file.
+        backlog_bytes: usize,
+    },
 }
 
 impl fmt::Display for LogError {
@@ -78,6 +84,11 @@ impl fmt::Display for LogError {
             LogError::Mcap(e) => write!(f, "flight log (MCAP): {e}"),
             LogError::Encode(e) => write!(f, "flight log message: {e}"),
             LogError::Finished => write!(f, "flight log: already finished"),
+            LogError::Dropped { backlog_bytes } => write!(
+                f,
+                "flight log: message dropped (the storage refuses writes and {backlog_bytes} \
+                 bytes wait for it)"
+            ),
         }
     }
 }

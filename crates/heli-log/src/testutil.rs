@@ -21,6 +21,11 @@ pub struct FileState {
     pub syncs: u64,
     /// Fail this many coming writes.
     pub fail_writes: u32,
+    /// A full disk: the file cannot grow past this many bytes; a write that would is short,
+    /// and the next one fails.
+    pub capacity: Option<u64>,
+    /// `set_len` calls.
+    pub cuts: Vec<u64>,
 }
 
 /// A log file in memory, shared with the test.
@@ -42,8 +47,15 @@ impl Write for SharedFile {
             return Err(io::Error::other("disk full (test)"));
         }
         let at = state.bytes.position();
-        state.writes.push((at, buf.len()));
-        state.bytes.write(buf)
+        let room = state
+            .capacity
+            .map_or(buf.len() as u64, |c| c.saturating_sub(at));
+        let n = buf.len().min(usize::try_from(room).unwrap_or(usize::MAX));
+        if n == 0 {
+            return Err(io::Error::from(io::ErrorKind::StorageFull));
+        }
+        state.writes.push((at, n));
+        state.bytes.write(&buf[..n])
     }
 
     fn flush(&mut self) -> io::Result<()> {
@@ -64,6 +76,12 @@ impl LogFile for SharedFile {
     fn sync_data(&mut self) -> io::Result<()> {
         self.0.borrow_mut().syncs += 1;
         Ok(())
+    }
+
+    fn set_len(&mut self, len: u64) -> io::Result<()> {
+        let mut state = self.0.borrow_mut();
+        state.cuts.push(len);
+        state.bytes.set_len(len)
     }
 }
 

@@ -42,6 +42,16 @@ pub const FLUSH_EVERY_US: u64 = 100_000;
 /// through [`FlightLog::flush_if_due`], while they do not).
 pub const FLUSH_EVERY_WALL: Duration = Duration::from_millis(100);
 
+/// While the file refuses writes (a full disk, a read-only remount), how often a flush tries
+/// it again.
+pub const RETRY_EVERY_WALL: Duration = Duration::from_secs(1);
+
+/// Most bytes of finished records kept in memory while the file refuses them. Past it each
+/// new message is dropped and counted ([`WriterStats::dropped`]): the writer's memory stays
+/// bounded however long the storage stays full, and what was kept reaches the file, in order,
+/// when it takes writes again.
+pub const MAX_BACKLOG_BYTES: usize = 4 << 20;
+
 /// Shortest wall-clock time between two `sync_data` calls. A flush less than this after the
 /// last sync is synced by the next flush (or by [`FlightLog::finish`]).
 pub const SYNC_EVERY_WALL: Duration = Duration::from_millis(50);
@@ -79,19 +89,37 @@ pub trait LogFile: Write + Seek {
     fn sync_data(&mut self) -> io::Result<()> {
         Ok(())
     }
+
+    /// Cuts the sink (or extends it with zeros) to `len` bytes: how a write that failed
+    /// part-way is undone.
+    fn set_len(&mut self, len: u64) -> io::Result<()>;
 }
 
 impl LogFile for File {
     fn sync_data(&mut self) -> io::Result<()> {
         File::sync_data(self)
     }
+
+    fn set_len(&mut self, len: u64) -> io::Result<()> {
+        File::set_len(self, len)
+    }
 }
 
-impl LogFile for Cursor<Vec<u8>> {}
+impl LogFile for Cursor<Vec<u8>> {
+    fn set_len(&mut self, len: u64) -> io::Result<()> {
+        let len = usize::try_from(len).map_err(|_| io::Error::other("length past memory"))?;
+        self.get_mut().resize(len, 0);
+        Ok(())
+    }
+}
 
 impl<T: LogFile + ?Sized> LogFile for &mut T {
     fn sync_data(&mut self) -> io::Result<()> {
         (**self).sync_data()
+    }
+
+    fn set_len(&mut self, len: u64) -> io::Result<()> {
+        (**self).set_len(len)
     }
 }
 
@@ -117,6 +145,12 @@ pub struct WriterStats {
     pub syncs: u64,
     /// Length of the file after the last write (bytes).
     pub file_bytes: u64,
+    /// Writes to the file that failed (each one undone: the file was cut back to its last
+    /// complete end).
+    pub failed_writes: u64,
+    /// Messages dropped because the file refused writes for longer than
+    /// [`MAX_BACKLOG_BYTES`] of records lasts.
+    pub dropped: u64,
 }
 
 /// The bytes mcap has produced and the file has not yet received.
@@ -164,6 +198,9 @@ pub struct FlightLog<F: LogFile> {
     /// Log time of the first message after the last flush.
     chunk_start_us: Option<u64>,
     last_flush_wall: Instant,
+    /// Set while the file refuses writes: when it was last tried.
+    failing_since: Option<Instant>,
+    last_attempt_wall: Instant,
     last_sync_wall: Option<Instant>,
     unsynced: bool,
     stats: WriterStats,
@@ -177,12 +214,16 @@ impl FlightLog<File> {
 
     /// Creates a log file at `path`, refusing to replace one that is there (a flight's log
     /// is never overwritten by the next flight that reuses its name).
+    /// A file it made but could not start (a full disk takes the name, not the bytes) is
+    /// removed again: the name stays free and no empty log is left behind.
     pub fn create_new(path: &Path) -> Result<Self, LogError> {
         let file = std::fs::OpenOptions::new()
             .write(true)
             .create_new(true)
             .open(path)?;
-        Self::new(file)
+        Self::new(file).inspect_err(|_| {
+            let _ = std::fs::remove_file(path);
+        })
     }
 }
 
@@ -221,6 +262,8 @@ impl<F: LogFile> FlightLog<F> {
             channels: BTreeMap::new(),
             chunk_start_us: None,
             last_flush_wall: Instant::now(),
+            failing_since: None,
+            last_attempt_wall: Instant::now(),
             last_sync_wall: None,
             unsynced: false,
             stats: WriterStats::default(),
@@ -265,6 +308,19 @@ impl<F: LogFile> FlightLog<F> {
         t_us: u64,
         value: &Value,
     ) -> Result<(), LogError> {
+        if self.unwritten.len() >= MAX_BACKLOG_BYTES {
+            // The file has refused writes for a while: keep what is kept, drop this one.
+            self.stats.dropped += 1;
+            if self.flush_due() {
+                self.flush()?;
+            }
+            if self.unwritten.len() >= MAX_BACKLOG_BYTES {
+                return Err(LogError::Dropped {
+                    backlog_bytes: self.unwritten.len(),
+                });
+            }
+            self.stats.dropped -= 1;
+        }
         let data = serde_json::to_vec(value).map_err(LogError::Encode)?;
         let channel = self.channel(topic)?;
         let mcap = self.mcap.as_mut().ok_or(LogError::Finished)?;
@@ -281,12 +337,31 @@ impl<F: LogFile> FlightLog<F> {
         }
         self.stats.messages += 1;
         let start = *self.chunk_start_us.get_or_insert(t_us);
-        if t_us.saturating_sub(start) >= FLUSH_EVERY_US
-            || self.last_flush_wall.elapsed() >= FLUSH_EVERY_WALL
-        {
+        let due = if self.failing_since.is_some() {
+            self.flush_due()
+        } else {
+            t_us.saturating_sub(start) >= FLUSH_EVERY_US
+                || self.last_flush_wall.elapsed() >= FLUSH_EVERY_WALL
+        };
+        if due {
             self.flush()?;
         }
         Ok(())
+    }
+
+    /// Whether a flush is due by the wall clock: [`FLUSH_EVERY_WALL`] after the last one, or
+    /// while the file refuses writes, [`RETRY_EVERY_WALL`] after the last try.
+    fn flush_due(&self) -> bool {
+        if self.failing_since.is_some() {
+            self.last_attempt_wall.elapsed() >= RETRY_EVERY_WALL
+        } else {
+            self.last_flush_wall.elapsed() >= FLUSH_EVERY_WALL
+        }
+    }
+
+    /// Since when the file has refused writes (`None` while it takes them).
+    pub fn failing_since(&self) -> Option<Instant> {
+        self.failing_since
     }
 
     /// Records a named set of key–value pairs (an MCAP Metadata record) and flushes, so that it
@@ -317,7 +392,8 @@ impl<F: LogFile> FlightLog<F> {
     /// was left unsynced: for owners to call from a timer, so that a pause in the messages does
     /// not hold the last ones back. Returns whether it wrote anything.
     pub fn flush_if_due(&mut self) -> Result<bool, LogError> {
-        if self.chunk_start_us.is_some() && self.last_flush_wall.elapsed() >= FLUSH_EVERY_WALL {
+        let waiting = self.chunk_start_us.is_some() || !self.unwritten.is_empty();
+        if waiting && self.flush_due() {
             self.flush()?;
             return Ok(true);
         }
@@ -326,22 +402,44 @@ impl<F: LogFile> FlightLog<F> {
     }
 
     /// Writes what mcap produced, then `end`, at the provisional end, in one write.
+    ///
+    /// A write that fails (part-way, as a full disk does) is undone: the file is cut back to
+    /// the end of its last complete record and the provisional end written there again, in
+    /// the bytes it held before (no new space is needed), so that the file stays a complete
+    /// MCAP file for every reader. The records are kept for the next try, which starts there.
     fn write_out(&mut self, end: &[u8]) -> Result<(), LogError> {
         self.pending.append_to(&mut self.unwritten);
         let file = self.file.as_mut().ok_or(LogError::Finished)?;
         let records = self.unwritten.len();
         self.unwritten.extend_from_slice(end);
+        self.last_attempt_wall = Instant::now();
         let written = file
             .seek(SeekFrom::Start(self.data_end))
             .and_then(|_| file.write_all(&self.unwritten))
             .and_then(|()| file.flush());
         // Kept for the next attempt if the write failed.
         self.unwritten.truncate(records);
-        written?;
+        if let Err(e) = written {
+            self.stats.failed_writes += 1;
+            self.failing_since.get_or_insert(self.last_attempt_wall);
+            // Best effort: if the file refuses even this, the next try repairs it.
+            // Before the first write there is nothing to keep.
+            let end_of_data = self.data_end;
+            let _ = if end_of_data == 0 {
+                file.set_len(0)
+            } else {
+                file.set_len(end_of_data + PROVISIONAL_END.len() as u64)
+                    .and_then(|()| file.seek(SeekFrom::Start(end_of_data)))
+                    .and_then(|_| file.write_all(&PROVISIONAL_END))
+                    .and_then(|()| file.flush())
+            };
+            return Err(e.into());
+        }
+        self.failing_since = None;
         self.data_end += records as u64;
         self.unwritten.clear();
         self.chunk_start_us = None;
-        self.last_flush_wall = Instant::now();
+        self.last_flush_wall = self.last_attempt_wall;
         self.unsynced = true;
         self.stats.flushes += 1;
         self.stats.file_bytes = self.data_end + end.len() as u64;

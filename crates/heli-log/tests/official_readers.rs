@@ -45,7 +45,73 @@ impl Seek for Snapshots {
     }
 }
 
-impl LogFile for Snapshots {}
+impl LogFile for Snapshots {
+    fn set_len(&mut self, len: u64) -> io::Result<()> {
+        self.0.borrow_mut().0.get_mut().resize(len as usize, 0);
+        Ok(())
+    }
+}
+
+/// A log file on a disk that fills: it cannot grow past `capacity` (a write that would is
+/// short, the next one fails), and a copy of it is kept at every `flush` — after each
+/// complete write and after each repair of a failed one.
+#[derive(Clone, Default)]
+struct FullDisk(Rc<RefCell<DiskState>>);
+
+/// The file's bytes, a copy at every flush, and the disk's capacity.
+type DiskState = (Cursor<Vec<u8>>, Vec<Vec<u8>>, Option<u64>);
+
+impl Write for FullDisk {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        let mut inner = self.0.borrow_mut();
+        let at = inner.0.position();
+        let room = inner.2.map_or(buf.len() as u64, |c| c.saturating_sub(at));
+        let n = buf.len().min(room as usize);
+        if n == 0 {
+            return Err(io::Error::from(io::ErrorKind::StorageFull));
+        }
+        inner.0.write(&buf[..n])
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        let mut inner = self.0.borrow_mut();
+        let copy = inner.0.get_ref().clone();
+        inner.1.push(copy);
+        Ok(())
+    }
+}
+
+impl Seek for FullDisk {
+    fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
+        self.0.borrow_mut().0.seek(pos)
+    }
+}
+
+impl LogFile for FullDisk {
+    fn set_len(&mut self, len: u64) -> io::Result<()> {
+        self.0.borrow_mut().0.get_mut().resize(len as usize, 0);
+        Ok(())
+    }
+}
+
+/// Runs the official reader on each file; one JSON line per file.
+fn python_reads(python: &std::ffi::OsStr, paths: &[PathBuf]) -> Vec<Value> {
+    let out = Command::new(python)
+        .arg("-c")
+        .arg(READER)
+        .args(paths)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {python:?}: {e}"));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_default())
+        .collect()
+}
 
 /// Reads each file with Python's `mcap` and prints one JSON line per file.
 const READER: &str = r#"
@@ -188,5 +254,64 @@ fn pythons_mcap_reader_reads_every_message_up_to_the_last_flush() {
             path.display()
         );
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn pythons_mcap_reader_opens_the_log_at_every_moment_of_a_disk_that_fills() {
+    let Some(python) = std::env::var_os("HELI_MCAP_PYTHON") else {
+        println!("HELI_MCAP_PYTHON is not set: the official Python reader was not tried");
+        return;
+    };
+    let file = FullDisk::default();
+    let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));
+    let mut failures = 0;
+    for k in 0..1200u64 {
+        if k == 300 {
+            // The disk fills: 3 kB more fit, part of a flush.
+            let mut inner = file.0.borrow_mut();
+            let len = inner.0.get_ref().len() as u64;
+            inner.2 = Some(len + 3000);
+        }
+        if k == 900 {
+            file.0.borrow_mut().2 = None;
+        }
+        let value = json!({ "k": k, "rate_rps": [0.0, 0.1, k as f64] });
+        if log.write("imu", k * 10_000, &value).is_err() {
+            failures += 1;
+        }
+    }
+    assert!(failures > 0, "the disk never refused a write");
+    log.finish().unwrap_or_else(|e| panic!("{e}"));
+    let copies = file.0.borrow().1.clone();
+    let dir = std::env::temp_dir().join(format!("heli-full-disk-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let paths: Vec<PathBuf> = copies
+        .iter()
+        .enumerate()
+        .map(|(i, bytes)| {
+            let path = dir.join(format!("moment{i}.mcap"));
+            std::fs::write(&path, bytes).unwrap_or_else(|e| panic!("{e}"));
+            path
+        })
+        .collect();
+    let lines = python_reads(&python, &paths);
+    assert_eq!(lines.len(), paths.len());
+    let mut previous = 0;
+    for (line, path) in lines.iter().zip(&paths) {
+        assert!(line.get("error").is_none(), "{}: {line}", path.display());
+        let n = line["messages"].as_array().map_or(0, Vec::len);
+        assert!(
+            n >= previous,
+            "{}: {n} messages after {previous}",
+            path.display()
+        );
+        previous = n;
+    }
+    assert_eq!(previous, 1200, "the finished log has every message");
+    println!(
+        "Python opened the log at all {} moments of a disk that filled ({failures} refused writes)",
+        paths.len()
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -34,6 +34,11 @@ pub struct FlightArgs {
     /// Directory for the flight logs (`flight_<suffix>.mcap`).
     #[arg(long, default_value = ".")]
     pub log_dir: PathBuf,
+    /// Where the log and a second warm-start record go when the log directory refuses
+    /// them (full, read-only): a RAM-backed directory. Default `/dev/shm` where there is one;
+    /// `--fallback-dir none` for no fallback.
+    #[arg(long)]
+    pub fallback_dir: Option<PathBuf>,
     /// Compass calibration (TOML: bias_gauss = [x, y, z], scale = [x, y, z]).
     #[arg(long)]
     pub compass_cal: Option<PathBuf>,
@@ -90,6 +95,30 @@ impl FlightArgs {
         Ok(())
     }
 
+    /// The fallback directory: the one given (`none`: none), else `/dev/shm` where it is a
+    /// directory.
+    /// Under `/dev/shm` each log directory has its own (`heli-<hash of its path>`), so that
+    /// vehicles sharing a computer (tests, a bench) never read each other's records.
+    pub fn fallback_dir(&self) -> Option<PathBuf> {
+        match &self.fallback_dir {
+            Some(dir) if dir.as_os_str() == "none" => None,
+            Some(dir) => Some(dir.clone()),
+            None => {
+                let shm = PathBuf::from("/dev/shm");
+                let log_dir = std::fs::canonicalize(&self.log_dir).unwrap_or(self.log_dir.clone());
+                // FNV-1a: stable across runs and builds, unlike std's hasher.
+                let hash = log_dir
+                    .as_os_str()
+                    .as_encoded_bytes()
+                    .iter()
+                    .fold(0xcbf2_9ce4_8422_2325_u64, |h, &b| {
+                        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+                    });
+                shm.is_dir().then(|| shm.join(format!("heli-{hash:016x}")))
+            }
+        }
+    }
+
     /// The compass calibration: the file given, the HILSim's, or none (identity).
     pub fn compass(&self) -> Result<CompassCalibration> {
         let hil_file = self
@@ -115,6 +144,9 @@ impl FlightArgs {
         }
         if let Some(c) = &self.compass_cal {
             args.extend(["--compass-cal".into(), c.clone().into_os_string()]);
+        }
+        if let Some(d) = &self.fallback_dir {
+            args.extend(["--fallback-dir".into(), d.clone().into_os_string()]);
         }
         args.extend([
             "--log-dir".into(),

@@ -12,7 +12,7 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
 use std::time::Duration;
 
 use heli_fsw::core::{Action, CoreConfig, CoreStats, FlightParams, Severity};
-use heli_fsw::{FlightComputer, RecordedInput};
+use heli_fsw::{FlightComputer, Phase, RecordedInput};
 use heli_types::Port;
 use serde_json::Value;
 
@@ -40,6 +40,10 @@ pub struct FlightSetup {
     pub baro_rate_hz: u8,
     /// Where to write the flight log, if anywhere.
     pub log_path: Option<PathBuf>,
+    /// Where the log goes when `log_path` cannot be created (a full or read-only disk): a
+    /// directory, RAM-backed on a vehicle (`/dev/shm`). Failing both, the flight flies
+    /// without a log: storage never keeps a helicopter from flying.
+    pub log_fallback_dir: Option<PathBuf>,
     /// What to record in the log's `flight` metadata (parameters, version, wall clock).
     pub metadata: BTreeMap<String, String>,
     /// How many times as fast as the wall clock the flight clock runs: 1 on a vehicle;
@@ -49,11 +53,29 @@ pub struct FlightSetup {
     /// (`heli_fsw::core::restart`).
     pub restart_from: Option<heli_fsw::core::WarmStart>,
     /// Where to keep this process's own record for a successor, with the start it flies
-    /// (`crate::warm`).
-    pub warm_file: Option<(PathBuf, heli_link::StartParameters)>,
+    /// (`crate::warm`): the first path, and a second one (RAM-backed) kept the same, so
+    /// that a full or read-only log disk does not lose it.
+    pub warm_file: Option<(Vec<PathBuf>, heli_link::StartParameters)>,
+    /// What the flight and its supervisor know of each other.
+    pub supervision: Arc<Supervision>,
     /// What the bootstrap says of its link: 0 nothing (no link), 1 a ground is heard, 2 no
     /// ground is heard. The control loop hands each change to the flight software.
     pub ground_link: Arc<std::sync::atomic::AtomicU8>,
+}
+
+/// What a flight and its supervisor (the bootstrap) know of each other.
+///
+/// Only an explicit Stop, or being on the ground, ends a flight: when the bootstrap's line
+/// ends without a Stop (the bootstrap was killed or crashed), a helicopter in the air flies
+/// on — the init system restarts the bootstrap — and the flight ends when it has landed.
+/// The control loop raises the event and writes it into the log.
+#[derive(Debug, Default)]
+pub struct Supervision {
+    /// Set by the control loop while the helicopter may be in the air (it has taken off and
+    /// not landed).
+    pub in_air: AtomicBool,
+    /// Set when the bootstrap's line ended without a Stop.
+    pub line_ended: AtomicBool,
 }
 
 /// What the flight process reports while it runs.
@@ -92,6 +114,50 @@ pub struct FlightSummary {
     pub log_dropped: u64,
 }
 
+/// The flight's log: at its path, else in the fallback directory, else none; each failure
+/// raised as an event with its cause. Returns the logger and the path it writes.
+fn open_log(
+    setup: &FlightSetup,
+    clock: Clock,
+    report: &Arc<dyn Fn(Report) + Send + Sync>,
+) -> (
+    Option<LogSender>,
+    Option<std::thread::JoinHandle<LogReport>>,
+    Option<PathBuf>,
+) {
+    let Some(path) = &setup.log_path else {
+        return (None, None, None);
+    };
+    let fallback = setup
+        .log_fallback_dir
+        .as_ref()
+        .zip(path.file_name())
+        .map(|(dir, name)| dir.join(name));
+    let mut tries = std::iter::once(path.clone()).chain(fallback).peekable();
+    while let Some(path) = tries.next() {
+        let note = {
+            let report = Arc::clone(report);
+            Arc::new(move |text: String| report(Report::Note(text)))
+                as Arc<dyn Fn(String) + Send + Sync>
+        };
+        match logger::spawn(&path, &setup.metadata, note) {
+            Ok((sender, handle)) => return (Some(sender), Some(handle), Some(path)),
+            Err(e) => {
+                let then = match tries.peek() {
+                    Some(next) => format!("logging to {} instead", next.display()),
+                    None => "FLYING WITHOUT A LOG".to_string(),
+                };
+                report(Report::Event {
+                    t_us: clock.now_us(),
+                    severity: Severity::WarningHi,
+                    text: format!("{e}: {then}"),
+                });
+            }
+        }
+    }
+    (None, None, None)
+}
+
 /// Runs a flight until `stop` is set. Reports go to `report` (from several threads).
 pub fn run(
     setup: FlightSetup,
@@ -103,18 +169,7 @@ pub fn run(
     let (tx, rx) = channel::<LoopMsg>();
     let writers = Arc::new(Writers::default());
     let streams = Arc::new(LiveStreams::default());
-    let (log, log_thread) = match &setup.log_path {
-        Some(path) => {
-            let note = {
-                let report = Arc::clone(&report);
-                Arc::new(move |text: String| report(Report::Note(text)))
-                    as Arc<dyn Fn(String) + Send + Sync>
-            };
-            let (sender, handle) = logger::spawn(path, &setup.metadata, note)?;
-            (Some(sender), Some(handle))
-        }
-        None => (None, None),
-    };
+    let (log, log_thread, log_path) = open_log(&setup, clock, &report);
     let spawn_error = |what: &str, source: std::io::Error| VehicleError::Thread {
         name: what.to_string(),
         source,
@@ -173,10 +228,12 @@ pub fn run(
     // The first commands (the board's check, the altimeter's reset) go out at start: give
     // every port its first try at opening before the loop starts (up to 2 s).
     writers.wait_for_first_attempts(Duration::from_secs(2));
-    report(Report::Started {
-        log: setup.log_path.clone(),
-    });
+    report(Report::Started { log: log_path });
 
+    let keeper = setup
+        .warm_file
+        .clone()
+        .map(|(paths, start)| WarmKeeper::spawn(paths, start, clock, &report));
     let control = {
         let stop = Arc::clone(&stop);
         let report = Arc::clone(&report);
@@ -192,6 +249,7 @@ pub fn run(
                     &streams,
                     log.as_ref(),
                     &stop,
+                    keeper,
                     &*report,
                 )
             })
@@ -226,6 +284,7 @@ fn control_loop(
     streams: &LiveStreams,
     log: Option<&LogSender>,
     stop: &AtomicBool,
+    mut keeper: Option<WarmKeeper>,
     report: &(dyn Fn(Report) + Send + Sync),
 ) -> (CoreStats, u64) {
     let mut computer = match setup.restart_from {
@@ -234,10 +293,6 @@ fn control_loop(
         }
         None => FlightComputer::new(setup.config, setup.params, setup.baro_rate_hz),
     };
-    let mut keeper = setup
-        .warm_file
-        .clone()
-        .map(|(path, start)| WarmKeeper::spawn(path, start));
     let mut actions: Vec<Action> = Vec::with_capacity(64);
     let write_failures = std::cell::Cell::new(0u64);
     let mut tx = |port: Port, bytes: &[u8]| {
@@ -294,11 +349,24 @@ fn control_loop(
                 .power
                 .publish(crate::telemetry::power_row(computer.core(), t_us));
         }
+        let warm = computer.core().warm_start();
+        let landed = matches!(
+            computer.core().phase(),
+            Phase::Landed
+                | Phase::Calibrating
+                | Phase::PreflightCheck { .. }
+                | Phase::TakeoffRefused
+        );
+        setup.supervision.in_air.store(
+            warm.is_some_and(|w| w.airborne) && !landed,
+            Ordering::Release,
+        );
         if let Some(k) = keeper.as_mut() {
-            k.offer(t_us, computer.core().warm_start());
+            k.offer(t_us, warm);
         }
     };
     let mut told_link = 0u8;
+    let mut orphaned = false;
     while !stop.load(Ordering::Acquire) {
         let now = clock.now_us();
         let wait = computer
@@ -337,10 +405,41 @@ fn control_loop(
             last_t_us = last_t_us.max(now);
             feed(&mut computer, last_t_us, RecordedInput::Tick);
         }
+        if setup.supervision.line_ended.load(Ordering::Acquire) {
+            let in_air = setup.supervision.in_air.load(Ordering::Acquire);
+            let text = match (orphaned, in_air) {
+                (false, true) => {
+                    "the bootstrap's line ended without a Stop (the bootstrap is \
+                                  gone) in the air: flying on; the flight ends when it has \
+                                  landed"
+                }
+                (false, false) => {
+                    "the bootstrap's line ended without a Stop (the bootstrap \
+                                   is gone) on the ground: ending the flight"
+                }
+                (true, false) => "landed without a bootstrap: ending the flight",
+                (true, true) => "",
+            };
+            orphaned = true;
+            if !text.is_empty() {
+                let t_us = clock.now_us();
+                if let Some(log) = log {
+                    log.send(LogItem::Note(t_us, text.to_string()));
+                }
+                report(Report::Event {
+                    t_us,
+                    severity: Severity::WarningHi,
+                    text: text.to_string(),
+                });
+            }
+            if !in_air {
+                break;
+            }
+        }
     }
     if let Some(k) = keeper.take() {
         // A clean end: nothing for a successor to resume.
-        k.finish(report);
+        k.finish();
     }
     if write_failures.get() > 0 {
         report(Report::Note(format!(
@@ -373,30 +472,58 @@ fn rewrite_due(
 /// it: records go to a thread of their own, newest wins.
 struct WarmKeeper {
     tx: Option<std::sync::mpsc::SyncSender<Option<heli_fsw::core::WarmStart>>>,
-    thread: Option<std::thread::JoinHandle<Option<String>>>,
+    thread: Option<std::thread::JoinHandle<()>>,
     last: Option<(u64, heli_fsw::core::WarmStart)>,
 }
 
 impl WarmKeeper {
-    fn spawn(path: PathBuf, start: heli_link::StartParameters) -> Self {
+    /// Keeps the record at every one of `paths`. A path that cannot be written is raised
+    /// at once (and again when it can be written again): a successor may have to resume
+    /// from the other one.
+    fn spawn(
+        paths: Vec<PathBuf>,
+        start: heli_link::StartParameters,
+        clock: Clock,
+        report: &Arc<dyn Fn(Report) + Send + Sync>,
+    ) -> Self {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Option<heli_fsw::core::WarmStart>>(4);
+        let report = Arc::clone(report);
         let thread = rt::thread("warm-start", rt::HELPER_STACK_BYTES)
             .spawn(move || {
-                let mut error = None;
+                let mut failing = vec![false; paths.len()];
                 for record in rx {
-                    let result = match record {
-                        Some(warm) => crate::warm::WarmFile {
-                            warm,
-                            start: start.clone(),
-                        }
-                        .write(&path),
-                        None => crate::warm::remove(&path),
-                    };
-                    if let Err(e) = result {
-                        error.get_or_insert(format!("warm-start file {}: {e}", path.display()));
+                    for (path, failing) in paths.iter().zip(failing.iter_mut()) {
+                        let result = match record {
+                            Some(warm) => crate::warm::WarmFile {
+                                warm,
+                                start: start.clone(),
+                            }
+                            .write(path),
+                            None => crate::warm::remove(path),
+                        };
+                        let text = match (&result, *failing) {
+                            (Err(e), false) => format!(
+                                "warm-start record {}: {e}: a restart now resumes from an older \
+                                 record or none",
+                                path.display()
+                            ),
+                            (Ok(()), true) => {
+                                format!("warm-start record {}: written again", path.display())
+                            }
+                            _ => continue,
+                        };
+                        *failing = result.is_err();
+                        report(Report::Event {
+                            t_us: clock.now_us(),
+                            severity: if *failing {
+                                Severity::WarningHi
+                            } else {
+                                Severity::ActivityHi
+                            },
+                            text,
+                        });
                     }
                 }
-                error
             })
             .ok();
         Self {
@@ -420,13 +547,13 @@ impl WarmKeeper {
         }
     }
 
-    /// The flight ended cleanly: the file is removed; a write that failed is reported.
-    fn finish(mut self, report: &(dyn Fn(Report) + Send + Sync)) {
+    /// The flight ended cleanly: the files are removed.
+    fn finish(mut self) {
         if let Some(tx) = self.tx.take() {
             let _ = tx.send(None);
         }
-        if let Some(Ok(Some(error))) = self.thread.take().map(std::thread::JoinHandle::join) {
-            report(Report::Note(error));
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
         }
     }
 }

@@ -82,6 +82,7 @@ pub fn run(args: &FlightArgs) -> Result<ExitCode> {
     say(FromFlight::Ready { version: VERSION });
     // What the bootstrap says of its link: 0 nothing (no link), 1 a ground heard, 2 none.
     let ground_link = Arc::new(AtomicU8::new(0));
+    let supervision = Arc::new(flight::Supervision::default());
     let link_state = |fresh: bool| if fresh { 1 } else { 2 };
     let (restart, start) = loop {
         match next_message(&say) {
@@ -108,29 +109,27 @@ pub fn run(args: &FlightArgs) -> Result<ExitCode> {
     let plan_legs = plan.legs_json();
     // The plan's legs, for the bootstrap to serve over the link's mission protocol.
     say(FromFlight::Plan(plan.legs.clone()));
-    let warm_path = crate::warm::path_in(&args.log_dir);
-    // Started again by the bootstrap after a crash or a brown-out: resume from the record
-    // the process before left, if it can be read (otherwise start cold, and say so).
+    // The fallback directory (RAM): the log's second place and the warm-start record's.
+    let fallback = args.fallback_dir();
+    if let Some(dir) = &fallback
+        && let Err(e) = std::fs::create_dir_all(dir)
+    {
+        say(FromFlight::Note(format!(
+            "fallback directory {}: {e}",
+            dir.display()
+        )));
+    }
+    let warm_paths: Vec<std::path::PathBuf> = std::iter::once(crate::warm::path_in(&args.log_dir))
+        .chain(fallback.as_deref().map(crate::warm::path_in))
+        .collect();
+    // Started again by the bootstrap after a crash or a brown-out: resume from the newest
+    // record the process before left, if one can be read (otherwise start cold, and say so).
     let restart_from = if restart {
-        match crate::warm::WarmFile::read(&warm_path) {
-            Ok(Some(file)) => Some(file),
-            Ok(None) => {
-                say(FromFlight::Note(
-                    "restarted without a warm-start record: calibrating from scratch".into(),
-                ));
-                None
-            }
-            Err(e) => {
-                say(FromFlight::Note(format!(
-                    "warm-start record unreadable ({e}): calibrating from scratch"
-                )));
-                None
-            }
-        }
+        crate::warm::newest(&warm_paths, &|text| say(FromFlight::Note(text)))
     } else {
         None
     };
-    let log_path = next_free_log(&args.log_dir, &suffix, restart);
+    let log_path = next_free_log(&args.log_dir, fallback.as_deref(), &suffix, restart);
     let mut config = CoreConfig {
         calibration_s: args.calibration_s,
         imu_warm_up_s: args.warm_up_s,
@@ -140,10 +139,23 @@ pub fn run(args: &FlightArgs) -> Result<ExitCode> {
     // The parameters set over the link: a file that cannot be used stops the start, with
     // its reason, rather than flying on values nobody chose.
     // With no file the flight software's own defaults are flown, exactly.
+    // Restarted in the air, the flight goes on whatever the storage says: on the flight
+    // software's defaults if the file has become unreadable, raised as an event.
     let params = if crate::params::path_in(&args.log_dir).exists() {
-        let table = crate::params::load(&args.log_dir).map_err(anyhow::Error::msg)?;
-        crate::params::apply(&table, &mut config);
-        Some(table)
+        match crate::params::load(&args.log_dir) {
+            Ok(table) => {
+                crate::params::apply(&table, &mut config);
+                Some(table)
+            }
+            Err(e) if restart => {
+                say(FromFlight::Event {
+                    severity: heli_fsw::core::Severity::WarningHi,
+                    text: format!("{e}: resuming the flight on the default parameters"),
+                });
+                None
+            }
+            Err(e) => bail!("{e}"),
+        }
     } else {
         None
     };
@@ -189,20 +201,27 @@ pub fn run(args: &FlightArgs) -> Result<ExitCode> {
         },
         baro_rate_hz: baro_rate,
         log_path: Some(log_path.clone()),
+        log_fallback_dir: fallback.clone(),
         metadata,
         clock_speed: args.clock_speed,
         restart_from: restart_from.map(|w| w.warm),
-        warm_file: Some((warm_path, start)),
+        warm_file: Some((warm_paths, start)),
         ground_link: Arc::clone(&ground_link),
+        supervision: Arc::clone(&supervision),
     };
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = Arc::clone(&stop);
         let ground_link = Arc::clone(&ground_link);
+        let supervision = Arc::clone(&supervision);
         rt::thread("bootstrap-lines", rt::HELPER_STACK_BYTES).spawn(move || {
+            let mut stopped = false;
             while let Some(message) = next_message(&say) {
                 match message {
-                    ToFlight::Stop => break,
+                    ToFlight::Stop => {
+                        stopped = true;
+                        break;
+                    }
                     ToFlight::Link { fresh } => {
                         ground_link.store(link_state(fresh), Ordering::Release);
                     }
@@ -211,8 +230,12 @@ pub fn run(args: &FlightArgs) -> Result<ExitCode> {
                     )),
                 }
             }
-            // `stop`, or the bootstrap is gone: clean up either way.
-            stop.store(true, Ordering::Release);
+            if stopped {
+                stop.store(true, Ordering::Release);
+            } else {
+                // The bootstrap is gone: the control loop decides (`flight::Supervision`).
+                supervision.line_ended.store(true, Ordering::Release);
+            }
         })?;
     }
     let line = reporter()?;
@@ -253,21 +276,23 @@ pub fn run(args: &FlightArgs) -> Result<ExitCode> {
 }
 
 /// The flight log's path: `flight_<suffix>.mcap`, or for a process started again after a
-/// crash `flight_<suffix>_r<N>.mcap` with the first N not taken (the crashed process's log
-/// is never overwritten).
-fn next_free_log(dir: &std::path::Path, suffix: &str, restart: bool) -> std::path::PathBuf {
+/// crash `flight_<suffix>_r<N>.mcap` with the first N not taken in the log directory or
+/// the fallback one (the crashed process's log is never overwritten).
+fn next_free_log(
+    dir: &std::path::Path,
+    fallback: Option<&std::path::Path>,
+    suffix: &str,
+    restart: bool,
+) -> std::path::PathBuf {
     let first = dir.join(heli_log::file_name("flight", suffix, "mcap"));
     if !restart {
         return first;
     }
+    let taken = |name: &std::path::Path| {
+        dir.join(name).exists() || fallback.is_some_and(|f| f.join(name).exists())
+    };
     (1..1000)
-        .map(|n| {
-            dir.join(heli_log::file_name(
-                "flight",
-                &format!("{suffix}_r{n}"),
-                "mcap",
-            ))
-        })
-        .find(|p| !p.exists())
-        .unwrap_or(first)
+        .map(|n| heli_log::file_name("flight", &format!("{suffix}_r{n}"), "mcap"))
+        .find(|name| !taken(std::path::Path::new(name)))
+        .map_or(first, |name| dir.join(name))
 }

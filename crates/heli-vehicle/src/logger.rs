@@ -49,6 +49,20 @@ pub enum LogItem {
     Note(u64, String),
 }
 
+impl LogItem {
+    /// When it happened, on the vehicle's clock, where the item says.
+    fn t_us(&self) -> Option<u64> {
+        match self {
+            LogItem::Start(t_us)
+            | LogItem::Input(t_us, ..)
+            | LogItem::Battery(t_us, _)
+            | LogItem::Note(t_us, _) => Some(*t_us),
+            LogItem::Action(Action::Event(e)) => Some(e.t_us),
+            LogItem::Action(_) => None,
+        }
+    }
+}
+
 /// The loop's end of the logger's channel.
 #[derive(Clone)]
 pub struct LogSender {
@@ -134,10 +148,11 @@ pub fn spawn(
         hint,
     };
     let mut log = FlightLog::create_new(path).map_err(|e| {
-        let exists = if path.exists() {
-            " (a log of that name exists: choose another suffix)"
-        } else {
-            ""
+        let exists = match &e {
+            heli_log::LogError::Io(io) if io.kind() == std::io::ErrorKind::AlreadyExists => {
+                " (a log of that name exists: choose another suffix)"
+            }
+            _ => "",
         };
         named(e, exists)
     })?;
@@ -170,34 +185,78 @@ fn run(
         path,
         ..LogReport::default()
     };
+    let mut storage = StorageWatch::default();
     loop {
-        let item = match rx.recv_timeout(Duration::from_millis(20)) {
-            Ok(item) => item,
-            Err(RecvTimeoutError::Timeout) => {
-                if let Err(e) = log.flush_if_due()
-                    && report.error.is_none()
-                {
-                    note(format!("flight log {}: {e}", report.path.display()));
-                    report.error = Some(e.to_string());
-                }
-                continue;
+        let result = match rx.recv_timeout(Duration::from_millis(20)) {
+            Ok(item) => {
+                storage.t_us = item.t_us().unwrap_or(storage.t_us);
+                write(&mut log, &item)
             }
+            Err(RecvTimeoutError::Timeout) => log.flush_if_due().map(|_| ()),
             Err(RecvTimeoutError::Disconnected) => break,
         };
-        if let Err(e) = write(&mut log, &item)
-            && report.error.is_none()
-        {
-            // Said at once, and the logger keeps going: one bad write must not end the
-            // flight's record.
-            note(format!("flight log {}: {e}", report.path.display()));
-            report.error = Some(e.to_string());
-        }
+        // Said at once, and the logger keeps going: the storage may come back, and one bad
+        // write must not end the flight's record.
+        storage.after(&mut log, result, &mut report, note);
     }
     report.messages = log.messages();
     if let Err(e) = log.finish() {
         report.error.get_or_insert(e.to_string());
     }
     report
+}
+
+/// Whether the storage takes the log's writes, and what the operator was told of it: a
+/// failure is said once when it begins (with its cause), and again when the storage takes
+/// writes again (how long it refused them and how many messages were dropped), which the log
+/// itself records too.
+#[derive(Default)]
+struct StorageWatch {
+    /// The failure said, and the writer's drop count when it began.
+    failing: Option<u64>,
+    /// The vehicle's time of the latest item that had one (µs).
+    t_us: u64,
+}
+
+impl StorageWatch {
+    fn after(
+        &mut self,
+        log: &mut FlightLog<std::fs::File>,
+        result: Result<(), heli_log::LogError>,
+        report: &mut LogReport,
+        note: &(dyn Fn(String) + Send + Sync),
+    ) {
+        let path = report.path.display().to_string();
+        if let Err(e) = result {
+            if self.failing.is_none() && !matches!(e, heli_log::LogError::Dropped { .. }) {
+                note(format!(
+                    "flight log {path}: {e}; up to {} MiB kept in memory for it, \
+                     messages past that dropped and counted, retried every {} s",
+                    heli_log::writer::MAX_BACKLOG_BYTES >> 20,
+                    heli_log::writer::RETRY_EVERY_WALL.as_secs()
+                ));
+                self.failing = Some(log.stats().dropped);
+            }
+            report.error.get_or_insert(e.to_string());
+            return;
+        }
+        if let Some(dropped_before) = self.failing
+            && log.failing_since().is_none()
+        {
+            self.failing = None;
+            let dropped = log.stats().dropped.saturating_sub(dropped_before);
+            let text = format!(
+                "flight log {path}: the storage takes writes again; {dropped} messages \
+                 were dropped while it refused them"
+            );
+            let _ = log.write(
+                "notes",
+                self.t_us,
+                &json!({ "text": text.clone(), "level": "warning" }),
+            );
+            note(text);
+        }
+    }
 }
 
 fn write(log: &mut FlightLog<std::fs::File>, item: &LogItem) -> Result<(), heli_log::LogError> {

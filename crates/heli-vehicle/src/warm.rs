@@ -180,6 +180,32 @@ impl WarmFile {
     }
 }
 
+/// The newest record that can be read of those at `paths` (the log directory's and the
+/// fallback's: when the log disk refused writes, the fallback's is the fresher), by the
+/// time each was written. What cannot be read is said through `note`, and so is finding
+/// none: the restart then calibrates from scratch.
+pub fn newest(paths: &[PathBuf], note: &dyn Fn(String)) -> Option<WarmFile> {
+    let mut best: Option<(std::time::SystemTime, WarmFile)> = None;
+    for path in paths {
+        match WarmFile::read(path) {
+            Ok(Some(file)) => {
+                let written = std::fs::metadata(path)
+                    .and_then(|m| m.modified())
+                    .unwrap_or(std::time::UNIX_EPOCH);
+                if best.as_ref().is_none_or(|(t, _)| written > *t) {
+                    best = Some((written, file));
+                }
+            }
+            Ok(None) => {}
+            Err(e) => note(format!("warm-start record unreadable ({e})")),
+        }
+    }
+    if best.is_none() {
+        note("restarted without a warm-start record: calibrating from scratch".into());
+    }
+    best.map(|(_, file)| file)
+}
+
 /// A line the file must have.
 fn missing(key: &str) -> VehicleError {
     VehicleError::invalid("", format!("no '{key}' line"))

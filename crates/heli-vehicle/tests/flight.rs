@@ -22,7 +22,7 @@ use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use heli_fsw::core::{CoreConfig, FlightParams};
+use heli_fsw::core::{CoreConfig, FlightParams, Severity};
 use heli_proto::imu::ImuRepr;
 use heli_vehicle::devices::{Adc, Devices, Gpio, Ports};
 use heli_vehicle::flight::{FlightSetup, FlightSummary, Report, run};
@@ -157,7 +157,16 @@ impl Flying {
 }
 
 fn fly(devices: Devices, dir: &Path, ground_link: Arc<AtomicU8>) -> Flying {
-    let setup = FlightSetup {
+    fly_with(devices, dir, ground_link, |_| {})
+}
+
+fn fly_with(
+    devices: Devices,
+    dir: &Path,
+    ground_link: Arc<AtomicU8>,
+    change: impl FnOnce(&mut FlightSetup),
+) -> Flying {
+    let mut setup = FlightSetup {
         devices,
         config: CoreConfig {
             imu_warm_up_s: 0.1,
@@ -167,15 +176,18 @@ fn fly(devices: Devices, dir: &Path, ground_link: Arc<AtomicU8>) -> Flying {
         params: FlightParams::default(),
         baro_rate_hz: 5,
         log_path: Some(dir.join("flight.mcap")),
+        log_fallback_dir: None,
         metadata: BTreeMap::new(),
         clock_speed: 1.0,
         restart_from: None,
         warm_file: Some((
-            dir.join("warm-start"),
+            vec![dir.join("warm-start")],
             heli_vehicle::supervisor::parse_start_words("t1 manual").unwrap(),
         )),
         ground_link,
+        supervision: Arc::default(),
     };
+    change(&mut setup);
     let stop = Arc::new(AtomicBool::new(false));
     let reports = Arc::new(Mutex::new(Vec::new()));
     let sink = Arc::clone(&reports);
@@ -407,4 +419,110 @@ fn a_flight_with_every_port_there_reports_no_lost_commands() {
         .filter(|r| matches!(r, Report::Note(t) if t.starts_with("compass: ")))
         .count();
     assert_eq!(compass, 1, "{reports:#?}");
+}
+
+/// The texts of the events reported at `severity`.
+fn events(reports: &[Report], severity: Severity) -> Vec<String> {
+    reports
+        .iter()
+        .filter_map(|r| match r {
+            Report::Event {
+                severity: s, text, ..
+            } if *s == severity => Some(text.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_log_directory_that_refuses_the_log_sends_it_to_the_fallback_and_then_to_none() {
+    let dir = tempfile::tempdir().unwrap();
+    // A log directory that cannot take the log (here: it is not there; a full or read-only
+    // disk says so in its own words) and a fallback that can, for the warm-start record too.
+    let refused = dir.path().join("refused");
+    let fallback = dir.path().join("ram");
+    std::fs::create_dir(&fallback).unwrap();
+    let Bench {
+        mut imu,
+        scb: _scb,
+        _gps,
+        _slaves,
+        devices,
+    } = bench(dir.path());
+    let flight = fly_with(devices.clone(), dir.path(), Arc::default(), |setup| {
+        setup.log_path = Some(refused.join("flight.mcap"));
+        setup.log_fallback_dir = Some(fallback.clone());
+        setup.warm_file = Some((
+            vec![refused.join("warm-start"), fallback.join("warm-start")],
+            heli_vehicle::supervisor::parse_start_words("t1 manual").unwrap(),
+        ));
+    });
+    flight.wait_for("started", Duration::from_secs(5), |r| {
+        r.iter().any(|r| matches!(r, Report::Started { .. }))
+    });
+    // Past the calibration (0.6 s): the estimate runs and its record is kept.
+    for _ in 0..120 {
+        std::io::Write::write_all(&mut imu, &imu_frame()).unwrap();
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    flight.wait_for("the record", Duration::from_secs(5), |_| {
+        fallback.join("warm-start").exists()
+    });
+    let warned = events(&flight.reports.lock().unwrap(), Severity::WarningHi);
+    let (summary, reports) = flight.land();
+    assert!(summary.stats.control_steps > 0);
+    let started = reports.iter().find_map(|r| match r {
+        Report::Started { log } => Some(log.clone()),
+        _ => None,
+    });
+    assert_eq!(started, Some(Some(fallback.join("flight.mcap"))));
+    let log = heli_log::reader::read(&std::fs::read(fallback.join("flight.mcap")).unwrap());
+    assert!(log.closed && !log.messages.is_empty());
+    // Each refusal raised at once, with its cause and what was done instead.
+    assert!(
+        warned.iter().any(|t| t.contains("flight.mcap")
+            && t.contains("No such file")
+            && t.contains(&format!(
+                "logging to {} instead",
+                fallback.join("flight.mcap").display()
+            ))),
+        "{warned:#?}"
+    );
+    assert!(
+        warned.iter().any(|t| t.starts_with(&format!(
+            "warm-start record {}",
+            refused.join("warm-start").display()
+        ))),
+        "{warned:#?}"
+    );
+    assert!(
+        !fallback.join("warm-start").exists(),
+        "a clean end removes it"
+    );
+
+    // Neither place takes it: the flight flies without a log, and says so.
+    let flight = fly_with(devices, dir.path(), Arc::default(), |setup| {
+        setup.log_path = Some(refused.join("flight.mcap"));
+        setup.log_fallback_dir = Some(refused.join("nor-this"));
+    });
+    flight.wait_for("started", Duration::from_secs(5), |r| {
+        r.iter().any(|r| matches!(r, Report::Started { .. }))
+    });
+    for _ in 0..30 {
+        std::io::Write::write_all(&mut imu, &imu_frame()).unwrap();
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let (summary, reports) = flight.land();
+    assert!(summary.stats.control_steps > 0, "it flew");
+    assert!(summary.log.is_none());
+    assert!(
+        reports
+            .iter()
+            .any(|r| matches!(r, Report::Started { log: None }))
+    );
+    let warned = events(&reports, Severity::WarningHi);
+    assert!(
+        warned.iter().any(|t| t.ends_with("FLYING WITHOUT A LOG")),
+        "{warned:#?}"
+    );
 }

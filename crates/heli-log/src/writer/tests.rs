@@ -203,3 +203,104 @@ fn writing_after_finish_is_an_error_not_a_panic() {
     ));
     assert!(matches!(log.flush(), Err(LogError::Finished)));
 }
+
+/// Writes one message a 10 ms step; returns whether the writer took it.
+fn step(log: &mut FlightLog<SharedFile>, k: u64) -> bool {
+    log.write(
+        "imu",
+        k * 10_000,
+        &json!({ "k": k, "rate_rps": [0.1, 0.2, k as f64] }),
+    )
+    .is_ok()
+}
+
+#[test]
+fn a_disk_that_fills_leaves_a_complete_file_cut_back_to_its_last_flush() {
+    let file = SharedFile::default();
+    let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));
+    for k in 0..200 {
+        assert!(step(&mut log, k));
+    }
+    let before = read(&file.bytes()).messages.len();
+    assert!(before > 150, "{before}");
+    // The disk fills: it holds 300 bytes more than the file now has.
+    let full_at = file.bytes().len() as u64 + 300;
+    file.0.borrow_mut().capacity = Some(full_at);
+    let mut refused = 0;
+    for k in 200..400 {
+        if !step(&mut log, k) {
+            refused += 1;
+            // Each failed write was short (the disk took what fitted): the file is cut back
+            // to its last complete end, and every reader reads it whole.
+            let contents = read(&file.bytes());
+            assert_eq!(contents.stopped, None, "after the failure at k = {k}");
+            assert!(contents.messages.len() >= before);
+        }
+    }
+    assert!(refused > 0, "the disk never refused a write");
+    let stats = log.stats();
+    assert!(stats.failed_writes > 0);
+    assert!(log.failing_since().is_some());
+    assert!(
+        file.0.borrow().cuts.iter().all(|&len| len <= full_at),
+        "cut to past the end"
+    );
+    // Space is freed: the next flush writes everything kept, from where the file ended.
+    file.0.borrow_mut().capacity = None;
+    log.flush().unwrap_or_else(|e| panic!("{e}"));
+    assert!(log.failing_since().is_none());
+    log.finish().unwrap_or_else(|e| panic!("{e}"));
+    let contents = read(&file.bytes());
+    assert_eq!((contents.stopped, contents.closed), (None, true));
+    assert_eq!(contents.messages.len(), 400, "nothing was lost");
+    let ks: Vec<u64> = contents
+        .messages
+        .iter()
+        .filter_map(|m| m.value["k"].as_u64())
+        .collect();
+    assert_eq!(ks, (0..400).collect::<Vec<_>>(), "in order, once each");
+}
+
+#[test]
+fn while_the_disk_stays_full_the_memory_is_bounded_and_drops_are_counted() {
+    let file = SharedFile::default();
+    let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(step(&mut log, 0));
+    log.flush().unwrap_or_else(|e| panic!("{e}"));
+    file.0.borrow_mut().capacity = Some(file.bytes().len() as u64);
+    let _ = log.flush();
+    // Messages that do not compress: the backlog fills with a few thousand of them.
+    let mut dropped = 0u64;
+    let mut k = 1u64;
+    while dropped < 1000 {
+        let noise: Vec<u64> = (0..16)
+            .map(|i| (k * 0x9e37_79b9_7f4a_7c15).rotate_left(i))
+            .collect();
+        match log.write("imu", k * 10_000, &json!({ "k": k, "noise": noise })) {
+            Ok(()) => {}
+            Err(LogError::Dropped { backlog_bytes }) => {
+                assert!(backlog_bytes >= MAX_BACKLOG_BYTES);
+                dropped += 1;
+            }
+            // Taken; the flush it was due for failed.
+            Err(LogError::Io(_)) => {}
+            Err(e) => panic!("{e}"),
+        }
+        if k.is_multiple_of(64) {
+            let _ = log.flush();
+        }
+        k += 1;
+        assert!(k < 1_000_000, "never dropped");
+    }
+    assert_eq!(log.stats().dropped, dropped);
+    // The backlog stops where it was: at most one closed chunk past the bound.
+    assert!(log.unwritten.len() < MAX_BACKLOG_BYTES + (MAX_CHUNK_BYTES as usize) * 2);
+    // The disk comes back: what was kept is written, in order, and the log goes on.
+    file.0.borrow_mut().capacity = None;
+    log.flush().unwrap_or_else(|e| panic!("{e}"));
+    assert!(log.write("imu", k * 10_000, &json!({ "k": k })).is_ok());
+    log.finish().unwrap_or_else(|e| panic!("{e}"));
+    let contents = read(&file.bytes());
+    assert_eq!((contents.stopped, contents.closed), (None, true));
+    assert_eq!(contents.messages.len() as u64, k + 1 - dropped);
+}
