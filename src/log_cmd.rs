@@ -25,8 +25,30 @@ pub(crate) fn log(action: LogAction) -> Result<ExitCode> {
             let contents = read(&file)?;
             print_log_info(&file, &contents)?;
         }
-        LogAction::Export { file, channel, out } => {
+        LogAction::Export {
+            file,
+            channel,
+            out,
+            partial,
+        } => {
             let contents = read(&file)?;
+            if let Some(stop) = &contents.stopped {
+                let what = match stop.kind {
+                    heli_log::StopKind::Truncated => "cut off",
+                    _ => "damaged",
+                };
+                if !partial {
+                    bail!(
+                        "{} is {what}: {stop}; `--partial` exports the {} messages before it",
+                        file.display(),
+                        contents.messages.len()
+                    );
+                }
+                eprintln!(
+                    "heli log export: {} is {what} ({stop}): exporting the messages before it",
+                    file.display()
+                );
+            }
             let csv = heli_log::to_csv(&contents, &channel);
             if csv.is_empty() {
                 bail!(

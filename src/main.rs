@@ -127,9 +127,15 @@ enum LogAction {
         /// Write here instead of standard output.
         #[arg(long)]
         out: Option<std::path::PathBuf>,
+        /// Export what can be read of a cut-off or damaged log (without it such a log is
+        /// refused, exit 2).
+        #[arg(long)]
+        partial: bool,
     },
     /// Feed the log's recorded device inputs to a fresh flight computer and compare its
-    /// servo commands and state estimates with the log's, bit for bit.
+    /// servo commands and state estimates with the log's, bit for bit. Exit 0: an exact
+    /// match over the whole flight; 1: a difference; 2: it could not be replayed (nothing
+    /// to compare); 3: the log is cut off or damaged (what could be read is compared).
     Replay {
         /// The log file.
         file: std::path::PathBuf,

@@ -126,3 +126,91 @@ fn replay_of_a_log_without_device_inputs_or_not_a_log_fails_clearly() {
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("no device inputs"), "{stderr}");
 }
+
+#[test]
+fn a_cut_or_damaged_log_is_never_an_exact_match() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("rolls.mcap");
+    let out = heli(&[
+        "sim",
+        "--scenario",
+        "rolls",
+        "--duration",
+        "130",
+        "--log",
+        &log.display().to_string(),
+    ]);
+    assert!(out.status.success() || out.status.code() == Some(1));
+    let whole = heli(&["log", "replay", &log.display().to_string()]);
+    assert!(
+        whole.status.success(),
+        "{}",
+        String::from_utf8_lossy(&whole.stdout)
+    );
+    let good = std::fs::read(&log).unwrap();
+    // Copies cut at 24 places and copies with one byte flipped at 24 others, spread over
+    // the file (past its first tenth, where the setup is).
+    let mut damaged = Vec::new();
+    for k in 0..48usize {
+        let at = good.len() / 10 + k * (good.len() * 9 / 10 - 1) / 48;
+        let mut bytes = good.clone();
+        let kind = if k % 2 == 0 {
+            bytes.truncate(at);
+            "cut"
+        } else {
+            bytes[at] ^= 0x20;
+            "flipped"
+        };
+        let path = dir.path().join(format!("{kind}{k}.mcap"));
+        std::fs::write(&path, &bytes).unwrap();
+        damaged.push((kind, at, path));
+    }
+    let mut verdicts = std::collections::BTreeMap::new();
+    for (kind, at, path) in &damaged {
+        let out = heli(&["log", "replay", &path.display().to_string()]);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let code = out.status.code();
+        assert_ne!(code, Some(0), "{kind} at byte {at}: {stdout}");
+        assert!(
+            !stdout.contains("EXACT MATCH"),
+            "{kind} at byte {at}: {stdout}"
+        );
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        if code == Some(3) {
+            // How much was compared, and of what.
+            assert!(
+                stdout.contains("s of flight that could be read match")
+                    && stdout.contains("% of the file read"),
+                "{stdout}"
+            );
+        }
+        *verdicts.entry((*kind, code)).or_insert(0) += 1;
+    }
+    eprintln!("verdicts on damaged copies: {verdicts:?}");
+    assert!(verdicts.keys().any(|(k, c)| *k == "cut" && *c == Some(3)));
+    assert!(
+        verdicts
+            .keys()
+            .any(|(k, c)| *k == "flipped" && *c == Some(3))
+    );
+
+    // The readers of a damaged log say so: info names the damaged chunk, export refuses
+    // without --partial and exports what is readable with it.
+    let (_, _, flipped) = &damaged[25];
+    let file = flipped.display().to_string();
+    let info = heli(&["log", "info", &file]);
+    let said = String::from_utf8_lossy(&info.stderr);
+    assert_eq!(info.status.code(), Some(2));
+    assert!(
+        said.contains("fails its CRC") && said.contains("the chunk ending at byte"),
+        "{said}"
+    );
+    let export = heli(&["log", "export", "--channel", "state", &file]);
+    assert_eq!(export.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&export.stderr).contains("--partial"));
+    let export = heli(&["log", "export", "--channel", "state", "--partial", &file]);
+    assert!(export.status.success());
+    assert!(String::from_utf8_lossy(&export.stderr).contains("is damaged"));
+    assert!(String::from_utf8_lossy(&export.stdout).lines().count() > 10);
+}

@@ -209,8 +209,33 @@ mod tests {
             RecordedInput::PowerLine(true),
         ];
         for i in &inputs {
+            // Every kind is listed above: a new one fails to compile here until it is.
+            match i {
+                RecordedInput::Bytes(..)
+                | RecordedInput::Compass(_)
+                | RecordedInput::PortFailed(_)
+                | RecordedInput::Tick
+                | RecordedInput::Battery(_)
+                | RecordedInput::GroundLink(_)
+                | RecordedInput::PowerLine(_) => {}
+            }
             assert_eq!(input_from_json(&input_json(i)).as_ref(), Ok(i));
+            // And each as written conforms to the channel's schema.
+            let schema = crate::schema::for_topic(CHANNEL).json;
+            assert_eq!(
+                crate::schema::validate(&schema, &input_json(i), CHANNEL),
+                Ok(()),
+                "{i:?}"
+            );
         }
+        assert_eq!(
+            crate::schema::validate(
+                &crate::schema::for_topic(CHANNEL).json,
+                &start_json(),
+                CHANNEL
+            ),
+            Ok(())
+        );
         let bad = json!({"kind": "bytes", "port": "imu", "hex": "0g"});
         assert!(
             input_from_json(&bad)

@@ -184,8 +184,13 @@ fn read_into(bytes: &[u8], contents: &mut LogContents, fed: &mut usize) {
         contents.stopped = Some(stop(StopKind::NotMcap, 0, bytes, detail));
         return;
     }
+    // Every chunk's CRC is checked before any of its records is taken (a damaged chunk
+    // gives none, and reading stops there), and so are the data and summary sections' CRCs.
     let options = LinearReaderOptions::default()
-        .with_record_length_limit(bytes.len().saturating_add(RECORD_LENGTH_SLACK));
+        .with_record_length_limit(bytes.len().saturating_add(RECORD_LENGTH_SLACK))
+        .with_prevalidate_chunk_crcs(true)
+        .with_validate_data_section_crc(true)
+        .with_validate_summary_section_crc(true);
     let mut reader = LinearReader::new_with_options(options);
     let mut rest = bytes;
     let mut topics: BTreeMap<u16, String> = BTreeMap::new();
@@ -213,7 +218,14 @@ fn read_into(bytes: &[u8], contents: &mut LogContents, fed: &mut usize) {
                         | McapError::BadChunkLength { .. }
                 );
                 let cut_off = past_end && *fed == bytes.len() && !bytes.ends_with(MAGIC);
-                contents.stopped = Some(if !cut_off {
+                contents.stopped = Some(if let McapError::BadChunkCrc { saved, calculated } = e {
+                    let detail = format!(
+                        "the chunk ending at byte {fed} fails its CRC (stored {saved:#010x}, \
+                         computed {calculated:#010x}): none of its messages is used",
+                        fed = *fed
+                    );
+                    stop(StopKind::Corrupt, *fed, bytes, detail)
+                } else if !cut_off {
                     stop(StopKind::Corrupt, *fed, bytes, e.to_string())
                 } else if bytes.windows(9).any(|w| w == UNFINISHED_CHUNK) {
                     let detail = "a chunk that was never finished: its length is still the \
@@ -339,3 +351,39 @@ fn parse_metadata(body: &[u8]) -> Option<LogMetadata> {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod damage_tests {
+    use super::*;
+    use crate::testutil::write_flight;
+
+    /// Every byte of a finished log, flipped one at a time (one bit of each), is noticed:
+    /// the reader never calls a damaged file complete, and never returns a message that
+    /// is not the one written.
+    #[test]
+    fn one_flipped_byte_anywhere_is_never_read_as_a_complete_log() {
+        let good = write_flight(2);
+        let original = read(&good);
+        assert_eq!((original.stopped.clone(), original.closed), (None, true));
+        let mut unnoticed = Vec::new();
+        for at in 0..good.len() {
+            let mut bad = good.clone();
+            bad[at] ^= 0x10;
+            let contents = read(&bad);
+            for m in &contents.messages {
+                assert!(
+                    original.messages.contains(m),
+                    "byte {at}: a message never written"
+                );
+            }
+            if contents.stopped.is_none() && contents.messages == original.messages {
+                unnoticed.push(at);
+            }
+        }
+        assert!(
+            unnoticed.is_empty(),
+            "flips not noticed at bytes {unnoticed:?} of {}",
+            good.len()
+        );
+    }
+}

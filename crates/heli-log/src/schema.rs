@@ -314,8 +314,8 @@ fn device_schema() -> ChannelSchema {
             "type": "object",
             "properties": {
                 "kind": {
-                    "type": "string", "enum": ["start", "bytes", "compass", "port_failed", "tick", "battery", "ground_link"],
-                    "description": "the flight computer started (the origin of a replay), bytes read from a port, a compass reading, a port that failed, a timer tick, a battery reading, or whether the bootstrap hears a ground station",
+                    "type": "string", "enum": ["start", "bytes", "compass", "port_failed", "tick", "battery", "ground_link", "power_line"],
+                    "description": "the flight computer started (the origin of a replay), bytes read from a port, a compass reading, a port that failed, a timer tick, a battery reading, whether the bootstrap hears a ground station, or the hot-swap's power line",
                 },
                 "port": { "type": "string", "enum": ports, "description": "serial port (kinds bytes and port_failed)" },
                 "hex": string("the bytes read, two lowercase hex digits per byte (kind bytes)"),
@@ -331,6 +331,10 @@ fn device_schema() -> ChannelSchema {
                 "fresh": {
                     "type": "boolean",
                     "description": "a ground station heard in the last 5 s (kind ground_link)",
+                },
+                "high": {
+                    "type": "boolean",
+                    "description": "the hot-swap's digital input: high when the ground battery powers the avionics (kind power_line)",
                 },
             },
             "required": ["kind"],

@@ -128,6 +128,7 @@ fn a_rotor_held_low_in_the_air_is_an_engine_failure_raised_once() {
         8.0,
     );
     assert_eq!(failures(&out), 0);
+    assert!(!core.engine.failed());
     fly(
         &mut core,
         &mut out,
@@ -137,6 +138,7 @@ fn a_rotor_held_low_in_the_air_is_an_engine_failure_raised_once() {
         8.0,
     );
     assert_eq!(failures(&out), 1);
+    assert!(core.engine.failed(), "the failure is kept");
     assert!(out.iter().any(|a| matches!(
         a,
         Action::Event(e) if e.value == CoreEvent::EngineFailure { rotor_rpm: 1350 }
