@@ -233,6 +233,36 @@ fn a_bootstrap_killed_in_the_air_leaves_the_flight_flying() {
 }
 
 #[test]
+fn a_three_second_stall_of_every_device_line_ends_in_an_alignment_and_the_hold() {
+    let _one = exclusive();
+    let dir = tempfile::tempdir().unwrap();
+    let hil = Hilsim::start(dir.path(), "hover", 1.0, 40.0);
+    let vehicle = Vehicle::start(dir.path(), &hil.dev);
+    assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
+    let reply = vehicle.ctl(&["start-logging", "stall", "autonomous", "hover"]);
+    assert!(reply.starts_with("ok flying"), "{reply}");
+    vehicle.wait_for_line("phase hold", Duration::from_secs(30));
+    std::thread::sleep(Duration::from_secs(2));
+    procs::stall(hil.pid(), Duration::from_secs(3));
+    vehicle.wait_for_line("estimate invalid", Duration::from_secs(5));
+    vehicle.wait_for_line(
+        "IMU back after the estimate was declared invalid",
+        Duration::from_secs(5),
+    );
+    let aligned = vehicle.wait_for_line("aligned in the air", Duration::from_secs(10));
+    assert!(aligned.contains("estimate running"), "{aligned}");
+    let summary = hil.wait_json(Duration::from_secs(40));
+    let reply = vehicle.ctl(&["stop"]);
+    assert!(reply.starts_with("ok stopped"), "{reply}");
+    let said = vehicle.output();
+    vehicle.quit();
+    assert_eq!(
+        summary["outcome"], "pass",
+        "{summary:#}\nthe vehicle said:\n{said}"
+    );
+}
+
+#[test]
 fn every_stand_alone_driver_runs_against_the_hilsim_and_logs() {
     let _one = exclusive();
     let dir = tempfile::tempdir().unwrap();

@@ -150,6 +150,11 @@ impl Hilsim {
         Self { proc, dev }
     }
 
+    /// The HILSim's pid.
+    pub fn pid(&self) -> u32 {
+        self.proc.child.id()
+    }
+
     /// Waits for the end of the run and returns its JSON truth summary.
     pub fn wait_json(mut self, timeout: Duration) -> serde_json::Value {
         let end = Instant::now() + timeout;
@@ -277,6 +282,21 @@ impl Vehicle {
         let reply = self.ctl(&["quit"]);
         assert!(reply.starts_with("ok"), "{reply}");
     }
+}
+
+/// Stops process `pid` (`SIGSTOP`) for `pause`, then lets it go on (`SIGCONT`): every device
+/// line of a HILSim falls silent at once, and comes back.
+pub fn stall(pid: u32, pause: Duration) {
+    let signal = |name: &str| {
+        let status = Command::new("kill")
+            .args([name, &pid.to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success(), "kill {name} {pid}");
+    };
+    signal("-STOP");
+    std::thread::sleep(pause);
+    signal("-CONT");
 }
 
 /// `kill -9 PID`.

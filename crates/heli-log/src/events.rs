@@ -150,6 +150,10 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
         CoreEvent::RestartedInAir => {
             format!("t={t:.2} s flight process restarted in the air: aligning, blind failsafe")
         }
+        CoreEvent::ImuBackInAir => format!(
+            "t={t:.2} s IMU back after the estimate was declared invalid: aligning in the air, \
+             blind failsafe"
+        ),
         CoreEvent::AlignedInAir { gps: true } => {
             format!("t={t:.2} s aligned in the air: estimate running")
         }
@@ -194,6 +198,7 @@ fn events_without_numbers() -> Vec<CoreEvent> {
         CoreEvent::GpsReset,
         CoreEvent::TakeoffRefused(heli_fsw::core::Refusal::ImuNotHealthy),
         CoreEvent::RestartedInAir,
+        CoreEvent::ImuBackInAir,
         CoreEvent::AlignedInAir { gps: true },
         CoreEvent::AlignedInAir { gps: false },
         CoreEvent::AidAccepted(heli_fsw::core::Aid::Altimeter),

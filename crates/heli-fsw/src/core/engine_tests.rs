@@ -7,7 +7,7 @@ use super::*;
 
 /// Feeds `core` for `seconds`: IMU every 10 ms, the pilot's packet with `rpm` every 20 ms,
 /// the altimeter at `height_m` every 50 ms and a GPS fix at that height every 200 ms.
-fn fly(
+pub(super) fn fly(
     core: &mut FlightCore,
     out: &mut Vec<Action>,
     t: &mut u64,
@@ -60,7 +60,7 @@ fn climb(
 }
 
 /// A calibrated core flying `mode`, the pilot's switch off, hovering by hand `height_m` up.
-fn hovering(mode: FlightMode, height_m: f64) -> (FlightCore, Vec<Action>, u64) {
+pub(super) fn hovering(mode: FlightMode, height_m: f64) -> (FlightCore, Vec<Action>, u64) {
     let mut core = core_with(mode);
     let mut out = Vec::new();
     let mut t = 0;

@@ -140,6 +140,9 @@ pub enum CoreEvent {
     /// The flight process started again in the air (a brown-out, a crash): it aligns
     /// instead of calibrating, flying the blind failsafe meanwhile.
     RestartedInAir,
+    /// The IMU is back after the estimate was declared invalid, in the air: the flight
+    /// aligns again as after a restart, flying the blind failsafe (or the pilot) meanwhile.
+    ImuBackInAir,
     /// The in-air alignment is done and the estimate runs again (`gps`: with a fix).
     AlignedInAir {
         /// A GPS fix placed the estimate.
@@ -251,6 +254,7 @@ impl CoreEvent {
             | CoreEvent::UplinkLost
             | CoreEvent::GpsReset
             | CoreEvent::RestartedInAir
+            | CoreEvent::ImuBackInAir
             | CoreEvent::EstimateDegraded { .. }
             | CoreEvent::AidRefused { .. }
             | CoreEvent::TakeoffRefused(_)

@@ -1,7 +1,8 @@
 //! The main loop's timing (thesis §2.3.2): every IMU sample is one iteration, and when no
 //! IMU packet has come for the watchdog's period the loop runs on a copy of the last one;
 //! every second iteration (50 Hz) is a control step. After
-//! [`IMU_FIRES_TO_INVALID`] fires in a row the estimate is declared invalid for good.
+//! [`IMU_FIRES_TO_INVALID`] fires in a row the estimate is declared invalid, until the core
+//! starts it again (an alignment in the air when the IMU comes back).
 //!
 //! A component: it owns the watchdog, the last sample and the step clock; the core hands it
 //! the IMU's samples and the timer, and it says when the loop runs and on what.
@@ -30,7 +31,8 @@ pub struct MainLoop {
     last_control_us: Option<u64>,
     /// Watchdog fires since the last real IMU packet.
     pub(super) imu_fires_in_row: u32,
-    /// False once the IMU stayed silent too long: the estimate is not used again.
+    /// False once the IMU stayed silent too long: the estimate is not used until it is
+    /// started again.
     pub(super) estimate_valid: bool,
 }
 
@@ -100,7 +102,12 @@ impl MainLoop {
         dt_s
     }
 
-    /// False once the estimate was declared invalid.
+    /// The estimate was started again (aligned in the air after a stall): it is valid.
+    pub fn revalidate(&mut self) {
+        self.estimate_valid = true;
+    }
+
+    /// False once the estimate was declared invalid (until it is started again).
     pub fn estimate_valid(&self) -> bool {
         self.estimate_valid
     }

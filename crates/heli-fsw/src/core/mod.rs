@@ -421,6 +421,19 @@ impl FlightCore {
         })
     }
 
+    /// A real IMU sample after the estimate was declared invalid: in the air, the estimate
+    /// starts again by an alignment as after a restart (the gyro biases, the origin and
+    /// home kept), and is used again when it is done (`step`); on the ground it is not.
+    fn resume_after_stall(&mut self) {
+        if self.main_loop.estimate_valid() || self.restart.aligning() || !self.seq.airborne_once {
+            return;
+        }
+        if let Some(warm) = self.warm_start() {
+            self.restart.align_after_stall(warm);
+            self.seq.plan_abandoned = true;
+        }
+    }
+
     /// Handles one input that arrived at `now_us`, appending what to do to `out`.
     pub fn handle(&mut self, input: Input, now_us: u64, out: &mut Vec<Action>) {
         if now_us < self.last_input_us || !input_is_finite(&input) {
@@ -433,6 +446,7 @@ impl FlightCore {
                 self.stats.imu_samples = self.stats.imu_samples.saturating_add(1);
                 self.devices.heard(Device::Imu, now_us, out);
                 self.main_loop.imu(now_us);
+                self.resume_after_stall();
                 self.loop_iteration(sample, false, now_us, out);
             }
             Input::DeviceFailed(device) => self.devices.failed(device, now_us, out),
@@ -580,6 +594,8 @@ mod restart_tests;
 mod roll_tests;
 #[cfg(test)]
 mod sequencer_tests;
+#[cfg(test)]
+mod stall_tests;
 #[cfg(test)]
 mod test_routes;
 #[cfg(test)]

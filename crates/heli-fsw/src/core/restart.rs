@@ -58,6 +58,8 @@ pub const TRIM_AVERAGE_S: f64 = 2.0;
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Alignment {
     warm: WarmStart,
+    /// The IMU came back after a stall (not a restart of the process).
+    after_stall: bool,
     since_us: Option<u64>,
     accel_sum_mps2: Vector3<f64>,
     samples: u32,
@@ -79,6 +81,7 @@ impl Restart {
         Self {
             alignment: Some(Alignment {
                 warm,
+                after_stall: false,
                 since_us: None,
                 accel_sum_mps2: Vector3::zeros(),
                 samples: 0,
@@ -86,6 +89,23 @@ impl Restart {
             }),
             trim: None,
         }
+    }
+
+    /// The IMU is back after a stall long enough to declare the estimate invalid, in the
+    /// air: an alignment as after a restart, from `warm` (what the flight knew before),
+    /// keeping the trim averaged so far.
+    pub fn align_after_stall(&mut self, warm: WarmStart) {
+        self.alignment = Some(Alignment {
+            warm: WarmStart {
+                trim: self.trim.or(warm.trim),
+                ..warm
+            },
+            after_stall: true,
+            since_us: None,
+            accel_sum_mps2: Vector3::zeros(),
+            samples: 0,
+            gps_seen: false,
+        });
     }
 
     /// The trim kept so far.
@@ -158,10 +178,12 @@ impl Restart {
             Some(since) => since,
             None => {
                 a.since_us = Some(now_us);
-                out.push(Action::Event(Stamped::new(
-                    now_us,
-                    CoreEvent::RestartedInAir,
-                )));
+                let event = if a.after_stall {
+                    CoreEvent::ImuBackInAir
+                } else {
+                    CoreEvent::RestartedInAir
+                };
+                out.push(Action::Event(Stamped::new(now_us, event)));
                 now_us
             }
         };

@@ -313,10 +313,16 @@ impl Sequencer {
                 self.refuse_while_calibrating(crew, now_us, out);
                 return Phase::Calibrating;
             }
-            // The estimate is gone: the pilot flies if there is one; otherwise the blind
-            // failsafe in the air, the safest thing left without attitude, and idle on a
-            // helicopter that never left the ground.
-            return if pilot.is_some() && !signal_lost {
+            // The estimate is gone: the pilot flies if one is flying (the switch off, the
+            // bypass, or a flight the pilot flies through the augmentation or by hand);
+            // otherwise the blind failsafe in the air, the safest thing left without
+            // attitude, and idle on a helicopter that never left the ground. A pilot who
+            // left the helicopter to the computer is not handed it unawares.
+            let pilot_flies = !signal_lost
+                && pilot.is_some_and(|p| {
+                    !p.auto_mode || p.bypass || self.params.mode != FlightMode::Autonomous
+                });
+            return if pilot_flies {
                 Phase::Manual
             } else if self.airborne_once {
                 Phase::BlindDescent

@@ -39,6 +39,10 @@ impl FlightCore {
                 &sample,
                 out,
             );
+            if !self.restart.aligning() {
+                // Aligned: an estimate declared invalid by a stall is good again.
+                self.main_loop.revalidate();
+            }
         } else if !repeated && self.nav.state().is_none() {
             let (biases, restarted) = self.calibration.push(now_us, &sample);
             if let Some(event) = restarted {

@@ -1,0 +1,115 @@
+//! Component tests of a stall of the devices in the air (the IMU silent long enough to
+//! declare the estimate invalid, then back): what is flown during it, and the alignment in
+//! the air that starts the estimate again when the IMU returns.
+
+use super::engine_tests::{fly, hovering};
+use super::tests::{fly_for, raised, uplink};
+use super::*;
+
+/// `seconds` with no device at all (the whole HILSim stopped): only the watchdog runs.
+fn stall(core: &mut FlightCore, out: &mut Vec<Action>, t: &mut u64, seconds: f64) {
+    let end = *t + (seconds * 1e6) as u64;
+    while *t < end {
+        *t += 1_000;
+        if core.poll_at().is_some_and(|at| at <= *t) {
+            core.handle(Input::Timer, *t, out);
+        }
+    }
+}
+
+/// An autonomous hold 8 m up, the pilot's switch on.
+fn holding() -> (FlightCore, Vec<Action>, u64) {
+    let (mut core, mut out, mut t) = hovering(FlightMode::Autonomous, 8.0);
+    fly(&mut core, &mut out, &mut t, 1.0, uplink(true, false), 8.0);
+    assert!(
+        matches!(core.phase(), Phase::Holding { .. }),
+        "{:?}",
+        core.phase()
+    );
+    out.clear();
+    (core, out, t)
+}
+
+#[test]
+fn a_stall_in_autonomous_flight_is_not_handed_to_a_pilot_who_is_not_flying() {
+    let (mut core, mut out, mut t) = holding();
+    stall(&mut core, &mut out, &mut t, 3.0);
+    assert!(raised(&out, CoreEvent::EstimateInvalid));
+    assert!(!core.estimate_valid());
+    assert_eq!(core.phase(), Phase::BlindDescent);
+    // The IMU alone silent, the board still speaking: the switch is on, the pilot left the
+    // helicopter to the computer, and is not handed it unawares.
+    let (mut core, mut out, t) = holding();
+    fly_for(
+        &mut core,
+        &mut out,
+        t,
+        1_000_000,
+        false,
+        Some(uplink(true, false)),
+    );
+    assert!(raised(&out, CoreEvent::EstimateInvalid));
+    assert_eq!(core.phase(), Phase::BlindDescent);
+}
+
+#[test]
+fn devices_that_come_back_after_a_stall_start_the_estimate_again_and_the_hold_resumes() {
+    let (mut core, mut out, mut t) = holding();
+    let before = core.warm_start().unwrap();
+    stall(&mut core, &mut out, &mut t, 3.0);
+    assert!(!core.estimate_valid());
+    out.clear();
+    // The devices are back: an alignment in the air, as after a restart, that keeps the
+    // gyro biases and the navigation frame of the flight.
+    fly(&mut core, &mut out, &mut t, 0.5, uplink(true, false), 8.0);
+    assert!(raised(&out, CoreEvent::ImuBackInAir));
+    assert!(core.aligning());
+    assert!(!core.estimate_valid(), "not used while it aligns");
+    assert_eq!(core.phase(), Phase::BlindDescent);
+    fly(&mut core, &mut out, &mut t, 1.5, uplink(true, false), 8.0);
+    assert!(raised(&out, CoreEvent::AlignedInAir { gps: true }));
+    assert!(core.estimate_valid() && !core.aligning());
+    let after = core.warm_start().unwrap();
+    assert_eq!(after.origin, before.origin);
+    assert_eq!(after.home_ned_m, before.home_ned_m);
+    assert_eq!(after.gyro_bias_rps, before.gyro_bias_rps);
+    fly(&mut core, &mut out, &mut t, 1.0, uplink(true, false), 8.0);
+    assert!(
+        matches!(core.phase(), Phase::Holding { .. }),
+        "{:?}",
+        core.phase()
+    );
+    let height = core.navigator().state().map(|s| core.height_above_home(s));
+    assert!(height.is_some_and(|h| (h - 8.0).abs() < 1.0), "{height:?}");
+}
+
+#[test]
+fn a_pilot_who_flies_keeps_the_helicopter_through_a_stall_and_after_it() {
+    let (mut core, mut out, mut t) = hovering(FlightMode::Autonomous, 8.0);
+    stall(&mut core, &mut out, &mut t, 3.0);
+    // The board is silent too: no pilot is heard, the blind failsafe holds on.
+    assert_eq!(core.phase(), Phase::BlindDescent);
+    fly(&mut core, &mut out, &mut t, 0.5, uplink(false, false), 8.0);
+    assert!(core.aligning());
+    assert_eq!(
+        core.phase(),
+        Phase::Manual,
+        "the switch is off: the pilot flies"
+    );
+    fly(&mut core, &mut out, &mut t, 1.5, uplink(false, false), 8.0);
+    assert!(raised(&out, CoreEvent::AlignedInAir { gps: true }));
+    assert_eq!(core.phase(), Phase::Manual);
+}
+
+#[test]
+fn on_the_ground_a_stall_is_not_followed_by_an_alignment() {
+    let mut core = super::tests::core_with(FlightMode::Autonomous);
+    let (mut out, mut t) = (Vec::new(), 0);
+    core.start(0);
+    fly(&mut core, &mut out, &mut t, 2.0, uplink(false, false), 0.0);
+    stall(&mut core, &mut out, &mut t, 1.0);
+    assert!(!core.estimate_valid());
+    fly(&mut core, &mut out, &mut t, 1.0, uplink(false, false), 0.0);
+    assert!(!raised(&out, CoreEvent::ImuBackInAir));
+    assert!(!core.aligning() && !core.estimate_valid());
+}
