@@ -358,3 +358,109 @@ pub fn driver(args: &DriverArgs) -> Result<ExitCode> {
     );
     Ok(ExitCode::SUCCESS)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Line {
+        #[command(flatten)]
+        flight: FlightArgs,
+    }
+
+    fn args(words: &[&str]) -> FlightArgs {
+        Line::try_parse_from(std::iter::once("heli-vehicle").chain(words.iter().copied()))
+            .unwrap()
+            .flight
+    }
+
+    #[test]
+    fn the_compass_calibration_is_the_file_given_else_the_hilsims_else_none() {
+        let dir = tempfile::tempdir().unwrap();
+        let hil = dir.path().display().to_string();
+        // A HILSim directory without a calibration: none (identity).
+        assert_eq!(
+            args(&["--hilsim", &hil]).compass().unwrap(),
+            CompassCalibration::default()
+        );
+        let theirs = CompassCalibration {
+            bias_gauss: [0.1, 0.2, 0.3],
+            scale: [1.0, 1.0, 1.0],
+        };
+        crate::compass_file::write(
+            &dir.path().join(crate::compass_file::HIL_FILE_NAME),
+            &theirs,
+        )
+        .unwrap();
+        assert_eq!(args(&["--hilsim", &hil]).compass().unwrap(), theirs);
+        // A file given wins over the HILSim's.
+        let mine = CompassCalibration {
+            bias_gauss: [-0.1, 0.0, 0.0],
+            scale: [1.2, 1.0, 0.8],
+        };
+        let path = dir.path().join("mine.toml");
+        crate::compass_file::write(&path, &mine).unwrap();
+        let given = args(&[
+            "--hilsim",
+            &hil,
+            "--compass-cal",
+            &path.display().to_string(),
+        ]);
+        assert_eq!(given.compass().unwrap(), mine);
+    }
+
+    #[test]
+    fn the_fallback_directory_is_the_one_given_none_or_one_per_log_directory_in_ram() {
+        assert_eq!(
+            args(&["--fallback-dir", "/var/heli"]).fallback_dir(),
+            Some(PathBuf::from("/var/heli"))
+        );
+        assert_eq!(args(&["--fallback-dir", "none"]).fallback_dir(), None);
+        if Path::new("/dev/shm").is_dir() {
+            let a = args(&["--log-dir", "/tmp"]).fallback_dir().unwrap();
+            let b = args(&["--log-dir", "/var/tmp"]).fallback_dir().unwrap();
+            assert!(a.starts_with("/dev/shm") && b.starts_with("/dev/shm"));
+            assert_ne!(a, b, "each log directory its own");
+            assert_eq!(
+                args(&["--log-dir", "/tmp"]).fallback_dir().unwrap(),
+                a,
+                "stable"
+            );
+        }
+    }
+
+    #[test]
+    fn the_flight_process_gets_the_bootstraps_settings_back_unchanged() {
+        let given = args(&[
+            "--devices",
+            "/etc/heli/devices.toml",
+            "--log-dir",
+            "/tmp",
+            "--compass-cal",
+            "/etc/heli/compass.toml",
+            "--fallback-dir",
+            "/run/heli",
+            "--baro-rate",
+            "4",
+            "--calibration-s",
+            "12.5",
+            "--warm-up-s",
+            "2",
+            "--clock-speed",
+            "3",
+        ]);
+        let mut words = vec!["heli-vehicle".to_string()];
+        words.extend(
+            given
+                .to_args()
+                .iter()
+                .map(|w| w.to_string_lossy().into_owned()),
+        );
+        let back = Line::try_parse_from(words).unwrap().flight;
+        assert_eq!(format!("{back:?}"), format!("{given:?}"));
+        let hil = args(&["--hilsim", "/tmp/dev"]);
+        assert!(hil.to_args().contains(&OsString::from("--hilsim")));
+    }
+}

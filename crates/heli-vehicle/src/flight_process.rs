@@ -296,3 +296,38 @@ fn next_free_log(
         .find(|name| !taken(std::path::Path::new(name)))
         .map_or(first, |name| dir.join(name))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_restarted_process_logs_beside_its_predecessors_never_over_them() {
+        let dir = tempfile::tempdir().unwrap();
+        let ram = tempfile::tempdir().unwrap();
+        let (d, r) = (dir.path(), ram.path());
+        assert_eq!(
+            next_free_log(d, Some(r), "t1", false),
+            d.join("flight_t1.mcap")
+        );
+        assert_eq!(
+            next_free_log(d, Some(r), "t1", true),
+            d.join("flight_t1_r1.mcap")
+        );
+        std::fs::write(d.join("flight_t1_r1.mcap"), b"").unwrap();
+        assert_eq!(
+            next_free_log(d, Some(r), "t1", true),
+            d.join("flight_t1_r2.mcap")
+        );
+        // A name taken in the fallback directory is taken too.
+        std::fs::write(r.join("flight_t1_r2.mcap"), b"").unwrap();
+        assert_eq!(
+            next_free_log(d, Some(r), "t1", true),
+            d.join("flight_t1_r3.mcap")
+        );
+        assert_eq!(
+            next_free_log(d, None, "t1", true),
+            d.join("flight_t1_r2.mcap")
+        );
+    }
+}

@@ -145,6 +145,7 @@ mod tests {
     #[test]
     fn every_second_iteration_is_a_control_step_on_the_last_two_samples() {
         let mut l = MainLoop::new(P);
+        assert!(!l.has_sample());
         assert_eq!(l.iterate(sample(1.0)), None);
         assert_eq!(l.iterate(sample(2.0)), Some((sample(1.0), sample(2.0))));
         assert_eq!(l.iterate(sample(3.0)), None);

@@ -113,3 +113,34 @@ fn on_the_ground_a_stall_is_not_followed_by_an_alignment() {
     assert!(!raised(&out, CoreEvent::ImuBackInAir));
     assert!(!core.aligning() && !core.estimate_valid());
 }
+
+#[test]
+fn the_watchdogs_copies_of_a_sample_never_count_as_calibration_samples() {
+    let mut core = FlightCore::new(
+        CoreConfig {
+            imu_warm_up_s: 0.1,
+            calibration_s: 0.5,
+            ..CoreConfig::default()
+        },
+        FlightParams::default(),
+    );
+    let mut out = Vec::new();
+    core.start(0);
+    let mut t = 0;
+    while t < 550_000 {
+        t += 10_000;
+        core.handle(Input::Imu(super::tests::still()), t, &mut out);
+    }
+    // A short silence across the window's end: the loop runs on copies, the calibration
+    // waits for real samples.
+    let copies = core.stats().watchdog_fires;
+    stall(&mut core, &mut out, &mut t, 0.1);
+    assert!(core.stats().watchdog_fires > copies + 5);
+    let done = |out: &[Action]| {
+        out.iter().any(|a| matches!(a, Action::Event(e) if matches!(e.value, CoreEvent::CalibrationDone { .. })))
+    };
+    assert!(!done(&out), "the calibration ended on copies");
+    assert!(core.navigator().state().is_none());
+    core.handle(Input::Imu(super::tests::still()), t + 1_000, &mut out);
+    assert!(done(&out));
+}

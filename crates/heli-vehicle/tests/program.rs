@@ -1,0 +1,319 @@
+//! The onboard program end to end: `heli-vehicle` (the bootstrap) started as a lab starts
+//! it, with a devices file naming pseudo-terminals, driven through its control socket by
+//! `heli-vehicle ctl`: connect, start logging, the flight process's lines and events, the
+//! status, stop, quit — and the log it leaves, with the settings it was given.
+
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing,
+    clippy::arithmetic_side_effects
+)]
+
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use heli_proto::imu::ImuRepr;
+use serialport::{SerialPort, TTYPort};
+
+const PROGRAM: &str = env!("CARGO_BIN_EXE_heli-vehicle");
+
+/// A running bootstrap and every line it printed.
+struct Bootstrap {
+    child: Child,
+    lines: Arc<Mutex<Vec<String>>>,
+    socket: PathBuf,
+}
+
+impl Bootstrap {
+    fn start(dir: &Path, devices: &Path, extra: &[&str]) -> Self {
+        let socket = dir.join("ctl.sock");
+        let mut child = Command::new(PROGRAM)
+            .arg("--devices")
+            .arg(devices)
+            .arg("--log-dir")
+            .arg(dir)
+            .arg("--socket")
+            .arg(&socket)
+            .args([
+                "--calibration-s",
+                "0.5",
+                "--warm-up-s",
+                "0.1",
+                "--baro-rate",
+                "4",
+            ])
+            .args(extra)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .unwrap();
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let sink = Arc::clone(&lines);
+        let out = child.stdout.take().unwrap();
+        std::thread::spawn(move || {
+            for line in BufReader::new(out).lines().map_while(Result::ok) {
+                sink.lock().unwrap().push(line);
+            }
+        });
+        let bootstrap = Self {
+            child,
+            lines,
+            socket,
+        };
+        bootstrap.wait_for("bootstrap: listening", Duration::from_secs(10));
+        bootstrap
+    }
+
+    fn wait_for(&self, needle: &str, timeout: Duration) -> String {
+        let end = Instant::now() + timeout;
+        while Instant::now() < end {
+            if let Some(l) = self
+                .lines
+                .lock()
+                .unwrap()
+                .iter()
+                .find(|l| l.contains(needle))
+            {
+                return l.clone();
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        panic!(
+            "no line with '{needle}' within {timeout:?}:\n{}",
+            self.lines.lock().unwrap().join("\n")
+        );
+    }
+
+    fn ctl(&self, words: &[&str]) -> (bool, String) {
+        let out = Command::new(PROGRAM)
+            .arg("ctl")
+            .args(words)
+            .arg("--socket")
+            .arg(&self.socket)
+            .output()
+            .unwrap();
+        let text = if out.status.success() {
+            &out.stdout
+        } else {
+            &out.stderr
+        };
+        (
+            out.status.success(),
+            String::from_utf8_lossy(text).trim().to_string(),
+        )
+    }
+}
+
+impl Drop for Bootstrap {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn imu_frame() -> Vec<u8> {
+    let mut buf = [0u8; heli_proto::imu::FRAME_LEN];
+    let n = ImuRepr {
+        rate_rps: [0.0; 3],
+        accel_mps2: [0.0, 0.0, -9.81],
+        temp_c: 30.0,
+    }
+    .emit(&mut buf)
+    .unwrap();
+    buf[..n].to_vec()
+}
+
+#[test]
+fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let pair = || {
+        let (master, slave) = TTYPort::pair().unwrap();
+        let path = PathBuf::from(slave.name().unwrap());
+        (master, slave, path)
+    };
+    let (mut imu, _imu_slave, imu_path) = pair();
+    let (_scb, _scb_slave, scb_path) = pair();
+    let (_gps, _gps_slave, gps_path) = pair();
+    let (_baro, _baro_slave, baro_path) = pair();
+    let adc = dir.path().join("adc");
+    std::fs::create_dir_all(&adc).unwrap();
+    for (channel, counts) in [(0, 2048), (1, 2048), (2, 2048), (3, 3000)] {
+        heli_vehicle::adc::write_channel(&adc, channel, counts).unwrap();
+    }
+    let devices = dir.path().join("devices.toml");
+    std::fs::write(
+        &devices,
+        format!(
+            "[ports]\nimu = {:?}\nscb = {:?}\ngps = {:?}\nbaro = {:?}\n[adc]\ndir = {:?}\ncompass = [0, 1, 2]\nbattery = 3\n",
+            imu_path, scb_path, gps_path, baro_path, adc
+        ),
+    )
+    .unwrap();
+    let cal = dir.path().join("compass.toml");
+    std::fs::write(
+        &cal,
+        "bias_gauss = [0.01, -0.02, 0.03]\nscale = [1.0, 1.1, 0.9]\n",
+    )
+    .unwrap();
+    let cal_arg = cal.display().to_string();
+    let bootstrap = Bootstrap::start(
+        dir.path(),
+        &devices,
+        &["--compass-cal", &cal_arg, "--fallback-dir", "none"],
+    );
+    let (ok, reply) = bootstrap.ctl(&["connect"]);
+    assert!(ok && reply.starts_with("ok connected"), "{reply}");
+    let (ok, reply) = bootstrap.ctl(&["start-logging", "e2e", "manual"]);
+    assert!(ok && reply.starts_with("ok flying"), "{reply}");
+    // The IMU at 100 Hz: the short calibration the command line asked for ends at once.
+    let feeding = Arc::new(std::sync::atomic::AtomicBool::new(true));
+    let feeder = {
+        let feeding = Arc::clone(&feeding);
+        std::thread::spawn(move || {
+            while feeding.load(std::sync::atomic::Ordering::Acquire) {
+                imu.write_all(&imu_frame()).unwrap();
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        })
+    };
+    bootstrap.wait_for("calibration done", Duration::from_secs(5));
+    let (ok, status) = bootstrap.ctl(&["status"]);
+    assert!(ok, "{status}");
+    let status: serde_json::Value = serde_json::from_str(status.trim_start_matches("ok ")).unwrap();
+    assert_eq!(status["state"], "flying", "{status}");
+    assert!(status["pid"].as_u64().is_some_and(|p| p > 0), "{status}");
+    let (ok, reply) = bootstrap.ctl(&["stop"]);
+    feeding.store(false, std::sync::atomic::Ordering::Release);
+    feeder.join().unwrap();
+    assert!(
+        ok && reply.starts_with("ok stopped (exit code 0)"),
+        "{reply}"
+    );
+    let (ok, reply) = bootstrap.ctl(&["quit"]);
+    assert!(ok, "{reply}");
+    let said = bootstrap.lines.lock().unwrap().join("\n");
+    assert!(!said.contains("report lines dropped"), "{said}");
+    // The log: the flight's setup as the command line gave it.
+    let log = heli_log::read(&std::fs::read(dir.path().join("flight_e2e.mcap")).unwrap());
+    assert!(log.closed, "{said}");
+    let flight = &log
+        .metadata
+        .iter()
+        .find(|m| m.name == "flight")
+        .unwrap()
+        .entries;
+    for (key, value) in [
+        ("calibration_s", "0.5"),
+        ("warm_up_s", "0.1"),
+        ("baro_rate_hz", "4"),
+        ("mode", "manual"),
+        ("suffix", "e2e"),
+        ("compass_bias_gauss", "[0.01, -0.02, 0.03]"),
+        ("compass_scale", "[1.0, 1.1, 0.9]"),
+    ] {
+        assert_eq!(
+            flight.get(key).map(String::as_str),
+            Some(value),
+            "{key}: {flight:?}"
+        );
+    }
+    assert!(
+        log.messages.iter().any(|m| m.topic == "state"),
+        "the estimate ran"
+    );
+    // The flight software reads the compass through the calibration given.
+    let calibration = heli_proto::compass::CompassCalibration {
+        bias_gauss: [0.01, -0.02, 0.03],
+        scale: [1.0, 1.1, 0.9],
+    };
+    let expected = calibration.apply(
+        &heli_proto::compass::CompassAdc {
+            counts: [2048, 2048, 2048],
+        }
+        .raw_field(),
+    );
+    let read = log
+        .messages
+        .iter()
+        .rev()
+        .find(|m| m.topic == "compass")
+        .map(|m| m.value["field_gauss"].clone())
+        .unwrap();
+    assert_eq!(read, serde_json::json!(expected.field_gauss));
+}
+
+#[test]
+fn bad_command_lines_are_refused_with_what_is_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    let devices = dir.path().join("devices.toml");
+    std::fs::write(
+        &devices,
+        "[ports]\nimu = \"/dev/null\"\nscb = \"/dev/zero\"\ngps = \"/dev/full\"\nbaro = \"/dev/tty\"\n[adc]\ndir = \"/tmp\"\ncompass = [0, 1, 2]\nbattery = 3\n",
+    )
+    .unwrap();
+    let dir_s = dir.path().display().to_string();
+    let dev_s = devices.display().to_string();
+    for (args, says) in [
+        (vec!["--baro-rate", "11"], "--baro-rate 11"),
+        (vec!["--baro-rate", "0"], "--baro-rate 0"),
+        (vec!["--calibration-s=-1"], "--calibration-s -1"),
+        (vec!["--warm-up-s", "601"], "--warm-up-s 601"),
+        (vec!["--calibration-s", "NaN"], "--calibration-s NaN"),
+        (vec!["--clock-speed", "0"], "--clock-speed 0"),
+        (vec!["--clock-speed", "101"], "--clock-speed 101"),
+        (vec!["--log-dir", "/nonexistent/dir"], "not a directory"),
+        (
+            vec!["--compass-cal", "/nonexistent/cal.toml"],
+            "/nonexistent/cal.toml",
+        ),
+    ] {
+        let mut all = vec!["--devices", &dev_s];
+        if !args.contains(&"--log-dir") {
+            all.extend(["--log-dir", &dir_s]);
+        }
+        all.extend(args.iter().copied());
+        let out = Command::new(PROGRAM).args(&all).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(says), "{args:?}: {stderr}");
+    }
+    // The edges of each range are taken (the program then runs until told to quit).
+    for args in [
+        vec!["--baro-rate", "1"],
+        vec!["--baro-rate", "10"],
+        vec!["--calibration-s", "0"],
+        vec!["--warm-up-s", "600"],
+        vec!["--clock-speed", "100"],
+    ] {
+        let socket = dir.path().join("edge.sock");
+        let socket_s = socket.display().to_string();
+        let mut all = vec![
+            "--devices",
+            &dev_s,
+            "--log-dir",
+            &dir_s,
+            "--socket",
+            &socket_s,
+        ];
+        all.extend(args.iter().copied());
+        let mut child = Command::new(PROGRAM)
+            .args(&all)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut first = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut first)
+            .unwrap();
+        let _ = child.kill();
+        let _ = child.wait();
+        assert!(first.contains("bootstrap: listening"), "{args:?}: {first}");
+    }
+}
