@@ -64,10 +64,43 @@ pub struct HilsimArgs {
     pub wait_s: f64,
 }
 
+/// Where `--json` output goes: the original standard output, kept apart from every other
+/// line the run prints.
+struct JsonOut(std::fs::File);
+
+impl JsonOut {
+    /// With `--json`, standard output becomes standard error for the rest of the run (every
+    /// progress line, the library's included, goes there), and the JSON document alone goes
+    /// to the original standard output.
+    fn divert() -> Result<Self> {
+        use std::os::fd::AsFd;
+        let out = std::io::stdout();
+        let _ = std::io::Write::flush(&mut out.lock());
+        let original = out
+            .as_fd()
+            .try_clone_to_owned()
+            .context("keeping standard output")?;
+        nix::unistd::dup2_stdout(std::io::stderr())
+            .context("sending progress lines to standard error")?;
+        Ok(Self(std::fs::File::from(original)))
+    }
+
+    fn print(mut self, value: &impl serde::Serialize) -> Result<()> {
+        let text = serde_json::to_string_pretty(value)?;
+        std::io::Write::write_all(&mut self.0, format!("{text}\n").as_bytes())?;
+        Ok(())
+    }
+}
+
 /// Runs the HILSim until its duration, a crash, or SIGINT / SIGTERM.
 pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
+    let json = if args.json {
+        Some(JsonOut::divert()?)
+    } else {
+        None
+    };
     if let Some(flight) = &args.replay {
-        return replay(args, flight);
+        return replay(args, flight, json);
     }
     let mut scenario = scenario::load(&args.scenario)
         .with_context(|| format!("loading scenario '{}'", args.scenario))?;
@@ -126,8 +159,8 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
         watch,
     )
     .map_err(anyhow::Error::msg)?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
+    if let Some(json) = json {
+        json.print(&summary)?;
     } else {
         print!("{}", heli_sim::summary::table(&summary));
     }
@@ -167,7 +200,7 @@ pub(crate) fn print_devices(devices: &hil::HilDevices, compass_cal: &std::path::
 }
 
 /// Replays `flight`; exit 0 when the commands match, 1 when they differ.
-pub fn replay(args: &HilsimArgs, flight: &Path) -> Result<ExitCode> {
+fn replay(args: &HilsimArgs, flight: &Path, json: Option<JsonOut>) -> Result<ExitCode> {
     let bytes = std::fs::read(flight).with_context(|| format!("{}", flight.display()))?;
     let contents = heli_log::read(&bytes);
     let setup = heli_sim::replay::setup::setup_of(&contents)
@@ -226,8 +259,8 @@ pub fn replay(args: &HilsimArgs, flight: &Path) -> Result<ExitCode> {
     })
     .map_err(|e| anyhow!(e))?;
     let c = &report.comparison;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+    if let Some(json) = json {
+        json.print(&report)?;
     } else {
         println!(
             "played      {} device inputs over {:.1} s",

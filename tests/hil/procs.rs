@@ -35,10 +35,12 @@ pub fn vehicle_program() -> PathBuf {
     path
 }
 
-/// A process whose standard output is collected line by line (killed when dropped).
+/// A process whose standard output and standard error are collected line by line (killed
+/// when dropped).
 pub struct Lines {
     child: Child,
     lines: Arc<Mutex<Vec<String>>>,
+    errors: Arc<Mutex<Vec<String>>>,
 }
 
 impl Lines {
@@ -51,42 +53,56 @@ impl Lines {
             .args(args)
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
+            .stderr(Stdio::piped())
             .spawn()
             .unwrap_or_else(|e| panic!("cannot run {}: {e}", program.display()));
-        let lines = Arc::new(Mutex::new(Vec::new()));
-        let out = child.stdout.take().unwrap();
-        let sink = Arc::clone(&lines);
-        std::thread::spawn(move || {
-            for line in BufReader::new(out).lines().map_while(Result::ok) {
-                sink.lock().unwrap().push(line);
-            }
-        });
-        Self { child, lines }
+        let collect = |from: Box<dyn std::io::Read + Send>, echo: bool| {
+            let lines = Arc::new(Mutex::new(Vec::new()));
+            let sink = Arc::clone(&lines);
+            std::thread::spawn(move || {
+                for line in BufReader::new(from).lines().map_while(Result::ok) {
+                    if echo {
+                        eprintln!("{line}");
+                    }
+                    sink.lock().unwrap().push(line);
+                }
+            });
+            lines
+        };
+        let lines = collect(Box::new(child.stdout.take().unwrap()), false);
+        // Standard error is shown as before, and kept to be searched.
+        let errors = collect(Box::new(child.stderr.take().unwrap()), true);
+        Self {
+            child,
+            lines,
+            errors,
+        }
     }
 
     /// The first line containing `needle`, waiting up to `timeout` for it.
     pub fn wait_for(&self, needle: &str, timeout: Duration) -> String {
         let end = Instant::now() + timeout;
         while Instant::now() < end {
-            if let Some(l) = self
-                .lines
-                .lock()
-                .unwrap()
-                .iter()
-                .find(|l| l.contains(needle))
-            {
-                return l.clone();
+            for lines in [&self.lines, &self.errors] {
+                if let Some(l) = lines.lock().unwrap().iter().find(|l| l.contains(needle)) {
+                    return l.clone();
+                }
             }
             std::thread::sleep(Duration::from_millis(10));
         }
         panic!(
             "no line with '{needle}' within {timeout:?}; got:\n{}",
-            self.lines.lock().unwrap().join("\n")
+            self.all()
         );
     }
 
     fn all(&self) -> String {
+        let mut all = self.lines.lock().unwrap().clone();
+        all.extend(self.errors.lock().unwrap().iter().cloned());
+        all.join("\n")
+    }
+
+    fn stdout(&self) -> String {
         self.lines.lock().unwrap().join("\n")
     }
 }
@@ -162,14 +178,13 @@ impl Hilsim {
             if let Some(status) = self.proc.child.try_wait().unwrap() {
                 // Give the reader a moment to take the last lines.
                 std::thread::sleep(Duration::from_millis(200));
-                let text = self.proc.all();
-                let json: String = text
-                    .lines()
-                    .skip_while(|l| !l.starts_with('{'))
-                    .collect::<Vec<_>>()
-                    .join("\n");
+                // With --json its standard output is the JSON document and nothing else.
+                let json = self.proc.stdout();
                 return serde_json::from_str(&json).unwrap_or_else(|e| {
-                    panic!("hilsim ended ({status}) without a JSON summary ({e}):\n{text}")
+                    panic!(
+                        "hilsim ended ({status}) without a JSON summary alone on its standard output ({e}):\n{json}\n{}",
+                        self.proc.all()
+                    )
                 });
             }
             assert!(
