@@ -11,12 +11,12 @@
 //! 5 a well-formed pilot packet (sticks, rpm, auto and bypass switches from the bytes).
 #![no_main]
 
-use heli_control::AugmentedMode;
 use heli_fsw::Action;
-use heli_fsw::core::{CoreConfig, FlightCore, FlightMode, FlightParams, Input};
+use heli_fsw::core::{CoreConfig, FlightCore, FlightParams, Input};
 use heli_fsw::drivers::Drivers;
 use heli_proto::imu::ImuRepr;
 use heli_proto::scb::{PilotUplink, Pulses};
+use heli_types::{AugmentedMode, FlightMode};
 use libfuzzer_sys::fuzz_target;
 
 const GRAVITY_MPS2: f64 = 9.80665;

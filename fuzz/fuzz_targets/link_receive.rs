@@ -18,7 +18,11 @@ fuzz_target!(|data: &[u8]| {
     let mut signed = VehicleLink::new(Some(Key::new([7; 32])), T0);
     let events = signed.receive(data, T0, &store);
     // Without the key no frame can be signed correctly: no command gets through.
-    assert!(!events.iter().any(|e| matches!(e, LinkEvent::Command { .. })));
+    assert!(
+        !events
+            .iter()
+            .any(|e| matches!(e, LinkEvent::Command { .. }))
+    );
     let _ = signed.tick(T0 + 1_000, Default::default(), None, &store);
     let mut open = VehicleLink::new(None, T0);
     let _ = open.receive(data, T0, &store);

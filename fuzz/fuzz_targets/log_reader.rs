@@ -3,7 +3,7 @@
 //! not reach the end, and what it read must export and select for plotting without panicking.
 #![no_main]
 
-use heli_log::plot::{self, Window};
+use heli_campaign::log_plot::{self as plot, Window};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -404,9 +404,9 @@ impl<F: LogFile> FlightLog<F> {
     /// Writes what mcap produced, then `end`, at the provisional end, in one write.
     ///
     /// A write that fails (part-way, as a full disk does) is undone: the file is cut back to
-    /// the end of its last complete record and the provisional end written there again, in
-    /// the bytes it held before (no new space is needed), so that the file stays a complete
-    /// MCAP file for every reader. The records are kept for the next try, which starts there.
+    /// the end of its last complete record and the provisional end written there again (the
+    /// 50 bytes the cut just freed), so that the file stays a complete MCAP file for every
+    /// reader. The records are kept for the next try, which starts there.
     fn write_out(&mut self, end: &[u8]) -> Result<(), LogError> {
         self.pending.append_to(&mut self.unwritten);
         let file = self.file.as_mut().ok_or(LogError::Finished)?;
@@ -423,16 +423,19 @@ impl<F: LogFile> FlightLog<F> {
             self.stats.failed_writes += 1;
             self.failing_since.get_or_insert(self.last_attempt_wall);
             // Best effort: if the file refuses even this, the next try repairs it.
+            // Everything after the last complete record goes first, so that even a repair
+            // that fails too leaves the file cut at a record's end or inside the provisional
+            // end (a cut every reader recognises), never followed by a failed write's bytes.
             // Before the first write there is nothing to keep.
             let end_of_data = self.data_end;
-            let _ = if end_of_data == 0 {
-                file.set_len(0)
-            } else {
-                file.set_len(end_of_data + PROVISIONAL_END.len() as u64)
-                    .and_then(|()| file.seek(SeekFrom::Start(end_of_data)))
+            let _ = file.set_len(end_of_data).and_then(|()| {
+                if end_of_data == 0 {
+                    return Ok(());
+                }
+                file.seek(SeekFrom::Start(end_of_data))
                     .and_then(|_| file.write_all(&PROVISIONAL_END))
                     .and_then(|()| file.flush())
-            };
+            });
             return Err(e.into());
         }
         self.failing_since = None;

@@ -68,6 +68,34 @@ pub fn realtime_thread(priority: u8) -> String {
 mod tests {
     use super::*;
 
+    /// Each stack has at least 16 times the room its thread was measured to use in a release
+    /// build (docs/BENCHMARKS.md: control 52 KiB, logger 20 KiB, the others 8-12 KiB), for
+    /// debug builds and paths a flight did not take; and none is more than half the 2 MiB
+    /// default, which locked in memory was most of the process.
+    #[test]
+    fn every_stack_has_its_measured_room_and_no_more_than_it_needs() {
+        const KIB: usize = 1024;
+        for (stack, measured) in [
+            (CONTROL_STACK_BYTES, 52 * KIB),
+            (LOGGER_STACK_BYTES, 20 * KIB),
+            (HELPER_STACK_BYTES, 12 * KIB),
+        ] {
+            assert!(stack >= 16 * measured, "{stack} for {measured}");
+            assert!(stack <= 1024 * KIB, "{stack}");
+        }
+        // And a thread is given what it asks for.
+        let used = thread("probe", HELPER_STACK_BYTES)
+            .spawn(|| {
+                let mut room = [0u8; 128 * 1024];
+                room[room.len() - 1] = 1;
+                std::hint::black_box(&room).len()
+            })
+            .unwrap()
+            .join()
+            .unwrap();
+        assert_eq!(used, 128 * 1024);
+    }
+
     /// What a refused call may say: no privilege, or not enough lockable memory; never that
     /// the request itself was malformed.
     fn refused_for_privileges(note: &str) -> bool {
