@@ -34,7 +34,7 @@ pub fn vertical_fin_force(a: &Airframe, density: f64, v_plane_mps: f64, v_vf_mps
     let q = 0.5 * density * a.vf_area_m2;
     let force = -q * (a.vf_lift_slope * v_plane_mps + v_vf_mps.abs()) * v_vf_mps;
     let stall = q * (v_plane_mps * v_plane_mps + v_vf_mps * v_vf_mps);
-    force.clamp(-stall, stall)
+    limit(force, stall)
 }
 
 /// Vertical force of the horizontal stabilizer Z_ht (N, body z) from forward airspeed and
@@ -47,7 +47,14 @@ pub fn stabilizer_force(a: &Airframe, density: f64, ua_mps: f64, w_ht_mps: f64) 
     let q = 0.5 * density * a.ht_area_m2;
     let force = -q * (a.ht_lift_slope * ua_mps.abs() * w_ht_mps + w_ht_mps.abs() * w_ht_mps);
     let stall = q * (ua_mps * ua_mps + w_ht_mps * w_ht_mps);
-    force.clamp(-stall, stall)
+    limit(force, stall)
+}
+
+/// `force` limited to ±`stall`, for any values: `f64::clamp` panics on a bound that is NaN,
+/// and a state the model was driven out of its range with must not take the simulator
+/// down (the lockstep reports the non-finite state instead).
+fn limit(force: f64, stall: f64) -> f64 {
+    force.max(-stall).min(stall)
 }
 
 #[cfg(test)]
@@ -89,3 +96,4 @@ mod tests {
         assert!((stalled - limit).abs() < 1e-9);
     }
 }
+

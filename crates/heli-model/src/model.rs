@@ -459,6 +459,19 @@ mod tests {
         h
     }
 
+    /// A state driven out of the model's range (here a velocity that is not a number) goes
+    /// through a step without a panic: the lockstep sees it non-finite and ends the flight.
+    #[test]
+    fn a_non_finite_state_never_panics_a_step() {
+        let env = still_air();
+        for bad in [f64::NAN, f64::INFINITY, 1e300] {
+            let mut h = airborne_hover();
+            h.state.vel_body_mps = Vector3::new(bad, -bad, bad);
+            h.step(0.005, &ControlInputs::default(), &env);
+            h.step(0.005, &ControlInputs::default(), &env);
+        }
+    }
+
     #[test]
     fn resting_on_the_ground_stays_put() {
         let env = still_air();

@@ -297,8 +297,49 @@ fn walk(path: &str, name: &str, v: &Value, errors: &mut Vec<String>) {
     }
 }
 
+/// Where a skid point may be (m, body axes from the centre of gravity: x forward, y right,
+/// z down): below the centre of gravity, within a helicopter's reach of it. The X-Cell 60's
+/// are 0.2-0.25 m fore and aft, 0.22 m to the sides, 0.35 m below.
+const SKID_RANGES_M: [(f64, f64); 3] = [(-1.0, 1.0), (-0.6, 0.6), (0.1, 1.0)];
+
+/// The skid points: each coordinate in its range, and a footprint the helicopter can stand
+/// on (the centre of gravity between the front and rear points and between the left and
+/// right ones).
+fn skids(points: &[[f64; 3]; 4]) -> Vec<String> {
+    let mut errors = Vec::new();
+    for (i, point) in points.iter().enumerate() {
+        for (axis, (&x, &(min, max))) in point.iter().zip(&SKID_RANGES_M).enumerate() {
+            if !(x >= min && x <= max) {
+                let path = format!("airframe.skid_points_m[{i}][{axis}]");
+                let why = match axis {
+                    2 => "below the centre of gravity (z down), at most 1 m",
+                    _ => "within reach of the centre of gravity",
+                };
+                errors.push(format!("{} ({why})", out_of_range(&path, x, min, max)));
+            }
+        }
+    }
+    if errors.is_empty() {
+        for (axis, name) in [(0, "fore and aft"), (1, "left and right")] {
+            let lo = points.iter().map(|p| p[axis]).fold(f64::INFINITY, f64::min);
+            let hi = points
+                .iter()
+                .map(|p| p[axis])
+                .fold(f64::NEG_INFINITY, f64::max);
+            if !(lo < 0.0 && hi > 0.0) {
+                errors.push(format!(
+                    "airframe.skid_points_m: the skids must reach {name} of the centre of gravity \
+                     (from {lo} to {hi} m), or the helicopter cannot stand on them"
+                ));
+            }
+        }
+    }
+    errors
+}
+
 /// Checks an airframe: every parameter finite, with the sign of the X-Cell 60's, and within
-/// a tenth to ten times its value (a parameter the X-Cell has at 0 may be up to 1 either way).
+/// a tenth to ten times its value (a parameter the X-Cell has at 0 may be up to 1 either
+/// way); the skid points within their physical ranges ([`SKID_RANGES_M`]).
 pub fn airframe(a: &Airframe) -> Result<(), Invalid> {
     let problem = |e: serde_json::Error| Invalid {
         problems: vec![e.to_string()],
@@ -308,7 +349,7 @@ pub fn airframe(a: &Airframe) -> Result<(), Invalid> {
     let (Value::Object(given), Value::Object(reference)) = (given, reference) else {
         return Ok(());
     };
-    let mut errors = Vec::new();
+    let mut errors = skids(&a.skid_points_m);
     for (key, v) in &given {
         let path = format!("airframe.{key}");
         let Some(x) = v.as_f64() else {
@@ -366,6 +407,22 @@ mod tests {
                 "atmosphere.density_kgpm3",
             ),
             ("[airframe]\nmass_kg = 0.0", "airframe.mass_kg = 0"),
+            (
+                "[airframe]\nskid_points_m = [[0.25, -0.22, 3.5], [0.25, 0.22, 0.35], [-0.2, -0.22, 0.35], [-0.2, 0.22, 0.35]]",
+                "airframe.skid_points_m[0][2] = 3.5",
+            ),
+            (
+                "[airframe]\nskid_points_m = [[1e300, -0.22, 0.35], [0.25, 0.22, 0.35], [-0.2, -0.22, 0.35], [-0.2, 0.22, 0.35]]",
+                "airframe.skid_points_m[0][0]",
+            ),
+            (
+                "[airframe]\nskid_points_m = [[0.25, -0.22, -0.35], [0.25, 0.22, -0.35], [-0.2, -0.22, -0.35], [-0.2, 0.22, -0.35]]",
+                "below the centre of gravity",
+            ),
+            (
+                "[airframe]\nskid_points_m = [[0.25, 0.1, 0.35], [0.25, 0.22, 0.35], [-0.2, 0.1, 0.35], [-0.2, 0.22, 0.35]]",
+                "left and right of the centre of gravity",
+            ),
             ("[airframe]\nmass_kg = nan", "airframe.mass_kg"),
             ("[[plan]]\nleg = \"takeoff\"\nalt_m = -3.0", "plan[0].alt_m"),
             ("[limits]\nhold_min_s = -1.0", "limits.hold_min_s"),

@@ -16,6 +16,8 @@ const KEYS: &[&str] = &[
     "atmosphere.temperature_c",
     "airframe.mass_kg",
     "airframe.mr_radius_m",
+    "airframe.skid_points_m",
+    "wind_shear_mps_per_m",
     "faults.imu_drop_rate",
     "faults.gps_outages",
     "pilot.collective",
@@ -55,6 +57,13 @@ fn file() -> impl Strategy<Value = String> {
             let value = match key {
                 "wind_ned_mps" => format!("[{}, {}, 0.0]", toml_number(a), toml_number(b)),
                 "faults.gps_outages" => format!("[[{}, {}]]", toml_number(a), toml_number(b)),
+                "wind_shear_mps_per_m" => format!("[{}, 0.0, {}]", toml_number(a), toml_number(b)),
+                // One point's fore-aft place and the depth of another, anything at all.
+                "airframe.skid_points_m" => format!(
+                    "[[{}, -0.22, 0.35], [0.25, 0.22, {}], [-0.2, -0.22, 0.35], [-0.2, 0.22, 0.35]]",
+                    toml_number(a),
+                    toml_number(b)
+                ),
                 _ => toml_number(a),
             };
             match key.split_once('.') {
@@ -113,6 +122,8 @@ fn the_edges_of_every_range_fly_without_a_panic() {
         "[faults]\nimu_drop_rate = 1.0",
         "[pilot]\ncollective = 1.0\nthrottle = 1.0",
         "duration_s = 0.001",
+        "[airframe]\nskid_points_m = [[1.0, -0.6, 1.0], [1.0, 0.6, 1.0], [-1.0, -0.6, 1.0], [-1.0, 0.6, 1.0]]",
+        "[airframe]\nskid_points_m = [[0.05, -0.05, 0.1], [0.05, 0.05, 0.1], [-0.05, -0.05, 0.1], [-0.05, 0.05, 0.1]]",
     ] {
         let s = from_toml(text).unwrap_or_else(|e| panic!("{text}: {e}"));
         let sim = Simulation::new(s).unwrap_or_else(|e| panic!("{text}: {e}"));

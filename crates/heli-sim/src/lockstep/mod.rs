@@ -594,6 +594,18 @@ impl Simulation {
         let u = control_inputs(&self.heli.airframe, &self.actuators.positions());
         self.heli.engine_power_available = self.scenario.faults.engine_power(self.t_s());
         self.heli.step(dt_s, &u, &self.env);
+        if !self.heli.state.to_array().iter().all(|x| x.is_finite()) {
+            // The model left every range it has meaning in (an airframe or a scenario value
+            // that drove it there): the flight ends here, said, rather than computing on.
+            if self.crash.is_none() {
+                self.crash = Some(format!(
+                    "t={:.2} s: the model's state is no longer finite (the airframe or the \
+                     scenario drove it out of its range)",
+                    self.now_us as f64 * 1e-6
+                ));
+            }
+            return;
+        }
         self.actuators
             .step_at_speed(dt_s, &servo, self.servo_speeds());
         self.measure_truth();

@@ -140,6 +140,13 @@ fn what_is_not_the_protocol_is_refused_with_the_reason() {
         FromFlight::parse(&long),
         Err(ProtocolError::TooLong(MAX_LINE + 1))
     );
+    // A line of exactly the most is still a line: a note that long is taken.
+    let longest = format!("note {}", "x".repeat(MAX_LINE - 5));
+    assert_eq!(longest.len(), MAX_LINE);
+    assert!(matches!(
+        FromFlight::parse(&longest),
+        Ok(FromFlight::Note(_))
+    ));
     let from_flight = [
         ("ready", "'ready': expected the protocol version"),
         ("ready one", "'ready': expected the protocol version"),
