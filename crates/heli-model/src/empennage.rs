@@ -96,4 +96,3 @@ mod tests {
         assert!((stalled - limit).abs() < 1e-9);
     }
 }
-

@@ -332,7 +332,7 @@ fn lines_out_of_turn_move_nothing() {
     // A process that says 'started' before it was asked and 'ready' again in flight.
     let dir = tempfile::tempdir().unwrap();
     let script = "echo ready 1; echo started /too/early; while read line; do \
-         case \"$line\" in start*) echo started /logs/b.mcap; echo ready ;; stop) exit 0 ;; \
+         case \"$line\" in start*) echo started /logs/b.mcap; echo ready 1 ;; stop) exit 0 ;; \
          esac; done";
     let boot = Running::start(
         dir.path(),
@@ -357,6 +357,26 @@ fn lines_out_of_turn_move_nothing() {
     });
     std::thread::sleep(Duration::from_millis(100));
     assert_eq!(status(&boot)["state"], "flying");
+}
+
+#[test]
+fn a_flight_process_of_another_protocol_version_is_refused_and_killed() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = "echo ready 99; sleep 30";
+    let boot = Running::start(
+        dir.path(),
+        vec!["sh".into(), "-c".into(), script.into()],
+        None,
+    );
+    let reply = boot.ctl("connect").unwrap_err();
+    assert!(
+        reply.contains("protocol version 99") && reply.contains("this bootstrap"),
+        "{reply}"
+    );
+    boot.wait_count("restart the bootstrap", 1, Duration::from_secs(5));
+    let s = status(&boot);
+    assert_eq!(s["state"], "idle", "{s}");
+    assert!(s["pid"].is_null(), "killed: {s}");
 }
 
 #[test]
