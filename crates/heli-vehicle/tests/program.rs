@@ -317,3 +317,32 @@ fn bad_command_lines_are_refused_with_what_is_wrong() {
         assert!(first.contains("bootstrap: listening"), "{args:?}: {first}");
     }
 }
+
+#[test]
+fn a_stand_alone_driver_reads_its_device_and_refuses_a_bad_rate() {
+    let dir = tempfile::tempdir().unwrap();
+    let adc = dir.path().join("adc");
+    std::fs::create_dir_all(&adc).unwrap();
+    heli_vehicle::adc::write_channel(&adc, 3, 3000).unwrap();
+    let out = Command::new(PROGRAM)
+        .args(["driver", "battery", "--count", "2", "--adc"])
+        .arg(&adc)
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{said}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(said.lines().count() >= 2, "{said}");
+    for rate in ["0", "11"] {
+        let out = Command::new(PROGRAM)
+            .args(["driver", "baro", "--port", "/dev/null", "--rate", rate])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2));
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(&format!("--rate {rate}")), "{stderr}");
+    }
+}
