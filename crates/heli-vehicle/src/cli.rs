@@ -428,6 +428,11 @@ mod tests {
                 a,
                 "stable"
             );
+            // FNV-1a of the path, the same on every machine and build.
+            assert_eq!(
+                args(&["--log-dir", "/nonexistent/heli-logs"]).fallback_dir(),
+                Some(PathBuf::from("/dev/shm/heli-43fe414f99b0fb82"))
+            );
         }
     }
 

@@ -350,15 +350,8 @@ fn control_loop(
                 .publish(crate::telemetry::power_row(computer.core(), t_us));
         }
         let warm = computer.core().warm_start();
-        let landed = matches!(
-            computer.core().phase(),
-            Phase::Landed
-                | Phase::Calibrating
-                | Phase::PreflightCheck { .. }
-                | Phase::TakeoffRefused
-        );
         setup.supervision.in_air.store(
-            warm.is_some_and(|w| w.airborne) && !landed,
+            may_be_in_air(warm.as_ref(), computer.core().phase()),
             Ordering::Release,
         );
         if let Some(k) = keeper.as_mut() {
@@ -468,6 +461,16 @@ fn rewrite_due(
     }
 }
 
+/// Whether the helicopter may be in the air: it has been up in this flight, and is not in
+/// a phase only a helicopter on the ground is in.
+fn may_be_in_air(warm: Option<&heli_fsw::core::WarmStart>, phase: Phase) -> bool {
+    let on_ground = matches!(
+        phase,
+        Phase::Landed | Phase::Calibrating | Phase::PreflightCheck { .. } | Phase::TakeoffRefused
+    );
+    warm.is_some_and(|w| w.airborne) && !on_ground
+}
+
 /// Keeps the warm-start file up to date from the control loop without doing file I/O in
 /// it: records go to a thread of their own, newest wins.
 struct WarmKeeper {
@@ -562,6 +565,34 @@ impl WarmKeeper {
 mod tests {
     use super::*;
     use heli_fsw::core::WarmStart;
+
+    #[test]
+    fn only_a_helicopter_that_has_been_up_and_is_not_in_a_ground_phase_may_be_in_the_air() {
+        let up = WarmStart {
+            gyro_bias_rps: [0.0; 3],
+            origin: None,
+            home_ned_m: None,
+            airborne: true,
+            trim: None,
+        };
+        let never = WarmStart {
+            airborne: false,
+            ..up
+        };
+        let hold = Phase::BlindDescent;
+        assert!(may_be_in_air(Some(&up), hold));
+        assert!(may_be_in_air(Some(&up), Phase::Manual));
+        assert!(!may_be_in_air(Some(&never), hold));
+        assert!(!may_be_in_air(None, Phase::Manual));
+        for ground in [
+            Phase::Landed,
+            Phase::Calibrating,
+            Phase::TakeoffRefused,
+            Phase::PreflightCheck { since_us: 0 },
+        ] {
+            assert!(!may_be_in_air(Some(&up), ground), "{ground:?}");
+        }
+    }
 
     #[test]
     fn the_warm_start_record_is_rewritten_when_it_says_something_new_or_is_old() {

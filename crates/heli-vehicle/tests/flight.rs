@@ -468,6 +468,20 @@ fn a_log_directory_that_refuses_the_log_sends_it_to_the_fallback_and_then_to_non
     flight.wait_for("the record", Duration::from_secs(5), |_| {
         fallback.join("warm-start").exists()
     });
+    // The log directory comes back: the record is kept there again, and that is said.
+    std::fs::create_dir(&refused).unwrap();
+    for _ in 0..200 {
+        std::io::Write::write_all(&mut imu, &imu_frame()).unwrap();
+        std::thread::sleep(Duration::from_millis(10));
+        if refused.join("warm-start").exists() {
+            break;
+        }
+    }
+    flight.wait_for("written again", Duration::from_secs(3), |r| {
+        events(r, Severity::ActivityHi)
+            .iter()
+            .any(|t| t.ends_with("warm-start: written again"))
+    });
     let warned = events(&flight.reports.lock().unwrap(), Severity::WarningHi);
     let (summary, reports) = flight.land();
     assert!(summary.stats.control_steps > 0);
@@ -502,8 +516,9 @@ fn a_log_directory_that_refuses_the_log_sends_it_to_the_fallback_and_then_to_non
 
     // Neither place takes it: the flight flies without a log, and says so.
     let flight = fly_with(devices, dir.path(), Arc::default(), |setup| {
-        setup.log_path = Some(refused.join("flight.mcap"));
-        setup.log_fallback_dir = Some(refused.join("nor-this"));
+        let gone = refused.join("gone");
+        setup.log_path = Some(gone.join("flight.mcap"));
+        setup.log_fallback_dir = Some(gone.join("nor-this"));
     });
     flight.wait_for("started", Duration::from_secs(5), |r| {
         r.iter().any(|r| matches!(r, Report::Started { .. }))
@@ -525,4 +540,58 @@ fn a_log_directory_that_refuses_the_log_sends_it_to_the_fallback_and_then_to_non
         warned.iter().any(|t| t.ends_with("FLYING WITHOUT A LOG")),
         "{warned:#?}"
     );
+}
+
+#[test]
+fn a_flight_whose_bootstrap_is_gone_on_the_ground_ends_and_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let Bench {
+        mut imu,
+        scb: _scb,
+        _gps,
+        _slaves,
+        devices,
+    } = bench(dir.path());
+    let supervision = Arc::new(heli_vehicle::flight::Supervision::default());
+    let flight = fly_with(devices, dir.path(), Arc::default(), |setup| {
+        setup.supervision = Arc::clone(&supervision);
+    });
+    flight.wait_for("started", Duration::from_secs(5), |r| {
+        r.iter().any(|r| matches!(r, Report::Started { .. }))
+    });
+    for _ in 0..20 {
+        std::io::Write::write_all(&mut imu, &imu_frame()).unwrap();
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(!flight.thread.is_finished());
+    // The bootstrap's line ends without a Stop, on the ground: the flight ends by itself.
+    supervision.line_ended.store(true, Ordering::Release);
+    let began = Instant::now();
+    while !flight.thread.is_finished() {
+        assert!(
+            began.elapsed() < Duration::from_secs(3),
+            "the flight went on"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let reports = flight.reports.lock().unwrap().clone();
+    let warned = events(&reports, Severity::WarningHi);
+    assert!(
+        warned
+            .iter()
+            .any(|t| t.contains("line ended without a Stop")
+                && t.ends_with("on the ground: ending the flight")),
+        "{warned:#?}"
+    );
+    let summary = flight.thread.join().unwrap().unwrap();
+    let log = heli_log::reader::read(&std::fs::read(dir.path().join("flight.mcap")).unwrap());
+    assert!(log.closed);
+    assert!(
+        log.messages.iter().any(|m| m.topic == "notes"
+            && m.value["text"]
+                .as_str()
+                .is_some_and(|t| t.contains("line ended"))),
+        "the reason is in the log"
+    );
+    assert!(summary.stats.imu_samples > 0);
 }

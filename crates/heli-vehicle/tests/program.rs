@@ -167,6 +167,14 @@ fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
         &devices,
         &["--compass-cal", &cal_arg, "--fallback-dir", "none"],
     );
+    // A parameter file that cannot be used stops the start, with its reason: nobody chose
+    // the values it would fly on otherwise.
+    std::fs::write(dir.path().join("params"), "this is not a parameter\n").unwrap();
+    let (ok, reply) = bootstrap.ctl(&["connect"]);
+    assert!(ok && reply.starts_with("ok connected"), "{reply}");
+    let (ok, reply) = bootstrap.ctl(&["start-logging", "refused", "manual"]);
+    assert!(!ok && reply.contains("params"), "{reply}");
+    std::fs::remove_file(dir.path().join("params")).unwrap();
     let (ok, reply) = bootstrap.ctl(&["connect"]);
     assert!(ok && reply.starts_with("ok connected"), "{reply}");
     let (ok, reply) = bootstrap.ctl(&["start-logging", "e2e", "manual"]);

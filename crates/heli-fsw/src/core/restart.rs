@@ -92,14 +92,11 @@ impl Restart {
     }
 
     /// The IMU is back after a stall long enough to declare the estimate invalid, in the
-    /// air: an alignment as after a restart, from `warm` (what the flight knew before),
-    /// keeping the trim averaged so far.
+    /// air: an alignment as after a restart, from `warm` (what the flight knew before, the
+    /// trim averaged so far included: `FlightCore::warm_start`).
     pub fn align_after_stall(&mut self, warm: WarmStart) {
         self.alignment = Some(Alignment {
-            warm: WarmStart {
-                trim: self.trim.or(warm.trim),
-                ..warm
-            },
+            warm,
             after_stall: true,
             since_us: None,
             accel_sum_mps2: Vector3::zeros(),

@@ -50,6 +50,33 @@ fn a_stall_in_autonomous_flight_is_not_handed_to_a_pilot_who_is_not_flying() {
     );
     assert!(raised(&out, CoreEvent::EstimateInvalid));
     assert_eq!(core.phase(), Phase::BlindDescent);
+    // The emergency bypass: the pilot has taken the helicopter, and flies it.
+    let (mut core, mut out, t) = holding();
+    let bypass = PilotUplink {
+        bypass: true,
+        ..uplink(true, false)
+    };
+    fly_for(&mut core, &mut out, t, 1_000_000, false, Some(bypass));
+    assert_eq!(core.phase(), Phase::Manual);
+    // A flight the pilot flies through the augmentation: the switch is on, and the pilot
+    // is flying.
+    let (mut core, mut out, mut t) = hovering(FlightMode::Augmented(AugmentedMode::Attitude), 8.0);
+    fly(&mut core, &mut out, &mut t, 1.0, uplink(true, false), 8.0);
+    assert!(
+        matches!(core.phase(), Phase::Augmented(_)),
+        "{:?}",
+        core.phase()
+    );
+    fly_for(
+        &mut core,
+        &mut out,
+        t,
+        1_000_000,
+        false,
+        Some(uplink(true, false)),
+    );
+    assert!(raised(&out, CoreEvent::EstimateInvalid));
+    assert_eq!(core.phase(), Phase::Manual);
 }
 
 #[test]
