@@ -154,7 +154,11 @@ pub fn run(args: &FlightArgs) -> Result<ExitCode> {
                 });
                 None
             }
-            Err(e) => bail!("{e}"),
+            Err(e) => {
+                // The bootstrap answers the pending Start Logging with this.
+                say(FromFlight::Refused(e.to_string()));
+                bail!("{e}");
+            }
         }
     } else {
         None

@@ -303,6 +303,41 @@ mod tests {
     }
 
     #[test]
+    fn each_item_says_its_time_where_it_has_one() {
+        assert_eq!(LogItem::Start(5).t_us(), Some(5));
+        assert_eq!(LogItem::Battery(6, 12.0).t_us(), Some(6));
+        assert_eq!(LogItem::Note(7, "x".into()).t_us(), Some(7));
+        assert_eq!(
+            LogItem::Input(8, 0, heli_fsw::RecordedInput::Tick).t_us(),
+            Some(8)
+        );
+        let event = heli_fsw::Stamped::new(9, CoreEvent::WatchdogFired);
+        assert_eq!(LogItem::Action(Action::Event(event)).t_us(), Some(9));
+        let servo = heli_fsw::Stamped::new(10, heli_proto::scb::Controls::default());
+        assert_eq!(LogItem::Action(Action::Servo(servo)).t_us(), None);
+    }
+
+    #[test]
+    fn a_log_that_cannot_be_created_names_the_real_cause() {
+        let dir = tempfile::tempdir().unwrap();
+        let note: Arc<dyn Fn(String) + Send + Sync> = Arc::new(|_| {});
+        let meta = BTreeMap::new();
+        let missing = dir.path().join("no-such-dir").join("flight.mcap");
+        let e = spawn(&missing, &meta, Arc::clone(&note))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("flight.mcap") && !e.contains("a log of that name exists"),
+            "{e}"
+        );
+        let taken = dir.path().join("taken.mcap");
+        std::fs::write(&taken, b"").unwrap();
+        let e = spawn(&taken, &meta, note).err().unwrap().to_string();
+        assert!(e.contains("a log of that name exists"), "{e}");
+    }
+
+    #[test]
     fn a_full_queue_drops_and_counts_and_never_waits() {
         let (sender, _rx) = stalled();
         assert!(sender.send(LogItem::Battery(0, 12.0)));

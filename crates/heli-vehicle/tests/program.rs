@@ -117,6 +117,19 @@ impl Drop for Bootstrap {
     }
 }
 
+/// Waits until the bootstrap's status says `state`.
+fn wait_state(bootstrap: &Bootstrap, state: &str) {
+    let end = Instant::now() + Duration::from_secs(5);
+    loop {
+        let (_, status) = bootstrap.ctl(&["status"]);
+        if status.contains(&format!("\"state\":\"{state}\"")) {
+            return;
+        }
+        assert!(Instant::now() < end, "never {state}: {status}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
 fn imu_frame() -> Vec<u8> {
     let mut buf = [0u8; heli_proto::imu::FRAME_LEN];
     let n = ImuRepr {
@@ -195,7 +208,37 @@ fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
     assert!(ok, "{status}");
     let status: serde_json::Value = serde_json::from_str(status.trim_start_matches("ok ")).unwrap();
     assert_eq!(status["state"], "flying", "{status}");
-    assert!(status["pid"].as_u64().is_some_and(|p| p > 0), "{status}");
+    let pid = status["pid"].as_u64().unwrap_or(0);
+    assert!(pid > 0, "{status}");
+    // The flight process crashes and the parameter file has meanwhile become unusable: the
+    // restart flies on, on the defaults, and says so (a start on the ground would refuse).
+    std::fs::write(dir.path().join("params"), "this is not a parameter\n").unwrap();
+    let killed = Command::new("kill")
+        .args(["-9", &pid.to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    bootstrap.wait_for("restarting the flight process", Duration::from_secs(5));
+    bootstrap.wait_for(
+        "resuming the flight on the default parameters",
+        Duration::from_secs(5),
+    );
+    wait_state(&bootstrap, "flying");
+    // It was on the ground: it calibrates again, and its estimate runs.
+    let end = Instant::now() + Duration::from_secs(5);
+    while bootstrap
+        .lines
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|l| l.contains("calibration done"))
+        .count()
+        < 2
+    {
+        assert!(Instant::now() < end, "no second calibration");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(300));
     let (ok, reply) = bootstrap.ctl(&["stop"]);
     feeding.store(false, std::sync::atomic::Ordering::Release);
     feeder.join().unwrap();
@@ -208,8 +251,11 @@ fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
     let said = bootstrap.lines.lock().unwrap().join("\n");
     assert!(!said.contains("report lines dropped"), "{said}");
     // The log: the flight's setup as the command line gave it.
+    // The killed process's log reads to its last flush; the restarted one's is closed.
+    let resumed = heli_log::read(&std::fs::read(dir.path().join("flight_e2e_r1.mcap")).unwrap());
+    assert!(resumed.closed, "{said}");
     let log = heli_log::read(&std::fs::read(dir.path().join("flight_e2e.mcap")).unwrap());
-    assert!(log.closed, "{said}");
+    assert!(log.stopped.is_none(), "{said}");
     let flight = &log
         .metadata
         .iter()
@@ -232,7 +278,10 @@ fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
         );
     }
     assert!(
-        log.messages.iter().any(|m| m.topic == "state"),
+        log.messages
+            .iter()
+            .chain(&resumed.messages)
+            .any(|m| m.topic == "state"),
         "the estimate ran"
     );
     // The flight software reads the compass through the calibration given.
@@ -249,6 +298,7 @@ fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
     let read = log
         .messages
         .iter()
+        .chain(&resumed.messages)
         .rev()
         .find(|m| m.topic == "compass")
         .map(|m| m.value["field_gauss"].clone())
