@@ -219,9 +219,9 @@ struct StorageWatch {
 }
 
 impl StorageWatch {
-    fn after(
+    fn after<F: heli_log::LogFile>(
         &mut self,
-        log: &mut FlightLog<std::fs::File>,
+        log: &mut FlightLog<F>,
         result: Result<(), heli_log::LogError>,
         report: &mut LogReport,
         note: &(dyn Fn(String) + Send + Sync),
@@ -300,6 +300,91 @@ mod tests {
             dropped: Default::default(),
         };
         (sender, rx)
+    }
+
+    /// A log file in memory whose writes fail while `full` is set.
+    #[derive(Clone, Default)]
+    struct Disk {
+        bytes: std::rc::Rc<std::cell::RefCell<std::io::Cursor<Vec<u8>>>>,
+        full: std::rc::Rc<std::cell::Cell<bool>>,
+    }
+
+    impl std::io::Write for Disk {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            if self.full.get() {
+                return Err(std::io::Error::from(std::io::ErrorKind::StorageFull));
+            }
+            self.bytes.borrow_mut().write(buf)
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    impl std::io::Seek for Disk {
+        fn seek(&mut self, pos: std::io::SeekFrom) -> std::io::Result<u64> {
+            self.bytes.borrow_mut().seek(pos)
+        }
+    }
+
+    impl heli_log::LogFile for Disk {
+        fn set_len(&mut self, len: u64) -> std::io::Result<()> {
+            self.bytes.borrow_mut().get_mut().truncate(len as usize);
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_storage_failure_is_said_once_when_it_begins_and_again_with_the_drops_when_it_ends() {
+        let disk = Disk::default();
+        let mut log = FlightLog::new(disk.clone()).unwrap();
+        let said = std::sync::Mutex::new(Vec::<String>::new());
+        let note = |text: String| said.lock().unwrap().push(text);
+        let mut report = LogReport {
+            path: PathBuf::from("/var/heli/flight_t1.mcap"),
+            ..LogReport::default()
+        };
+        let mut storage = StorageWatch {
+            t_us: 7_000_000,
+            ..StorageWatch::default()
+        };
+        // Going well: nothing said.
+        let result = log.write("imu", 0, &json!({"k": 0}));
+        storage.after(&mut log, result, &mut report, &note);
+        assert!(said.lock().unwrap().is_empty());
+        disk.full.set(true);
+        for _ in 0..3 {
+            let result = log.flush();
+            storage.after(&mut log, result, &mut report, &note);
+        }
+        {
+            let said = said.lock().unwrap();
+            assert_eq!(said.len(), 1, "{said:?}");
+            assert!(
+                said[0].starts_with("flight log /var/heli/flight_t1.mcap: ")
+                    && said[0].contains("retried every 1 s"),
+                "{said:?}"
+            );
+        }
+        assert!(report.error.is_some());
+        disk.full.set(false);
+        let result = log.flush();
+        storage.after(&mut log, result, &mut report, &note);
+        let said = said.lock().unwrap().clone();
+        assert_eq!(said.len(), 2, "{said:?}");
+        assert!(
+            said[1].contains("takes writes again; 0 messages"),
+            "{said:?}"
+        );
+        let written = log.finish().unwrap();
+        let contents = heli_log::read(written.bytes.borrow().get_ref());
+        let notes: Vec<_> = contents
+            .messages
+            .iter()
+            .filter(|m| m.topic == "notes")
+            .collect();
+        assert_eq!(notes.len(), 1);
+        assert_eq!(notes[0].t_us, 7_000_000, "at the time of the last item");
     }
 
     #[test]
