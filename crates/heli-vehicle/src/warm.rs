@@ -223,6 +223,48 @@ pub fn remove(path: &Path) -> std::io::Result<()> {
 mod tests {
     use super::*;
 
+    #[test]
+    fn a_restart_resumes_from_the_newest_record_it_can_read_and_says_what_it_could_not() {
+        let dir = tempfile::tempdir().unwrap();
+        let (disk, ram) = (dir.path().join("disk"), dir.path().join("ram"));
+        let said = std::cell::RefCell::new(Vec::<String>::new());
+        let note = |text: String| said.borrow_mut().push(text);
+        let paths = [disk.clone(), ram.clone()];
+        assert_eq!(newest(&paths, &note), None);
+        assert!(said.borrow()[0].contains("without a warm-start record"));
+        // The disk's record is old (its writes failed); the RAM's is the fresher.
+        let old = sample();
+        let mut fresh = sample();
+        fresh.warm.gyro_bias_rps = [0.5, 0.5, 0.5];
+        old.write(&disk).unwrap();
+        fresh.write(&ram).unwrap();
+        let then = std::time::SystemTime::now() - std::time::Duration::from_secs(30);
+        std::fs::File::options()
+            .write(true)
+            .open(&disk)
+            .unwrap()
+            .set_modified(then)
+            .unwrap();
+        assert_eq!(newest(&paths, &note), Some(fresh.clone()));
+        // Reversed, the disk's wins; a damaged one is said and passed over.
+        let now = std::time::SystemTime::now() + std::time::Duration::from_secs(30);
+        std::fs::File::options()
+            .write(true)
+            .open(&disk)
+            .unwrap()
+            .set_modified(now)
+            .unwrap();
+        assert_eq!(newest(&paths, &note), Some(old));
+        std::fs::write(&disk, "not a record\n").unwrap();
+        said.borrow_mut().clear();
+        assert_eq!(newest(&paths, &note), Some(fresh));
+        assert!(
+            said.borrow().iter().any(|t| t.contains("unreadable")),
+            "{:?}",
+            said.borrow()
+        );
+    }
+
     fn sample() -> WarmFile {
         WarmFile {
             start: crate::supervisor::parse_start_words("hover1 autonomous hover").unwrap(),
