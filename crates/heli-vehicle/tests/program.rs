@@ -130,6 +130,32 @@ fn wait_state(bootstrap: &Bootstrap, state: &str) {
     }
 }
 
+/// Runs a command that should stop at once; one still running after 10 s (it took what it
+/// should have refused) is killed and its exit code is `None`. Returns the code and what it
+/// said on standard error.
+fn refused_within(command: &mut Command) -> (Option<i32>, String) {
+    let mut child = command
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let end = Instant::now() + Duration::from_secs(10);
+    let code = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status.code();
+        }
+        if Instant::now() > end {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut stderr = String::new();
+    let _ = std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut stderr);
+    (code, stderr)
+}
+
 fn imu_frame() -> Vec<u8> {
     let mut buf = [0u8; heli_proto::imu::FRAME_LEN];
     let n = ImuRepr {
@@ -336,9 +362,8 @@ fn bad_command_lines_are_refused_with_what_is_wrong() {
             all.extend(["--log-dir", &dir_s]);
         }
         all.extend(args.iter().copied());
-        let out = Command::new(PROGRAM).args(&all).output().unwrap();
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        let (code, stderr) = refused_within(Command::new(PROGRAM).args(&all));
+        assert_eq!(code, Some(2), "{args:?}: {stderr}");
         assert!(stderr.contains(says), "{args:?}: {stderr}");
     }
     // The edges of each range are taken (the program then runs until told to quit).
@@ -395,12 +420,15 @@ fn a_stand_alone_driver_reads_its_device_and_refuses_a_bad_rate() {
     );
     assert!(said.lines().count() >= 2, "{said}");
     for rate in ["0", "11"] {
-        let out = Command::new(PROGRAM)
-            .args(["driver", "baro", "--port", "/dev/null", "--rate", rate])
-            .output()
-            .unwrap();
-        assert_eq!(out.status.code(), Some(2));
-        let stderr = String::from_utf8_lossy(&out.stderr);
+        let (code, stderr) = refused_within(Command::new(PROGRAM).args([
+            "driver",
+            "baro",
+            "--port",
+            "/dev/null",
+            "--rate",
+            rate,
+        ]));
+        assert_eq!(code, Some(2), "{stderr}");
         assert!(stderr.contains(&format!("--rate {rate}")), "{stderr}");
     }
 }
