@@ -52,16 +52,13 @@ fn say(message: FromFlight) {
 /// fit are counted and the count said when there is room.
 fn reporter() -> Result<impl Fn(FromFlight) + Send + Sync + Clone> {
     let (tx, rx) = std::sync::mpsc::sync_channel::<FromFlight>(4096);
-    let dropped = Arc::new(AtomicU64::new(0));
+    let dropped = Arc::new(Dropped::default());
     {
         let dropped = Arc::clone(&dropped);
         rt::thread("printer", rt::HELPER_STACK_BYTES).spawn(move || {
             for message in rx {
-                let lost = dropped.swap(0, Ordering::AcqRel);
-                if lost > 0 {
-                    say(FromFlight::Note(format!(
-                        "{lost} report lines dropped (the bootstrap was not reading)"
-                    )));
+                if let Some(note) = dropped.note() {
+                    say(note);
                 }
                 say(message);
             }
@@ -69,9 +66,30 @@ fn reporter() -> Result<impl Fn(FromFlight) + Send + Sync + Clone> {
     }
     Ok(move |message: FromFlight| {
         if tx.try_send(message).is_err() {
-            dropped.fetch_add(1, Ordering::AcqRel);
+            dropped.count();
         }
     })
+}
+
+/// Report lines that found the printer's queue full: counted, and said when there is room.
+#[derive(Debug, Default)]
+struct Dropped(AtomicU64);
+
+impl Dropped {
+    /// One more line dropped.
+    fn count(&self) {
+        self.0.fetch_add(1, Ordering::AcqRel);
+    }
+
+    /// The note saying how many were dropped since the last one, if any were.
+    fn note(&self) -> Option<FromFlight> {
+        let lost = self.0.swap(0, Ordering::AcqRel);
+        (lost > 0).then(|| {
+            FromFlight::Note(format!(
+                "{lost} report lines dropped (the bootstrap was not reading)"
+            ))
+        })
+    }
 }
 
 /// The flight process: ready, the start, the flight, stopped.
@@ -304,6 +322,17 @@ fn next_free_log(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn dropped_report_lines_are_counted_and_said_once_with_their_number() {
+        let dropped = Dropped::default();
+        assert!(dropped.note().is_none(), "nothing dropped, nothing said");
+        dropped.count();
+        dropped.count();
+        let note = dropped.note().map(|n| n.to_string()).unwrap_or_default();
+        assert!(note.contains("2 report lines dropped"), "{note}");
+        assert!(dropped.note().is_none(), "said once");
+    }
 
     #[test]
     fn a_restarted_process_logs_beside_its_predecessors_never_over_them() {
