@@ -309,17 +309,18 @@ impl<F: LogFile> FlightLog<F> {
         value: &Value,
     ) -> Result<(), LogError> {
         if self.unwritten.len() >= MAX_BACKLOG_BYTES {
-            // The file has refused writes for a while: keep what is kept, drop this one.
-            self.stats.dropped += 1;
+            // The file has refused writes for a while: try it again when that is due (its
+            // failure was said when it began), and while the backlog stays full keep what
+            // is kept and drop this one.
             if self.flush_due() {
-                self.flush()?;
+                let _ = self.flush();
             }
             if self.unwritten.len() >= MAX_BACKLOG_BYTES {
+                self.stats.dropped += 1;
                 return Err(LogError::Dropped {
                     backlog_bytes: self.unwritten.len(),
                 });
             }
-            self.stats.dropped -= 1;
         }
         let data = serde_json::to_vec(value).map_err(LogError::Encode)?;
         let channel = self.channel(topic)?;
