@@ -69,7 +69,7 @@ enum Command {
     },
     /// The flight process the bootstrap starts (speaks a line protocol on stdin/stdout).
     #[command(hide = true)]
-    Flight(heli_vehicle::cli::FlightArgs),
+    Flight(heli_vehicle::cli::FlightProcessArgs),
     /// One device's stand-alone driver: readable lines per packet, logging with --log.
     Driver(heli_vehicle::cli::DriverArgs),
     /// Monte Carlo campaigns: many flights of a scenario with values drawn or stepped, in

@@ -188,10 +188,10 @@ fn a_flight_process_that_crashes_in_the_air_is_restarted_and_holds_the_hover() {
 }
 
 #[test]
-fn a_bootstrap_killed_in_the_air_leaves_the_flight_flying() {
+fn a_bootstrap_killed_in_the_air_leaves_the_flight_flying_and_a_new_one_takes_it_back() {
     let _one = exclusive();
     let dir = tempfile::tempdir().unwrap();
-    let hil = Hilsim::start(dir.path(), "hover", 1.0, 34.0);
+    let hil = Hilsim::start(dir.path(), "hover", 1.0, 40.0);
     let vehicle = Vehicle::start(dir.path(), &hil.dev);
     assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
     let reply = vehicle.ctl(&["start-logging", "orphan", "autonomous", "hover"]);
@@ -200,22 +200,34 @@ fn a_bootstrap_killed_in_the_air_leaves_the_flight_flying() {
     let flight = vehicle.child_pid();
     // The supervisor dies: its line to the flight process ends.
     procs::kill9(vehicle.pid());
-    // The HILSim's truth: the hover held to the end of the run, without the bootstrap.
-    let summary = hil.wait_json(Duration::from_secs(40));
+    std::thread::sleep(Duration::from_secs(3));
     let alive = std::path::Path::new(&format!("/proc/{flight}")).exists();
     assert!(
         alive,
         "the flight process ended with its bootstrap; it said:\n{}",
         vehicle.output()
     );
-    procs::kill9(flight);
-    assert_eq!(
-        summary["outcome"],
-        "pass",
-        "{summary:#}\nthe vehicle said:\n{}",
-        vehicle.output()
+    // The init system starts the bootstrap again: it takes the flight back, unbroken.
+    let again = Vehicle::start(dir.path(), &hil.dev);
+    let took = again.wait_for_line("took back the flight process", Duration::from_secs(5));
+    assert!(
+        took.contains(&format!("(pid {flight}) flying orphan autonomous hover")),
+        "{took}"
     );
-    // Why its input ended is in its log; the record to resume from is kept.
+    assert_eq!(again.child_pid(), flight);
+    again.wait_for_line("a bootstrap took the flight back", Duration::from_secs(5));
+    // The HILSim's truth: the hover held to the end of the run, through both.
+    let summary = hil.wait_json(Duration::from_secs(40));
+    let reply = again.ctl(&["stop"]);
+    assert!(
+        reply.starts_with("ok stopped (ended after saying stopped"),
+        "{reply}"
+    );
+    let said = format!("{}\n{}", vehicle.output(), again.output());
+    again.quit();
+    assert_eq!(summary["outcome"], "pass", "{summary:#}\nthe vehicle said:\n{said}");
+    // Why its input ended, and that it was taken back, are in its log; a clean stop leaves
+    // no record to resume.
     let log = dir.path().join("flight_orphan.mcap");
     let notes = heli_log::reader::read(&std::fs::read(&log).unwrap())
         .messages
@@ -229,7 +241,11 @@ fn a_bootstrap_killed_in_the_air_leaves_the_flight_flying() {
             .any(|t| t.starts_with("the bootstrap's line ended") && t.contains("flying on")),
         "{notes:#?}"
     );
-    assert!(dir.path().join("warm-start").exists());
+    assert!(
+        notes.iter().any(|t| t.contains("a bootstrap took the flight back")),
+        "{notes:#?}"
+    );
+    assert!(!dir.path().join("warm-start").exists());
 }
 
 #[test]

@@ -9,6 +9,9 @@
 //!   child that does not exit within [`STOP_TIMEOUT`] is killed.
 //! - A child that exits on its own (a crash, `kill -9`) is reported at once with its exit
 //!   status; a later Connect starts a fresh one.
+//! - At start, a flight process that flies on since the last bootstrap died is taken back
+//!   without interrupting it (`crate::adopt`); otherwise a fresh warm-start record of a flight
+//!   in the air (a brown-out of the whole computer) starts one to resume it.
 //!
 //! The flight process speaks [`crate::supervisor`]'s messages, one a line on its standard
 //! input and output; requests get typed [`Reply`]s; what the bootstrap reports is [`Said`]:
@@ -19,7 +22,7 @@ use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
 use std::os::unix::process::{CommandExt, ExitStatusExt};
 use std::path::PathBuf;
-use std::process::{ChildStdin, Command, ExitStatus, Stdio};
+use std::process::{Command, ExitStatus, Stdio};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
 use std::time::{Duration, Instant};
 
@@ -54,9 +57,13 @@ pub struct BootstrapConfig {
     pub socket: PathBuf,
     /// The flight process's program and arguments.
     pub child: Vec<OsString>,
-    /// The flight processes' warm-start file (`crate::warm`): a fresh one that says the
-    /// helicopter was airborne makes the bootstrap resume the flight at power-on.
-    pub warm_file: Option<PathBuf>,
+    /// The flight processes' warm-start files (`crate::warm`; the log directory's and the
+    /// fallback directory's): the freshest readable one, if fresh and airborne, makes the
+    /// bootstrap resume the flight at power-on.
+    pub warm_files: Vec<PathBuf>,
+    /// The flight processes' adoption socket (`crate::adopt`): at start the bootstrap takes
+    /// back a flight process that flies on there since its last bootstrap died.
+    pub adopt_socket: Option<PathBuf>,
 }
 
 /// Where the bootstrap is.
@@ -175,13 +182,46 @@ pub fn describe_exit(status: ExitStatus) -> String {
 enum Msg {
     Request(Request, Sender<Reply>),
     FromChild(u32, Said),
-    ChildExited(u32, ExitStatus),
+    ChildExited(u32, Exit),
+}
+
+/// How a flight process ended.
+#[derive(Clone, Copy, Debug)]
+enum Exit {
+    /// Its exit status: a process this bootstrap started.
+    Status(ExitStatus),
+    /// A process taken back from an earlier bootstrap: its exit status went to the init
+    /// system; whether it said `stopped` before it ended.
+    Adopted { said_stopped: bool },
+}
+
+impl Exit {
+    fn success(self) -> bool {
+        match self {
+            Exit::Status(status) => status.success(),
+            Exit::Adopted { said_stopped } => said_stopped,
+        }
+    }
+
+    fn describe(self) -> String {
+        match self {
+            Exit::Status(status) => describe_exit(status),
+            Exit::Adopted { said_stopped: true } => {
+                "ended after saying stopped; taken back, its exit status went to the init system"
+                    .into()
+            }
+            Exit::Adopted {
+                said_stopped: false,
+            } => "ended without saying stopped; taken back, its exit status is unknown".into(),
+        }
+    }
 }
 
 struct Child {
     generation: u32,
     pid: u32,
-    stdin: Option<ChildStdin>,
+    /// The line to it: its standard input, or the adoption socket.
+    stdin: Option<Box<dyn Write + Send>>,
 }
 
 struct Pending {
@@ -301,7 +341,7 @@ impl Bootstrap {
             Severity::ActivityHi,
             &format!("listening on {}", self.config.socket.display()),
         );
-        self.resume_after_power_on();
+        self.take_back_or_resume();
         let result = self.main_loop();
         let _ = std::fs::remove_file(&self.config.socket);
         result

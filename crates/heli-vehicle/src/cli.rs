@@ -164,6 +164,18 @@ impl FlightArgs {
     }
 }
 
+/// The flight process's own command line: the bootstrap's flight settings and where a
+/// bootstrap started again finds it (`crate::adopt`).
+#[derive(clap::Args, Clone, Debug)]
+pub struct FlightProcessArgs {
+    #[command(flatten)]
+    #[allow(missing_docs)]
+    pub flight: FlightArgs,
+    /// The adoption socket to listen on (the bootstrap gives `<control socket>.flight`).
+    #[arg(long)]
+    pub adopt_socket: Option<PathBuf>,
+}
+
 /// The bootstrap's settings: the flight process's, its control socket and its link.
 #[derive(clap::Args, Clone, Debug)]
 pub struct BootstrapArgs {
@@ -224,12 +236,20 @@ pub fn bootstrap(args: &BootstrapArgs) -> Result<ExitCode> {
     let key = heli_link::setup::load_key(args.key.as_deref())?;
     let exe =
         std::env::current_exe().context("finding this program, to start the flight process")?;
+    let adopt_socket = crate::adopt::socket_for(&args.socket);
     let mut child = vec![exe.into_os_string(), "flight".into()];
     child.extend(flight.to_args());
+    child.extend([
+        "--adopt-socket".into(),
+        adopt_socket.clone().into_os_string(),
+    ]);
     let config = BootstrapConfig {
         socket: args.socket.clone(),
         child,
-        warm_file: Some(crate::warm::path_in(&flight.log_dir)),
+        warm_files: std::iter::once(crate::warm::path_in(&flight.log_dir))
+            .chain(flight.fallback_dir().as_deref().map(crate::warm::path_in))
+            .collect(),
+        adopt_socket: Some(adopt_socket),
     };
     let shared = Arc::new(crate::link::LinkShared::default());
     let to_link = Arc::clone(&shared);
@@ -467,5 +487,47 @@ mod tests {
         assert_eq!(format!("{back:?}"), format!("{given:?}"));
         let hil = args(&["--hilsim", "/tmp/dev"]);
         assert!(hil.to_args().contains(&OsString::from("--hilsim")));
+    }
+
+    /// The systemd unit shipped for the flight computer (`deploy/heli-vehicle.service`).
+    const UNIT: &str = include_str!("../../../deploy/heli-vehicle.service");
+
+    fn unit_value<'a>(key: &str) -> Vec<&'a str> {
+        UNIT.lines()
+            .filter_map(|l| l.trim().strip_prefix(key)?.strip_prefix('='))
+            .collect()
+    }
+
+    #[test]
+    fn the_systemd_unit_keeps_the_flight_process_through_a_bootstrap_restart() {
+        // Only the bootstrap is killed on a restart; it is always restarted, without limit.
+        assert_eq!(unit_value("KillMode"), ["process"]);
+        assert_eq!(unit_value("Restart"), ["always"]);
+        assert_eq!(unit_value("StartLimitIntervalSec"), ["0"]);
+        // The sockets' directory outlives a restart.
+        assert_eq!(unit_value("RuntimeDirectory"), ["heli"]);
+        assert_eq!(unit_value("RuntimeDirectoryPreserve"), ["restart"]);
+        // Its command line is one the bootstrap takes, with its socket in that directory.
+        let exec = UNIT
+            .split("ExecStart=")
+            .nth(1)
+            .and_then(|rest| rest.split("\n\n").next())
+            .unwrap_or_default()
+            .replace("\\\n", " ");
+        let words: Vec<&str> = exec.split_whitespace().collect();
+        assert_eq!(words.first(), Some(&"/usr/local/bin/heli-vehicle"));
+        #[derive(Parser)]
+        struct Boot {
+            #[command(flatten)]
+            boot: BootstrapArgs,
+        }
+        let parsed = Boot::try_parse_from(words.iter().take_while(|w| !w.contains('=')))
+            .unwrap_or_else(|e| panic!("{exec}: {e}"));
+        assert_eq!(parsed.boot.socket, PathBuf::from("/run/heli/vehicle.sock"));
+        assert!(parsed.boot.flight.devices.is_some() && parsed.boot.link.is_some());
+        assert_eq!(
+            crate::adopt::socket_for(&parsed.boot.socket),
+            PathBuf::from("/run/heli/vehicle.sock.flight")
+        );
     }
 }

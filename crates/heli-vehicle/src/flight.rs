@@ -63,20 +63,7 @@ pub struct FlightSetup {
     pub ground_link: Arc<std::sync::atomic::AtomicU8>,
 }
 
-/// What a flight and its supervisor (the bootstrap) know of each other.
-///
-/// Only an explicit Stop, or being on the ground, ends a flight: when the bootstrap's line
-/// ends without a Stop (the bootstrap was killed or crashed), a helicopter in the air flies
-/// on — the init system restarts the bootstrap — and the flight ends when it has landed.
-/// The control loop raises the event and writes it into the log.
-#[derive(Debug, Default)]
-pub struct Supervision {
-    /// Set by the control loop while the helicopter may be in the air (it has taken off and
-    /// not landed).
-    pub in_air: AtomicBool,
-    /// Set when the bootstrap's line ended without a Stop.
-    pub line_ended: AtomicBool,
-}
+pub use crate::supervision::Supervision;
 
 /// What the flight process reports while it runs.
 #[derive(Clone, Debug)]
@@ -398,36 +385,20 @@ fn control_loop(
             last_t_us = last_t_us.max(now);
             feed(&mut computer, last_t_us, RecordedInput::Tick);
         }
-        if setup.supervision.line_ended.load(Ordering::Acquire) {
-            let in_air = setup.supervision.in_air.load(Ordering::Acquire);
-            let text = match (orphaned, in_air) {
-                (false, true) => {
-                    "the bootstrap's line ended without a Stop (the bootstrap is \
-                                  gone) in the air: flying on; the flight ends when it has \
-                                  landed"
-                }
-                (false, false) => {
-                    "the bootstrap's line ended without a Stop (the bootstrap \
-                                   is gone) on the ground: ending the flight"
-                }
-                (true, false) => "landed without a bootstrap: ending the flight",
-                (true, true) => "",
-            };
-            orphaned = true;
-            if !text.is_empty() {
-                let t_us = clock.now_us();
-                if let Some(log) = log {
-                    log.send(LogItem::Note(t_us, text.to_string()));
-                }
-                report(Report::Event {
-                    t_us,
-                    severity: Severity::WarningHi,
-                    text: text.to_string(),
-                });
+        let verdict = setup.supervision.check(&mut orphaned);
+        if let Some(text) = verdict.event {
+            let t_us = clock.now_us();
+            if let Some(log) = log {
+                log.send(LogItem::Note(t_us, text.to_string()));
             }
-            if !in_air {
-                break;
-            }
+            report(Report::Event {
+                t_us,
+                severity: verdict.severity,
+                text: text.to_string(),
+            });
+        }
+        if verdict.end {
+            break;
         }
     }
     if let Some(k) = keeper.take() {

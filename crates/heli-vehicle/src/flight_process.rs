@@ -4,29 +4,30 @@
 //! records the flight's setup in the log's metadata, flies until `stop` (or the end of its
 //! input) and says `stopped` with its counts.
 
-use std::io::Write;
-use std::process::ExitCode;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};
-
 use std::io::BufRead;
+use std::os::unix::net::UnixListener;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 
 use anyhow::{Result, bail};
 use heli_fsw::core::{CoreConfig, FlightParams};
+use heli_link::StartParameters;
 
-use crate::cli::FlightArgs;
+use crate::adopt::Outbox;
+use crate::cli::FlightProcessArgs;
 use crate::flight::{self, FlightSetup, Report};
 use crate::rt;
 use crate::supervisor::{FromFlight, ToFlight, VERSION};
 
-/// The bootstrap's next message on standard input (the stdin buffer is shared, so threads may
-/// take turns); `None` at its end. A line that is not a message is answered, and skipped.
-fn next_message(say: &dyn Fn(FromFlight)) -> Option<ToFlight> {
-    let stdin = std::io::stdin();
+/// The bootstrap's next message on `input` (standard input, or the adoption socket of a
+/// bootstrap that took the flight back); `None` at its end. A line that is not a message is
+/// answered, and skipped.
+fn next_message(input: &mut dyn BufRead, say: &dyn Fn(FromFlight)) -> Option<ToFlight> {
     loop {
         let mut line = String::new();
         // A line longer than the protocol's is read whole and refused by the parser.
-        match stdin.lock().read_line(&mut line) {
+        match input.read_line(&mut line) {
             Ok(0) | Err(_) => return None,
             Ok(_) => {}
         }
@@ -40,17 +41,10 @@ fn next_message(say: &dyn Fn(FromFlight)) -> Option<ToFlight> {
     }
 }
 
-/// Writes one message to the bootstrap at once.
-fn say(message: FromFlight) {
-    let mut out = std::io::stdout().lock();
-    let _ = writeln!(out, "{message}");
-    let _ = out.flush();
-}
-
 /// Where the flight process's lines go: a printer thread, so that no flight thread (the
 /// control loop least of all) ever waits on the pipe to the bootstrap. Lines that do not
 /// fit are counted and the count said when there is room.
-fn reporter() -> Result<impl Fn(FromFlight) + Send + Sync + Clone> {
+fn reporter(outbox: Arc<Outbox>) -> Result<impl Fn(FromFlight) + Send + Sync + Clone> {
     let (tx, rx) = std::sync::mpsc::sync_channel::<FromFlight>(4096);
     let dropped = Arc::new(Dropped::default());
     {
@@ -58,9 +52,9 @@ fn reporter() -> Result<impl Fn(FromFlight) + Send + Sync + Clone> {
         rt::thread("printer", rt::HELPER_STACK_BYTES).spawn(move || {
             for message in rx {
                 if let Some(note) = dropped.note() {
-                    say(note);
+                    outbox.say(&note);
                 }
-                say(message);
+                outbox.say(&message);
             }
         })?;
     }
@@ -93,17 +87,42 @@ impl Dropped {
 }
 
 /// The flight process: ready, the start, the flight, stopped.
-pub fn run(args: &FlightArgs) -> Result<ExitCode> {
+pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
+    let args = &process.flight;
     args.validate()?;
     let devices = args.devices()?;
     let compass = args.compass()?;
+    let outbox = Arc::new(Outbox::stdout());
+    let say = {
+        let outbox = Arc::clone(&outbox);
+        move |message: FromFlight| {
+            outbox.say(&message);
+        }
+    };
+    // The adoption socket (`crate::adopt`): bound now, so that it says a flight process
+    // lives for as long as this one does. Another process's that answers stops this one
+    // before it touches a device; one that cannot be bound costs only the adoption.
+    let listener = match process.adopt_socket.as_deref().map(crate::adopt::listen) {
+        None => None,
+        Some(Ok(listener)) => Some(listener),
+        Some(Err(e @ crate::error::VehicleError::Invalid { .. })) => {
+            say(FromFlight::Refused(e.to_string()));
+            bail!("{e}");
+        }
+        Some(Err(e)) => {
+            say(FromFlight::Note(format!(
+                "{e}: a bootstrap started again cannot take this flight back"
+            )));
+            None
+        }
+    };
+    let _remove_socket = process.adopt_socket.clone().map(RemoveOnDrop);
     say(FromFlight::Ready { version: VERSION });
     // What the bootstrap says of its link: 0 nothing (no link), 1 a ground heard, 2 none.
     let ground_link = Arc::new(AtomicU8::new(0));
     let supervision = Arc::new(flight::Supervision::default());
-    let link_state = |fresh: bool| if fresh { 1 } else { 2 };
     let (restart, start) = loop {
-        match next_message(&say) {
+        match next_message(&mut std::io::stdin().lock(), &say) {
             Some(ToFlight::Start(p)) => break (false, p),
             Some(ToFlight::Restart(p)) => break (true, p),
             Some(ToFlight::Link { fresh }) => {
@@ -227,45 +246,32 @@ pub fn run(args: &FlightArgs) -> Result<ExitCode> {
         metadata,
         clock_speed: args.clock_speed,
         restart_from: restart_from.map(|w| w.warm),
-        warm_file: Some((warm_paths, start)),
+        warm_file: Some((warm_paths, start.clone())),
         ground_link: Arc::clone(&ground_link),
         supervision: Arc::clone(&supervision),
     };
     let stop = Arc::new(AtomicBool::new(false));
+    let log_name = Arc::new(Mutex::new(None::<String>));
     {
-        let stop = Arc::clone(&stop);
-        let ground_link = Arc::clone(&ground_link);
-        let supervision = Arc::clone(&supervision);
-        rt::thread("bootstrap-lines", rt::HELPER_STACK_BYTES).spawn(move || {
-            let mut stopped = false;
-            while let Some(message) = next_message(&say) {
-                match message {
-                    ToFlight::Stop => {
-                        stopped = true;
-                        break;
-                    }
-                    ToFlight::Link { fresh } => {
-                        ground_link.store(link_state(fresh), Ordering::Release);
-                    }
-                    ToFlight::Start(_) | ToFlight::Restart(_) => say(FromFlight::Refused(
-                        "already started: stop this flight first".into(),
-                    )),
-                }
-            }
-            if stopped {
-                stop.store(true, Ordering::Release);
-            } else {
-                // The bootstrap is gone: the control loop decides (`flight::Supervision`).
-                supervision.line_ended.store(true, Ordering::Release);
-            }
-        })?;
+        let lines = BootstrapLines {
+            stop: Arc::clone(&stop),
+            ground_link: Arc::clone(&ground_link),
+            supervision: Arc::clone(&supervision),
+            outbox: Arc::clone(&outbox),
+            listener,
+            start: start.clone(),
+            log_name: Arc::clone(&log_name),
+        };
+        rt::thread("bootstrap-lines", rt::HELPER_STACK_BYTES).spawn(move || lines.serve())?;
     }
-    let line = reporter()?;
+    let line = reporter(Arc::clone(&outbox))?;
     let report = Arc::new(move |r: Report| {
         line(match r {
-            Report::Started { log } => FromFlight::Started {
-                log: log.map(|p| p.display().to_string()),
-            },
+            Report::Started { log } => {
+                let log = log.map(|p| p.display().to_string());
+                *log_name.lock().unwrap_or_else(|e| e.into_inner()) = log.clone();
+                FromFlight::Started { log }
+            }
             Report::Note(text) => FromFlight::Note(text),
             Report::Event { severity, text, .. } => FromFlight::Event { severity, text },
             Report::Telemetry(v) => FromFlight::Telemetry(v),
@@ -295,6 +301,100 @@ pub fn run(args: &FlightArgs) -> Result<ExitCode> {
     });
     say(FromFlight::Stopped(json));
     Ok(ExitCode::SUCCESS)
+}
+
+/// What the bootstrap says of its link, as the flight loop keeps it: 1 a ground is heard,
+/// 2 none (0, set before any word, is a vehicle without a link).
+fn link_state(fresh: bool) -> u8 {
+    if fresh { 1 } else { 2 }
+}
+
+/// Removes the adoption socket when the process ends cleanly (a killed process leaves it
+/// stale; the next one replaces it).
+struct RemoveOnDrop(std::path::PathBuf);
+
+impl Drop for RemoveOnDrop {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+/// The flight process's side of its supervision while it flies: the bootstrap's lines (Stop,
+/// the link's state) and, when they end without a Stop, a new bootstrap taking the flight
+/// back on the adoption socket.
+struct BootstrapLines {
+    stop: Arc<AtomicBool>,
+    ground_link: Arc<AtomicU8>,
+    supervision: Arc<flight::Supervision>,
+    outbox: Arc<Outbox>,
+    listener: Option<UnixListener>,
+    start: StartParameters,
+    log_name: Arc<Mutex<Option<String>>>,
+}
+
+impl BootstrapLines {
+    fn say(&self, message: FromFlight) {
+        self.outbox.say(&message);
+    }
+
+    /// Serves standard input, then each bootstrap that takes the flight back, until a Stop.
+    fn serve(self) {
+        let mut input: Box<dyn BufRead> = Box::new(std::io::stdin().lock());
+        loop {
+            if self.read_until_stop(&mut *input) {
+                self.stop.store(true, Ordering::Release);
+                return;
+            }
+            // The bootstrap is gone: the control loop decides (`flight::Supervision`).
+            self.supervision.line_ended.store(true, Ordering::Release);
+            match self.wait_for_a_bootstrap() {
+                Some(stream) => input = Box::new(std::io::BufReader::new(stream)),
+                None => return,
+            }
+        }
+    }
+
+    /// Whether the lines ended in a Stop (not in the end of the input).
+    fn read_until_stop(&self, input: &mut dyn BufRead) -> bool {
+        let say = |m: FromFlight| self.say(m);
+        while let Some(message) = next_message(input, &say) {
+            match message {
+                ToFlight::Stop => return true,
+                ToFlight::Link { fresh } => {
+                    self.ground_link.store(link_state(fresh), Ordering::Release);
+                }
+                ToFlight::Start(_) | ToFlight::Restart(_) => self.say(FromFlight::Refused(
+                    "already started: stop this flight first".into(),
+                )),
+            }
+        }
+        false
+    }
+
+    /// The next bootstrap that connects to the adoption socket and hears this process's
+    /// introduction; from then on the lines go to it. `None` without a socket.
+    fn wait_for_a_bootstrap(&self) -> Option<std::os::unix::net::UnixStream> {
+        let listener = self.listener.as_ref()?;
+        loop {
+            let Ok((mut stream, _)) = listener.accept() else {
+                continue;
+            };
+            let log = self
+                .log_name
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .clone();
+            if !crate::adopt::introduce(&mut stream, &self.start, log) {
+                continue;
+            }
+            let Ok(writer) = stream.try_clone() else {
+                continue;
+            };
+            self.outbox.replace(Box::new(writer));
+            self.supervision.line_ended.store(false, Ordering::Release);
+            return Some(stream);
+        }
+    }
 }
 
 /// The flight log's path: `flight_<suffix>.mcap`, or for a process started again after a

@@ -42,6 +42,7 @@
 )]
 
 pub mod adc;
+pub mod adopt;
 pub mod bootstrap;
 pub mod cli;
 pub mod compass_file;
@@ -59,6 +60,7 @@ pub mod port;
 pub mod rt;
 pub mod standalone;
 pub mod streams;
+pub mod supervision;
 pub mod supervisor;
 pub mod telemetry;
 pub mod threads;

@@ -7,7 +7,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use heli_vehicle::cli::{self, BootstrapArgs, BootstrapCommand, DriverArgs, FlightArgs};
+use heli_vehicle::cli::{self, BootstrapArgs, BootstrapCommand, DriverArgs, FlightProcessArgs};
 
 /// The onboard program of the heli avionics: without a subcommand, the bootstrap that starts
 /// and stops the flight process on Connect / Stop from its control socket and its link.
@@ -26,7 +26,7 @@ enum Command {
     Bootstrap(BootstrapCommand),
     /// The flight process the bootstrap starts (speaks a line protocol on stdin/stdout).
     #[command(hide = true)]
-    Flight(FlightArgs),
+    Flight(FlightProcessArgs),
     /// One device's stand-alone driver: readable lines per packet, logging with --log.
     Driver(DriverArgs),
 }

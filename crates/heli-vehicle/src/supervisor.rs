@@ -18,6 +18,11 @@
 //! | | `telemetry JSON` | [`FromFlight::Telemetry`] |
 //! | | `plan JSON` | [`FromFlight::Plan`]: the plan's legs, for the link's mission protocol |
 //! | | `stopped JSON` | [`FromFlight::Stopped`]: the flight's counts |
+//! | | `adopted PID SUFFIX MODE [PLAN]` | [`FromFlight::Adopted`]: a flight under way, taken back by a new bootstrap |
+//!
+//! **Adoption.** A flight process whose bootstrap is gone while it flies listens on its
+//! adoption socket (`crate::adopt`); a bootstrap started again (by the init system) connects,
+//! hears `ready V` and `adopted …`, and speaks the same protocol over that socket.
 //!
 //! **Versions.** The flight process says its protocol [`VERSION`] in `ready`; a bootstrap
 //! refuses a flight process that speaks another (an always-on bootstrap of the old software
@@ -34,7 +39,7 @@ use heli_types::Leg;
 use serde_json::Value;
 
 /// The protocol's version.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 
 /// The longest line either side sends or takes (a telemetry snapshot is about 2 kB).
 pub const MAX_LINE: usize = 64 * 1024;
@@ -86,6 +91,14 @@ pub enum FromFlight {
     Plan(Vec<Leg>),
     /// The flight is over: its counts (a JSON object).
     Stopped(Value),
+    /// Said to a bootstrap that connected to the adoption socket: this process (`pid`) is
+    /// flying `start` and now answers to it.
+    Adopted {
+        /// The flight process's id.
+        pid: u32,
+        /// The start it is flying.
+        start: StartParameters,
+    },
 }
 
 /// A line that is not a message of the protocol.
@@ -254,6 +267,16 @@ impl FromFlight {
                 .map(FromFlight::Plan)
                 .map_err(|e| malformed("plan", e.to_string())),
             "stopped" => Ok(FromFlight::Stopped(json("stopped", rest)?)),
+            "adopted" => {
+                let (pid, start) = rest.split_once(' ').unwrap_or((rest, ""));
+                let pid = pid
+                    .parse::<u32>()
+                    .map_err(|_| malformed("adopted", "expected PID SUFFIX MODE [PLAN]"))?;
+                Ok(FromFlight::Adopted {
+                    pid,
+                    start: start_parameters("adopted", start)?,
+                })
+            }
             other => Err(ProtocolError::Unknown(other.to_string())),
         }
     }
@@ -276,6 +299,7 @@ impl FromFlight {
                 serde_json::to_string(legs).unwrap_or_else(|_| "[]".into())
             ),
             FromFlight::Stopped(v) => format!("stopped {v}"),
+            FromFlight::Adopted { pid, start } => format!("adopted {pid} {}", start_words(start)),
         }
     }
 }

@@ -13,98 +13,14 @@
     clippy::indexing_slicing
 )]
 
+mod common;
+
 use std::path::Path;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use heli_vehicle::bootstrap::{Bootstrap, BootstrapConfig, MAX_RESTARTS, Said};
-use heli_vehicle::ctl::{Request, send};
-
-/// A flight process that says ready, answers start/restart with started, records what it
-/// was told in `told`, and crashes (exit 3) a moment later.
-fn crashing_child(told: &Path) -> Vec<std::ffi::OsString> {
-    let script = format!(
-        "echo ready 1; read line; echo \"$line\" >> {}; echo started /dev/null; sleep 0.3; exit 3",
-        told.display()
-    );
-    vec!["sh".into(), "-c".into(), script.into()]
-}
-
-struct Running {
-    socket: std::path::PathBuf,
-    lines: Arc<Mutex<Vec<String>>>,
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl Running {
-    fn start(dir: &Path, child: Vec<std::ffi::OsString>, warm_file: Option<&Path>) -> Self {
-        Self::start_with(dir, child, warm_file, |b| b)
-    }
-
-    /// Starts a bootstrap made by `build` from the plain one (timeouts, a link).
-    fn start_with(
-        dir: &Path,
-        child: Vec<std::ffi::OsString>,
-        warm_file: Option<&Path>,
-        build: impl FnOnce(Bootstrap) -> Bootstrap + Send + 'static,
-    ) -> Self {
-        let socket = dir.join("ctl.sock");
-        let lines = Arc::new(Mutex::new(Vec::new()));
-        let config = BootstrapConfig {
-            socket: socket.clone(),
-            child,
-            warm_file: warm_file.map(Path::to_path_buf),
-        };
-        let sink = Arc::clone(&lines);
-        let report = Box::new(move |l: &Said| sink.lock().unwrap().push(l.to_string()));
-        let thread =
-            std::thread::spawn(move || build(Bootstrap::new(config, report)).run().unwrap());
-        let started = Instant::now();
-        while !socket.exists() && started.elapsed() < Duration::from_secs(5) {
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        Self {
-            socket,
-            lines,
-            thread: Some(thread),
-        }
-    }
-
-    fn ctl(&self, line: &str) -> Result<String, String> {
-        let request = Request::parse(line).map_err(|e| e.to_string())?;
-        send(&self.socket, &request).map_err(|e| e.to_string())
-    }
-
-    fn count(&self, needle: &str) -> usize {
-        self.lines
-            .lock()
-            .unwrap()
-            .iter()
-            .filter(|l| l.contains(needle))
-            .count()
-    }
-
-    fn wait_count(&self, needle: &str, n: usize, timeout: Duration) {
-        let started = Instant::now();
-        while self.count(needle) < n {
-            assert!(
-                started.elapsed() < timeout,
-                "{n} x '{needle}' not seen in {:#?}",
-                self.lines.lock().unwrap()
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Running {
-    fn drop(&mut self) {
-        let _ = self.ctl("quit");
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
+use common::{Running, alive, crashing_child, status, wait_until};
+use heli_vehicle::bootstrap::MAX_RESTARTS;
 
 #[test]
 fn a_process_crashing_in_flight_is_restarted_with_its_parameters_three_times_a_minute() {
@@ -128,7 +44,7 @@ fn a_process_crashing_in_flight_is_restarted_with_its_parameters_three_times_a_m
 fn a_crash_before_start_logging_is_not_restarted() {
     let dir = tempfile::tempdir().unwrap();
     let told = dir.path().join("told");
-    let script = "echo ready 1; sleep 0.2; exit 3".to_string();
+    let script = "echo ready 2; sleep 0.2; exit 3".to_string();
     let boot = Running::start(
         dir.path(),
         vec!["sh".into(), "-c".into(), script.into()],
@@ -174,35 +90,12 @@ fn power_on_with_a_fresh_record_of_a_flying_helicopter_resumes_the_flight() {
 /// answers `start` with a telemetry line and `started LOG`, and exits 0 on `stop`.
 fn polite_child(told: &Path) -> Vec<std::ffi::OsString> {
     let script = format!(
-        "echo ready 1; while read line; do echo \"$line\" >> {told}; case \"$line\" in \
+        "echo ready 2; while read line; do echo \"$line\" >> {told}; case \"$line\" in \
          start*) echo 'telemetry {{\"t_us\":1}}'; echo started /logs/flight_a.mcap ;; \
          stop) echo bye >> {told}; exit 0 ;; esac; done",
         told = told.display()
     );
     vec!["sh".into(), "-c".into(), script.into()]
-}
-
-fn status(boot: &Running) -> serde_json::Value {
-    let reply = boot.ctl("status").unwrap();
-    let json = reply
-        .strip_prefix("ok ")
-        .unwrap_or_else(|| panic!("{reply}"));
-    serde_json::from_str(json).unwrap()
-}
-
-fn alive(pid: u64) -> bool {
-    std::path::Path::new(&format!("/proc/{pid}")).exists()
-}
-
-fn wait_until(what: &str, timeout: Duration, mut done: impl FnMut() -> bool) {
-    let started = Instant::now();
-    while !done() {
-        assert!(
-            started.elapsed() < timeout,
-            "{what}: not within {timeout:?}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
 }
 
 #[test]
@@ -293,8 +186,8 @@ fn a_second_connect_kills_the_first_process_and_hears_only_the_new_one() {
     let dir = tempfile::tempdir().unwrap();
     let marker = dir.path().join("second");
     let script = format!(
-        "if [ -e {m} ]; then echo ready 1; echo 'telemetry {{\"from\":\"new\"}}'; exec sleep 30; fi; \
-         touch {m}; echo ready 1; (sleep 1.5; echo 'telemetry {{\"from\":\"old\"}}'; echo 'started /old') & \
+        "if [ -e {m} ]; then echo ready 2; echo 'telemetry {{\"from\":\"new\"}}'; exec sleep 30; fi; \
+         touch {m}; echo ready 2; (sleep 1.5; echo 'telemetry {{\"from\":\"old\"}}'; echo 'started /old') & \
          exec sleep 30",
         m = marker.display()
     );
@@ -331,8 +224,8 @@ fn a_second_connect_kills_the_first_process_and_hears_only_the_new_one() {
 fn lines_out_of_turn_move_nothing() {
     // A process that says 'started' before it was asked and 'ready' again in flight.
     let dir = tempfile::tempdir().unwrap();
-    let script = "echo ready 1; echo started /too/early; while read line; do \
-         case \"$line\" in start*) echo started /logs/b.mcap; echo ready 1 ;; stop) exit 0 ;; \
+    let script = "echo ready 2; echo started /too/early; while read line; do \
+         case \"$line\" in start*) echo started /logs/b.mcap; echo ready 2 ;; stop) exit 0 ;; \
          esac; done";
     let boot = Running::start(
         dir.path(),
@@ -384,7 +277,7 @@ fn a_start_the_flight_process_refuses_is_the_reply_and_is_not_restarted() {
     // As the real flight process does with a plan it does not know: 'error ...', exit 1.
     // That is a refused start, not a crash in flight: nothing is started again.
     let dir = tempfile::tempdir().unwrap();
-    let script = "echo ready 1; read line; echo error no such plan: nowhere; exit 1";
+    let script = "echo ready 2; read line; echo error no such plan: nowhere; exit 1";
     let boot = Running::start(
         dir.path(),
         vec!["sh".into(), "-c".into(), script.into()],
@@ -445,8 +338,8 @@ fn quitting_waits_for_the_current_process_not_an_old_one() {
     let marker = dir.path().join("second");
     let told = dir.path().join("told");
     let script = format!(
-        "if [ -e {m} ]; then echo ready 1; read line; echo \"$line\" >> {t}; sleep 2; \
-         echo bye >> {t}; exit 0; fi; touch {m}; echo ready 1; (sleep 1) & exec sleep 30",
+        "if [ -e {m} ]; then echo ready 2; read line; echo \"$line\" >> {t}; sleep 2; \
+         echo bye >> {t}; exit 0; fi; touch {m}; echo ready 2; (sleep 1) & exec sleep 30",
         m = marker.display(),
         t = told.display()
     );
@@ -515,7 +408,7 @@ fn a_restarted_process_that_dies_before_it_is_ready_is_not_restarted_again() {
     let dir = tempfile::tempdir().unwrap();
     let marker = dir.path().join("restarted");
     let script = format!(
-        "if [ -e {m} ]; then exit 4; fi; touch {m}; echo ready 1; read line; \
+        "if [ -e {m} ]; then exit 4; fi; touch {m}; echo ready 2; read line; \
          echo started /dev/null; sleep 0.3; exit 3",
         m = marker.display()
     );
@@ -539,7 +432,7 @@ fn a_restarted_process_that_dies_before_it_is_ready_is_not_restarted_again() {
 #[test]
 fn a_process_that_fails_while_stopping_is_reported_as_failed() {
     let dir = tempfile::tempdir().unwrap();
-    let script = "echo ready 1; read line; echo started /dev/null; read line; exit 1";
+    let script = "echo ready 2; read line; echo started /dev/null; read line; exit 1";
     let boot = Running::start(
         dir.path(),
         vec!["sh".into(), "-c".into(), script.into()],

@@ -3,7 +3,38 @@
 //! vehicle powers on with a fresh record of a flight under way.
 
 use super::*;
+use crate::adopt::Adopted;
 use crate::error::ChildProblem;
+
+/// Reads a flight process's lines until their end, each parsed here, on the reader's
+/// thread: the bootstrap's loop sees only messages. Whether it said `stopped`.
+fn read_lines(from: impl BufRead, generation: u32, tx: &Sender<Msg>) -> bool {
+    let mut said_stopped = false;
+    for line in from.lines() {
+        let Ok(line) = line else { break };
+        let said = match FromFlight::parse(&line) {
+            Ok(message) => {
+                said_stopped |= matches!(message, FromFlight::Stopped(_));
+                Said::Flight(message)
+            }
+            Err(error) => Said::Unreadable { line, error },
+        };
+        if tx.send(Msg::FromChild(generation, said)).is_err() {
+            break;
+        }
+    }
+    said_stopped
+}
+
+/// Waits (up to [`STOP_TIMEOUT`]) for a process that is not this bootstrap's child to be
+/// gone: its socket closed as it ended, and the init system reaps it.
+fn wait_gone(pid: u32) {
+    let pid = nix::unistd::Pid::from_raw(i32::try_from(pid).unwrap_or(i32::MAX));
+    let until = Instant::now().checked_add(STOP_TIMEOUT);
+    while nix::sys::signal::kill(pid, None).is_ok() && until.is_some_and(|u| Instant::now() < u) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
 
 impl Bootstrap {
     pub(super) fn tell_child(&mut self, message: &ToFlight) -> bool {
@@ -31,8 +62,6 @@ impl Bootstrap {
             .stderr(Stdio::inherit())
             .spawn()
             .map_err(|e| VehicleError::Child(ChildProblem::Spawn(e)))?;
-        // Each line read is parsed here, on the reader's thread: the bootstrap's loop sees
-        // only messages.
         self.generation = self.generation.saturating_add(1);
         let generation = self.generation;
         let pid = child.id();
@@ -43,22 +72,14 @@ impl Bootstrap {
             .name(format!("child-{generation}"))
             .spawn(move || {
                 if let Some(out) = stdout {
-                    for line in BufReader::new(out).lines() {
-                        let Ok(line) = line else { break };
-                        let said = match FromFlight::parse(&line) {
-                            Ok(message) => Said::Flight(message),
-                            Err(error) => Said::Unreadable { line, error },
-                        };
-                        if tx.send(Msg::FromChild(generation, said)).is_err() {
-                            break;
-                        }
-                    }
+                    read_lines(BufReader::new(out), generation, &tx);
                 }
                 if let Ok(status) = child.wait() {
-                    let _ = tx.send(Msg::ChildExited(generation, status));
+                    let _ = tx.send(Msg::ChildExited(generation, Exit::Status(status)));
                 }
             })
             .map_err(|e| VehicleError::Child(ChildProblem::Reader(e)))?;
+        let stdin = stdin.map(|s| Box::new(s) as Box<dyn Write + Send>);
         self.child = Some(Child {
             generation,
             pid,
@@ -173,8 +194,8 @@ impl Bootstrap {
         }
     }
 
-    pub(super) fn child_exited(&mut self, generation: u32, status: ExitStatus) {
-        let how = describe_exit(status);
+    pub(super) fn child_exited(&mut self, generation: u32, status: Exit) {
+        let how = status.describe();
         self.last_exit = Some(how.clone());
         if !self.current(generation) {
             self.say(
@@ -242,38 +263,123 @@ impl Bootstrap {
         }
     }
 
-    /// At power-on (a brown-out of the whole computer): a fresh warm-start file that says
-    /// the helicopter was airborne resumes the flight it was flying.
-    pub(super) fn resume_after_power_on(&mut self) {
-        let Some(path) = self.config.warm_file.clone() else {
-            return;
-        };
-        let fresh = std::fs::metadata(&path)
-            .and_then(|m| m.modified())
-            .ok()
-            .and_then(|t| t.elapsed().ok())
-            .is_some_and(|age| age <= RESUME_AFTER_POWER_ON_MAX);
-        match crate::warm::WarmFile::read(&path) {
-            Ok(Some(file)) if fresh && file.warm.airborne => {
-                self.say(
-                    Severity::WarningHi,
-                    &format!(
-                        "power-on with a fresh warm-start record ({}): resuming the flight in the air",
-                        path.display()
-                    ),
-                );
-                self.flying = Some(file.start);
-                self.restart_in_flight();
+    /// At start: a flight process flying on since the last bootstrap died is taken back; a
+    /// live one that cannot be is left alone (a second one would fight it for the devices);
+    /// with none, a fresh record of a flight in the air resumes it.
+    pub(super) fn take_back_or_resume(&mut self) {
+        if let Some(path) = self.config.adopt_socket.clone() {
+            match crate::adopt::take_back(&path, crate::adopt::ANSWER_WAIT) {
+                Ok(Some(adopted)) => {
+                    self.adopt(adopted);
+                    return;
+                }
+                Ok(None) => {}
+                Err(e) => {
+                    self.say(
+                        Severity::Fatal,
+                        &format!(
+                            "a flight process is running ({}) but could not be taken back: {e}; not starting another (it would fight it for the devices)",
+                            path.display()
+                        ),
+                    );
+                    return;
+                }
             }
-            Ok(Some(_)) => self.say(
-                Severity::ActivityLo,
-                "an old or grounded warm-start record: not resuming",
+        }
+        self.resume_after_power_on();
+    }
+
+    /// Takes back a flight process that flew on without a bootstrap: its lines are read as a
+    /// child's; its end is known by its socket closing.
+    fn adopt(&mut self, adopted: Adopted) {
+        self.generation = self.generation.saturating_add(1);
+        let generation = self.generation;
+        let Adopted {
+            pid,
+            start,
+            log,
+            to_flight,
+            from_flight,
+        } = adopted;
+        let tx = self.tx.clone();
+        let reader = std::thread::Builder::new()
+            .name(format!("child-{generation}"))
+            .spawn(move || {
+                let said_stopped = read_lines(from_flight, generation, &tx);
+                wait_gone(pid);
+                let _ = tx.send(Msg::ChildExited(generation, Exit::Adopted { said_stopped }));
+            });
+        if let Err(e) = reader {
+            self.say(
+                Severity::Fatal,
+                &format!("could not take back the flight process (pid {pid}): {e}"),
+            );
+            return;
+        }
+        self.say(
+            Severity::WarningHi,
+            &format!(
+                "took back the flight process (pid {pid}) flying {} since its bootstrap died; the flight goes on",
+                crate::supervisor::start_words(&start)
             ),
-            Ok(None) => {}
-            Err(e) => self.say(
-                Severity::WarningLo,
-                &format!("warm-start record unreadable, not resuming: {e}"),
-            ),
+        );
+        self.child = Some(Child {
+            generation,
+            pid,
+            stdin: Some(Box::new(to_flight)),
+        });
+        self.flying = Some(start);
+        self.log = Some(log.unwrap_or_else(|| "(no log)".into()));
+        self.last_telemetry = None;
+        self.set_state(State::Flying);
+    }
+
+    /// At power-on (a brown-out of the whole computer): the freshest readable warm-start
+    /// file, if it is fresh and says the helicopter was airborne, resumes the flight.
+    pub(super) fn resume_after_power_on(&mut self) {
+        let age = |path: &PathBuf| {
+            std::fs::metadata(path)
+                .and_then(|m| m.modified())
+                .ok()
+                .and_then(|t| t.elapsed().ok())
+        };
+        let mut records: Vec<(PathBuf, Duration)> = self
+            .config
+            .warm_files
+            .iter()
+            .filter_map(|p| age(p).map(|a| (p.clone(), a)))
+            .collect();
+        records.sort_by_key(|(_, age)| *age);
+        for (path, age) in records {
+            match crate::warm::WarmFile::read(&path) {
+                Ok(Some(file)) if age <= RESUME_AFTER_POWER_ON_MAX && file.warm.airborne => {
+                    self.say(
+                        Severity::WarningHi,
+                        &format!(
+                            "power-on with a fresh warm-start record ({}): resuming the flight in the air",
+                            path.display()
+                        ),
+                    );
+                    self.flying = Some(file.start);
+                    self.restart_in_flight();
+                    return;
+                }
+                Ok(Some(_)) => {
+                    self.say(
+                        Severity::ActivityLo,
+                        &format!(
+                            "an old or grounded warm-start record ({}): not resuming",
+                            path.display()
+                        ),
+                    );
+                    return;
+                }
+                Ok(None) => {}
+                Err(e) => self.say(
+                    Severity::WarningLo,
+                    &format!("warm-start record unreadable, not resuming from it: {e}"),
+                ),
+            }
         }
     }
 }

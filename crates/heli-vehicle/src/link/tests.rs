@@ -66,7 +66,8 @@ fn open_link(dir: &std::path::Path) -> (SocketAddr, Arc<Mutex<Vec<String>>>, Arc
     let config = crate::bootstrap::BootstrapConfig {
         socket: dir.join("ctl.sock"),
         child: Vec::new(),
-        warm_file: None,
+        warm_files: Vec::new(),
+        adopt_socket: None,
     };
     let bootstrap = crate::bootstrap::Bootstrap::new(config, Box::new(|_: &Said| {}));
     let probe = UdpSocket::bind("127.0.0.1:0").unwrap();
@@ -326,7 +327,8 @@ fn a_signed_link_starts_and_says_commands_must_be_signed() {
     let config = crate::bootstrap::BootstrapConfig {
         socket: dir.path().join("ctl.sock"),
         child: Vec::new(),
-        warm_file: None,
+        warm_files: Vec::new(),
+        adopt_socket: None,
     };
     let bootstrap = crate::bootstrap::Bootstrap::new(config, Box::new(|_: &Said| {}));
     let said = Arc::new(Mutex::new(Vec::new()));

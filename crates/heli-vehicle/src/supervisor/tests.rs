@@ -49,7 +49,7 @@ fn every_message_to_the_flight_process_round_trips() {
 #[test]
 fn every_message_from_the_flight_process_round_trips() {
     let cases = [
-        (FromFlight::Ready { version: VERSION }, "ready 1"),
+        (FromFlight::Ready { version: VERSION }, "ready 2"),
         (
             FromFlight::Started {
                 log: Some("/var/log/heli/flight_a b.mcap".into()),
@@ -84,6 +84,20 @@ fn every_message_from_the_flight_process_round_trips() {
             r#"plan [{"leg":"takeoff","alt_m":5.0},{"leg":"land"}]"#,
         ),
         (FromFlight::Stopped(json!({})), "stopped {}"),
+        (
+            FromFlight::Adopted {
+                pid: 4242,
+                start: params("t1", "autonomous", Some("rolls")),
+            },
+            "adopted 4242 t1 autonomous rolls",
+        ),
+        (
+            FromFlight::Adopted {
+                pid: 7,
+                start: params("t2", "manual", None),
+            },
+            "adopted 7 t2 manual",
+        ),
     ];
     for (message, line) in cases {
         assert_eq!(message.to_line(), line);
@@ -163,6 +177,12 @@ fn what_is_not_the_protocol_is_refused_with_the_reason() {
         ),
         ("stopped 3", "'stopped': expected a JSON object"),
         ("hello there", "unknown message 'hello'"),
+        ("adopted", "'adopted': expected PID SUFFIX MODE [PLAN]"),
+        (
+            "adopted x t1 manual",
+            "'adopted': expected PID SUFFIX MODE [PLAN]",
+        ),
+        ("adopted 12 t1", "'adopted': expected SUFFIX MODE [PLAN]"),
     ];
     for (line, error) in from_flight {
         assert_eq!(
