@@ -72,12 +72,22 @@ impl Outbox {
     }
 }
 
-/// Binds the flight process's adoption socket at `path`. A socket there that answers is a
-/// live flight process's: an error (two flight processes would fight over the devices). A
-/// stale one (its process died) is replaced.
+/// How long a new flight process waits for another's socket to stop answering: the bootstrap
+/// kills the running process just before it starts a new one (Connect), and the kernel
+/// closes a killed process's socket a moment later.
+pub const KILLED_WAIT: Duration = Duration::from_secs(1);
+
+/// Binds the flight process's adoption socket at `path`. A socket there that still answers
+/// after [`KILLED_WAIT`] is a live flight process's: an error (two flight processes would
+/// fight over the devices). A stale one (its process died) is replaced.
 pub fn listen(path: &Path) -> Result<UnixListener, VehicleError> {
     if path.exists() {
-        if UnixStream::connect(path).is_ok() {
+        let answers = || UnixStream::connect(path).is_ok();
+        let since = std::time::Instant::now();
+        while answers() && since.elapsed() < KILLED_WAIT {
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        if answers() {
             return Err(VehicleError::invalid(
                 format!("adoption socket {}", path.display()),
                 "another flight process is running (its socket answers): stop it first",
@@ -268,6 +278,19 @@ mod tests {
         let _first = listen(&path).unwrap();
         let e = listen(&path).unwrap_err().to_string();
         assert!(e.contains("another flight process is running"), "{e}");
+    }
+
+    #[test]
+    fn a_flight_process_killed_a_moment_ago_does_not_refuse_its_successor() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("v.sock.flight");
+        let first = listen(&path).unwrap();
+        let dying = std::thread::spawn(move || {
+            std::thread::sleep(KILLED_WAIT / 3);
+            drop(first);
+        });
+        assert!(listen(&path).is_ok());
+        dying.join().unwrap();
     }
 
     #[test]

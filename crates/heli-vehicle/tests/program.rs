@@ -156,6 +156,52 @@ fn refused_within(command: &mut Command) -> (Option<i32>, String) {
     (code, stderr)
 }
 
+/// Pseudo-terminals for the four serial devices and ADC files, named by a devices file.
+struct FakeDevices {
+    /// The IMU's side of its terminal.
+    imu: TTYPort,
+    /// The other terminals, held open.
+    _held: Vec<TTYPort>,
+    /// The devices file.
+    file: PathBuf,
+}
+
+impl FakeDevices {
+    fn new(dir: &Path) -> Self {
+        let mut held = Vec::new();
+        let mut pair = || {
+            let (master, slave) = TTYPort::pair().unwrap();
+            let path = PathBuf::from(slave.name().unwrap());
+            held.push(slave);
+            (master, path)
+        };
+        let (imu, imu_path) = pair();
+        let (scb, scb_path) = pair();
+        let (gps, gps_path) = pair();
+        let (baro, baro_path) = pair();
+        held.extend([scb, gps, baro]);
+        let adc = dir.join("adc");
+        std::fs::create_dir_all(&adc).unwrap();
+        for (channel, counts) in [(0, 2048), (1, 2048), (2, 2048), (3, 3000)] {
+            heli_vehicle::adc::write_channel(&adc, channel, counts).unwrap();
+        }
+        let file = dir.join("devices.toml");
+        std::fs::write(
+            &file,
+            format!(
+                "[ports]\nimu = {:?}\nscb = {:?}\ngps = {:?}\nbaro = {:?}\n[adc]\ndir = {:?}\ncompass = [0, 1, 2]\nbattery = 3\n",
+                imu_path, scb_path, gps_path, baro_path, adc
+            ),
+        )
+        .unwrap();
+        Self {
+            imu,
+            _held: held,
+            file,
+        }
+    }
+}
+
 fn imu_frame() -> Vec<u8> {
     let mut buf = [0u8; heli_proto::imu::FRAME_LEN];
     let n = ImuRepr {
@@ -171,29 +217,11 @@ fn imu_frame() -> Vec<u8> {
 #[test]
 fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
     let dir = tempfile::tempdir().unwrap();
-    let pair = || {
-        let (master, slave) = TTYPort::pair().unwrap();
-        let path = PathBuf::from(slave.name().unwrap());
-        (master, slave, path)
-    };
-    let (mut imu, _imu_slave, imu_path) = pair();
-    let (_scb, _scb_slave, scb_path) = pair();
-    let (_gps, _gps_slave, gps_path) = pair();
-    let (_baro, _baro_slave, baro_path) = pair();
-    let adc = dir.path().join("adc");
-    std::fs::create_dir_all(&adc).unwrap();
-    for (channel, counts) in [(0, 2048), (1, 2048), (2, 2048), (3, 3000)] {
-        heli_vehicle::adc::write_channel(&adc, channel, counts).unwrap();
-    }
-    let devices = dir.path().join("devices.toml");
-    std::fs::write(
-        &devices,
-        format!(
-            "[ports]\nimu = {:?}\nscb = {:?}\ngps = {:?}\nbaro = {:?}\n[adc]\ndir = {:?}\ncompass = [0, 1, 2]\nbattery = 3\n",
-            imu_path, scb_path, gps_path, baro_path, adc
-        ),
-    )
-    .unwrap();
+    let FakeDevices {
+        mut imu,
+        _held: held,
+        file: devices,
+    } = FakeDevices::new(dir.path());
     let cal = dir.path().join("compass.toml");
     std::fs::write(
         &cal,
@@ -278,6 +306,7 @@ fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
     assert!(!said.contains("report lines dropped"), "{said}");
     // The log: the flight's setup as the command line gave it.
     // The killed process's log reads to its last flush; the restarted one's is closed.
+    drop(held);
     let resumed = heli_log::read(&std::fs::read(dir.path().join("flight_e2e_r1.mcap")).unwrap());
     assert!(resumed.closed, "{said}");
     let log = heli_log::read(&std::fs::read(dir.path().join("flight_e2e.mcap")).unwrap());
@@ -431,4 +460,136 @@ fn a_stand_alone_driver_reads_its_device_and_refuses_a_bad_rate() {
         assert_eq!(code, Some(2), "{stderr}");
         assert!(stderr.contains(&format!("--rate {rate}")), "{stderr}");
     }
+}
+
+/// Reads `from`'s lines into `into` on a thread of its own.
+fn collect(from: impl std::io::Read + Send + 'static) -> Arc<Mutex<Vec<String>>> {
+    let lines = Arc::new(Mutex::new(Vec::new()));
+    let sink = Arc::clone(&lines);
+    std::thread::spawn(move || {
+        for line in BufReader::new(from).lines().map_while(Result::ok) {
+            sink.lock().unwrap().push(line);
+        }
+    });
+    lines
+}
+
+/// Waits for a line containing `needle` in `lines`.
+fn wait_in(lines: &Mutex<Vec<String>>, needle: &str, timeout: Duration) -> String {
+    let end = Instant::now() + timeout;
+    loop {
+        if let Some(l) = lines.lock().unwrap().iter().find(|l| l.contains(needle)) {
+            return l.clone();
+        }
+        assert!(
+            Instant::now() < end,
+            "no line with '{needle}' within {timeout:?}:\n{}",
+            lines.lock().unwrap().join("\n")
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+#[test]
+fn a_flight_process_whose_bootstrap_is_gone_in_the_air_flies_on_and_is_taken_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let FakeDevices {
+        mut imu,
+        _held: _held_open,
+        file: devices,
+    } = FakeDevices::new(dir.path());
+    // A record of a helicopter in the air: the process restarted in flight aligns in the air.
+    std::fs::write(
+        dir.path().join("warm-start"),
+        "start = up manual\nairborne = true\ngyro_bias_rps = 0 0 0\n",
+    )
+    .unwrap();
+    let adopt_socket = heli_vehicle::adopt::socket_for(&dir.path().join("ctl.sock"));
+    let flight_process = |dir: &Path| {
+        let mut command = Command::new(PROGRAM);
+        command
+            .arg("flight")
+            .arg("--devices")
+            .arg(&devices)
+            .arg("--log-dir")
+            .arg(dir)
+            .args(["--fallback-dir", "none", "--warm-up-s", "0.1"])
+            .arg("--adopt-socket")
+            .arg(&adopt_socket)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit());
+        command
+    };
+    let mut flight = flight_process(dir.path()).spawn().unwrap();
+    let said = collect(flight.stdout.take().unwrap());
+    wait_in(&said, "ready 2", Duration::from_secs(5));
+    let mut to_flight = flight.stdin.take().unwrap();
+    writeln!(to_flight, "restart up manual").unwrap();
+    wait_in(&said, "started ", Duration::from_secs(5));
+    let feeding = Arc::new(std::sync::atomic::AtomicBool::new(true));
+    let feeder = {
+        let feeding = Arc::clone(&feeding);
+        std::thread::spawn(move || {
+            while feeding.load(std::sync::atomic::Ordering::Acquire) {
+                imu.write_all(&imu_frame()).unwrap();
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        })
+    };
+    wait_in(&said, "aligned in the air", Duration::from_secs(10));
+    // While it lives, a second flight process on the same socket refuses to start.
+    let second = dir.path().join("second");
+    std::fs::create_dir_all(&second).unwrap();
+    let (code, stderr) = refused_within(flight_process(&second).stdin(Stdio::null()));
+    assert_eq!(code, Some(2), "a second flight process started: {stderr}");
+    assert!(
+        stderr.contains("another flight process is running"),
+        "{stderr}"
+    );
+    // The bootstrap's line ends without a Stop: it flies on.
+    drop(to_flight);
+    wait_in(&said, "in the air: flying on", Duration::from_secs(5));
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(flight.try_wait().unwrap().is_none(), "it ended");
+    // A new bootstrap takes it back: who it is, what it flies, its log; then its lines.
+    let adopted = heli_vehicle::adopt::take_back(&adopt_socket, Duration::from_secs(5))
+        .unwrap()
+        .expect("a flight process to take back");
+    assert_eq!(adopted.pid, flight.id());
+    assert_eq!(heli_vehicle::supervisor::start_words(&adopted.start), "up manual");
+    assert!(
+        adopted
+            .log
+            .as_deref()
+            .is_some_and(|l| l.ends_with("flight_up_r1.mcap")),
+        "{:?}",
+        adopted.log
+    );
+    let mut to_flight = adopted.to_flight;
+    let heard = collect(adopted.from_flight);
+    wait_in(&heard, "a bootstrap took the flight back", Duration::from_secs(5));
+    wait_in(&heard, "telemetry {", Duration::from_secs(5));
+    writeln!(to_flight, "stop").unwrap();
+    wait_in(&heard, "stopped {", Duration::from_secs(5));
+    let status = flight.wait().unwrap();
+    feeding.store(false, std::sync::atomic::Ordering::Release);
+    feeder.join().unwrap();
+    assert!(status.success(), "{status}");
+    // A clean end: the socket is gone, and nothing is left to resume.
+    assert!(!adopt_socket.exists());
+    assert!(!dir.path().join("warm-start").exists());
+    let log = heli_log::read(&std::fs::read(dir.path().join("flight_up_r1.mcap")).unwrap());
+    assert!(log.closed);
+    let notes: Vec<&str> = log
+        .messages
+        .iter()
+        .filter(|m| m.topic == "notes")
+        .filter_map(|m| m.value["text"].as_str())
+        .collect();
+    assert!(
+        notes.iter().any(|t| t.contains("flying on"))
+            && notes.iter().any(|t| t.contains("took the flight back")),
+        "{notes:?}"
+    );
 }
