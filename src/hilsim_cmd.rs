@@ -62,6 +62,29 @@ pub struct HilsimArgs {
     /// With --replay: how long to wait for the flight computer to start (s).
     #[arg(long, default_value_t = 300.0)]
     pub wait_s: f64,
+    /// Take failures on standard input, one a line, applied at once — the trainer panel's
+    /// requests as JSON (`{"kind":"servo-board-silent","seconds":3}`; docs/pilot.md lists
+    /// every kind), for a script or a fault campaign to inject faults while a flight runs.
+    /// Each is answered on standard error (`hilsim: failure: …` or `… refused: …`).
+    #[arg(long, conflicts_with = "replay")]
+    pub failures_stdin: bool,
+}
+
+/// Reads failure requests from standard input on a thread of their own.
+fn failures_from_stdin() -> Result<std::sync::mpsc::Receiver<String>> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::Builder::new()
+        .name("failures".into())
+        .spawn(move || {
+            use std::io::BufRead;
+            for line in std::io::stdin().lock().lines().map_while(Result::ok) {
+                if !line.trim().is_empty() && tx.send(line).is_err() {
+                    return;
+                }
+            }
+        })
+        .context("starting the failures reader")?;
+    Ok(rx)
 }
 
 /// Where `--json` output goes: the original standard output, kept apart from every other
@@ -132,9 +155,20 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
         None => (None, None),
     };
     let mut last_frame: Option<std::time::Instant> = None;
+    let failures = args
+        .failures_stdin
+        .then(failures_from_stdin)
+        .transpose()?;
     let watch = |sim: &mut Simulation| {
         if let Some(c) = &mut cockpit {
             c.apply(sim);
+        }
+        while let Some(line) = failures.as_ref().and_then(|rx| rx.try_recv().ok()) {
+            let t_s = sim.now_us() as f64 * 1e-6;
+            match scenario::trainer::TrainerFault::parse(&line).and_then(|f| sim.trigger_fault(&f)) {
+                Ok(what) => eprintln!("hilsim: failure at {t_s:.2} s: {what}"),
+                Err(why) => eprintln!("hilsim: failure refused: {why}"),
+            }
         }
         if let Some(feed) = &feed
             && last_frame.is_none_or(|t| t.elapsed() >= heli_sim::view::cockpit::FRAME_EVERY)

@@ -4,6 +4,7 @@
 //! `heli-sim`, `heli-fsw` and the others.
 
 mod campaign_cmd;
+mod fieldday_cmd;
 mod ground_cmd;
 mod hilsim_cmd;
 mod link_cmd;
@@ -82,6 +83,13 @@ enum Command {
         #[command(subcommand)]
         merge: Option<campaign_cmd::MergeCommand>,
     },
+    /// The field-day fault campaign: each single fault of a field day (kills, full or
+    /// read-only storage, a port hung up, stalls, a silent servo board, a brown-out) injected
+    /// into the real processes against the HILSim while hovering and rolling, judged by the
+    /// truth, the logs (official Python MCAP reader) and what the operator was told
+    /// (docs/robustness.md). Real time, about 25 minutes whole. Exit status 0 only when every
+    /// trial passes.
+    FieldDay(fieldday_cmd::FieldDayArgs),
     /// The ground station as a command-line client of the vehicle's MAVLink link
     /// (docs/link.md).
     Ground(ground_cmd::GroundArgs),
@@ -274,6 +282,7 @@ fn main() -> ExitCode {
         } => link_cmd::keygen(&out, force),
         Command::Flight(args) => heli_vehicle::flight_process::run(&args),
         Command::Driver(args) => heli_vehicle::cli::driver(&args),
+        Command::FieldDay(args) => fieldday_cmd::field_day(&args),
         Command::Campaign { run, merge } => match merge {
             Some(campaign_cmd::MergeCommand::Merge(args)) => campaign_cmd::merge(&args),
             Some(campaign_cmd::MergeCommand::Suite(args)) => campaign_cmd::suite(&args),

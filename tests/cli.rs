@@ -513,3 +513,25 @@ fn a_reader_that_stops_early_is_no_crash() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(out.status.success(), "{:?} {stderr}", out.status);
 }
+
+#[test]
+fn field_day_refuses_unknown_faults_phases_and_a_python_without_the_reader() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().display().to_string();
+    let cases: [(&[&str], &str); 3] = [
+        (&["--faults", "meteor"], "no fault 'meteor': the faults are kill-flight"),
+        (&["--phases", "loop"], "no phase 'loop'"),
+        (
+            &["--faults", "stall-1", "--python", "/nonexistent/python"],
+            "cannot import the official MCAP reader",
+        ),
+    ];
+    for (extra, says) in cases {
+        let mut args = vec!["field-day", "--out", &out_dir];
+        args.extend_from_slice(extra);
+        let out = heli(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} ran");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}

@@ -58,6 +58,12 @@ pub enum TrainerFault {
         /// How long (s).
         seconds: f64,
     },
+    /// The servo controller board sends nothing for `seconds` (no uplink frames at all,
+    /// unlike a lost transmitter).
+    ServoBoardSilent {
+        /// How long (s).
+        seconds: f64,
+    },
     /// The transmitter's signal is lost for `seconds`.
     TransmitterLost {
         /// How long (s).
@@ -188,6 +194,7 @@ impl TrainerFault {
             | TrainerFault::ImuSilent { seconds }
             | TrainerFault::AltimeterSilent { seconds }
             | TrainerFault::CompassSilent { seconds }
+            | TrainerFault::ServoBoardSilent { seconds }
             | TrainerFault::TransmitterLost { seconds }
             | TrainerFault::ServoStuck { seconds, .. } => seconds_ok(seconds).map(|_| ()),
         }
@@ -245,6 +252,10 @@ impl TrainerFault {
                 f.compass_silent.push([now_s, until(seconds)]);
                 format!("compass silent for {seconds} s")
             }
+            TrainerFault::ServoBoardSilent { seconds } => {
+                f.uplink_silent.push([now_s, until(seconds)]);
+                format!("servo board silent for {seconds} s")
+            }
             TrainerFault::TransmitterLost { seconds } => {
                 f.transmitter_lost.push([now_s, until(seconds)]);
                 format!("transmitter lost for {seconds} s")
@@ -287,6 +298,12 @@ mod tests {
         let f = TrainerFault::parse(r#"{"kind":"gps-outage","seconds":5}"#).unwrap();
         assert_eq!(f.apply(&mut s, 100.0).unwrap(), "GPS outage for 5 s");
         assert_eq!(s.faults.gps_outages, vec![[100.0, 105.0]]);
+        let silent = TrainerFault::parse(r#"{"kind":"servo-board-silent","seconds":3}"#).unwrap();
+        assert_eq!(
+            silent.apply(&mut s, 50.0).unwrap(),
+            "servo board silent for 3 s"
+        );
+        assert_eq!(s.faults.uplink_silent, vec![[50.0, 53.0]]);
         let e = TrainerFault::parse(r#"{"kind":"engine-failure"}"#).unwrap();
         e.apply(&mut s, 101.0).unwrap();
         assert_eq!(s.faults.engine_power(100.9), 1.0);

@@ -33,6 +33,7 @@
     ["altimeter silent 10 s", { kind: "altimeter-silent", seconds: 10 }],
     ["compass silent 10 s", { kind: "compass-silent", seconds: 10 }],
     ["transmitter lost 3 s", { kind: "transmitter-lost", seconds: 3 }],
+    ["servo board silent 3 s", { kind: "servo-board-silent", seconds: 3 }],
     ["aileron servo stuck 2 s", { kind: "servo-stuck", channel: "aileron", seconds: 2 }],
     ["gust 6 m/s from the west 3 s", { kind: "gust", north_mps: 0, east_mps: 6, seconds: 3 }],
   ];

@@ -90,6 +90,10 @@ impl Dropped {
 pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
     let args = &process.flight;
     args.validate()?;
+    // A file-size limit (RLIMIT_FSIZE) must never kill a flight: with the signal caught, a
+    // write past the limit fails (EFBIG) and the log writer treats it as a full disk.
+    let file_too_large = Arc::new(AtomicBool::new(false));
+    signal_hook::flag::register(signal_hook::consts::SIGXFSZ, Arc::clone(&file_too_large))?;
     let devices = args.devices()?;
     let compass = args.compass()?;
     let outbox = Arc::new(Outbox::stdout());

@@ -7,7 +7,10 @@
 //! every change). A process started with a record that says the helicopter was airborne
 //! skips the ground calibration: it keeps the gyro biases and the navigation frame of the
 //! flight before, and aligns in the air — roll and pitch from a second of accelerometer
-//! readings, heading from the compass, position from the first GPS fix (it waits up to
+//! readings (each turned back, by the gyros, into the frame the helicopter had when the window
+//! opened, so that a helicopter still turning — after a stall in a roll — is levelled where
+//! it is at the end, not at the mean of where it was), heading from the compass, position
+//! from the first GPS fix (it waits up to
 //! [`ALIGN_GPS_WAIT_S`] for one). While it aligns it flies the blind failsafe (cyclic
 //! neutral, collective a little under hover). Aligned, it holds position where it is if the
 //! auto switch is on (the flight plan is not resumed: where it stood is not known for
@@ -23,13 +26,17 @@ use heli_nav::{Navigator, seconds_between};
 use heli_proto::gps::GpsNav;
 use heli_proto::imu::ImuRepr;
 use heli_proto::scb::Controls;
-use nalgebra::Vector3;
+use nalgebra::{UnitQuaternion, Vector3};
 
 use super::event::CoreEvent;
 use super::{Action, BLIND_DESCENT_COLLECTIVE_MARGIN, Stamped};
 
 /// Accelerometer readings averaged for the attitude of an in-air alignment (s).
 pub const ALIGN_S: f64 = 1.0;
+
+/// Longest interval between two samples the alignment integrates the gyros over (s): five
+/// IMU periods.
+pub const MAX_ALIGN_STEP_S: f64 = 0.05;
 
 /// Longest an in-air alignment waits for a GPS fix before starting the estimate without
 /// one (s).
@@ -61,6 +68,11 @@ struct Alignment {
     /// The IMU came back after a stall (not a restart of the process).
     after_stall: bool,
     since_us: Option<u64>,
+    /// The last sample's time.
+    last_us: Option<u64>,
+    /// From the body frame now to the body frame when the window opened, by the gyros.
+    to_start: UnitQuaternion<f64>,
+    /// The specific force, in the body frame when the window opened, summed.
     accel_sum_mps2: Vector3<f64>,
     samples: u32,
     gps_seen: bool,
@@ -83,6 +95,8 @@ impl Restart {
                 warm,
                 after_stall: false,
                 since_us: None,
+                last_us: None,
+                to_start: UnitQuaternion::identity(),
                 accel_sum_mps2: Vector3::zeros(),
                 samples: 0,
                 gps_seen: false,
@@ -99,6 +113,8 @@ impl Restart {
             warm,
             after_stall: true,
             since_us: None,
+            last_us: None,
+            to_start: UnitQuaternion::identity(),
             accel_sum_mps2: Vector3::zeros(),
             samples: 0,
             gps_seen: false,
@@ -184,16 +200,26 @@ impl Restart {
                 now_us
             }
         };
-        a.accel_sum_mps2 += Vector3::from(sample.accel_mps2);
+        // The turn since the last sample, by the gyro less its known bias (a gap longer than
+        // a few samples is not integrated: the rate across it is not known).
+        if let Some(last) = a.last_us {
+            let dt_s = seconds_between(last, now_us).clamp(0.0, MAX_ALIGN_STEP_S);
+            let rate = Vector3::from(sample.rate_rps) - Vector3::from(a.warm.gyro_bias_rps);
+            a.to_start *= UnitQuaternion::from_scaled_axis(rate * dt_s);
+        }
+        a.last_us = Some(now_us);
+        a.accel_sum_mps2 += a.to_start * Vector3::from(sample.accel_mps2);
         a.samples = a.samples.saturating_add(1);
         a.gps_seen |= nav.origin().is_some() && last_good_fix.is_some();
         let elapsed = seconds_between(since, now_us);
         if elapsed < ALIGN_S || (!a.gps_seen && elapsed < ALIGN_GPS_WAIT_S) {
             return;
         }
+        // The mean specific force, turned into the body frame of now.
+        let mean_now = a.to_start.inverse() * (a.accel_sum_mps2 / f64::from(a.samples.max(1)));
         let biases = heli_nav::ImuBiases {
             gyro_rps: Vector3::from(a.warm.gyro_bias_rps),
-            mean_accel_mps2: a.accel_sum_mps2 / f64::from(a.samples.max(1)),
+            mean_accel_mps2: mean_now,
             samples: a.samples,
         };
         let gps = a.gps_seen;

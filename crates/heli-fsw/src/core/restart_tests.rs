@@ -178,3 +178,70 @@ fn the_alignment_waits_for_a_gps_fix_up_to_its_limit() {
     assert!(roll.abs() < 0.01 && pitch.abs() < 0.01, "{roll} {pitch}");
     assert!((state.gyro_bias_rps.z + 0.002).abs() < 1e-9);
 }
+
+#[test]
+fn a_helicopter_still_rolling_is_levelled_where_it_is_at_the_end_of_the_window() {
+    // Rolling right at 1 rad/s through the whole window, from 0.2 rad: the specific force
+    // turns in the body frame. The mean of the raw readings would level it at the window's
+    // middle (0.5 rad behind); turned back by the gyros, it is levelled at its end.
+    let rate_rps = 1.0;
+    let roll_at = |t_us: u64| 0.2 + rate_rps * t_us as f64 * 1e-6;
+    let bias = warm(None).gyro_bias_rps;
+    let sample = |t_us: u64| {
+        let roll = roll_at(t_us);
+        ImuRepr {
+            rate_rps: [rate_rps + bias[0], bias[1], bias[2]],
+            accel_mps2: [0.0, -9.81 * roll.sin(), -9.81 * roll.cos()],
+            temp_c: 30.0,
+        }
+    };
+    let mut core =
+        FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm(None));
+    let mut out = Vec::new();
+    core.handle(Input::Gps(gps_fix(8)), 0, &mut out);
+    let mut t = 0;
+    while core.aligning() && t < 5 * S {
+        t += 10_000;
+        core.handle(Input::Imu(sample(t)), t, &mut out);
+    }
+    assert!(raised(&out, CoreEvent::AlignedInAir { gps: true }));
+    let (roll, pitch, _) = core.navigator().state().unwrap().euler_rad();
+    assert!(
+        (roll - roll_at(t)).abs() < 0.02,
+        "levelled at {roll} rad, rolled {} rad",
+        roll_at(t)
+    );
+    assert!(pitch.abs() < 0.02, "{pitch}");
+    // A gap in the samples is not integrated across: the step is bounded.
+    let mut core =
+        FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm(None));
+    core.handle(Input::Gps(gps_fix(8)), 0, &mut out);
+    let level = ImuRepr {
+        rate_rps: [rate_rps + bias[0], bias[1], bias[2]],
+        accel_mps2: [0.0, 0.0, -9.81],
+        temp_c: 30.0,
+    };
+    core.handle(Input::Imu(level), 10_000, &mut out);
+    // One sample 0.9 s later: integrated over at most 50 ms (0.05 rad), not 0.9 s.
+    let turned = ImuRepr {
+        accel_mps2: [0.0, -9.81 * 0.05_f64.sin(), -9.81 * 0.05_f64.cos()],
+        ..level
+    };
+    core.handle(Input::Imu(turned), 910_000, &mut out);
+    let mut t = 910_000;
+    while core.aligning() && t < 5 * S {
+        t += 10_000;
+        let a = 0.05 + rate_rps * (t - 910_000) as f64 * 1e-6;
+        core.handle(
+            Input::Imu(ImuRepr {
+                accel_mps2: [0.0, -9.81 * a.sin(), -9.81 * a.cos()],
+                ..level
+            }),
+            t,
+            &mut out,
+        );
+    }
+    let (roll, _, _) = core.navigator().state().unwrap().euler_rad();
+    let expected = 0.05 + rate_rps * (t - 910_000) as f64 * 1e-6;
+    assert!((roll - expected).abs() < 0.02, "{roll} against {expected}");
+}
