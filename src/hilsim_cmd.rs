@@ -155,17 +155,15 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
         None => (None, None),
     };
     let mut last_frame: Option<std::time::Instant> = None;
-    let failures = args
-        .failures_stdin
-        .then(failures_from_stdin)
-        .transpose()?;
+    let failures = args.failures_stdin.then(failures_from_stdin).transpose()?;
     let watch = |sim: &mut Simulation| {
         if let Some(c) = &mut cockpit {
             c.apply(sim);
         }
         while let Some(line) = failures.as_ref().and_then(|rx| rx.try_recv().ok()) {
             let t_s = sim.now_us() as f64 * 1e-6;
-            match scenario::trainer::TrainerFault::parse(&line).and_then(|f| sim.trigger_fault(&f)) {
+            match scenario::trainer::TrainerFault::parse(&line).and_then(|f| sim.trigger_fault(&f))
+            {
                 Ok(what) => eprintln!("hilsim: failure at {t_s:.2} s: {what}"),
                 Err(why) => eprintln!("hilsim: failure refused: {why}"),
             }

@@ -519,7 +519,10 @@ fn field_day_refuses_unknown_faults_phases_and_a_python_without_the_reader() {
     let dir = tempfile::tempdir().unwrap();
     let out_dir = dir.path().display().to_string();
     let cases: [(&[&str], &str); 3] = [
-        (&["--faults", "meteor"], "no fault 'meteor': the faults are kill-flight"),
+        (
+            &["--faults", "meteor"],
+            "no fault 'meteor': the faults are kill-flight",
+        ),
         (&["--phases", "loop"], "no phase 'loop'"),
         (
             &["--faults", "stall-1", "--python", "/nonexistent/python"],

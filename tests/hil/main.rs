@@ -225,7 +225,10 @@ fn a_bootstrap_killed_in_the_air_leaves_the_flight_flying_and_a_new_one_takes_it
     );
     let said = format!("{}\n{}", vehicle.output(), again.output());
     again.quit();
-    assert_eq!(summary["outcome"], "pass", "{summary:#}\nthe vehicle said:\n{said}");
+    assert_eq!(
+        summary["outcome"], "pass",
+        "{summary:#}\nthe vehicle said:\n{said}"
+    );
     // Why its input ended, and that it was taken back, are in its log; a clean stop leaves
     // no record to resume.
     let log = dir.path().join("flight_orphan.mcap");
@@ -242,7 +245,9 @@ fn a_bootstrap_killed_in_the_air_leaves_the_flight_flying_and_a_new_one_takes_it
         "{notes:#?}"
     );
     assert!(
-        notes.iter().any(|t| t.contains("a bootstrap took the flight back")),
+        notes
+            .iter()
+            .any(|t| t.contains("a bootstrap took the flight back")),
         "{notes:#?}"
     );
     assert!(!dir.path().join("warm-start").exists());

@@ -90,12 +90,12 @@ impl Fault {
 
     /// The fault of a name ([`Fault::name`]).
     pub fn parse(name: &str) -> Result<Self, FieldDayError> {
-        ALL.into_iter()
-            .find(|f| f.name() == name)
-            .ok_or_else(|| FieldDayError::Usage(format!(
+        ALL.into_iter().find(|f| f.name() == name).ok_or_else(|| {
+            FieldDayError::Usage(format!(
                 "no fault '{name}': the faults are {}",
                 ALL.map(Fault::name).join(", ")
-            )))
+            ))
+        })
     }
 
     /// What is done, in words, for the table.
@@ -108,7 +108,10 @@ impl Fault {
             Fault::DiskFull => "log storage full for 60 s".into(),
             Fault::ReadOnly => "log storage read-only for 15 s".into(),
             Fault::PortHangup => "IMU port hung up (`TIOCVHANGUP`) for 1 s".into(),
-            Fault::Stall(ms) => format!("HILSim stopped (`SIGSTOP`) for {} s", f64::from(ms) / 1000.0),
+            Fault::Stall(ms) => format!(
+                "HILSim stopped (`SIGSTOP`) for {} s",
+                f64::from(ms) / 1000.0
+            ),
             Fault::ServoSilent => "servo board silent for 3 s".into(),
             Fault::Brownout => {
                 "bootstrap and flight process killed at once, RAM lost, power back after 0.5 s"
@@ -127,9 +130,7 @@ impl Fault {
                 "aligned in the air",
             ],
             Fault::KillBootstrap => &["took back the flight process"],
-            Fault::DiskFull | Fault::ReadOnly => {
-                &["flight log ", "the storage takes writes again"]
-            }
+            Fault::DiskFull | Fault::ReadOnly => &["flight log ", "the storage takes writes again"],
             Fault::PortHangup => &["driver thread of imu died", "aligned in the air"],
             Fault::Stall(ms) if ms >= 1000 => {
                 &["imu silent", "estimate invalid", "aligned in the air"]
@@ -241,7 +242,10 @@ mod tests {
             assert_eq!(Phase::parse(p.name()).unwrap(), p);
         }
         let e = Fault::parse("meteor").unwrap_err().to_string();
-        assert!(e.contains("no fault 'meteor'") && e.contains("brownout"), "{e}");
+        assert!(
+            e.contains("no fault 'meteor'") && e.contains("brownout"),
+            "{e}"
+        );
         assert!(Phase::parse("loop").is_err());
     }
 

@@ -82,11 +82,19 @@ impl Proc {
 
     /// Its standard output alone.
     pub fn stdout(&self) -> String {
-        self.out.lock().unwrap_or_else(|e| e.into_inner()).join("\n")
+        self.out
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .join("\n")
     }
 
     /// The first line containing `needle` at or after line `from`, waiting up to `timeout`.
-    pub fn wait_for(&self, needle: &str, from: usize, timeout: Duration) -> Option<(usize, String)> {
+    pub fn wait_for(
+        &self,
+        needle: &str,
+        from: usize,
+        timeout: Duration,
+    ) -> Option<(usize, String)> {
         let end = Instant::now() + timeout;
         loop {
             let found = self
@@ -146,7 +154,12 @@ pub fn signal(pid: u32, signal: nix::sys::signal::Signal) -> Result<(), FieldDay
 }
 
 /// `heli hilsim --ptys DEV --scenario SCENARIO --json --failures-stdin`, once its devices exist.
-pub fn hilsim(programs: &Programs, dev: &Path, scenario: &str, seed: u64) -> Result<Proc, FieldDayError> {
+pub fn hilsim(
+    programs: &Programs,
+    dev: &Path,
+    scenario: &str,
+    seed: u64,
+) -> Result<Proc, FieldDayError> {
     let args = [
         "hilsim",
         "--ptys",
@@ -163,7 +176,12 @@ pub fn hilsim(programs: &Programs, dev: &Path, scenario: &str, seed: u64) -> Res
     .map(str::to_string);
     let proc = Proc::spawn(&programs.heli, &args)?;
     proc.wait_for("hilsim: ready", 0, Duration::from_secs(15))
-        .ok_or_else(|| FieldDayError::Setup(format!("the HILSim did not start:\n{}", proc.lines().join("\n"))))?;
+        .ok_or_else(|| {
+            FieldDayError::Setup(format!(
+                "the HILSim did not start:\n{}",
+                proc.lines().join("\n")
+            ))
+        })?;
     Ok(proc)
 }
 
@@ -200,7 +218,12 @@ pub fn bootstrap(programs: &Programs, paths: &VehiclePaths) -> Result<Proc, Fiel
     .map(str::to_string);
     let proc = Proc::spawn(&programs.vehicle, &args)?;
     proc.wait_for("bootstrap: listening", 0, Duration::from_secs(10))
-        .ok_or_else(|| FieldDayError::Setup(format!("the bootstrap did not start:\n{}", proc.lines().join("\n"))))?;
+        .ok_or_else(|| {
+            FieldDayError::Setup(format!(
+                "the bootstrap did not start:\n{}",
+                proc.lines().join("\n")
+            ))
+        })?;
     Ok(proc)
 }
 

@@ -30,7 +30,11 @@ fn log(o: &Outcome) -> String {
     format!(
         "{readable}/{} open; at the fault {} (ends {lost})",
         o.logs.len(),
-        if at_fault_ok { "opens" } else { "**does not open**" }
+        if at_fault_ok {
+            "opens"
+        } else {
+            "**does not open**"
+        }
     )
 }
 
@@ -60,7 +64,14 @@ pub fn table(outcomes: &[Outcome]) -> String {
     );
     for o in outcomes {
         let injected = match o.means {
-            Some(means) => format!("{} ({})", o.injected, serde_json::to_value(means).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default()),
+            Some(means) => format!(
+                "{} ({})",
+                o.injected,
+                serde_json::to_value(means)
+                    .ok()
+                    .and_then(|v| v.as_str().map(str::to_string))
+                    .unwrap_or_default()
+            ),
             None => o.injected.clone(),
         };
         text.push_str(&format!(
@@ -72,6 +83,14 @@ pub fn table(outcomes: &[Outcome]) -> String {
             told(o),
             verdict(o)
         ));
+    }
+    for o in outcomes {
+        if let Some([first, most, last]) = o.memory_mib {
+            text.push_str(&format!(
+                "\n{} while {}: the flight process's resident memory {first:.2} MiB when the disk filled, at most {most:.2} MiB through it, {last:.2} MiB at its end.\n",
+                o.fault, o.phase
+            ));
+        }
     }
     let passed = outcomes.iter().filter(|o| o.pass).count();
     text.push_str(&format!(

@@ -125,7 +125,10 @@ impl Storage {
         let path = self.dir.display().to_string();
         file_size_limit(flight_pid, Some(largest_file(&self.dir)))?;
         match self.means {
-            Means::Tmpfs => run("mount", &["-t", "tmpfs", "-o", "ro,size=1m", "tmpfs", &path])?,
+            Means::Tmpfs => run(
+                "mount",
+                &["-t", "tmpfs", "-o", "ro,size=1m", "tmpfs", &path],
+            )?,
             Means::Injected => run("chmod", &["a-w", &path])?,
         }
         self.overlaid = true;

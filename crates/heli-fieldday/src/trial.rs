@@ -7,11 +7,11 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use nix::sys::signal::Signal;
 use serde::Serialize;
 
+use crate::FieldDayError;
 use crate::fault::{self, Fault, Phase};
 use crate::judge::{self, LOSS_ALLOWED_MS, LogCheck};
 use crate::procs::{self, Proc, Programs, VehiclePaths};
 use crate::storage::{Means, Storage};
-use crate::FieldDayError;
 
 /// What came of one trial.
 #[derive(Clone, Debug, Serialize)]
@@ -60,7 +60,9 @@ fn unix_ms() -> f64 {
 /// directory hidden by a read-only mount is reached) into `to`.
 fn snapshot_open_logs(pid: u32, to: &Path) -> Vec<PathBuf> {
     let _ = std::fs::create_dir_all(to);
-    let fds = std::fs::read_dir(format!("/proc/{pid}/fd")).into_iter().flatten();
+    let fds = std::fs::read_dir(format!("/proc/{pid}/fd"))
+        .into_iter()
+        .flatten();
     fds.filter_map(|fd| {
         let fd = fd.ok()?.path();
         let target = std::fs::read_link(&fd).ok()?;
@@ -125,7 +127,8 @@ impl Run<'_> {
     fn flight_pid(&mut self) -> Option<u32> {
         let pid = procs::flight_pid(&self.paths.socket);
         if pid.is_none() {
-            self.problems.push("no flight process when the fault came".into());
+            self.problems
+                .push("no flight process when the fault came".into());
         }
         pid
     }
@@ -140,7 +143,9 @@ impl Run<'_> {
     fn boot_again(&mut self) {
         match procs::bootstrap(self.programs, &self.paths) {
             Ok(b) => self.boots.push(b),
-            Err(e) => self.problems.push(format!("the bootstrap did not start again: {e}")),
+            Err(e) => self
+                .problems
+                .push(format!("the bootstrap did not start again: {e}")),
         }
     }
 
@@ -166,7 +171,11 @@ pub fn run(
         .map_err(|e| FieldDayError::Io(format!("creating {}", dir.display()), e))?;
     let ram = Path::new("/dev/shm");
     let fallback = if ram.is_dir() {
-        ram.join(format!("heli-fieldday-{}-{}", std::process::id(), dir.display().to_string().len()))
+        ram.join(format!(
+            "heli-fieldday-{}-{}",
+            std::process::id(),
+            dir.display().to_string().len()
+        ))
     } else {
         dir.join("ram")
     };
@@ -212,7 +221,10 @@ pub fn run(
     };
     let socket = run.paths.socket.clone();
     let started_flight = procs::ctl(&socket, "connect").and_then(|_| {
-        procs::ctl(&socket, &format!("start-logging fd autonomous {}", phase.name()))
+        procs::ctl(
+            &socket,
+            &format!("start-logging fd autonomous {}", phase.name()),
+        )
     });
     let mut kills_ms = Vec::new();
     let mut fault_ms = unix_ms();
@@ -287,8 +299,13 @@ pub fn run(
             }
             Fault::PortHangup => {
                 snapshot_pid = procs::flight_pid(&socket);
-                if let Err(e) = hang_up(run.python, &run.paths.dev.join("imu"), fault::HANGUP.as_secs_f64()) {
-                    outcome.skipped = Some(format!("TIOCVHANGUP refused ({e}): it needs CAP_SYS_ADMIN"));
+                if let Err(e) = hang_up(
+                    run.python,
+                    &run.paths.dev.join("imu"),
+                    fault::HANGUP.as_secs_f64(),
+                ) {
+                    outcome.skipped =
+                        Some(format!("TIOCVHANGUP refused ({e}): it needs CAP_SYS_ADMIN"));
                 }
             }
             Fault::Stall(ms) => {
@@ -317,10 +334,13 @@ pub fn run(
                 std::thread::sleep(wait);
             }
             for copy in snapshot_open_logs(pid, &run.dir.join("at-fault")) {
-                outcome.at_fault.push(LogCheck::of(run.python, &copy, fault_ms));
+                outcome
+                    .at_fault
+                    .push(LogCheck::of(run.python, &copy, fault_ms));
             }
             if outcome.at_fault.is_empty() {
-                run.problems.push("no open log to look at just after the fault".into());
+                run.problems
+                    .push("no open log to look at just after the fault".into());
             }
         }
         if fault.storage() {
@@ -330,7 +350,10 @@ pub fn run(
                 if let Some(mib) = pid.and_then(resident_mib) {
                     memory.push(mib);
                 }
-                std::thread::sleep(Duration::from_secs(1).min(fault.storage_fault().saturating_sub(struck.elapsed())));
+                std::thread::sleep(
+                    Duration::from_secs(1)
+                        .min(fault.storage_fault().saturating_sub(struck.elapsed())),
+                );
             }
             if fault == Fault::DiskFull
                 && let (Some(&first), Some(&last)) = (memory.first(), memory.last())
@@ -371,7 +394,8 @@ pub fn run(
             Err(e) => run.problems.push(format!("the HILSim's summary: {e}")),
         }
     } else {
-        run.problems.push("the HILSim did not end on SIGTERM".into());
+        run.problems
+            .push("the HILSim did not end on SIGTERM".into());
     }
     let _ = procs::ctl(&socket, "stop");
     let _ = procs::ctl(&socket, "quit");
@@ -388,7 +412,9 @@ pub fn run(
         None => judge::copy_logs(&run.paths.logs, &final_dir).unwrap_or_default(),
     };
     if run.paths.fallback.is_dir() {
-        finals.extend(judge::copy_logs(&run.paths.fallback, &final_dir.join("fallback")).unwrap_or_default());
+        finals.extend(
+            judge::copy_logs(&run.paths.fallback, &final_dir.join("fallback")).unwrap_or_default(),
+        );
     }
     finals.sort();
     finals.dedup();
@@ -397,7 +423,9 @@ pub fn run(
         .map(|n| final_dir.join(n))
         .collect();
     for (log, kill_ms) in killed.iter().zip(&kills_ms) {
-        outcome.at_fault.push(LogCheck::of(run.python, log, *kill_ms));
+        outcome
+            .at_fault
+            .push(LogCheck::of(run.python, log, *kill_ms));
     }
     outcome.logs = finals
         .iter()
@@ -420,7 +448,9 @@ pub fn run(
         && outcome.crash.is_null()
         && !outcome.at_fault.is_empty()
         && outcome.at_fault.iter().all(|c| {
-            c.readable() && c.ends_before_fault_ms.is_some_and(|ms| ms <= LOSS_ALLOWED_MS)
+            c.readable()
+                && c.ends_before_fault_ms
+                    .is_some_and(|ms| ms <= LOSS_ALLOWED_MS)
         })
         && !outcome.logs.is_empty()
         && outcome.logs.iter().all(LogCheck::readable)

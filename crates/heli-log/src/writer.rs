@@ -52,6 +52,12 @@ pub const RETRY_EVERY_WALL: Duration = Duration::from_secs(1);
 /// when it takes writes again.
 pub const MAX_BACKLOG_BYTES: usize = 4 << 20;
 
+/// The backlog's memory, reserved and touched when the log is created: the bound plus two
+/// chunks (a chunk closed past the bound, the one being closed) and the file's end. A full
+/// disk then fills memory the process already has: its resident size does not grow.
+pub const BACKLOG_RESERVE_BYTES: usize =
+    MAX_BACKLOG_BYTES + 2 * (MAX_CHUNK_BYTES as usize) + (64 << 10);
+
 /// Shortest wall-clock time between two `sync_data` calls. A flush less than this after the
 /// last sync is synced by the next flush (or by [`FlightLog::finish`]).
 pub const SYNC_EVERY_WALL: Duration = Duration::from_millis(50);
@@ -183,6 +189,14 @@ struct Channel {
     next_sequence: u32,
 }
 
+/// An empty backlog whose memory is reserved and touched (resident from now on, and never
+/// reallocated while it stays within [`BACKLOG_RESERVE_BYTES`]).
+fn reserved_backlog() -> Vec<u8> {
+    let mut backlog = vec![0u8; BACKLOG_RESERVE_BYTES];
+    backlog.clear();
+    backlog
+}
+
 /// The writer.
 pub struct FlightLog<F: LogFile> {
     /// `None` once finished.
@@ -257,7 +271,7 @@ impl<F: LogFile> FlightLog<F> {
             file: Some(file),
             mcap: Some(mcap),
             pending,
-            unwritten: Vec::new(),
+            unwritten: reserved_backlog(),
             data_end: 0,
             channels: BTreeMap::new(),
             chunk_start_us: None,

@@ -557,7 +557,10 @@ fn a_flight_process_whose_bootstrap_is_gone_in_the_air_flies_on_and_is_taken_bac
         .unwrap()
         .expect("a flight process to take back");
     assert_eq!(adopted.pid, flight.id());
-    assert_eq!(heli_vehicle::supervisor::start_words(&adopted.start), "up manual");
+    assert_eq!(
+        heli_vehicle::supervisor::start_words(&adopted.start),
+        "up manual"
+    );
     assert!(
         adopted
             .log
@@ -568,7 +571,11 @@ fn a_flight_process_whose_bootstrap_is_gone_in_the_air_flies_on_and_is_taken_bac
     );
     let mut to_flight = adopted.to_flight;
     let heard = collect(adopted.from_flight);
-    wait_in(&heard, "a bootstrap took the flight back", Duration::from_secs(5));
+    wait_in(
+        &heard,
+        "a bootstrap took the flight back",
+        Duration::from_secs(5),
+    );
     wait_in(&heard, "telemetry {", Duration::from_secs(5));
     writeln!(to_flight, "stop").unwrap();
     wait_in(&heard, "stopped {", Duration::from_secs(5));

@@ -265,6 +265,9 @@ fn a_disk_that_fills_leaves_a_complete_file_cut_back_to_its_last_flush() {
 fn while_the_disk_stays_full_the_memory_is_bounded_and_drops_are_counted() {
     let file = SharedFile::default();
     let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));
+    // The backlog's memory is there from the start.
+    let reserved = log.unwritten.capacity();
+    assert!(reserved >= BACKLOG_RESERVE_BYTES);
     assert!(step(&mut log, 0));
     log.flush().unwrap_or_else(|e| panic!("{e}"));
     file.0.borrow_mut().capacity = Some(file.bytes().len() as u64);
@@ -293,8 +296,10 @@ fn while_the_disk_stays_full_the_memory_is_bounded_and_drops_are_counted() {
         assert!(k < 1_000_000, "never dropped");
     }
     assert_eq!(log.stats().dropped, dropped);
-    // The backlog stops where it was: at most one closed chunk past the bound.
+    // The backlog stops where it was: at most one closed chunk past the bound, in the
+    // memory reserved at the start (never reallocated: the process does not grow).
     assert!(log.unwritten.len() < MAX_BACKLOG_BYTES + (MAX_CHUNK_BYTES as usize) * 2);
+    assert_eq!(log.unwritten.capacity(), reserved);
     // The disk comes back: what was kept is written, in order, and the log goes on.
     file.0.borrow_mut().capacity = None;
     log.flush().unwrap_or_else(|e| panic!("{e}"));
