@@ -112,6 +112,8 @@ pub(crate) struct Pending {
     name: &'static str,
     /// For Stop: where the log goes.
     dest: Option<PathBuf>,
+    /// For Start Logging: the flight's suffix.
+    suffix: Option<String>,
 }
 
 /// The ground station.
@@ -132,6 +134,9 @@ pub struct Station {
     answered_us: u64,
     /// A flight was seen under way since the station started or since the last Stop.
     flight_seen: bool,
+    /// The suffix of the flight this station started, until its Stop: the log a Stop with
+    /// final parameters saves must be that flight's.
+    flight_suffix: Option<String>,
     /// The field rule's message, until acknowledged.
     pub(crate) field_rule: crate::power_view::FieldRule,
     /// The packs' logbook.
@@ -159,6 +164,7 @@ impl Station {
             outbox: Vec::new(),
             answered_us: 0,
             flight_seen: false,
+            flight_suffix: None,
             field_rule: crate::power_view::FieldRule::default(),
         }
     }
@@ -311,6 +317,7 @@ impl Station {
             ("start logging", true) => {
                 self.panel.vehicle(Some(BootstrapState::Flying));
                 self.flight_seen = true;
+                self.flight_suffix = p.suffix.clone();
             }
             ("start logging", false) => {
                 self.panel.logging_failed();
@@ -319,8 +326,9 @@ impl Station {
             ("stop", true) => {
                 self.panel.vehicle(Some(BootstrapState::Idle));
                 self.flight_seen = false;
+                let suffix = self.flight_suffix.take();
                 if let Some(dest) = p.dest.clone() {
-                    self.transfer = Some(Transfer::new(dest, now_us));
+                    self.transfer = Some(Transfer::of_flight(dest, suffix, now_us));
                 }
             }
             _ => {}
@@ -422,6 +430,7 @@ impl Station {
         }
         let state = self.panel.state();
         let (connect, start, stop) = state.buttons();
+        let mut suffix_started = None;
         let (command, name, meanwhile, dest) = match op {
             Op::Connect if connect => (
                 GroundCommand::Connect,
@@ -449,6 +458,7 @@ impl Station {
                 }
                 p.plan = plan;
                 self.chosen = p.controller;
+                suffix_started = Some(p.file_suffix.clone());
                 (
                     GroundCommand::StartLogging(p),
                     "start logging",
@@ -496,6 +506,7 @@ impl Station {
             command: sent,
             name,
             dest,
+            suffix: suffix_started,
         });
         self.panel.sent(meanwhile);
         self.outbox.push(frame);

@@ -78,9 +78,29 @@ fn flying_telemetry(phase: &str) -> Telemetry {
     }
 }
 
+/// A flight's log as the vehicle writes it: the `flight` metadata with its suffix, and a few
+/// messages that differ from flight to flight.
+fn flight_log(suffix: &str) -> Vec<u8> {
+    let mut log = heli_log::FlightLog::new(std::io::Cursor::new(Vec::new())).unwrap();
+    let entries = heli_log::metadata::flight(
+        "heli test",
+        std::time::UNIX_EPOCH,
+        [("suffix".to_string(), suffix.to_string())],
+    );
+    log.write_metadata("flight", &entries).unwrap();
+    for k in 0..200u64 {
+        log.write(
+            "notes",
+            k * 10_000,
+            &serde_json::json!({ "text": format!("{suffix} {k}") }),
+        )
+        .unwrap();
+    }
+    log.finish().unwrap().into_inner()
+}
+
 impl Bench {
     fn new() -> Self {
-        let log: Vec<u8> = (0..5_000u32).map(|i| (i * 13 % 251) as u8).collect();
         let mut b = Self {
             vehicle: VehicleLink::new(None, T0),
             station: Station::new(StationConfig {
@@ -96,9 +116,7 @@ impl Bench {
             }),
             state: BootstrapState::Idle,
             mode: 0,
-            store: MemoryStore {
-                logs: vec![("flight_a.mcap".into(), log)],
-            },
+            store: MemoryStore::default(),
             t: T0,
             telemetry: None,
             fail_start: false,
@@ -126,6 +144,11 @@ impl Bench {
                         }
                         GroundCommand::StartLogging(p) => {
                             self.state = BootstrapState::Flying;
+                            // The flight process creates its log.
+                            self.store.logs.push((
+                                format!("flight_{}.mcap", p.file_suffix),
+                                flight_log(&p.file_suffix),
+                            ));
                             let legs = heli_link::mission::parse_plan(PLAN).unwrap();
                             self.vehicle
                                 .set_mission(heli_link::mission::mission_items(&legs));
@@ -631,4 +654,79 @@ fn the_flight_pack_named_at_start_logging_gets_the_flights_time() {
     assert_eq!(totals["G"]["seconds"], 75.0);
     let logbook = b.station.view(b.t).power.logbook;
     assert!(!logbook[0].in_use && (logbook[0].hours - 420.0 / 3600.0).abs() < 1e-3);
+}
+
+#[test]
+fn three_flights_stopped_and_saved_in_one_session_are_three_files_equal_to_the_vehicles_logs() {
+    let mut b = Bench::new();
+    let op = b.connected_operator();
+    let mut seq = 3;
+    for (flight, saved_as) in [("a1", "g1"), ("a2", "g2"), ("a3", "g3")] {
+        if flight != "a1" {
+            b.ask(op, &format!(r#"{{"seq":{seq},"op":"connect"}}"#))
+                .unwrap();
+            seq += 1;
+            b.run(1.0);
+        }
+        b.ask(
+            op,
+            &format!(r#"{{"seq":{seq},"op":"start","suffix":"{flight}","controller":"manual"}}"#),
+        )
+        .unwrap();
+        seq += 1;
+        b.run(2.0);
+        b.ask(
+            op,
+            &format!(r#"{{"seq":{seq},"op":"stop","base_dir":"day","suffix":"{saved_as}"}}"#),
+        )
+        .unwrap();
+        seq += 1;
+        b.run(5.0);
+    }
+    assert_eq!(b.saved.len(), 3, "{}", b.messages());
+    for (k, (path, bytes)) in b.saved.iter().enumerate() {
+        assert_eq!(
+            path,
+            &PathBuf::from(format!("/ground/day/flight_g{}.mcap", k + 1))
+        );
+        assert_eq!(
+            bytes, &b.store.logs[k].1,
+            "save {k} is not flight {k}'s log"
+        );
+    }
+    assert!(
+        b.messages().contains("checked: flight 'a3'"),
+        "{}",
+        b.messages()
+    );
+}
+
+#[test]
+fn a_log_that_is_not_the_flight_just_stopped_is_not_said_saved() {
+    let mut b = Bench::new();
+    let op = b.connected_operator();
+    b.ask(
+        op,
+        r#"{"seq":3,"op":"start","suffix":"mine","controller":"manual"}"#,
+    )
+    .unwrap();
+    b.run(2.0);
+    // Another flight's log is the newest on the vehicle (written behind this one's back).
+    b.store
+        .logs
+        .push(("flight_other.mcap".into(), flight_log("other")));
+    b.ask(op, r#"{"seq":4,"op":"stop","base_dir":"day","suffix":"s"}"#)
+        .unwrap();
+    b.run(5.0);
+    assert!(
+        b.saved.is_empty(),
+        "saved {:?}",
+        b.saved.iter().map(|s| &s.0).collect::<Vec<_>>()
+    );
+    let said = b.messages();
+    assert!(
+        said.contains("it is the log of flight 'other', not of the flight just stopped ('mine')"),
+        "{said}"
+    );
+    assert!(!said.contains("log saved"), "{said}");
 }

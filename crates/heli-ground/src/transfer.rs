@@ -5,6 +5,12 @@
 //! The thesis's cleanup routine (§4.1.7) is one: after Stop, with the final parameters the
 //! operator gave (base directory, file suffix), the flight's log — the newest on the vehicle
 //! — goes to `BASE/flight_SUFFIX.mcap`. `heli ground download ID` is another.
+//!
+//! A transfer trusts nothing it did not ask for: it always asks the vehicle for its log list
+//! afresh (a list kept from an earlier transfer would name an earlier flight), and a log it
+//! received is handed over to be saved only once it is checked: its size, the MCAP's own
+//! CRCs (read whole, not cut or damaged), and — when the flight's suffix is known — the
+//! suffix the flight was started with, from the log's `flight` metadata.
 
 use std::path::PathBuf;
 
@@ -53,6 +59,10 @@ pub struct Step {
 pub struct Transfer {
     dest: PathBuf,
     which: Which,
+    /// The suffix the flight was started with, when known: the log must be that flight's.
+    expect_suffix: Option<String>,
+    /// The log list has been asked for by this transfer.
+    asked: bool,
     timeout_us: u64,
     stage: Stage,
     asked_us: u64,
@@ -67,11 +77,22 @@ impl Transfer {
         Self::of(Which::Newest, dest, TRANSFER_TIMEOUT_US, now_us)
     }
 
+    /// The same, of the flight started with `suffix`: a newest log of another flight is an
+    /// error, not a save.
+    pub fn of_flight(dest: PathBuf, suffix: Option<String>, now_us: u64) -> Self {
+        Self {
+            expect_suffix: suffix,
+            ..Self::new(dest, now_us)
+        }
+    }
+
     /// A transfer of log `which` to `dest`, given up after `timeout_us` without progress.
     pub fn of(which: Which, dest: PathBuf, timeout_us: u64, now_us: u64) -> Self {
         Self {
             dest,
             which,
+            expect_suffix: None,
+            asked: false,
             timeout_us,
             stage: Stage::Listing,
             asked_us: 0,
@@ -118,6 +139,14 @@ impl Transfer {
     }
 
     fn list(&mut self, link: &mut GroundLink, now_us: u64, step: &mut Step) {
+        if !self.asked {
+            // Whatever list the link holds is an earlier transfer's: ask afresh.
+            self.asked = true;
+            self.asked_us = now_us;
+            link.log_entries.clear();
+            step.frames.push(link.log_list_frame(now_us));
+            return;
+        }
         let want = link
             .log_entries
             .values()
@@ -198,11 +227,127 @@ impl Transfer {
         if dl.complete() {
             let bytes = link.download.take().map(|d| d.bytes).unwrap_or_default();
             step.frames.push(link.log_end_frame(now_us));
-            step.notes.push(format!(
-                "log transfer: 100 % ({size} bytes) received, saving"
-            ));
-            step.save = Some((self.dest.clone(), bytes));
             step.done = true;
+            match check(&bytes, size, self.expect_suffix.as_deref()) {
+                Ok(what) => {
+                    step.notes.push(format!(
+                        "log transfer: 100 % ({size} bytes) received, {what}; saving"
+                    ));
+                    step.save = Some((self.dest.clone(), bytes));
+                }
+                // A log asked for by its id is the operator's to keep, damaged or not (what
+                // reads of it can be exported with `heli log export --partial`).
+                Err(why) if matches!(self.which, Which::Id(_)) => {
+                    step.notes.push(format!(
+                        "log transfer: 100 % ({size} bytes) received; saving it although {why}"
+                    ));
+                    step.save = Some((self.dest.clone(), bytes));
+                }
+                Err(why) => {
+                    step.notes.push(format!(
+                        "log transfer: log {id} not saved to {}: {why}; it stays on the vehicle (download it again with `heli ground download {id}`)",
+                        self.dest.display()
+                    ));
+                    step.failed = true;
+                }
+            }
         }
+    }
+}
+
+/// Checks a received log: its size, that it reads whole (every chunk's CRC), and that it is
+/// the flight started with `suffix` when that is known. What was checked, or why it fails.
+pub fn check(bytes: &[u8], size: u32, suffix: Option<&str>) -> Result<String, String> {
+    if u64::try_from(bytes.len()).ok() != Some(u64::from(size)) {
+        return Err(format!(
+            "{} bytes received of the {size} the vehicle listed",
+            bytes.len()
+        ));
+    }
+    let contents = heli_log::reader::read(bytes);
+    if let Some(stop) = &contents.stopped {
+        return Err(format!("the log is damaged or cut off: {}", stop.detail));
+    }
+    let flight_suffix = contents
+        .metadata
+        .iter()
+        .find(|m| m.name == "flight")
+        .and_then(|m| m.entries.get("suffix"));
+    match (suffix, flight_suffix) {
+        (Some(want), Some(got)) if want != got => Err(format!(
+            "it is the log of flight '{got}', not of the flight just stopped ('{want}')"
+        )),
+        (Some(want), None) => Err(format!(
+            "it names no flight, and the flight just stopped is '{want}'"
+        )),
+        (Some(want), Some(_)) => Ok(format!("checked: flight '{want}', every chunk's CRC")),
+        (None, _) => Ok("checked: every chunk's CRC".into()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn log(suffix: &str) -> Vec<u8> {
+        let mut log = heli_log::FlightLog::new(std::io::Cursor::new(Vec::new())).unwrap();
+        let entries = heli_log::metadata::flight(
+            "heli test",
+            std::time::UNIX_EPOCH,
+            [("suffix".to_string(), suffix.to_string())],
+        );
+        log.write_metadata("flight", &entries).unwrap();
+        log.write("notes", 0, &serde_json::json!({"text": "x"}))
+            .unwrap();
+        log.finish().unwrap().into_inner()
+    }
+
+    #[test]
+    fn a_received_log_is_checked_for_its_size_its_crcs_and_its_flight() {
+        let bytes = log("f1");
+        let size = u32::try_from(bytes.len()).unwrap();
+        assert!(
+            check(&bytes, size, Some("f1"))
+                .unwrap()
+                .contains("flight 'f1'")
+        );
+        assert!(check(&bytes, size, None).is_ok());
+        let e = check(&bytes, size, Some("f2")).unwrap_err();
+        assert!(
+            e.contains("flight 'f1', not of the flight just stopped ('f2')"),
+            "{e}"
+        );
+        let e = check(&bytes, size + 1, Some("f1")).unwrap_err();
+        assert!(e.contains("received of the"), "{e}");
+        // One flipped byte inside the data: a chunk's CRC.
+        let mut damaged = bytes.clone();
+        let middle = damaged.len() / 2;
+        damaged[middle] ^= 0x40;
+        let e = check(&damaged, size, None).unwrap_err();
+        assert!(e.contains("damaged or cut off"), "{e}");
+    }
+
+    #[test]
+    fn a_transfer_asks_for_the_list_afresh_and_never_takes_an_earlier_one() {
+        let mut link = GroundLink::new(None);
+        // A complete list kept from an earlier transfer.
+        link.log_entries.insert(
+            1,
+            mavlink::dialects::common::LOG_ENTRY_DATA {
+                id: 1,
+                num_logs: 1,
+                last_log_num: 1,
+                size: 100,
+                time_utc: 0,
+            },
+        );
+        let mut t = Transfer::new(PathBuf::from("/x.mcap"), 0);
+        let step = t.tick(&mut link, 10);
+        assert_eq!(step.frames.len(), 1, "the list is asked for");
+        assert!(link.log_entries.is_empty(), "the old list is dropped");
+        assert!(
+            t.progress(&link).is_none(),
+            "no download of the old list's log"
+        );
     }
 }

@@ -289,6 +289,11 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
             bail!("{e}");
         }
     };
+    // A clean end leaves nothing in RAM: the fallback directory goes if it is empty (a log
+    // that fell back there stays, for the operator to take).
+    if let Some(dir) = &fallback {
+        let _ = std::fs::remove_dir(dir);
+    }
     let s = summary.stats;
     let json = serde_json::json!({
         "imu_samples": s.imu_samples,

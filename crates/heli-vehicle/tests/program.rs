@@ -513,7 +513,9 @@ fn a_flight_process_whose_bootstrap_is_gone_in_the_air_flies_on_and_is_taken_bac
             .arg(&devices)
             .arg("--log-dir")
             .arg(dir)
-            .args(["--fallback-dir", "none", "--warm-up-s", "0.1"])
+            .arg("--fallback-dir")
+            .arg(dir.join("ram"))
+            .args(["--warm-up-s", "0.1"])
             .arg("--adopt-socket")
             .arg(&adopt_socket)
             .stdin(Stdio::piped())
@@ -583,8 +585,9 @@ fn a_flight_process_whose_bootstrap_is_gone_in_the_air_flies_on_and_is_taken_bac
     feeding.store(false, std::sync::atomic::Ordering::Release);
     feeder.join().unwrap();
     assert!(status.success(), "{status}");
-    // A clean end: the socket is gone, and nothing is left to resume.
+    // A clean end: the socket is gone, nothing is left to resume, and nothing in RAM.
     assert!(!adopt_socket.exists());
+    assert!(!dir.path().join("ram").exists());
     assert!(!dir.path().join("warm-start").exists());
     let log = heli_log::read(&std::fs::read(dir.path().join("flight_up_r1.mcap")).unwrap());
     assert!(log.closed);
