@@ -33,6 +33,8 @@ pub struct Row {
     pub cells: Vec<Cell>,
     /// Old, or the device is not on time.
     pub stale: bool,
+    /// How long ago the station received it (s).
+    pub age_s: f64,
 }
 
 /// Every row, in Fig. 2-4's order; `None` is "NOTHING YET".
@@ -120,6 +122,7 @@ impl RowMaker<'_> {
             time_s: f64::from(time_ms) / 1000.0,
             cells,
             stale: old || unhealthy,
+            age_s: self.now_us.saturating_sub(at_us) as f64 * 1e-6,
         }
     }
 }

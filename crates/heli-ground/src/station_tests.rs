@@ -444,6 +444,9 @@ fn a_silent_device_is_stale_and_a_low_battery_is_red_and_each_fails_its_conditio
     b.run(1.0);
     let v = b.station.view(b.t);
     assert!(v.rows.gps.as_ref().unwrap().stale, "the GPS row is stale");
+    // The lamp follows: not green, grey with the fix's age, whatever count it had.
+    let gps = v.gps.as_ref().unwrap();
+    assert!(!gps.ok && gps.stale && gps.satellites == 8, "{gps:?}");
     assert!(!v.rows.imu.as_ref().unwrap().stale);
     let battery = v.battery.as_ref().unwrap();
     assert!(!battery.green && battery.percent < 33.4, "{battery:?}");
@@ -466,6 +469,8 @@ fn a_silent_device_is_stale_and_a_low_battery_is_red_and_each_fails_its_conditio
     b.run(2.0);
     let v = b.station.view(b.t);
     assert!(v.rows.imu.as_ref().unwrap().stale);
+    let gps = v.gps.as_ref().unwrap();
+    assert!(!gps.ok && gps.stale && gps.age_s > 1.5, "{gps:?}");
     assert!(!v.safety.augmented.allowed);
 }
 
@@ -729,4 +734,32 @@ fn a_log_that_is_not_the_flight_just_stopped_is_not_said_saved() {
         "{said}"
     );
     assert!(!said.contains("log saved"), "{said}");
+}
+
+#[test]
+fn the_gps_lamp_is_not_green_within_one_and_a_half_seconds_of_the_gps_falling_silent() {
+    let mut b = Bench::new();
+    let op = b.connected_operator();
+    b.ask(
+        op,
+        r#"{"seq":3,"op":"start","suffix":"f","controller":"manual"}"#,
+    )
+    .unwrap();
+    b.telemetry = Some(flying_telemetry("hold"));
+    b.run(2.0);
+    assert!(b.station.view(b.t).gps.unwrap().ok);
+    // The GPS messages stop (the vehicle's link sends none): the last fix said 8 satellites.
+    let mut t = flying_telemetry("hold");
+    t.gps = None;
+    b.telemetry = Some(t);
+    let silent_at = b.t;
+    while b.station.view(b.t).gps.unwrap().ok {
+        b.run(0.1);
+        assert!(
+            b.t - silent_at <= 1_500_000,
+            "still green 1.5 s after the GPS fell silent"
+        );
+    }
+    let gps = b.station.view(b.t).gps.unwrap();
+    assert!(gps.stale && gps.satellites == 8, "{gps:?}");
 }

@@ -65,13 +65,17 @@ pub struct BatteryView {
     pub from: &'static str,
 }
 
-/// The GPS indicator.
+/// The GPS indicator: it follows the freshest fix, not the last count seen.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct GpsView {
-    /// Satellites.
+    /// Satellites of the last fix.
     pub satellites: u8,
-    /// Green: five or more.
+    /// Green: five or more, in a fix that is fresh.
     pub ok: bool,
+    /// The fix is old, or the vehicle says its GPS is not on time: the lamp is grey.
+    pub stale: bool,
+    /// How long ago the fix came (s).
+    pub age_s: f64,
 }
 
 /// What the instruments draw (attitude indicator, track, plots, 3D view): the estimate.
@@ -186,10 +190,12 @@ impl Station {
                 .iter()
                 .all(|p| matches!(p.state, "good" | "unknown"));
         let facts = facts(latest, &rows, heartbeat_age_us, battery_green);
-        let gps = match latest.get(&GPS_RAW_INT_DATA::ID) {
-            Some((_, MavMessage::GPS_RAW_INT(g))) => Some(GpsView {
+        let gps = match (latest.get(&GPS_RAW_INT_DATA::ID), rows.gps.as_ref()) {
+            (Some((_, MavMessage::GPS_RAW_INT(g))), Some(row)) => Some(GpsView {
                 satellites: g.satellites_visible,
-                ok: gps_ok(g.satellites_visible),
+                ok: gps_ok(g.satellites_visible) && !row.stale,
+                stale: row.stale,
+                age_s: row.age_s,
             }),
             _ => None,
         };

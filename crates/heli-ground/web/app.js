@@ -170,8 +170,14 @@ function renderPower(view) {
     $("battery-v").textContent = "– V";
   }
   const g = view.gps;
-  $("gps-indicator").className = "lamp " + (g && g.ok ? "green" : "red");
-  $("gps-sats").textContent = g ? `${g.satellites} satellites` : "no fix";
+  // The lamp follows the freshest fix: grey, with its age, when the fix is old or the
+  // vehicle says its GPS is not on time.
+  $("gps-indicator").className = "lamp " + (!g ? "red" : g.stale ? "grey" : g.ok ? "green" : "red");
+  $("gps-sats").textContent = !g
+    ? "no fix"
+    : g.stale
+      ? `stale: ${g.satellites} satellites ${g.age_s.toFixed(1)} s ago`
+      : `${g.satellites} satellites`;
   renderPacks(view.power);
 }
 

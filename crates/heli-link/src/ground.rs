@@ -276,6 +276,7 @@ impl GroundLink {
             None => String::new(),
         };
         whole.push_str(text);
+        // A piece cut inside a word is full (`status::chunks`).
         if text.ends_with(' ') || text.len() >= 50 {
             self.partial_text = Some((severity, whole, now_us));
         } else {

@@ -84,29 +84,33 @@ pub fn mode_code(mode: heli_types::FlightMode) -> u8 {
         .map_or(0, |i| i.saturating_add(1))
 }
 
-/// `text` in chunks of at most `max` bytes (a STATUSTEXT holds 50), cut at spaces where it
-/// can be and never inside a character.
+/// `text` in pieces of at most `max` bytes (a STATUSTEXT holds 50) that join back to it
+/// exactly: each piece but the last ends with a space of the text (cut after a word) or, where
+/// a word is longer than the room, is cut inside the word and full (`max` bytes). A ground
+/// joins a piece that ends with a space or is full to the next one (`GroundLink`), adding
+/// nothing. (Only a word of more than `max` bytes whose cut would fall inside a character of
+/// several bytes makes a piece that is neither: the line then arrives as two.)
 pub fn chunks(text: &str, max: usize) -> Vec<String> {
     let max = max.max(4);
     let mut out = Vec::new();
-    let mut current = String::new();
-    for word in text.split(' ') {
-        if !current.is_empty() && current.len().saturating_add(1).saturating_add(word.len()) > max {
-            out.push(std::mem::take(&mut current));
-        }
-        if !current.is_empty() {
-            current.push(' ');
-        }
-        for c in word.chars() {
-            if current.len().saturating_add(c.len_utf8()) > max {
-                out.push(std::mem::take(&mut current));
-            }
-            current.push(c);
-        }
+    let mut rest = text;
+    while rest.len() > max {
+        // The longest prefix of at most `max` bytes that ends at a character's boundary.
+        let room = (0..=max)
+            .rev()
+            .find(|i| rest.is_char_boundary(*i))
+            .unwrap_or(0);
+        // Cut after the last space in it, if any; else inside the word.
+        let cut = rest
+            .get(..room)
+            .and_then(|head| head.rfind(' '))
+            .map_or(room, |space| space.saturating_add(1));
+        let cut = if cut == 0 { room.max(1) } else { cut };
+        let (piece, tail) = rest.split_at(cut.min(rest.len()));
+        out.push(piece.to_string());
+        rest = tail;
     }
-    if !current.is_empty() || out.is_empty() {
-        out.push(current);
-    }
+    out.push(rest.to_string());
     out
 }
 

@@ -189,17 +189,10 @@ impl VehicleLink {
         self.outbox.push(bytes);
     }
 
-    /// Queues a status text, cut at spaces into chunks of at most 50 characters (a
-    /// STATUSTEXT's size), a longer word where it must.
+    /// Queues a status text, cut into pieces of a STATUSTEXT's 50 bytes that join back to it
+    /// exactly ([`chunks`]: after a space, or full).
     pub fn status_text(&mut self, severity: MavSeverity, text: &str, now_us: u64) {
-        // A line longer than one text goes as several: each but the last ends with a space
-        // (or is full), so a ground can join them (`GroundLink` does).
-        let parts = chunks(text, 49);
-        let last = parts.len().saturating_sub(1);
-        for (i, mut chunk) in parts.into_iter().enumerate() {
-            if i < last {
-                chunk.push(' ');
-            }
+        for chunk in chunks(text, 50) {
             let msg = MavMessage::STATUSTEXT(STATUSTEXT_DATA {
                 severity,
                 text: chunk.as_str().into(),

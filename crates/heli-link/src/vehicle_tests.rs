@@ -292,13 +292,40 @@ proptest::proptest! {
 }
 
 #[test]
-fn status_texts_are_cut_at_spaces() {
-    let text = "flight: event activity-hi t=6.03 s calibration done, gyro bias [0.0028, -0.0137, 0.0010] rad/s";
-    let parts = chunks(text, 50);
-    assert!(parts.iter().all(|p| p.chars().count() <= 50), "{parts:?}");
-    assert_eq!(parts.join(" "), text);
+fn status_texts_are_cut_into_pieces_that_join_back_exactly() {
+    let texts = [
+        "flight: event activity-hi t=6.03 s calibration done, gyro bias [0.0028, -0.0137, 0.0010] rad/s".to_string(),
+        // A word longer than a piece, and one that straddles a cut.
+        format!("stopped {{\"control_steps\":2166,\"log_error\":\"{}\"}}", "x".repeat(70)),
+        "flight: stopped {\"baro_readings\":215,\"compass_readings\":867,\"control_steps\":2166}".to_string(),
+        "x".repeat(120),
+        "météo: vent à 8 m/s, rafales à 12 m/s — décollage refusé".repeat(2),
+        String::new(),
+    ];
+    for text in &texts {
+        let parts = chunks(text, 50);
+        assert!(parts.iter().all(|p| p.len() <= 50), "{parts:?}");
+        assert_eq!(parts.concat(), *text, "{parts:?}");
+        // Every piece but the last says it continues: a space at its end, or full.
+        let last = parts.len() - 1;
+        for p in &parts[..last] {
+            assert!(p.ends_with(' ') || p.len() == 50, "{p:?} in {parts:?}");
+        }
+    }
     assert_eq!(chunks(&"x".repeat(120), 50).len(), 3);
     assert_eq!(chunks("", 50), vec![String::new()]);
+    // Through the link, a long line with a long word arrives as it was sent.
+    let mut v = VehicleLink::new(None, T0);
+    let mut g = GroundLink::new(None);
+    for text in &texts[..5] {
+        v.status_text(MavSeverity::MAV_SEVERITY_INFO, text, T0);
+        for frame in v.take_outgoing() {
+            g.receive(&frame, T0);
+        }
+        g.flush_texts(T0 + 10_000_000);
+        let (_, got) = g.texts.pop().unwrap();
+        assert_eq!(&got, text);
+    }
 }
 
 #[test]
