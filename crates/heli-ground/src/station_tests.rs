@@ -181,6 +181,7 @@ impl Bench {
             let status = VehicleStatus {
                 state: self.state,
                 mode: self.mode,
+                phase: 0,
             };
             self.vehicle
                 .tick(self.t, status, self.telemetry.as_ref(), &self.store);
@@ -762,4 +763,29 @@ fn the_gps_lamp_is_not_green_within_one_and_a_half_seconds_of_the_gps_falling_si
     }
     let gps = b.station.view(b.t).gps.unwrap();
     assert!(gps.stale && gps.satellites == 8, "{gps:?}");
+}
+
+#[test]
+fn the_header_shows_the_phase_flown_not_only_the_mode_asked() {
+    let mut b = Bench::new();
+    let op = b.connected_operator();
+    b.ask(
+        op,
+        r#"{"seq":3,"op":"start","suffix":"f","controller":"autonomous","plan":"hover"}"#,
+    )
+    .unwrap();
+    b.telemetry = Some(flying_telemetry("takeoff-refused"));
+    b.run(2.0);
+    let v = b.station.view(b.t).vehicle;
+    assert_eq!(
+        (v.state, v.mode, v.phase),
+        (Some("flying"), Some("autonomous"), Some("takeoff-refused"))
+    );
+    b.telemetry = Some(flying_telemetry("hold"));
+    b.run(2.0);
+    assert_eq!(b.station.view(b.t).vehicle.phase, Some("hold"));
+    // No flight process: no phase.
+    b.telemetry = None;
+    b.run(2.0);
+    assert_eq!(b.station.view(b.t).vehicle.phase, None);
 }

@@ -45,8 +45,11 @@ pub struct VehicleView {
     pub heartbeat_age_s: Option<f64>,
     /// The bootstrap's state.
     pub state: Option<&'static str>,
-    /// The flight's controller.
+    /// The flight's controller, as asked at Start Logging.
     pub mode: Option<&'static str>,
+    /// The phase the flight software is flying (the heartbeat's): what the helicopter
+    /// actually does, which a refusal or a failsafe can make differ from the mode asked.
+    pub phase: Option<&'static str>,
     /// Frames refused by the ground (bad, or wrongly signed).
     pub bad_frames: u64,
 }
@@ -245,6 +248,7 @@ impl Station {
                 heartbeat_age_s: heartbeat_age_us.map(|a| a as f64 / 1e6),
                 state: status.map(|s| s.state.name()),
                 mode: status.and_then(|s| s.flight_mode()).map(|m| m.name()),
+                phase: status.and_then(|s| s.phase_name()),
                 bad_frames: self.link.bad_frames,
             },
             uplink_labels: labels,

@@ -124,10 +124,16 @@ function renderPanel(view, inControl) {
 function renderVehicle(view) {
   const v = view.vehicle;
   const el = $("vehicle-state");
-  el.textContent = v.heard
-    ? `vehicle: ${v.state}${v.mode ? ", " + v.mode : ""}`
-    : "vehicle: not heard";
-  el.className = "pill " + (v.heard ? "good" : "bad");
+  // The bootstrap's state, the phase actually flown, and the mode asked: a refused take-off
+  // or a failsafe reads as such, not as the mode asked for.
+  const asked = v.mode ? ` (${v.mode} asked)` : "";
+  el.textContent = !v.heard
+    ? `vehicle: not heard${v.heartbeat_age_s != null ? ` for ${v.heartbeat_age_s.toFixed(0)} s` : ""}`
+    : v.phase
+      ? `vehicle: ${v.state}, ${v.phase}${asked}`
+      : `vehicle: ${v.state}${v.mode ? ", " + v.mode : ""}`;
+  const trouble = ["takeoff-refused", "blind-descent", "ground-failsafe", "autorotation"];
+  el.className = "pill " + (!v.heard ? "bad" : trouble.includes(v.phase) ? "warn" : "good");
 }
 
 function renderRows(view) {

@@ -26,9 +26,46 @@ pub enum BootstrapState {
 pub struct VehicleStatus {
     /// The bootstrap's state.
     pub state: BootstrapState,
-    /// The control mode of the flight under way (custom mode's second byte: 1 manual, 2
-    /// autonomous, 3 rate, 4 attitude, 5 velocity; 0 none).
+    /// The control mode of the flight under way, as asked at Start Logging (custom mode's
+    /// second byte: 1 manual, 2 autonomous, 3 rate, 4 attitude, 5 velocity; 0 none).
     pub mode: u8,
+    /// The phase the flight software is flying (custom mode's third byte: its place in
+    /// [`PHASES`] from 1; 0 not known): what the helicopter actually does, which a refusal
+    /// or a failsafe can make differ from the mode asked.
+    pub phase: u8,
+}
+
+/// The flight software's phases, by name (`heli_fsw::Phase::name`), in the heartbeat's
+/// order.
+pub const PHASES: [&str; 19] = [
+    "calibrating",
+    "manual",
+    "ground-failsafe",
+    "blind-descent",
+    "takeoff-refused",
+    "preflight-check",
+    "takeoff",
+    "hold",
+    "fly",
+    "accelerate",
+    "pull-up",
+    "rolling",
+    "recover",
+    "land",
+    "autorotation",
+    "landed",
+    "augmented-rate",
+    "augmented-attitude",
+    "augmented-velocity",
+];
+
+/// The heartbeat's code of a phase name (0: not one of [`PHASES`]).
+pub fn phase_code(name: &str) -> u8 {
+    PHASES
+        .iter()
+        .position(|p| *p == name)
+        .and_then(|i| u8::try_from(i.saturating_add(1)).ok())
+        .unwrap_or(0)
 }
 
 impl BootstrapState {
@@ -64,7 +101,14 @@ impl VehicleStatus {
         Some(Self {
             state,
             mode: u8::try_from((hb.custom_mode >> 8) & 0xFF).unwrap_or(0),
+            phase: u8::try_from((hb.custom_mode >> 16) & 0xFF).unwrap_or(0),
         })
+    }
+
+    /// The phase flown, if known.
+    pub fn phase_name(self) -> Option<&'static str> {
+        let index = usize::from(self.phase).checked_sub(1)?;
+        PHASES.get(index).copied()
     }
 
     /// The control mode of the flight under way, if any.
@@ -134,7 +178,9 @@ pub fn heartbeat(status: VehicleStatus) -> MavMessage {
         BootstrapState::Stopping => MavState::MAV_STATE_POWEROFF,
     };
     MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-        custom_mode: u32::from(status.state as u8) | (u32::from(status.mode) << 8),
+        custom_mode: u32::from(status.state as u8)
+            | (u32::from(status.mode) << 8)
+            | (u32::from(status.phase) << 16),
         mavtype: MavType::MAV_TYPE_HELICOPTER,
         autopilot: MavAutopilot::MAV_AUTOPILOT_GENERIC,
         base_mode,

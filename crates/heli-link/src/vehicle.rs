@@ -508,6 +508,13 @@ impl VehicleLink {
         store: &dyn LogStore,
     ) -> Vec<LinkEvent> {
         let mut events = Vec::new();
+        // The phase flown, from the flight process's telemetry (none without a flight).
+        let status = VehicleStatus {
+            phase: telemetry
+                .and_then(|t| t.state.as_ref())
+                .map_or(0, |s| crate::status::phase_code(&s.phase)),
+            ..status
+        };
         self.status = status;
         if self.due(HEARTBEAT_DATA::ID, Some(HEARTBEAT_US), now_us) {
             let hb = heartbeat(status);

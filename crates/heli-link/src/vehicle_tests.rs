@@ -510,6 +510,7 @@ fn connect_over_the_link_is_refused_while_a_flight_is_under_way() {
     let flying = VehicleStatus {
         state: BootstrapState::Flying,
         mode: 2,
+        phase: 0,
     };
     v.tick(T0, flying, None, &s);
     let connect = g.command_frame(command_long(&GroundCommand::Connect, (1, 1)).unwrap(), T0);
@@ -587,4 +588,24 @@ fn messages_for_another_system_change_nothing() {
     let ev = v.receive(&set, T0, &store());
     assert!(ev.is_empty(), "{ev:?}");
     assert_eq!(v.params().get("A_GAIN"), Some(0.5));
+}
+
+#[test]
+fn the_heartbeat_carries_the_phase_flown_beside_the_mode_asked() {
+    for (k, name) in crate::status::PHASES.iter().enumerate() {
+        let status = VehicleStatus {
+            state: BootstrapState::Flying,
+            mode: 2,
+            phase: crate::status::phase_code(name),
+        };
+        assert_eq!(usize::from(status.phase), k + 1);
+        let MavMessage::HEARTBEAT(hb) = crate::status::heartbeat(status) else {
+            panic!("not a heartbeat");
+        };
+        let back = VehicleStatus::from_heartbeat(&hb).unwrap();
+        assert_eq!(back, status);
+        assert_eq!(back.phase_name(), Some(*name));
+    }
+    assert_eq!(crate::status::phase_code("somersault"), 0);
+    assert_eq!(VehicleStatus::default().phase_name(), None);
 }

@@ -96,7 +96,11 @@ impl LinkPort for LinkShared {
         };
         let mode = flying.map_or(0, heli_link::status::mode_code);
         let mut shared = self.lock();
-        shared.status = VehicleStatus { state, mode };
+        shared.status = VehicleStatus {
+            state,
+            mode,
+            ..VehicleStatus::default()
+        };
         // A flight process gone or not yet flying has no telemetry: the last one's values
         // must not go on being sent as if fresh.
         if matches!(state, BootstrapState::Idle | BootstrapState::Connecting) {
