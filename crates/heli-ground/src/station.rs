@@ -543,12 +543,16 @@ impl Station {
                 root: self.config.save_root.clone(),
             });
         }
-        Ok(Some(
-            self.config
-                .save_root
-                .join(rel)
-                .join(format!("flight_{}.mcap", suffix.trim())),
-        ))
+        // `.` parts say nothing: the path is said without them (`day1`, not `./day1/.`).
+        let mut dest: PathBuf = self
+            .config
+            .save_root
+            .components()
+            .chain(rel.components())
+            .filter(|c| !matches!(c, Component::CurDir))
+            .collect();
+        dest.push(format!("flight_{}.mcap", suffix.trim()));
+        Ok(Some(dest))
     }
 
     /// Frames a request produced, to send now.

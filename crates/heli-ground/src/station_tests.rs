@@ -667,7 +667,12 @@ fn three_flights_stopped_and_saved_in_one_session_are_three_files_equal_to_the_v
     let mut b = Bench::new();
     let op = b.connected_operator();
     let mut seq = 3;
-    for (flight, saved_as) in [("a1", "g1"), ("a2", "g2"), ("a3", "g3")] {
+    // A base written with `.` parts is saved, and said, without them.
+    for (flight, saved_as, base) in [
+        ("a1", "g1", "./day/."),
+        ("a2", "g2", "day"),
+        ("a3", "g3", "day"),
+    ] {
         if flight != "a1" {
             b.ask(op, &format!(r#"{{"seq":{seq},"op":"connect"}}"#))
                 .unwrap();
@@ -683,7 +688,7 @@ fn three_flights_stopped_and_saved_in_one_session_are_three_files_equal_to_the_v
         b.run(2.0);
         b.ask(
             op,
-            &format!(r#"{{"seq":{seq},"op":"stop","base_dir":"day","suffix":"{saved_as}"}}"#),
+            &format!(r#"{{"seq":{seq},"op":"stop","base_dir":"{base}","suffix":"{saved_as}"}}"#),
         )
         .unwrap();
         seq += 1;

@@ -433,6 +433,14 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_bootstraps_word_on_its_link_is_kept_as_the_flight_loop_reads_it() {
+        // 0 is a vehicle without a link (never said by the bootstrap), 1 a ground heard, 2
+        // none: `flight::run` hands 1 and 2 to the flight software and leaves 0 unjudged.
+        assert_eq!(link_state(true), 1);
+        assert_eq!(link_state(false), 2);
+    }
+
+    #[test]
     fn dropped_report_lines_are_counted_and_said_once_with_their_number() {
         let dropped = Dropped::default();
         assert!(dropped.note().is_none(), "nothing dropped, nothing said");

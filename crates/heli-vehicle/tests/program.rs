@@ -540,6 +540,19 @@ fn a_flight_process_whose_bootstrap_is_gone_in_the_air_flies_on_and_is_taken_bac
         })
     };
     wait_in(&said, "aligned in the air", Duration::from_secs(10));
+    // A second start in flight, and a line that is not the protocol, are answered, not flown.
+    writeln!(to_flight, "start again manual").unwrap();
+    wait_in(
+        &said,
+        "error already started: stop this flight first",
+        Duration::from_secs(5),
+    );
+    writeln!(to_flight, "hello").unwrap();
+    wait_in(
+        &said,
+        "error not understood: 'hello'",
+        Duration::from_secs(5),
+    );
     // While it lives, a second flight process on the same socket refuses to start.
     let second = dir.path().join("second");
     std::fs::create_dir_all(&second).unwrap();

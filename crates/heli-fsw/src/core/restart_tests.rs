@@ -186,7 +186,12 @@ fn a_helicopter_still_rolling_is_levelled_where_it_is_at_the_end_of_the_window()
     // middle (0.5 rad behind); turned back by the gyros, it is levelled at its end.
     let rate_rps = 1.0;
     let roll_at = |t_us: u64| 0.2 + rate_rps * t_us as f64 * 1e-6;
-    let bias = warm(None).gyro_bias_rps;
+    // Biases large enough that using them the wrong way round would show.
+    let biased = WarmStart {
+        gyro_bias_rps: [0.05, -0.04, 0.01],
+        ..warm(None)
+    };
+    let bias = biased.gyro_bias_rps;
     let sample = |t_us: u64| {
         let roll = roll_at(t_us);
         ImuRepr {
@@ -195,8 +200,7 @@ fn a_helicopter_still_rolling_is_levelled_where_it_is_at_the_end_of_the_window()
             temp_c: 30.0,
         }
     };
-    let mut core =
-        FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm(None));
+    let mut core = FlightCore::restarted(CoreConfig::default(), FlightParams::default(), biased);
     let mut out = Vec::new();
     core.handle(Input::Gps(gps_fix(8)), 0, &mut out);
     let mut t = 0;
@@ -213,8 +217,7 @@ fn a_helicopter_still_rolling_is_levelled_where_it_is_at_the_end_of_the_window()
     );
     assert!(pitch.abs() < 0.02, "{pitch}");
     // A gap in the samples is not integrated across: the step is bounded.
-    let mut core =
-        FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm(None));
+    let mut core = FlightCore::restarted(CoreConfig::default(), FlightParams::default(), biased);
     core.handle(Input::Gps(gps_fix(8)), 0, &mut out);
     let level = ImuRepr {
         rate_rps: [rate_rps + bias[0], bias[1], bias[2]],
