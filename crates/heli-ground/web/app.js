@@ -47,6 +47,16 @@ function setLink(up) {
   const el = $("link-state");
   el.textContent = up ? "ground station connected" : "no link to the ground station";
   el.className = "pill " + (up ? "good" : "bad");
+  // Without the ground station nothing on the page is current and nothing can be sent: the
+  // last view is greyed out, every button off and the vehicle's pill says it is not known,
+  // until a view comes again.
+  document.body.dataset.link = up ? "up" : "down";
+  if (!up) {
+    for (const b of document.querySelectorAll("button")) b.disabled = true;
+    const v = $("vehicle-state");
+    v.textContent = "vehicle: not known (no ground station)";
+    v.className = "pill bad";
+  }
 }
 
 // Sends a request; its answer comes back as a reply with the same sequence number.
