@@ -29,6 +29,10 @@ pub struct FieldDayArgs {
     /// The HILSim's seed.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Make the storage faults by a file-size limit and the directory's permissions even where
+    /// a tmpfs could be mounted (as without root).
+    #[arg(long)]
+    pub no_mount: bool,
     /// Print the outcomes as JSON instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -68,6 +72,7 @@ pub fn field_day(args: &FieldDayArgs) -> Result<ExitCode> {
         out: args.out.clone(),
         trials,
         seed: args.seed,
+        mount: !args.no_mount,
     };
     eprintln!(
         "field day: {} trials in real time, one at a time, in {}",

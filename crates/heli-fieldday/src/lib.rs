@@ -64,6 +64,9 @@ pub struct Options {
     pub trials: Vec<(Fault, Phase)>,
     /// The HILSim's seed.
     pub seed: u64,
+    /// Make the storage faults on a tmpfs of their own where this process may mount one
+    /// (root); otherwise, or when false, by a file-size limit and the directory's permissions.
+    pub mount: bool,
 }
 
 /// The trials CI runs (`heli field-day --ci`): each kind of recovery once, in both phases.
@@ -113,6 +116,7 @@ pub fn run(
             fault,
             phase,
             options.seed,
+            options.mount,
         )?;
         progress(&outcome);
         outcomes.push(outcome);

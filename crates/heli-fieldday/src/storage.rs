@@ -76,15 +76,14 @@ fn largest_file(dir: &Path) -> u64 {
 }
 
 impl Storage {
-    /// Makes `dir` the log directory: a 64 MiB tmpfs when this process may mount one.
-    pub fn prepare(dir: &Path) -> Result<Self, FieldDayError> {
+    /// Makes `dir` the log directory: a 64 MiB tmpfs when `mount` allows it and this process
+    /// may mount one.
+    pub fn prepare(dir: &Path, mount: bool) -> Result<Self, FieldDayError> {
         std::fs::create_dir_all(dir)
             .map_err(|e| FieldDayError::Io(format!("creating {}", dir.display()), e))?;
         let path = dir.display().to_string();
-        let means = match run("mount", &["-t", "tmpfs", "-o", "size=64m", "tmpfs", &path]) {
-            Ok(()) => Means::Tmpfs,
-            Err(_) => Means::Injected,
-        };
+        let mounted = mount && run("mount", &["-t", "tmpfs", "-o", "size=64m", "tmpfs", &path]).is_ok();
+        let means = if mounted { Means::Tmpfs } else { Means::Injected };
         Ok(Self {
             dir: dir.to_path_buf(),
             means,

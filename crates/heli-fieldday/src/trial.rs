@@ -155,7 +155,8 @@ impl Run<'_> {
     }
 }
 
-/// Runs one trial in `out/<fault>-<phase>`.
+/// Runs one trial in `out/<fault>-<phase>`; `mount`: the storage faults on a tmpfs where
+/// this process may mount one.
 pub fn run(
     programs: &Programs,
     python: &Path,
@@ -163,6 +164,7 @@ pub fn run(
     fault: Fault,
     phase: Phase,
     seed: u64,
+    mount: bool,
 ) -> Result<Outcome, FieldDayError> {
     let started = Instant::now();
     let dir = out.join(format!("{}-{}", fault.name(), phase.name()));
@@ -187,7 +189,7 @@ pub fn run(
     };
     let _ = std::fs::remove_dir_all(&fallback);
     let mut storage = if fault.storage() {
-        Some(Storage::prepare(&paths.logs)?)
+        Some(Storage::prepare(&paths.logs, mount)?)
     } else {
         std::fs::create_dir_all(&paths.logs)
             .map_err(|e| FieldDayError::Io(format!("creating {}", paths.logs.display()), e))?;
