@@ -82,8 +82,13 @@ impl Storage {
         std::fs::create_dir_all(dir)
             .map_err(|e| FieldDayError::Io(format!("creating {}", dir.display()), e))?;
         let path = dir.display().to_string();
-        let mounted = mount && run("mount", &["-t", "tmpfs", "-o", "size=64m", "tmpfs", &path]).is_ok();
-        let means = if mounted { Means::Tmpfs } else { Means::Injected };
+        let mounted =
+            mount && run("mount", &["-t", "tmpfs", "-o", "size=64m", "tmpfs", &path]).is_ok();
+        let means = if mounted {
+            Means::Tmpfs
+        } else {
+            Means::Injected
+        };
         Ok(Self {
             dir: dir.to_path_buf(),
             means,

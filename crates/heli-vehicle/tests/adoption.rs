@@ -117,7 +117,12 @@ fn a_taken_back_flight_process_that_crashes_is_restarted_with_its_parameters() {
     // Its socket is closed, but the process still runs: it is still flying, and no second
     // one may be started beside it.
     std::thread::sleep(Duration::from_millis(700));
-    assert_eq!(boot.count("CRASHED"), 0, "{:#?}", boot.lines.lock().unwrap());
+    assert_eq!(
+        boot.count("CRASHED"),
+        0,
+        "{:#?}",
+        boot.lines.lock().unwrap()
+    );
     assert_eq!(boot.count("restarting"), 0);
     process.kill().unwrap();
     process.wait().unwrap();
