@@ -192,7 +192,11 @@ struct Channel {
 /// An empty backlog whose memory is reserved and touched (resident from now on, and never
 /// reallocated while it stays within [`BACKLOG_RESERVE_BYTES`]).
 fn reserved_backlog() -> Vec<u8> {
-    let mut backlog = vec![0u8; BACKLOG_RESERVE_BYTES];
+    // Written, not only allocated: a zeroed allocation (`vec![0; n]`) gets fresh pages from
+    // the kernel that become resident only when first written — during the fault. (A process
+    // with its memory locked has them at once either way.)
+    let mut backlog = Vec::with_capacity(BACKLOG_RESERVE_BYTES);
+    backlog.resize(BACKLOG_RESERVE_BYTES, 0xA5);
     backlog.clear();
     backlog
 }
