@@ -87,7 +87,7 @@ enum Command {
     /// read-only storage, a port hung up, stalls, a silent servo board, a brown-out) injected
     /// into the real processes against the HILSim while hovering and rolling, judged by the
     /// truth, the logs (official Python MCAP reader) and what the operator was told
-    /// (docs/robustness.md). Real time, about 25 minutes whole. Exit status 0 only when every
+    /// (docs/robustness.md). Real time, about 30 minutes whole. Exit status 0 only when every
     /// trial passes.
     FieldDay(fieldday_cmd::FieldDayArgs),
     /// The ground station as a command-line client of the vehicle's MAVLink link
