@@ -377,19 +377,8 @@ pub fn python_reads(log: &Path) {
         eprintln!("note: HELI_MCAP_PYTHON not set; the official Python reader was not tried");
         return;
     };
-    let script = "import sys\nfrom mcap.reader import make_reader\nn = 0\nwith open(sys.argv[1], 'rb') as f:\n    for _ in make_reader(f).iter_messages():\n        n += 1\nprint(n)\n";
-    let out = Command::new(python)
-        .args(["-c", script, &log.display().to_string()])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "python mcap could not read {}: {}",
-        log.display(),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let n: u64 = stdout.trim().parse().unwrap_or(0);
+    let n = heli_fieldday::judge::python_reads(std::path::Path::new(&python), log)
+        .unwrap_or_else(|e| panic!("python mcap could not read {}: {e}", log.display()));
     assert!(
         n > 100,
         "python mcap read only {n} messages of {}",

@@ -46,15 +46,6 @@ pub const ALL: [Fault; 10] = [
     Fault::Brownout,
 ];
 
-/// The faults CI runs (a subset that fits): one of each kind of recovery — a restart, a
-/// take-back, the storage, an alignment after a stall.
-pub const CI: [Fault; 4] = [
-    Fault::KillFlight,
-    Fault::KillBootstrap,
-    Fault::DiskFull,
-    Fault::Stall(3000),
-];
-
 /// How long the log storage stays full: a minute, through which the flight process's memory
 /// must stay flat (within [`MEMORY_GROWTH_MIB`]).
 pub const DISK_FULL: Duration = Duration::from_secs(60);

@@ -78,26 +78,7 @@ fn flying_telemetry(phase: &str) -> Telemetry {
     }
 }
 
-/// A flight's log as the vehicle writes it: the `flight` metadata with its suffix, and a few
-/// messages that differ from flight to flight.
-fn flight_log(suffix: &str) -> Vec<u8> {
-    let mut log = heli_log::FlightLog::new(std::io::Cursor::new(Vec::new())).unwrap();
-    let entries = heli_log::metadata::flight(
-        "heli test",
-        std::time::UNIX_EPOCH,
-        [("suffix".to_string(), suffix.to_string())],
-    );
-    log.write_metadata("flight", &entries).unwrap();
-    for k in 0..200u64 {
-        log.write(
-            "notes",
-            k * 10_000,
-            &serde_json::json!({ "text": format!("{suffix} {k}") }),
-        )
-        .unwrap();
-    }
-    log.finish().unwrap().into_inner()
-}
+use crate::transfer::tests::flight_log;
 
 impl Bench {
     fn new() -> Self {

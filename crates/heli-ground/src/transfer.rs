@@ -286,10 +286,12 @@ pub fn check(bytes: &[u8], size: u32, suffix: Option<&str>) -> Result<String, St
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn log(suffix: &str) -> Vec<u8> {
+    /// A flight's log as the vehicle writes it: the `flight` metadata with its suffix, and a
+    /// few messages that differ from flight to flight (the station's tests use it too).
+    pub(crate) fn flight_log(suffix: &str) -> Vec<u8> {
         let mut log = heli_log::FlightLog::new(std::io::Cursor::new(Vec::new())).unwrap();
         let entries = heli_log::metadata::flight(
             "heli test",
@@ -297,14 +299,20 @@ mod tests {
             [("suffix".to_string(), suffix.to_string())],
         );
         log.write_metadata("flight", &entries).unwrap();
-        log.write("notes", 0, &serde_json::json!({"text": "x"}))
+        for k in 0..200u64 {
+            log.write(
+                "notes",
+                k * 10_000,
+                &serde_json::json!({ "text": format!("{suffix} {k}") }),
+            )
             .unwrap();
+        }
         log.finish().unwrap().into_inner()
     }
 
     #[test]
     fn a_received_log_is_checked_for_its_size_its_crcs_and_its_flight() {
-        let bytes = log("f1");
+        let bytes = flight_log("f1");
         let size = u32::try_from(bytes.len()).unwrap();
         assert!(
             check(&bytes, size, Some("f1"))

@@ -71,23 +71,7 @@ impl Bootstrap {
     }
 
     fn wait_for(&self, needle: &str, timeout: Duration) -> String {
-        let end = Instant::now() + timeout;
-        while Instant::now() < end {
-            if let Some(l) = self
-                .lines
-                .lock()
-                .unwrap()
-                .iter()
-                .find(|l| l.contains(needle))
-            {
-                return l.clone();
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        panic!(
-            "no line with '{needle}' within {timeout:?}:\n{}",
-            self.lines.lock().unwrap().join("\n")
-        );
+        wait_in(&self.lines, needle, timeout)
     }
 
     fn ctl(&self, words: &[&str]) -> (bool, String) {
@@ -202,6 +186,32 @@ impl FakeDevices {
     }
 }
 
+/// The IMU at 100 Hz on its terminal, until stopped.
+struct Feeder {
+    feeding: Arc<std::sync::atomic::AtomicBool>,
+    thread: std::thread::JoinHandle<()>,
+}
+
+impl Feeder {
+    fn start(mut imu: TTYPort) -> Self {
+        let feeding = Arc::new(std::sync::atomic::AtomicBool::new(true));
+        let on = Arc::clone(&feeding);
+        let thread = std::thread::spawn(move || {
+            while on.load(std::sync::atomic::Ordering::Acquire) {
+                imu.write_all(&imu_frame()).unwrap();
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        });
+        Self { feeding, thread }
+    }
+
+    fn stop(self) {
+        self.feeding
+            .store(false, std::sync::atomic::Ordering::Release);
+        self.thread.join().unwrap();
+    }
+}
+
 fn imu_frame() -> Vec<u8> {
     let mut buf = [0u8; heli_proto::imu::FRAME_LEN];
     let n = ImuRepr {
@@ -218,7 +228,7 @@ fn imu_frame() -> Vec<u8> {
 fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
     let dir = tempfile::tempdir().unwrap();
     let FakeDevices {
-        mut imu,
+        imu,
         _held: held,
         file: devices,
     } = FakeDevices::new(dir.path());
@@ -247,16 +257,7 @@ fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
     let (ok, reply) = bootstrap.ctl(&["start-logging", "e2e", "manual"]);
     assert!(ok && reply.starts_with("ok flying"), "{reply}");
     // The IMU at 100 Hz: the short calibration the command line asked for ends at once.
-    let feeding = Arc::new(std::sync::atomic::AtomicBool::new(true));
-    let feeder = {
-        let feeding = Arc::clone(&feeding);
-        std::thread::spawn(move || {
-            while feeding.load(std::sync::atomic::Ordering::Acquire) {
-                imu.write_all(&imu_frame()).unwrap();
-                std::thread::sleep(Duration::from_millis(10));
-            }
-        })
-    };
+    let feeder = Feeder::start(imu);
     bootstrap.wait_for("calibration done", Duration::from_secs(5));
     let (ok, status) = bootstrap.ctl(&["status"]);
     assert!(ok, "{status}");
@@ -294,8 +295,7 @@ fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
     }
     std::thread::sleep(Duration::from_millis(300));
     let (ok, reply) = bootstrap.ctl(&["stop"]);
-    feeding.store(false, std::sync::atomic::Ordering::Release);
-    feeder.join().unwrap();
+    feeder.stop();
     assert!(
         ok && reply.starts_with("ok stopped (exit code 0)"),
         "{reply}"
@@ -494,7 +494,7 @@ fn wait_in(lines: &Mutex<Vec<String>>, needle: &str, timeout: Duration) -> Strin
 fn a_flight_process_whose_bootstrap_is_gone_in_the_air_flies_on_and_is_taken_back() {
     let dir = tempfile::tempdir().unwrap();
     let FakeDevices {
-        mut imu,
+        imu,
         _held: _held_open,
         file: devices,
     } = FakeDevices::new(dir.path());
@@ -529,16 +529,7 @@ fn a_flight_process_whose_bootstrap_is_gone_in_the_air_flies_on_and_is_taken_bac
     let mut to_flight = flight.stdin.take().unwrap();
     writeln!(to_flight, "restart up manual").unwrap();
     wait_in(&said, "started ", Duration::from_secs(5));
-    let feeding = Arc::new(std::sync::atomic::AtomicBool::new(true));
-    let feeder = {
-        let feeding = Arc::clone(&feeding);
-        std::thread::spawn(move || {
-            while feeding.load(std::sync::atomic::Ordering::Acquire) {
-                imu.write_all(&imu_frame()).unwrap();
-                std::thread::sleep(Duration::from_millis(10));
-            }
-        })
-    };
+    let feeder = Feeder::start(imu);
     wait_in(&said, "aligned in the air", Duration::from_secs(10));
     // A second start in flight, and a line that is not the protocol, are answered, not flown.
     writeln!(to_flight, "start again manual").unwrap();
@@ -595,8 +586,7 @@ fn a_flight_process_whose_bootstrap_is_gone_in_the_air_flies_on_and_is_taken_bac
     writeln!(to_flight, "stop").unwrap();
     wait_in(&heard, "stopped {", Duration::from_secs(5));
     let status = flight.wait().unwrap();
-    feeding.store(false, std::sync::atomic::Ordering::Release);
-    feeder.join().unwrap();
+    feeder.stop();
     assert!(status.success(), "{status}");
     // A clean end: the socket is gone, nothing is left to resume, and nothing in RAM.
     assert!(!adopt_socket.exists());
