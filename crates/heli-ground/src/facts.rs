@@ -59,6 +59,9 @@ pub struct ConditionView {
     pub value: bool,
     /// The value the rules want (false only for the bypass switch).
     pub wanted: bool,
+    /// Why it is false, when the ground knows better than the rule's words (the data's
+    /// age, a reading never received).
+    pub why: Option<String>,
 }
 
 /// One verdict as the display shows it.
@@ -70,6 +73,9 @@ pub struct VerdictView {
     pub allowed: bool,
     /// What fails, in words (empty when allowed).
     pub failing: String,
+    /// The vehicle refuses this kind of flight now, whatever the conditions say (a refusal
+    /// that stands until the pilot cycles the auto switch): its words.
+    pub refused_by_vehicle: Option<String>,
 }
 
 /// The safety panel: the conditions and the two verdicts.
@@ -83,21 +89,57 @@ pub struct SafetyView {
     pub automatic: VerdictView,
 }
 
-fn verdict_view(rule: Rule, facts: Facts) -> VerdictView {
-    let v: Verdict = rule.judge(facts);
-    VerdictView {
-        rule: rule.to_string(),
-        allowed: v.allowed,
-        failing: if v.allowed {
-            String::new()
-        } else {
-            v.to_string()
-        },
+/// What the ground knows beyond a condition's truth: why it is false, in the operator's
+/// words, where the rule's own words would mislead ("a battery down to a third" for a
+/// battery never read).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Why(pub Vec<(Condition, String)>);
+
+impl Why {
+    fn of(&self, c: Condition) -> Option<&str> {
+        self.0
+            .iter()
+            .find(|(k, _)| *k == c)
+            .map(|(_, w)| w.as_str())
     }
 }
 
-/// The safety panel for `facts`.
-pub fn safety_view(facts: Facts) -> SafetyView {
+/// A refusal of the vehicle that stands: which rule's flight it refuses, and its words.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Standing {
+    /// The refused kind of flight: [`AUTOMATIC`] or [`AUGMENTED`].
+    pub rule: Rule,
+    /// What the vehicle said, and what clears it.
+    pub text: String,
+}
+
+fn verdict_view(rule: Rule, facts: Facts, why: &Why, standing: Option<&Standing>) -> VerdictView {
+    let v: Verdict = rule.judge(facts);
+    let refused_by_vehicle = standing.filter(|s| s.rule == rule).map(|s| s.text.clone());
+    let mut failing: Vec<String> = Vec::new();
+    for c in v.wanted_true.iter() {
+        failing.push(
+            why.of(c)
+                .map_or_else(|| c.missing().to_string(), str::to_string),
+        );
+    }
+    for c in v.wanted_false.iter() {
+        failing.push(c.meaning().to_string());
+    }
+    if let Some(r) = &refused_by_vehicle {
+        failing.insert(0, r.clone());
+    }
+    VerdictView {
+        rule: rule.to_string(),
+        allowed: v.allowed && refused_by_vehicle.is_none(),
+        failing: failing.join(", "),
+        refused_by_vehicle,
+    }
+}
+
+/// The safety panel for `facts`, with the ground's reasons and the vehicle's standing
+/// refusal: a verdict never says safe while the vehicle refuses that flight.
+pub fn safety_view(facts: Facts, why: &Why, standing: Option<&Standing>) -> SafetyView {
     SafetyView {
         conditions: Condition::ALL
             .into_iter()
@@ -106,9 +148,46 @@ pub fn safety_view(facts: Facts) -> SafetyView {
                 meaning: c.meaning(),
                 value: facts.get(c).unwrap_or(false),
                 wanted: c != Condition::Bypass,
+                why: why.of(c).map(str::to_string),
             })
             .collect(),
-        augmented: verdict_view(AUGMENTED, facts),
-        automatic: verdict_view(AUTOMATIC, facts),
+        augmented: verdict_view(AUGMENTED, facts, why, standing),
+        automatic: verdict_view(AUTOMATIC, facts, why, standing),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn all_good() -> Facts {
+        Condition::ALL
+            .into_iter()
+            .fold(Facts::none(), |f, c| f.with(c, c != Condition::Bypass))
+    }
+
+    #[test]
+    fn a_standing_refusal_makes_its_verdict_no_whatever_the_conditions() {
+        let standing = Standing {
+            rule: AUTOMATIC,
+            text: "take-off refused: 4 satellites".into(),
+        };
+        let s = safety_view(all_good(), &Why::default(), Some(&standing));
+        assert!(!s.automatic.allowed);
+        assert!(s.automatic.failing.starts_with("take-off refused"));
+        assert!(s.augmented.allowed, "only the refused flight");
+        let s = safety_view(all_good(), &Why::default(), None);
+        assert!(s.automatic.allowed && s.automatic.refused_by_vehicle.is_none());
+    }
+
+    #[test]
+    fn the_grounds_reason_replaces_the_rules_words() {
+        let facts = all_good().with(Condition::Battery, false);
+        let s = safety_view(facts, &Why::default(), None);
+        assert_eq!(s.augmented.failing, "a battery down to a third of its life");
+        let why = Why(vec![(Condition::Battery, "no battery reading".into())]);
+        let s = safety_view(facts, &why, None);
+        assert_eq!(s.augmented.failing, "no battery reading");
+        assert_eq!(s.conditions[7].why.as_deref(), Some("no battery reading"));
     }
 }

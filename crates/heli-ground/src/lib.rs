@@ -43,4 +43,6 @@ pub mod station;
 #[cfg(test)]
 mod station_tests;
 pub mod transfer;
+#[cfg(test)]
+mod truth_tests;
 pub mod view;

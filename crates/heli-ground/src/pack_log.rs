@@ -182,8 +182,17 @@ impl PackLog {
     /// A flight begins on flight pack `name` (`None`: not said): refused if the file does
     /// not name it as a flight pack.
     pub fn begin(&mut self, name: Option<&str>) -> Result<(), PacksError> {
+        self.check(name)?;
+        self.flying = name
+            .map(str::trim)
+            .filter(|n| !n.is_empty())
+            .map(str::to_string);
+        Ok(())
+    }
+
+    /// Whether [`PackLog::begin`] would take `name` (a flight pack of the file, or none).
+    pub fn check(&self, name: Option<&str>) -> Result<(), PacksError> {
         let Some(name) = name.map(str::trim).filter(|n| !n.is_empty()) else {
-            self.flying = None;
             return Ok(());
         };
         let flight_packs: Vec<&str> = self
@@ -198,7 +207,6 @@ impl PackLog {
                 flight_packs: flight_packs.iter().map(|p| (*p).to_string()).collect(),
             });
         }
-        self.flying = Some(name.to_string());
         Ok(())
     }
 

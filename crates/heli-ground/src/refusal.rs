@@ -42,6 +42,9 @@ pub enum Refusal {
     },
     /// The parameters do not fit in the link's message.
     TooLongForTheLink,
+    /// A flight of this session already logs under this suffix on the vehicle: the vehicle
+    /// never replaces a log, so it would refuse.
+    SuffixUsed(String),
 }
 
 /// Why Stop's final parameters (where to save the flight's log) cannot be used.
@@ -87,6 +90,10 @@ impl fmt::Display for Refusal {
             }
             Refusal::TooLongForTheLink => f.write_str(
                 "the parameters cannot go over the link (a suffix is at most 15 characters)",
+            ),
+            Refusal::SuffixUsed(s) => write!(
+                f,
+                "the vehicle has a log flight_{s}.mcap already (it never replaces one): choose another suffix"
             ),
         }
     }

@@ -310,9 +310,18 @@ async fn page(mut socket: WebSocket, state: AppState) {
     let id = lock(&state.station).join();
     let mut views = state.views.subscribe();
     let hello = serde_json::json!({"type": "hello", "client": id}).to_string();
-    if socket.send(WsMessage::Text(hello.into())).await.is_err() {
-        lock(&state.station).leave(id);
-        return;
+    // A page opened late gets every message kept (each warning and worse of the session),
+    // not only the newest the views carry.
+    let history = serde_json::json!({
+        "type": "history",
+        "messages": lock(&state.station).message_history(),
+    })
+    .to_string();
+    for text in [hello, history] {
+        if socket.send(WsMessage::Text(text.into())).await.is_err() {
+            lock(&state.station).leave(id);
+            return;
+        }
     }
     let mut ping = tokio::time::interval(PING_EVERY);
     let mut heard = tokio::time::Instant::now();

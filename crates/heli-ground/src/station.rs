@@ -94,6 +94,26 @@ pub enum Op {
     /// Acknowledge the field rule's message (a pack drained abnormally: the flight test is
     /// over), which blocks Start Logging until then.
     Acknowledge,
+    /// Whether Start Logging with these parameters would be sent and taken (nothing is
+    /// sent): the page asks as the operator types.
+    CheckStart {
+        /// The log file suffix.
+        suffix: String,
+        /// The controller's name.
+        controller: String,
+        /// The flight plan's name.
+        #[serde(default)]
+        plan: Option<String>,
+        /// The flight pack.
+        #[serde(default)]
+        pack: Option<String>,
+    },
+    /// Acknowledge the pinned errors and critical messages, every one changed up to `upto`
+    /// (the newest the page has shown).
+    AcknowledgeMessages {
+        /// The newest message change seen (`seq`).
+        upto: u64,
+    },
     /// Stop, with the final parameters (both absent: no log transfer).
     Stop {
         /// Base directory, below the station's save root.
@@ -112,8 +132,10 @@ pub(crate) struct Pending {
     name: &'static str,
     /// For Stop: where the log goes.
     dest: Option<PathBuf>,
-    /// For Start Logging: the flight's suffix.
-    suffix: Option<String>,
+    /// For Start Logging: the flight's parameters.
+    params: Option<FlightParams>,
+    /// What the vehicle said of it (`start logging: …` status text).
+    said: Option<String>,
 }
 
 /// The ground station.
@@ -143,6 +165,52 @@ pub struct Station {
     pub(crate) packs: crate::pack_log::PackLog,
     /// Files to write at the next tick.
     pub(crate) writes: Vec<(PathBuf, Vec<u8>)>,
+    /// The ground's time at the last input (µs), and at the first: the message area's clock.
+    now_us: u64,
+    first_us: Option<u64>,
+    /// The last command and what became of it.
+    pub(crate) command: Option<CommandView>,
+    /// The parameters of the flight this station started, until its Stop (every page shows
+    /// them, not its own form's).
+    pub(crate) flight_params: Option<FlightParams>,
+    /// The vehicle's last refusals of the flight under way, in its words.
+    pub(crate) refusals: Refusals,
+    /// Suffixes the vehicle has a log of, as far as this station knows (the flights it
+    /// started, and those the vehicle refused as existing).
+    suffixes_used: std::collections::BTreeSet<String>,
+}
+
+/// The vehicle's last words refusing a take-off or a mode (cleared at each Start Logging).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Refusals {
+    /// `take-off refused: …`.
+    pub(crate) takeoff: Option<String>,
+    /// `velocity flight refused: …`.
+    pub(crate) mode: Option<String>,
+}
+
+/// The last command sent to the vehicle and its outcome, as every page shows it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CommandView {
+    /// connect, start logging or stop.
+    pub name: &'static str,
+    /// sent, accepted, refused or unanswered.
+    pub outcome: &'static str,
+    /// What the vehicle said of it (its reason when refused).
+    pub text: String,
+}
+
+/// The parameters of the flight under way, as sent at Start Logging.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FlightParams {
+    /// The log file suffix.
+    pub suffix: String,
+    /// The controller's name.
+    pub controller: &'static str,
+    /// The plan's name (empty: the vehicle's default).
+    pub plan: String,
+    /// The flight pack named (empty: none).
+    pub pack: String,
 }
 
 impl Station {
@@ -166,16 +234,47 @@ impl Station {
             flight_seen: false,
             flight_suffix: None,
             field_rule: crate::power_view::FieldRule::default(),
+            now_us: 0,
+            first_us: None,
+            command: None,
+            flight_params: None,
+            refusals: Refusals::default(),
+            suffixes_used: Default::default(),
         }
+    }
+
+    /// The ground's time moves to `now_us` (every input says it).
+    fn clock(&mut self, now_us: u64) {
+        self.now_us = self.now_us.max(now_us);
+        self.first_us.get_or_insert(now_us);
+    }
+
+    /// The ground's time at the last input (µs).
+    pub fn now_us(&self) -> u64 {
+        self.now_us
+    }
+
+    /// Seconds since the station's first input (the message area's times).
+    pub fn session_s(&self) -> f64 {
+        self.now_us
+            .saturating_sub(self.first_us.unwrap_or(self.now_us)) as f64
+            / 1e6
     }
 
     /// Adds a line to the message area.
     pub fn note(&mut self, severity: &'static str, text: impl Into<String>) {
-        self.messages.push(severity, "ground", text.into());
+        let now_s = self.session_s();
+        self.messages.push(severity, "ground", text.into(), now_s);
+    }
+
+    /// Every message kept, oldest change first (for a page opened late).
+    pub fn message_history(&self) -> Vec<crate::messages::Message> {
+        self.messages.newest(usize::MAX)
     }
 
     /// A datagram from the vehicle.
     pub fn receive(&mut self, datagram: &[u8], now_us: u64) {
+        self.clock(now_us);
         self.link.receive(datagram, now_us);
         self.take_texts();
     }
@@ -190,10 +289,32 @@ impl Station {
             .cloned()
             .collect();
         self.texts_seen = self.link.texts.len();
+        let now_s = self.session_s();
         for (severity, text) in new {
             self.field_rule.see(&text);
-            self.messages
-                .push(crate::messages::severity_word(severity), "vehicle", text);
+            if let Some(i) = text.find("take-off refused") {
+                self.refusals.takeoff = text.get(i..).map(str::to_string);
+            } else if let Some(i) = text.find(" flight refused: ") {
+                // `… t=12.00 s velocity flight refused: …`: from the mode's name on.
+                let start = text
+                    .get(..i)
+                    .and_then(|head| head.rfind(' '))
+                    .map_or(0, |k| k.saturating_add(1));
+                self.refusals.mode = text.get(start..).map(str::to_string);
+            }
+            // The vehicle's word on the command under way (`start logging: …`): its reason
+            // when it refuses.
+            if let Some(p) = self.pending.as_mut()
+                && let Some(said) = text.strip_prefix(p.name).and_then(|r| r.strip_prefix(": "))
+            {
+                p.said = Some(said.to_string());
+            }
+            self.messages.push(
+                crate::messages::severity_word(severity),
+                "vehicle",
+                text,
+                now_s,
+            );
         }
     }
 
@@ -207,6 +328,7 @@ impl Station {
 
     /// One step: the heartbeat, the command under way, the log transfer.
     pub fn tick(&mut self, now_us: u64) -> Vec<Output> {
+        self.clock(now_us);
         let mut out: Vec<Output> = self
             .writes
             .drain(..)
@@ -284,6 +406,14 @@ impl Station {
             Progress::Answered(r) => self.answered(&p, r, now_us),
             Progress::TimedOut => {
                 self.panel.answered();
+                self.command = Some(CommandView {
+                    name: p.name,
+                    outcome: "unanswered",
+                    text: format!(
+                        "no answer from the vehicle in {} s",
+                        COMMAND_TIMEOUT_US / 1_000_000
+                    ),
+                });
                 self.note(
                     "error",
                     format!(
@@ -308,24 +438,41 @@ impl Station {
                 .trim_start_matches("MAV_RESULT_")
                 .to_lowercase()
         };
+        let said = p.said.clone().unwrap_or_default();
         self.note(
             if accepted { "info" } else { "error" },
-            format!("{}: {word}", p.name),
+            if accepted || said.is_empty() {
+                format!("{}: {word}", p.name)
+            } else {
+                format!("{}: {word}: {said}", p.name)
+            },
         );
+        self.command = Some(CommandView {
+            name: p.name,
+            outcome: if accepted { "accepted" } else { "refused" },
+            text: if said.is_empty() { word } else { said.clone() },
+        });
         match (p.name, accepted) {
             ("connect", true) => self.panel.vehicle(Some(BootstrapState::Connected)),
             ("start logging", true) => {
                 self.panel.vehicle(Some(BootstrapState::Flying));
                 self.flight_seen = true;
-                self.flight_suffix = p.suffix.clone();
+                self.flight_suffix = p.params.as_ref().map(|f| f.suffix.clone());
+                self.suffixes_used.extend(self.flight_suffix.clone());
+                self.flight_params = p.params.clone();
             }
             ("start logging", false) => {
+                if said.contains("exists") {
+                    self.suffixes_used
+                        .extend(p.params.as_ref().map(|f| f.suffix.clone()));
+                }
                 self.panel.logging_failed();
                 self.note("error", "logging failed: press Stop to reset the display");
             }
             ("stop", true) => {
                 self.panel.vehicle(Some(BootstrapState::Idle));
                 self.flight_seen = false;
+                self.flight_params = None;
                 let suffix = self.flight_suffix.take();
                 if let Some(dest) = p.dest.clone() {
                     self.transfer = Some(Transfer::of_flight(dest, suffix, now_us));
@@ -371,8 +518,19 @@ impl Station {
         text: &str,
         now_us: u64,
     ) -> Result<String, Refusal> {
-        let result = self.request_inner(client, text, now_us);
+        self.clock(now_us);
+        let req: Result<Request, _> = serde_json::from_str(text).map_err(Refusal::Malformed);
+        // A check of Start Logging's form is the page's question, not an event of the field.
+        let quiet = matches!(
+            &req,
+            Ok(Request {
+                op: Op::CheckStart { .. },
+                ..
+            })
+        );
+        let result = req.and_then(|req| self.request_inner(client, req, now_us));
         if let Err(e) = &result
+            && !quiet
             && self.operators.holder() == Some(client)
         {
             let mut line = format!("operator {client}: {e}");
@@ -392,10 +550,9 @@ impl Station {
     fn request_inner(
         &mut self,
         client: ClientId,
-        text: &str,
+        req: Request,
         now_us: u64,
     ) -> Result<String, Refusal> {
-        let req: Request = serde_json::from_str(text).map_err(Refusal::Malformed)?;
         self.operators.accept(client, req.seq)?;
         match req.op {
             Op::Take => self
@@ -417,6 +574,34 @@ impl Station {
                     None => Err(Refusal::NothingToAcknowledge),
                 }
             }
+            Op::CheckStart {
+                suffix,
+                controller,
+                plan,
+                pack,
+            } => self
+                .start_check(&suffix, &controller, plan, pack.as_deref())
+                .map(|p| {
+                    let mut ok = format!("Start Logging would send flight_{}", p.file_suffix);
+                    if let Some(wait) = self.takeoff_wait(p.controller) {
+                        ok.push_str(&format!("; the take-off would wait: {wait}"));
+                    }
+                    ok
+                }),
+            Op::AcknowledgeMessages { upto } => {
+                self.operators.may_command(client)?;
+                match self.messages.acknowledge(upto) {
+                    0 => Err(Refusal::NothingToAcknowledge),
+                    n => {
+                        let text = format!(
+                            "operator {client} acknowledged {n} pinned message{}",
+                            if n == 1 { "" } else { "s" }
+                        );
+                        self.note("info", text.clone());
+                        Ok(text)
+                    }
+                }
+            }
             op => {
                 self.operators.may_command(client)?;
                 self.command(op, now_us)
@@ -430,7 +615,7 @@ impl Station {
         }
         let state = self.panel.state();
         let (connect, start, stop) = state.buttons();
-        let mut suffix_started = None;
+        let mut started = None;
         let (command, name, meanwhile, dest) = match op {
             Op::Connect if connect => (
                 GroundCommand::Connect,
@@ -444,21 +629,16 @@ impl Station {
                 plan,
                 pack,
             } if start => {
-                if let Some(why) = self.field_rule.blocks_start() {
-                    return Err(Refusal::FieldRule(why));
-                }
+                let p = self.start_check(&suffix, &controller, plan, pack.as_deref())?;
                 self.packs_begin(pack.as_deref())?;
-                let mut p = StartParameters::new(suffix.trim(), controller.trim())
-                    .map_err(Refusal::Parameters)?;
-                let plan = plan.filter(|p| !p.trim().is_empty());
-                if let Some(name) = plan.as_deref()
-                    && !PLANS.contains(&name)
-                {
-                    return Err(Refusal::UnknownPlan(name.to_string()));
-                }
-                p.plan = plan;
                 self.chosen = p.controller;
-                suffix_started = Some(p.file_suffix.clone());
+                self.refusals = Refusals::default();
+                started = Some(FlightParams {
+                    suffix: p.file_suffix.clone(),
+                    controller: p.controller.name(),
+                    plan: p.plan.clone().unwrap_or_default(),
+                    pack: pack.clone().unwrap_or_default(),
+                });
                 (
                     GroundCommand::StartLogging(p),
                     "start logging",
@@ -474,10 +654,12 @@ impl Station {
                 if dest.is_some() && self.transfer.is_some() {
                     return Err(Refusal::FinalParameters(FinalProblem::TransferUnderWay));
                 }
+                // Logging failed and no flight under way (the vehicle refused the start and
+                // waits, connected, or is idle): only the display is reset.
                 if state == PanelState::LoggingFailed
-                    && self
-                        .vehicle_status(now_us)
-                        .is_none_or(|s| s.state == BootstrapState::Idle)
+                    && self.vehicle_status(now_us).is_none_or(|s| {
+                        matches!(s.state, BootstrapState::Idle | BootstrapState::Connected)
+                    })
                 {
                     self.panel.reset();
                     self.note("info", "display reset");
@@ -492,7 +674,8 @@ impl Station {
                     button: match other {
                         Op::Connect => "Connect",
                         Op::Start { .. } => "Start Logging",
-                        Op::Acknowledge => "Acknowledge",
+                        Op::Acknowledge | Op::AcknowledgeMessages { .. } => "Acknowledge",
+                        Op::CheckStart { .. } => "Start Logging",
                         _ => "Stop",
                     },
                     panel: state.name(),
@@ -502,15 +685,49 @@ impl Station {
         let (sent, frame) = InFlight::send(&mut self.link, &command, COMMAND_TIMEOUT_US, now_us)
             .ok_or(Refusal::TooLongForTheLink)?;
         self.note("info", format!("{name}: sent"));
+        self.command = Some(CommandView {
+            name,
+            outcome: "sent",
+            text: String::new(),
+        });
         self.pending = Some(Pending {
             command: sent,
             name,
             dest,
-            suffix: suffix_started,
+            params: started,
+            said: None,
         });
         self.panel.sent(meanwhile);
         self.outbox.push(frame);
         Ok(format!("{name}: sent"))
+    }
+
+    /// What Start Logging would send, or why the ground or the vehicle would refuse it:
+    /// the field rule, the pack, the parameters, the plan, a suffix already logged.
+    fn start_check(
+        &self,
+        suffix: &str,
+        controller: &str,
+        plan: Option<String>,
+        pack: Option<&str>,
+    ) -> Result<StartParameters, Refusal> {
+        if let Some(why) = self.field_rule.blocks_start() {
+            return Err(Refusal::FieldRule(why));
+        }
+        self.packs.check(pack).map_err(Refusal::Pack)?;
+        let mut p =
+            StartParameters::new(suffix.trim(), controller.trim()).map_err(Refusal::Parameters)?;
+        let plan = plan.filter(|p| !p.trim().is_empty());
+        if let Some(name) = plan.as_deref()
+            && !PLANS.contains(&name)
+        {
+            return Err(Refusal::UnknownPlan(name.to_string()));
+        }
+        if self.suffixes_used.contains(&p.file_suffix) {
+            return Err(Refusal::SuffixUsed(p.file_suffix));
+        }
+        p.plan = plan;
+        Ok(p)
     }
 
     /// The path a stopped flight's log is saved at, from the final parameters: both or

@@ -21,20 +21,22 @@ const T0: u64 = 1_763_900_000_000_000;
 const PLAN: &str = r#"[{"leg":"takeoff","alt_m":10.0},{"leg":"hold","seconds":5.0},
     {"leg":"fly","north_m":30.0,"east_m":0.0,"alt_m":10.0,"speed_mps":3.0},{"leg":"land"}]"#;
 
-struct Bench {
-    vehicle: VehicleLink,
-    station: Station,
-    state: BootstrapState,
-    mode: u8,
-    store: MemoryStore,
-    t: u64,
-    telemetry: Option<Telemetry>,
-    fail_start: bool,
-    commands: Vec<GroundCommand>,
-    saved: Vec<(PathBuf, Vec<u8>)>,
+pub(crate) struct Bench {
+    pub(crate) vehicle: VehicleLink,
+    pub(crate) station: Station,
+    pub(crate) state: BootstrapState,
+    pub(crate) mode: u8,
+    pub(crate) store: MemoryStore,
+    pub(crate) t: u64,
+    pub(crate) telemetry: Option<Telemetry>,
+    pub(crate) fail_start: bool,
+    /// The vehicle refuses Start Logging with this reason, staying connected.
+    pub(crate) refuse_start: Option<String>,
+    pub(crate) commands: Vec<GroundCommand>,
+    pub(crate) saved: Vec<(PathBuf, Vec<u8>)>,
 }
 
-fn flying_telemetry(phase: &str) -> Telemetry {
+pub(crate) fn flying_telemetry(phase: &str) -> Telemetry {
     let ok = |d: &str| DeviceHealth {
         device: d.into(),
         state: "ok".into(),
@@ -81,7 +83,7 @@ fn flying_telemetry(phase: &str) -> Telemetry {
 use crate::transfer::tests::flight_log;
 
 impl Bench {
-    fn new() -> Self {
+    pub(crate) fn new() -> Self {
         let mut b = Self {
             vehicle: VehicleLink::new(None, T0),
             station: Station::new(StationConfig {
@@ -101,6 +103,7 @@ impl Bench {
             t: T0,
             telemetry: None,
             fail_start: false,
+            refuse_start: None,
             commands: Vec::new(),
             saved: Vec::new(),
         };
@@ -118,6 +121,10 @@ impl Bench {
                         GroundCommand::Connect => {
                             self.state = BootstrapState::Connected;
                             CommandOutcome::Accepted("connected".to_string())
+                        }
+                        GroundCommand::StartLogging(_) if self.refuse_start.is_some() => {
+                            // Refused up front: the flight process waits, connected.
+                            CommandOutcome::Failed(self.refuse_start.clone().unwrap_or_default())
                         }
                         GroundCommand::StartLogging(_) if self.fail_start => {
                             self.state = BootstrapState::Idle;
@@ -155,7 +162,7 @@ impl Bench {
     }
 
     /// Runs both ends for `seconds` in 10 ms steps.
-    fn run(&mut self, seconds: f64) {
+    pub(crate) fn run(&mut self, seconds: f64) {
         let steps = (seconds * 100.0).round() as u32;
         for _ in 0..steps {
             self.t += 10_000;
@@ -184,7 +191,7 @@ impl Bench {
         }
     }
 
-    fn ask(&mut self, client: u64, json: &str) -> Result<String, String> {
+    pub(crate) fn ask(&mut self, client: u64, json: &str) -> Result<String, String> {
         let r = self.station.request(client, json, self.t);
         let frames = self.station.take_outbox();
         self.deliver_up(frames);
@@ -192,7 +199,7 @@ impl Bench {
     }
 
     /// A page that took control and connected (its requests 1 and 2).
-    fn connected_operator(&mut self) -> u64 {
+    pub(crate) fn connected_operator(&mut self) -> u64 {
         let op = self.station.join();
         self.ask(op, r#"{"seq":1,"op":"take"}"#).unwrap();
         self.ask(op, r#"{"seq":2,"op":"connect"}"#).unwrap();
@@ -200,11 +207,11 @@ impl Bench {
         op
     }
 
-    fn panel(&self) -> PanelState {
+    pub(crate) fn panel(&self) -> PanelState {
         self.station.view(self.t).panel.state
     }
 
-    fn messages(&self) -> String {
+    pub(crate) fn messages(&self) -> String {
         self.station
             .view(self.t)
             .messages
@@ -327,7 +334,7 @@ fn bad_input_from_a_page_is_refused_visibly_and_sends_nothing() {
         (
             op,
             r#"{"seq":6,"op":"start","suffix":"a_suffix_too_long_for_it","controller":"manual"}"#,
-            "at most 15 characters",
+            "must be 1-15 letters",
         ),
         (
             op,
@@ -444,7 +451,7 @@ fn a_silent_device_is_stale_and_a_low_battery_is_red_and_each_fails_its_conditio
     // are not known, and the battery is low.
     assert_eq!(
         v.safety.augmented.failing,
-        "fewer than 5 satellites, a battery down to a third of its life"
+        "satellites not known (the vehicle's watchdog says the GPS is not on time), a battery down to a third of its life"
     );
     // Telemetry that stops coming altogether ages into stale.
     b.telemetry = None;

@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use crate::checks::{battery_meter, gps_ok};
 use crate::display::uplink_labels;
-use crate::facts::{SafetyView, facts, safety_view};
+use crate::facts::{SafetyView, Standing, Why, facts, safety_view};
 use crate::messages::Message;
 use crate::operators::ClientId;
 use crate::panel::PanelState;
@@ -52,6 +52,9 @@ pub struct VehicleView {
     pub phase: Option<&'static str>,
     /// Frames refused by the ground (bad, or wrongly signed).
     pub bad_frames: u64,
+    /// A refusal of the vehicle that stands until the pilot clears it (a refused take-off,
+    /// a refused augmented mode): shown until the phase says it is over.
+    pub standing: Option<String>,
 }
 
 /// The battery meter.
@@ -143,8 +146,14 @@ pub struct View {
     pub operators: OperatorsView,
     /// The log transfer under way.
     pub transfer: Option<TransferView>,
-    /// The message area's newest [`MESSAGES_IN_VIEW`] lines.
+    /// The message area's newest [`MESSAGES_IN_VIEW`] changes.
     pub messages: Vec<Message>,
+    /// The errors and critical events no operator has acknowledged.
+    pub pinned: Vec<Message>,
+    /// The last command and what became of it.
+    pub command: Option<crate::station::CommandView>,
+    /// The parameters of the flight this station started, while it flies.
+    pub flight: Option<crate::station::FlightParams>,
 }
 
 impl Station {
@@ -193,6 +202,8 @@ impl Station {
                 .iter()
                 .all(|p| matches!(p.state, "good" | "unknown"));
         let facts = facts(latest, &rows, heartbeat_age_us, battery_green);
+        let why = self.why(&rows, battery.is_some(), heartbeat_age_us);
+        let standing = self.standing(status);
         let gps = match (latest.get(&GPS_RAW_INT_DATA::ID), rows.gps.as_ref()) {
             (Some((_, MavMessage::GPS_RAW_INT(g))), Some(row)) => Some(GpsView {
                 satellites: g.satellites_visible,
@@ -250,13 +261,14 @@ impl Station {
                 mode: status.and_then(|s| s.flight_mode()).map(|m| m.name()),
                 phase: status.and_then(|s| s.phase_name()),
                 bad_frames: self.link.bad_frames,
+                standing: standing.as_ref().map(|s| s.text.clone()),
             },
             uplink_labels: labels,
             rows,
             battery,
             power,
             gps,
-            safety: safety_view(facts),
+            safety: safety_view(facts, &why, standing.as_ref()),
             instruments,
             plan: self
                 .link
@@ -278,6 +290,133 @@ impl Station {
             }),
             // The newest lines only: a page keeps what it has seen (by sequence number).
             messages: self.messages.newest(MESSAGES_IN_VIEW),
+            pinned: self.messages.pinned(),
+            command: self.command.clone(),
+            flight: self.flight_params.clone(),
         }
+    }
+}
+
+impl Station {
+    /// Why each false condition is false, where the ground knows more than the rule's words:
+    /// a row never received, a row gone stale (with its age), a battery never read, a
+    /// vehicle not heard.
+    fn why(&self, rows: &Rows, battery_read: bool, heartbeat_age_us: Option<u64>) -> Why {
+        use heli_control::safety::Condition as C;
+        let mut why = Vec::new();
+        // A stale row is old, or fresh with the vehicle's watchdog saying the device is
+        // not on time: the words say which.
+        let stale_for = |r: &crate::rows::Row, what: &str| {
+            if r.age_s * 1e6 >= crate::rows::STALE_AFTER_US as f64 {
+                format!("no {what} telemetry for {:.1} s", r.age_s)
+            } else {
+                format!("the vehicle's watchdog says the {what} is not on time")
+            }
+        };
+        let mut row = |c: C, r: &Option<crate::rows::Row>, what: &str| match r {
+            None => why.push((c, format!("no {what} telemetry yet"))),
+            Some(r) if r.stale => {
+                why.push((c, format!("{} ({})", c.missing(), stale_for(r, what))))
+            }
+            Some(_) => {}
+        };
+        row(C::Imu, &rows.imu, "IMU");
+        row(C::Uplink, &rows.uplink, "uplink");
+        row(C::Gps, &rows.gps, "GPS");
+        row(C::Altimeter, &rows.bar, "altimeter");
+        row(C::Compass, &rows.cmps, "compass");
+        row(C::Calibrated, &rows.state, "state");
+        match &rows.gps {
+            None => why.push((
+                C::Satellites,
+                "satellites not known: no GPS telemetry yet".into(),
+            )),
+            Some(r) if r.stale => why.push((
+                C::Satellites,
+                format!("satellites not known ({})", stale_for(r, "GPS")),
+            )),
+            Some(_) => {}
+        }
+        if !battery_read {
+            why.push((C::Battery, "no battery reading yet".into()));
+        }
+        match heartbeat_age_us {
+            None => why.push((C::Link, "the vehicle has not been heard".into())),
+            Some(a) if a >= crate::facts::LINK_FRESH_US => why.push((
+                C::Link,
+                format!("no heartbeat from the vehicle for {:.1} s", a as f64 / 1e6),
+            )),
+            Some(_) => {}
+        }
+        Why(why)
+    }
+
+    /// The vehicle's refusal that stands now, from its phase and what it said: a refused
+    /// take-off (until the auto switch is cycled), or an augmented or automatic mode refused
+    /// in the air (the pilot flies manual until the switch is taken off).
+    fn standing(&self, status: Option<heli_link::status::VehicleStatus>) -> Option<Standing> {
+        use heli_control::safety::{AUGMENTED, AUTOMATIC};
+        let status = status?;
+        let phase = status.phase_name()?;
+        if phase == "takeoff-refused" {
+            let said = self
+                .refusals
+                .takeoff
+                .as_deref()
+                .unwrap_or("take-off refused");
+            return Some(Standing {
+                rule: AUTOMATIC,
+                text: format!(
+                    "the vehicle refused the take-off ({said}): take the auto switch off and on again to retry"
+                ),
+            });
+        }
+        let asked = status.flight_mode()?;
+        let said = self.refusals.mode.as_deref()?;
+        let auto_on = match self.link.latest.get(&RC_CHANNELS_DATA::ID) {
+            Some((_, MavMessage::RC_CHANNELS(rc))) => rc.chan6_raw > 1500,
+            _ => false,
+        };
+        if phase != "manual" || asked == heli_types::FlightMode::Manual || !auto_on {
+            return None;
+        }
+        Some(Standing {
+            rule: if asked == heli_types::FlightMode::Autonomous {
+                AUTOMATIC
+            } else {
+                AUGMENTED
+            },
+            text: format!(
+                "the vehicle flies manual: {said}; take the auto switch off and on again to retry"
+            ),
+        })
+    }
+}
+
+impl Station {
+    /// What an autonomous take-off would wait for now, on the telemetry that is there: the
+    /// conditions of the automatic rule that fresh data says are false (the calibration,
+    /// which Start Logging begins, and data not received yet are left out). `None` for a
+    /// controller that does not take off by itself, or with nothing to wait for.
+    pub(crate) fn takeoff_wait(&self, mode: heli_types::FlightMode) -> Option<String> {
+        if mode != heli_types::FlightMode::Autonomous {
+            return None;
+        }
+        let view = self.view(self.now_us());
+        let waits: Vec<String> = view
+            .safety
+            .conditions
+            .iter()
+            .filter(|c| c.value != c.wanted && c.name != "calibrated" && c.name != "link")
+            .filter(|c| !c.why.as_deref().is_some_and(|w| w.starts_with("no ")))
+            .map(|c| {
+                let missing = heli_control::safety::Condition::ALL
+                    .into_iter()
+                    .find(|k| k.name() == c.name)
+                    .map_or(c.meaning, |k| k.missing());
+                c.why.clone().unwrap_or_else(|| missing.to_string())
+            })
+            .collect();
+        (!waits.is_empty()).then(|| waits.join(", "))
     }
 }

@@ -16,7 +16,14 @@ const page = {
   lastMessage: 0,
   view: null,
   history: [],
-  pending: new Map(),
+  // The message area: one element per entry id; the pinned ones shown at the top.
+  entries: new Map(),
+  pinnedSeq: 0,
+  // The sequence number of the last Start Logging check asked (its reply goes beside the
+  // button, not in the reply line).
+  checkSeq: 0,
+  checkTimer: null,
+  flightShown: false,
 };
 
 const $ = (id) => document.getElementById(id);
@@ -37,8 +44,12 @@ function connectSocket() {
       // A new session (perhaps a restarted ground station): its messages are numbered anew.
       page.client = msg.client;
       page.lastMessage = 0;
+      page.entries.clear();
+      $("messages").replaceChildren();
     }
+    else if (msg.type === "history") renderMessages(msg.messages);
     else if (msg.type === "view") render(msg.view);
+    else if (msg.type === "reply" && msg.seq === page.checkSeq && msg.seq) showCheck(msg);
     else if (msg.type === "reply") showReply(msg);
   };
 }
@@ -63,10 +74,37 @@ function setLink(up) {
 function send(op, extra = {}) {
   if (!page.socket || page.socket.readyState !== WebSocket.OPEN) {
     showReply({ ok: false, text: "not connected to the ground station" });
-    return;
+    return 0;
   }
   page.seq += 1;
   page.socket.send(JSON.stringify({ seq: page.seq, op, ...extra }));
+  return page.seq;
+}
+
+function startForm() {
+  return {
+    suffix: $("suffix").value,
+    controller: $("controller").value,
+    plan: $("plan").value,
+    pack: $("pack").value,
+  };
+}
+
+// Asks the station what Start Logging would meet with these parameters (nothing is sent to
+// the vehicle), a moment after the operator stops typing.
+function checkStart() {
+  clearTimeout(page.checkTimer);
+  page.checkTimer = setTimeout(() => {
+    if (page.view && page.view.panel.start) page.checkSeq = send("check-start", startForm());
+  }, 250);
+}
+
+function showCheck(msg) {
+  const el = $("start-check");
+  const waits = msg.ok && msg.text.includes("would wait");
+  el.textContent = msg.ok ? msg.text : `the vehicle would refuse: ${msg.text}`;
+  el.className = !msg.ok ? "no" : waits ? "wait" : "";
+  $("start").title = el.textContent;
 }
 
 function showReply(msg) {
@@ -93,6 +131,9 @@ function render(view) {
   renderPower(view);
   renderSafety(view.safety);
   renderMessages(view.messages);
+  renderPinned(view.pinned, inControl);
+  renderCommand(view.command);
+  renderFlightForm(view);
   const last = page.history[page.history.length - 1];
   if (view.instruments && (!last || view.instruments.time_s !== last.time_s)) {
     page.history.push(view.instruments);
@@ -143,7 +184,55 @@ function renderVehicle(view) {
       ? `vehicle: ${v.state}, ${v.phase}${asked}`
       : `vehicle: ${v.state}${v.mode ? ", " + v.mode : ""}`;
   const trouble = ["takeoff-refused", "blind-descent", "ground-failsafe", "autorotation"];
-  el.className = "pill " + (!v.heard ? "bad" : trouble.includes(v.phase) ? "warn" : "good");
+  el.className = "pill " + (!v.heard ? "bad" : trouble.includes(v.phase) || v.standing ? "warn" : "good");
+  // A refusal that stands (until the pilot cycles the auto switch) stays in sight.
+  const st = $("standing");
+  st.hidden = !v.standing;
+  st.textContent = v.standing || "";
+}
+
+// The last command and what became of it: a refusal in red with the vehicle's reason.
+function renderCommand(c) {
+  const el = $("command");
+  if (!c) { el.textContent = ""; el.className = ""; return; }
+  const words = { sent: "sent, waiting for the vehicle", accepted: "accepted",
+    refused: "REFUSED", unanswered: "NO ANSWER" };
+  el.textContent = `${c.name}: ${words[c.outcome] || c.outcome}${c.text ? " — " + c.text : ""}`;
+  el.className = c.outcome;
+}
+
+// While a flight this station started flies, every page's form shows its parameters (not
+// the page's own choices), locked.
+function renderFlightForm(view) {
+  const f = view.flight;
+  const fields = [["suffix", "suffix"], ["controller", "controller"], ["plan", "plan"], ["pack", "pack"]];
+  if (f) {
+    for (const [id, key] of fields) {
+      const el = $(id);
+      if (el.value !== f[key]) el.value = f[key];
+      el.disabled = true;
+    }
+    page.flightShown = true;
+  } else if (page.flightShown) {
+    for (const [id] of fields) $(id).disabled = false;
+    page.flightShown = false;
+  }
+  // Asked again every 2 s while Start Logging is active: what the vehicle would meet
+  // changes with its telemetry.
+  if (!view.panel.start) { $("start-check").textContent = ""; $("start").title = ""; }
+  else if (Date.now() - (page.checkAt || 0) > 2000) { page.checkAt = Date.now(); checkStart(); }
+}
+
+function renderPinned(pinned, inControl) {
+  const box = $("pinned-box");
+  box.hidden = pinned.length === 0;
+  const html = pinned.map((m) => `<li class="${m.severity}">${esc(m.severity.toUpperCase())} ` +
+    `${esc(m.text)}${m.count > 1 ? ` (×${m.count})` : ""}</li>`).join("");
+  if ($("pinned").innerHTML !== html) $("pinned").innerHTML = html;
+  page.pinnedSeq = pinned.reduce((a, m) => Math.max(a, m.seq), 0);
+  const ack = $("ack-pinned");
+  ack.disabled = !inControl;
+  ack.title = inControl ? "acknowledge every pinned message shown" : "take control to acknowledge";
 }
 
 function renderRows(view) {
@@ -163,6 +252,8 @@ function renderRows(view) {
     if (!row) {
       html += `<td class="nothing" colspan="11">NOTHING YET</td>`;
     } else {
+      const age = row.stale ? `<span class="age">STALE ${row.age_s.toFixed(1)} s</span>` : "";
+      html = `<td class="name">${name}${age}</td>`;
       html += `<td><span class="cell-label">Time s</span>${row.time_s.toFixed(2)}</td>`;
       for (const c of row.cells) {
         html += `<td><span class="cell-label">${esc(c.label)}</span>${esc(c.value)}</td>`;
@@ -253,25 +344,64 @@ function renderSafety(s) {
   const list = $("conditions");
   const html = s.conditions
     .map((c) => `<li class="${c.value === c.wanted}" title="${esc(c.meaning)}">` +
-      `${esc(c.name)}: ${esc(c.meaning)}${c.value ? "" : ": no"}</li>`)
+      `${esc(c.name)}: ${esc(c.meaning)}${c.value ? "" : `: ${esc(c.why || "no")}`}</li>`)
     .join("");
   if (list.innerHTML !== html) list.innerHTML = html;
 }
 
+const SEVERITY_RANK = { info: 0, notice: 1, warning: 2, error: 3, critical: 4 };
+
+// The message area: an entry per id, moved to the end when it repeats, with its count and
+// rate; the filter hides by severity and device.
 function renderMessages(messages) {
   const list = $("messages");
+  const atEnd = list.scrollTop + list.clientHeight >= list.scrollHeight - 4;
   let added = false;
   for (const m of messages) {
     if (m.seq <= page.lastMessage) continue;
     page.lastMessage = m.seq;
-    const li = document.createElement("li");
+    let li = page.entries.get(m.id);
+    if (!li) {
+      li = document.createElement("li");
+      page.entries.set(m.id, li);
+      noteDevice(m.device);
+    }
     li.className = m.severity;
-    li.innerHTML = `<span class="src">${m.source}</span> ${esc(m.text)}`;
+    li.dataset.rank = SEVERITY_RANK[m.severity] ?? 0;
+    li.dataset.device = m.device;
+    const repeats = m.count > 1
+      ? ` <span class="count">×${m.count}${m.rate_hz ? `, ${m.rate_hz.toFixed(1)}/s` : ""}</span>` : "";
+    li.innerHTML = `<span class="src">${m.source}</span> ${esc(m.text)}${repeats}`;
     list.appendChild(li);
+    filterOne(li);
     added = true;
   }
-  while (list.children.length > 500) list.removeChild(list.firstChild);
-  if (added) list.scrollTop = list.scrollHeight;
+  while (list.children.length > 2500) {
+    const first = list.firstChild;
+    for (const [id, el] of page.entries) if (el === first) page.entries.delete(id);
+    list.removeChild(first);
+  }
+  if (added && atEnd) list.scrollTop = list.scrollHeight;
+}
+
+function noteDevice(device) {
+  if (!device) return;
+  const sel = $("filter-device");
+  if (Array.from(sel.options).some((o) => o.value === device)) return;
+  const o = document.createElement("option");
+  o.value = device;
+  o.textContent = device;
+  sel.appendChild(o);
+}
+
+function filterOne(li) {
+  const min = SEVERITY_RANK[$("filter-severity").value] ?? 0;
+  const device = $("filter-device").value;
+  li.hidden = Number(li.dataset.rank) < min || (device !== "" && li.dataset.device !== device);
+}
+
+function filterAll() {
+  for (const li of $("messages").children) filterOne(li);
 }
 
 function esc(s) {
@@ -283,12 +413,14 @@ function wire() {
   $("release-control").onclick = () => send("release");
   $("connect").onclick = () => send("connect");
   $("acknowledge").onclick = () => send("acknowledge");
-  $("start").onclick = () => send("start", {
-    suffix: $("suffix").value,
-    controller: $("controller").value,
-    plan: $("plan").value,
-    pack: $("pack").value,
-  });
+  $("start").onclick = () => send("start", startForm());
+  for (const id of ["suffix", "controller", "plan", "pack"]) {
+    $(id).addEventListener("input", checkStart);
+    $(id).addEventListener("change", checkStart);
+  }
+  $("ack-pinned").onclick = () => send("acknowledge-messages", { upto: page.pinnedSeq });
+  $("filter-severity").onchange = filterAll;
+  $("filter-device").onchange = filterAll;
   $("stop").onclick = () => {
     $("final-suffix").value = $("suffix").value;
     // Escape closes the dialog with the last value otherwise: it must mean Cancel.

@@ -59,7 +59,8 @@ impl fmt::Display for LinkError {
             LinkError::BadFileSuffix(s) => {
                 write!(
                     f,
-                    "file suffix '{s}' must be 1-32 letters, digits, '-' or '_'"
+                    "file suffix '{s}' must be 1-{} letters, digits, '-' or '_'",
+                    crate::command::MAX_LINK_SUFFIX
                 )
             }
         }
@@ -72,7 +73,9 @@ impl StartParameters {
     /// Validates what the operator typed.
     pub fn new(file_suffix: &str, controller: &str) -> Result<Self, LinkError> {
         let ok = !file_suffix.is_empty()
-            && file_suffix.len() <= 32
+            // One limit everywhere: what the link can carry (a suffix typed on the local
+            // console may have to be said over the link).
+            && file_suffix.len() <= crate::command::MAX_LINK_SUFFIX
             && file_suffix
                 .chars()
                 .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');

@@ -125,33 +125,38 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
     // What the bootstrap says of its link: 0 nothing (no link), 1 a ground heard, 2 none.
     let ground_link = Arc::new(AtomicU8::new(0));
     let supervision = Arc::new(flight::Supervision::default());
-    let (restart, start) = loop {
-        match next_message(&mut std::io::stdin().lock(), &say) {
-            Some(ToFlight::Start(p)) => break (false, p),
-            Some(ToFlight::Restart(p)) => break (true, p),
+    // The fallback directory (RAM): the log's second place and the warm-start record's.
+    let fallback = args.fallback_dir();
+    // A start this process cannot fly (a plan it does not know, a suffix already logged) is
+    // refused before anything is opened, and the process waits for another: the operator
+    // chooses again without connecting again.
+    let (restart, start, plan) = loop {
+        let (restart, start) = match next_message(&mut std::io::stdin().lock(), &say) {
+            Some(ToFlight::Start(p)) => (false, p),
+            Some(ToFlight::Restart(p)) => (true, p),
             Some(ToFlight::Link { fresh }) => {
                 ground_link.store(link_state(fresh), Ordering::Release);
+                continue;
             }
             Some(ToFlight::Stop) | None => {
                 say(FromFlight::Stopped(serde_json::json!({})));
                 return Ok(ExitCode::SUCCESS);
             }
+        };
+        match startable(&args.log_dir, fallback.as_deref(), &start, restart) {
+            Ok(plan) => break (restart, start, plan),
+            Err(why) if restart => {
+                say(FromFlight::Refused(why.clone()));
+                bail!("{why}");
+            }
+            Err(why) => say(FromFlight::Refused(why)),
         }
     };
     let mode = start.controller;
     let suffix = start.file_suffix.clone();
-    let plan = match crate::plans::named(start.plan.as_deref()) {
-        Ok(plan) => plan,
-        Err(e) => {
-            say(FromFlight::Refused(e.to_string()));
-            bail!("{e}");
-        }
-    };
     let plan_legs = plan.legs_json();
     // The plan's legs, for the bootstrap to serve over the link's mission protocol.
     say(FromFlight::Plan(plan.legs.clone()));
-    // The fallback directory (RAM): the log's second place and the warm-start record's.
-    let fallback = args.fallback_dir();
     if let Some(dir) = &fallback
         && let Err(e) = std::fs::create_dir_all(dir)
     {
@@ -409,6 +414,35 @@ impl BootstrapLines {
 /// The flight log's path: `flight_<suffix>.mcap`, or for a process started again after a
 /// crash `flight_<suffix>_r<N>.mcap` with the first N not taken in the log directory or
 /// the fallback one (the crashed process's log is never overwritten).
+/// The plan of a start this process can fly, or why it cannot: a plan it does not know, or
+/// (a new flight, not a restart) a log of that suffix already in the log directory or the
+/// fallback (a log is never replaced).
+fn startable(
+    dir: &std::path::Path,
+    fallback: Option<&std::path::Path>,
+    start: &heli_link::StartParameters,
+    restart: bool,
+) -> Result<crate::plans::FlightPlan, String> {
+    let plan = crate::plans::named(start.plan.as_deref()).map_err(|e| e.to_string())?;
+    let name = heli_log::file_name("flight", &start.file_suffix, "mcap");
+    if !restart {
+        // The parameters set over the link: a file that cannot be used refuses the start,
+        // with its reason, rather than flying on values nobody chose.
+        if crate::params::path_in(dir).exists() {
+            crate::params::load(dir).map_err(|e| e.to_string())?;
+        }
+        for place in std::iter::once(dir).chain(fallback) {
+            if place.join(&name).exists() {
+                return Err(format!(
+                    "a log {name} exists already in {} (a log is never replaced): choose another suffix",
+                    place.display()
+                ));
+            }
+        }
+    }
+    Ok(plan)
+}
+
 fn next_free_log(
     dir: &std::path::Path,
     fallback: Option<&std::path::Path>,

@@ -252,8 +252,28 @@ fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
     let (ok, reply) = bootstrap.ctl(&["start-logging", "refused", "manual"]);
     assert!(!ok && reply.contains("params"), "{reply}");
     std::fs::remove_file(dir.path().join("params")).unwrap();
-    let (ok, reply) = bootstrap.ctl(&["connect"]);
-    assert!(ok && reply.starts_with("ok connected"), "{reply}");
+    // A suffix the vehicle has a log of is refused up front, with its reason — no crash —
+    // and the flight process waits, connected, for another start.
+    std::fs::write(dir.path().join("flight_e1.mcap"), b"an older flight").unwrap();
+    let (ok, reply) = bootstrap.ctl(&["start-logging", "e1", "manual"]);
+    assert!(
+        !ok && reply.contains("flight_e1.mcap exists already") && reply.contains("another suffix"),
+        "{reply}"
+    );
+    wait_state(&bootstrap, "connected");
+    assert!(
+        !bootstrap
+            .lines
+            .lock()
+            .unwrap()
+            .iter()
+            .any(|l| l.contains("CRASHED")),
+        "a refused start is no crash"
+    );
+    assert_eq!(
+        std::fs::read(dir.path().join("flight_e1.mcap")).unwrap(),
+        b"an older flight"
+    );
     let (ok, reply) = bootstrap.ctl(&["start-logging", "e2e", "manual"]);
     assert!(ok && reply.starts_with("ok flying"), "{reply}");
     // The IMU at 100 Hz: the short calibration the command line asked for ends at once.
