@@ -134,6 +134,21 @@ fn run_page_script_env(
     (run.status, said, shots)
 }
 
+/// The pid of a process whose command line mentions `needle`.
+fn pid_of(needle: &str) -> Option<u32> {
+    std::fs::read_dir("/proc")
+        .ok()?
+        .flatten()
+        .find_map(|entry| {
+            let pid: u32 = entry.file_name().to_str()?.parse().ok()?;
+            let cmd = std::fs::read(entry.path().join("cmdline")).ok()?;
+            String::from_utf8_lossy(&cmd)
+                .replace('\0', " ")
+                .contains(needle)
+                .then_some(pid)
+        })
+}
+
 /// Every process whose command line mentions `needle`.
 fn processes_mentioning(needle: &str) -> Vec<String> {
     let mut found = Vec::new();
@@ -238,6 +253,48 @@ fn heli_sim_ui_brings_up_the_whole_system_and_ctrl_c_stops_it() {
         3,
         "hilsim, vehicle and ground: {:?}",
         processes_mentioning(&dir)
+    );
+    // A flight (started on the vehicle's console), then the simulator ends under it (as when
+    // its helicopter crashes): the session goes on. The flight is stopped, the ground station
+    // saves its log by the flight's own suffix, and a new simulator stands ready.
+    let ctl = |words: &[&str]| {
+        let socket = format!("{dir}/ctl.sock");
+        let mut args = vec!["vehicle", "ctl"];
+        args.extend_from_slice(words);
+        args.extend(["--socket", &socket]);
+        let out = heli(&args);
+        String::from_utf8_lossy(&out.stdout).to_string()
+    };
+    assert!(ctl(&["connect"]).starts_with("ok connected"));
+    assert!(ctl(&["start-logging", "crash1", "manual", "hover"]).starts_with("ok flying"));
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    let hilsim_pid = pid_of(&format!("hilsim --ptys {dir}")).expect("the hilsim's pid");
+    let _ = Command::new("kill")
+        .args(["-9", &hilsim_pid.to_string()])
+        .status();
+    while !said.contains("a new simulator is ready") {
+        let mut line = String::new();
+        assert!(
+            out.read_line(&mut line).unwrap() > 0,
+            "heli sim --ui ended when its simulator did:\n{said}"
+        );
+        said.push_str(&line);
+    }
+    assert!(said.contains("the simulator ended ("), "{said}");
+    let saved = Path::new(&dir).join("flights/flight_crash1.mcap");
+    let end = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while !saved.exists() {
+        assert!(
+            std::time::Instant::now() < end,
+            "the flight's log was not saved: {}",
+            std::fs::read_to_string(Path::new(&dir).join("ground.log")).unwrap_or_default()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    }
+    assert!(pid_of(&format!("hilsim --ptys {dir}")).is_some_and(|p| p != hilsim_pid));
+    assert!(
+        get(&view).starts_with("HTTP/1.1 200"),
+        "the view is served again"
     );
     // Ctrl-C: everything stops.
     let _ = Command::new("kill")

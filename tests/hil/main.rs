@@ -9,6 +9,7 @@ mod link;
 mod pilot;
 mod procs;
 mod replay;
+mod truth;
 mod view;
 
 use std::time::{Duration, Instant};

@@ -84,7 +84,10 @@ fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and
     vehicle.ctl(&["stop"]);
     vehicle.quit();
     drop(hil);
-    assert!(run.success(), "the augmented phase failed:\n{said}");
+    assert!(
+        run.success(),
+        "the augmented phase failed:\n{said}\nthe vehicle said:\n{flown}"
+    );
     // The flight software flew the augmented mode, and the bypass made it stand aside.
     let velocity_flight = flown
         .rsplit("flight_pilot-velocity")
@@ -99,6 +102,20 @@ fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and
     );
     let aug = steps(&said);
     assert_eq!(step(&aug, "augmented-holding", &said)["source"], "keyboard");
+    // One transmitter: a second page could not take it, and its sticks never reached the
+    // simulator's receiver.
+    let second = step(&aug, "second-pilot-refused", &said);
+    assert!(
+        second["max_collective_stick"].as_f64().unwrap() < 0.2,
+        "{second}"
+    );
+    assert!(
+        second["refusal"]
+            .as_str()
+            .unwrap()
+            .contains("holds the transmitter"),
+        "{second}"
+    );
     assert!(
         step(&aug, "augmented-forward", &said)["forward_mps"]
             .as_f64()
@@ -118,7 +135,11 @@ fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and
     // with the second.
     assert!(trainer.contains("transmitter signal lost"), "{trainer}");
     assert!(trainer.contains("transmitter signal back"), "{trainer}");
-    for shot in ["02-augmented-forward", "03-bypass"] {
+    for shot in [
+        "02-augmented-forward",
+        "02-second-pilot-refused",
+        "03-bypass",
+    ] {
         assert!(shots.join(format!("{shot}.png")).exists(), "no {shot}");
     }
     // Both flights were logged like any other.

@@ -54,7 +54,11 @@ function say(step, f, extra) {
     ...extra }));
 }
 
-const browser = await chromium.launch({ executablePath: browserPath, args: ["--no-sandbox"] });
+// Two pages fly side by side (the second is refused the transmitter): neither may be
+// throttled as a background tab, or the holder's sticks would stop.
+const browser = await chromium.launch({ executablePath: browserPath, args: ["--no-sandbox",
+  "--disable-background-timer-throttling", "--disable-renderer-backgrounding",
+  "--disable-backgrounding-occluded-windows"] });
 try {
   const page = await browser.newPage({ viewport: { width: 1340, height: 1000 } });
   // A gamepad the test moves: window.__pad.axes and .buttons.
@@ -133,6 +137,31 @@ try {
     const held = await waitFor(page, "the page holding the transmitter, auto on",
       (f) => f.live && f.auto, 5000);
     say("augmented-holding", held, { source: await page.evaluate(() => window.heliPilot.source) });
+    // A second pilot page: it sees who holds the transmitter, cannot take it, and its sticks
+    // (full collective, sent for a second) are refused — the helicopter never feels them.
+    const second = await browser.newPage({ viewport: { width: 1340, height: 1000 } });
+    await second.goto(url);
+    await second.waitForFunction(() => window.heliPilot && window.heliPilot.holder !== null &&
+      window.heliPilot.you !== window.heliPilot.holder, null, { timeout: 10000 });
+    if (!(await second.isDisabled("#take"))) throw new Error("the second page may take a held transmitter");
+    await second.evaluate(() => window.heliViewSend({ type: "take" }));
+    let maxCollective = -1;
+    for (let k = 0; k < 25; k++) {
+      await second.evaluate(() => window.heliViewSend({ type: "pilot", aileron: 0, elevator: 0,
+        rudder: 0, collective: 1, throttle: 0.8, auto: true, bypass: false }));
+      const f = await frame(page);
+      maxCollective = Math.max(maxCollective, f.sticks[3]);
+      await sleep(40);
+    }
+    const refusals = await second.evaluate(() => window.heliPilot.errors);
+    if (maxCollective > 0.2 || !refusals.some((e) => e.includes("holds the transmitter"))) {
+      throw new Error(`a second page moved the sticks: collective up to ${maxCollective}, said ${JSON.stringify(refusals)}`);
+    }
+    console.log(JSON.stringify({ step: "second-pilot-refused", max_collective_stick: maxCollective,
+      refusal: refusals[0] }));
+    await second.screenshot({ path: join(out, "02-second-pilot-refused.png") });
+    await second.close();
+    await page.bringToFront();
     await page.keyboard.down("w"); // collective stick up: climb
     await sleep(650);
     await page.keyboard.up("w");

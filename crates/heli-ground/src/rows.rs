@@ -15,6 +15,11 @@ use serde::Serialize;
 /// A row older than this (µs) is stale: four and a half telemetry periods at 3 Hz.
 pub const STALE_AFTER_US: u64 = 1_500_000;
 
+/// The GPS's last fix older than this (µs) makes its row stale: one fix a second, and a
+/// quarter of a second of grace. The vehicle's own watchdog calls it late only at 1.5 s; the
+/// ground, knowing the fix's time, says it first.
+pub const GPS_FIX_STALE_US: u64 = 1_250_000;
+
 /// One field of a row.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Cell {
@@ -33,7 +38,8 @@ pub struct Row {
     pub cells: Vec<Cell>,
     /// Old, or the device is not on time.
     pub stale: bool,
-    /// How long ago the station received it (s).
+    /// How old it is (s): since the station received it; for the GPS, since its fix (on
+    /// the vehicle's clock).
     pub age_s: f64,
 }
 
@@ -236,18 +242,46 @@ pub fn rows(latest: &Latest, batteries: &Batteries, now_us: u64, uplink_labels: 
             Some((_, MavMessage::GLOBAL_POSITION_INT(p))) => f64::from(p.vz) / 100.0,
             _ => f64::NAN,
         };
+        // The thesis's PosN/PosE: the fix north and east of the estimate's origin (the
+        // vehicle's GPS_GLOBAL_ORIGIN), beside the latitude and longitude.
+        let (lat, lon, alt) = (
+            f64::from(g.lat) / 1e7,
+            f64::from(g.lon) / 1e7,
+            f64::from(g.alt) / 1000.0,
+        );
+        let ned = match m.get(GPS_GLOBAL_ORIGIN_DATA::ID) {
+            Some((_, MavMessage::GPS_GLOBAL_ORIGIN(o))) => heli_nav::GeoOrigin {
+                lat_deg: f64::from(o.latitude) / 1e7,
+                lon_deg: f64::from(o.longitude) / 1e7,
+                alt_m: f64::from(o.altitude) / 1000.0,
+            }
+            .to_ned(lat, lon, alt),
+            _ => [f64::NAN; 3],
+        };
         let cells = vec![
+            cell("PosN m", num(ned[0], 1)),
+            cell("PosE m", num(ned[1], 1)),
             cell("VelN m/s", num(speed * course.cos(), 2)),
             cell("VelE m/s", num(speed * course.sin(), 2)),
             cell("VelD m/s", num(vd, 2)),
             cell("#SAT", g.satellites_visible.to_string()),
-            cell("Lat °", num(f64::from(g.lat) / 1e7, 7)),
-            cell("Lon °", num(f64::from(g.lon) / 1e7, 7)),
-            cell("Altitude m", num(f64::from(g.alt) / 1000.0, 1)),
+            cell("Lat °", num(lat, 7)),
+            cell("Lon °", num(lon, 7)),
+            cell("Altitude m", num(alt, 1)),
         ];
         let bit = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS;
         let time_ms = u32::try_from(g.time_usec / 1000).unwrap_or(u32::MAX);
-        out.gps = Some(m.row(at, time_ms, cells, Some(bit)));
+        let mut row = m.row(at, time_ms, cells, Some(bit));
+        // The fix's age now, on the vehicle's clock: its time against the newest attitude's
+        // (sent at the telemetry rate), moved on by the time since that came.
+        if let Some((at_att, MavMessage::ATTITUDE(a))) = m.get(ATTITUDE_DATA::ID) {
+            let vehicle_now_us =
+                (u64::from(a.time_boot_ms) * 1000).saturating_add(now_us.saturating_sub(at_att));
+            let fix_age_us = vehicle_now_us.saturating_sub(g.time_usec);
+            row.age_s = fix_age_us as f64 * 1e-6;
+            row.stale = row.stale || fix_age_us > GPS_FIX_STALE_US;
+        }
+        out.gps = Some(row);
     }
     if let Some((at, MavMessage::SCALED_PRESSURE(p))) = m.get(SCALED_PRESSURE_DATA::ID) {
         let mbar = f64::from(p.press_abs);

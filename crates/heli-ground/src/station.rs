@@ -353,11 +353,17 @@ impl Station {
             let status = self.vehicle_status(now_us);
             self.panel.vehicle(status.map(|s| s.state));
         }
+        if heard_after {
+            self.flight_ended_alone(now_us);
+        }
         // A flight seen under way: its log is the newest on the vehicle, the one a Stop with
         // final parameters saves.
-        if self
-            .vehicle_status(now_us)
-            .is_some_and(|s| s.state == BootstrapState::Flying)
+        // (A heartbeat from before our last command's answer says the old state: a Stop's
+        // answer is not undone by the "flying" heartbeat sent just before it.)
+        if heard_after
+            && self
+                .vehicle_status(now_us)
+                .is_some_and(|s| s.state == BootstrapState::Flying)
         {
             self.flight_seen = true;
         }
@@ -394,6 +400,44 @@ impl Station {
             }
         }
         out
+    }
+
+    /// A flight that ended without this station's Stop (stopped on the vehicle's console, or
+    /// its process gone and not restarted; in `heli sim --ui`, the simulated helicopter
+    /// crashed): its log is saved all the same, where a Stop would have put it
+    /// (`flight_SUFFIX.mcap` under the save root), and the operator is told.
+    fn flight_ended_alone(&mut self, now_us: u64) {
+        let idle = self
+            .vehicle_status(now_us)
+            .is_some_and(|s| s.state == BootstrapState::Idle);
+        if !(idle && self.flight_seen && self.pending.is_none() && self.transfer.is_none()) {
+            return;
+        }
+        self.flight_seen = false;
+        self.flight_params = None;
+        let suffix = self.flight_suffix.take();
+        let mut dest = self.config.save_root.clone();
+        dest.push(format!(
+            "flight_{}.mcap",
+            suffix.as_deref().unwrap_or("unnamed")
+        ));
+        let whither = match &suffix {
+            Some(_) => dest.display().to_string(),
+            None => format!(
+                "{} (named by the suffix in the log)",
+                self.config.save_root.display()
+            ),
+        };
+        self.note(
+            "warning",
+            format!("the flight ended on the vehicle without Stop: saving its log to {whither}"),
+        );
+        self.packs_end();
+        self.transfer = Some(match suffix {
+            Some(s) => Transfer::of_flight(dest, Some(s), now_us),
+            // Not started here: saved under the suffix its own log names.
+            None => Transfer::of_unnamed_flight(dest, now_us),
+        });
     }
 
     fn command_tick(&mut self, now_us: u64, out: &mut Vec<Output>) {

@@ -66,6 +66,7 @@ pub(crate) fn flying_telemetry(phase: &str) -> Telemetry {
             vel_ned_mps: [0.0; 3],
             satellites: 8,
             fix_3d: true,
+            age_s: 0.25,
         }),
         compass: Some(CompassRow {
             field_gauss: [0.2, 0.0, 0.45],
@@ -298,7 +299,13 @@ fn connect_start_and_stop_follow_section_2_4_and_the_log_is_saved_by_the_final_p
         (v.panel.connect, v.panel.start, v.panel.stop),
         (true, false, false)
     );
-    assert_eq!(b.saved.len(), 1, "{}", b.messages());
+    assert_eq!(
+        b.saved.len(),
+        1,
+        "{}\n{:?}",
+        b.messages(),
+        b.saved.iter().map(|s| &s.0).collect::<Vec<_>>()
+    );
     assert_eq!(b.saved[0].0, PathBuf::from("/ground/day1/flight_mine.mcap"));
     assert_eq!(b.saved[0].1, b.store.logs[0].1);
     let said = b.messages();

@@ -61,6 +61,8 @@ pub struct Transfer {
     which: Which,
     /// The suffix the flight was started with, when known: the log must be that flight's.
     expect_suffix: Option<String>,
+    /// Saved under the suffix its own metadata names ([`Transfer::of_unnamed_flight`]).
+    name_from_log: bool,
     /// The log list has been asked for by this transfer.
     asked: bool,
     timeout_us: u64,
@@ -86,12 +88,23 @@ impl Transfer {
         }
     }
 
+    /// The newest log, of a flight this station did not start (it knows no suffix): saved
+    /// in `dest`'s directory as `flight_SUFFIX.mcap` by the suffix its `flight` metadata
+    /// names (when that is a valid suffix), else at `dest`.
+    pub fn of_unnamed_flight(dest: PathBuf, now_us: u64) -> Self {
+        Self {
+            name_from_log: true,
+            ..Self::new(dest, now_us)
+        }
+    }
+
     /// A transfer of log `which` to `dest`, given up after `timeout_us` without progress.
     pub fn of(which: Which, dest: PathBuf, timeout_us: u64, now_us: u64) -> Self {
         Self {
             dest,
             which,
             expect_suffix: None,
+            name_from_log: false,
             asked: false,
             timeout_us,
             stage: Stage::Listing,
@@ -233,7 +246,12 @@ impl Transfer {
                     step.notes.push(format!(
                         "log transfer: 100 % ({size} bytes) received, {what}; saving"
                     ));
-                    step.save = Some((self.dest.clone(), bytes));
+                    let dest = if self.name_from_log {
+                        named_by_log(&self.dest, &bytes)
+                    } else {
+                        self.dest.clone()
+                    };
+                    step.save = Some((dest, bytes));
                 }
                 // A log asked for by its id is the operator's to keep, damaged or not (what
                 // reads of it can be exported with `heli log export --partial`).
@@ -253,6 +271,23 @@ impl Transfer {
             }
         }
     }
+}
+
+/// `dest` renamed `flight_SUFFIX.mcap` by the suffix the log's `flight` metadata names, when
+/// that is a valid file suffix (the log is data from the vehicle: its words never make a
+/// path by themselves).
+fn named_by_log(dest: &std::path::Path, bytes: &[u8]) -> PathBuf {
+    let contents = heli_log::reader::read(bytes);
+    contents
+        .metadata
+        .iter()
+        .find(|m| m.name == "flight")
+        .and_then(|m| m.entries.get("suffix"))
+        .filter(|s| heli_link::StartParameters::new(s, "manual").is_ok())
+        .map_or_else(
+            || dest.to_path_buf(),
+            |s| dest.with_file_name(format!("flight_{s}.mcap")),
+        )
 }
 
 /// Checks a received log: its size, that it reads whole (every chunk's CRC), and that it is

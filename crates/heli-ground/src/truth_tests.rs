@@ -273,3 +273,81 @@ fn a_condition_never_read_says_so_rather_than_blaming_the_battery() {
         v.safety.augmented.failing
     );
 }
+
+#[test]
+fn a_flight_that_ends_without_stop_is_saved_all_the_same() {
+    let mut b = Bench::new();
+    let op = b.connected_operator();
+    b.ask(
+        op,
+        r#"{"seq":3,"op":"start","suffix":"crash1","controller":"autonomous"}"#,
+    )
+    .unwrap();
+    b.run(2.0);
+    // Stopped on the vehicle (in `heli sim --ui`: the simulated helicopter crashed and the
+    // flight was stopped there), not by this station.
+    b.state = heli_link::status::BootstrapState::Idle;
+    b.telemetry = None;
+    b.run(8.0);
+    assert_eq!(b.saved.len(), 1, "{}", b.messages());
+    assert_eq!(
+        b.saved[0].0,
+        std::path::PathBuf::from("/ground/flight_crash1.mcap")
+    );
+    assert_eq!(b.saved[0].1, b.store.logs[0].1);
+    let said = b.messages();
+    assert!(said.contains("ended on the vehicle without Stop"), "{said}");
+    assert!(
+        said.contains("log saved: /ground/flight_crash1.mcap"),
+        "{said}"
+    );
+    let v = b.station.view(b.t);
+    assert_eq!(v.panel.state, PanelState::Idle);
+    assert!(v.flight.is_none());
+    // Once only.
+    b.run(5.0);
+    assert_eq!(b.saved.len(), 1);
+}
+
+#[test]
+fn the_gps_row_has_posn_pose_from_the_estimates_origin_and_ages_by_its_fix() {
+    let mut b = Bench::new();
+    let op = b.connected_operator();
+    b.ask(
+        op,
+        r#"{"seq":3,"op":"start","suffix":"g1","controller":"manual"}"#,
+    )
+    .unwrap();
+    b.run(1.0);
+    let mut t = flying_telemetry("manual");
+    t.origin = Some([42.36, -71.09, 10.0]);
+    if let Some(g) = t.gps.as_mut() {
+        g.lat_deg = 42.3601;
+    }
+    b.telemetry = Some(t.clone());
+    b.run(1.0);
+    let v = b.station.view(b.t);
+    let gps = v.rows.gps.clone().unwrap();
+    let cell = |label: &str| {
+        gps.cells
+            .iter()
+            .find(|c| c.label == label)
+            .map(|c| c.value.clone())
+            .unwrap_or_default()
+    };
+    let north: f64 = cell("PosN m").parse().unwrap();
+    assert!((north - 11.1).abs() < 0.2, "{north}");
+    assert_eq!(cell("PosE m"), "0.0");
+    assert_eq!(cell("Lat °"), "42.3601000");
+    assert!(v.gps.as_ref().is_some_and(|g| g.ok && !g.stale));
+    // The vehicle's last fix is 1.4 s old (the GPS fell silent; its watchdog has not said
+    // so yet): the lamp leaves green on the fix's age, with that age.
+    if let Some(g) = t.gps.as_mut() {
+        g.age_s = 1.4;
+    }
+    b.telemetry = Some(t);
+    b.run(0.5);
+    let lamp = b.station.view(b.t).gps.unwrap();
+    assert!(lamp.stale && !lamp.ok, "{lamp:?}");
+    assert!((1.3..1.9).contains(&lamp.age_s), "{lamp:?}");
+}

@@ -69,6 +69,11 @@ pub struct BatteryView {
     /// Where the percent comes from: `gauge` (the vehicle's fuel gauge) or `voltage` (the
     /// discharge curve, from a vehicle that sends no gauge).
     pub from: &'static str,
+    /// The reading is older than the telemetry allows (no flight sends it now): the meter is
+    /// grey, with its age.
+    pub stale: bool,
+    /// How long ago the reading came (s).
+    pub age_s: f64,
 }
 
 /// The GPS indicator: it follows the freshest fix, not the last count seen.
@@ -175,7 +180,8 @@ impl Station {
         let state = self.panel.state();
         let (connect, start, stop) = state.buttons();
         let battery = match latest.get(&SYS_STATUS_DATA::ID) {
-            Some((_, MavMessage::SYS_STATUS(s))) if s.voltage_battery != u16::MAX => {
+            Some((at, MavMessage::SYS_STATUS(s))) if s.voltage_battery != u16::MAX => {
+                let age_us = now_us.saturating_sub(*at);
                 let volts = f64::from(s.voltage_battery) / 1000.0;
                 // The vehicle's gauge when it sends one; bare voltage only otherwise.
                 let (percent, green, from) = if s.battery_remaining >= 0 {
@@ -185,11 +191,14 @@ impl Station {
                     let (p, g) = battery_meter(&self.config.curve, volts);
                     (p, g, "voltage")
                 };
+                let stale = age_us > crate::rows::STALE_AFTER_US;
                 Some(BatteryView {
                     volts,
                     percent,
-                    green,
+                    green: green && !stale,
                     from,
+                    stale,
+                    age_s: age_us as f64 * 1e-6,
                 })
             }
             _ => None,
@@ -202,7 +211,11 @@ impl Station {
                 .iter()
                 .all(|p| matches!(p.state, "good" | "unknown"));
         let facts = facts(latest, &rows, heartbeat_age_us, battery_green);
-        let why = self.why(&rows, battery.is_some(), heartbeat_age_us);
+        let why = self.why(
+            &rows,
+            battery.as_ref().map(|b| (b.stale, b.age_s)),
+            heartbeat_age_us,
+        );
         let standing = self.standing(status);
         let gps = match (latest.get(&GPS_RAW_INT_DATA::ID), rows.gps.as_ref()) {
             (Some((_, MavMessage::GPS_RAW_INT(g))), Some(row)) => Some(GpsView {
@@ -299,9 +312,9 @@ impl Station {
 
 impl Station {
     /// Why each false condition is false, where the ground knows more than the rule's words:
-    /// a row never received, a row gone stale (with its age), a battery never read, a
-    /// vehicle not heard.
-    fn why(&self, rows: &Rows, battery_read: bool, heartbeat_age_us: Option<u64>) -> Why {
+    /// a row never received, a row gone stale (with its age), a battery not read (or not for
+    /// long), a vehicle not heard.
+    fn why(&self, rows: &Rows, battery: Option<(bool, f64)>, heartbeat_age_us: Option<u64>) -> Why {
         use heli_control::safety::Condition as C;
         let mut why = Vec::new();
         // A stale row is old, or fresh with the vehicle's watchdog saying the device is
@@ -337,8 +350,12 @@ impl Station {
             )),
             Some(_) => {}
         }
-        if !battery_read {
-            why.push((C::Battery, "no battery reading yet".into()));
+        match battery {
+            None => why.push((C::Battery, "no battery reading yet".into())),
+            Some((true, age_s)) => {
+                why.push((C::Battery, format!("no battery reading for {age_s:.1} s")));
+            }
+            Some(_) => {}
         }
         match heartbeat_age_us {
             None => why.push((C::Link, "the vehicle has not been heard".into())),

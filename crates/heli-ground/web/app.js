@@ -268,8 +268,9 @@ function renderPower(view) {
   const meter = $("battery");
   if (b) {
     $("battery-fill").style.height = `${Math.max(0, Math.min(100, b.percent))}%`;
-    meter.className = "meter " + (b.green ? "green" : "red");
-    $("battery-pct").textContent = `${b.percent.toFixed(0)} %`;
+    meter.className = "meter " + (b.stale ? "grey" : b.green ? "green" : "red");
+    $("battery-pct").textContent = b.stale
+      ? `${b.percent.toFixed(0)} % (${b.age_s.toFixed(0)} s ago)` : `${b.percent.toFixed(0)} %`;
     $("battery-v").textContent = `${b.volts.toFixed(2)} V`;
   } else {
     $("battery-fill").style.height = "0";

@@ -75,6 +75,10 @@ pub struct GpsRow {
     pub satellites: u8,
     /// A 3-D fix.
     pub fix_3d: bool,
+    /// How old the fix was when the snapshot was taken (s): the GPS message carries the
+    /// fix's own time, so that the ground sees a silent GPS by the age of its last fix.
+    #[serde(default)]
+    pub age_s: f64,
 }
 
 /// The altimeter row.
@@ -163,10 +167,14 @@ pub struct Telemetry {
     /// The batteries' gauges and the hot-swap.
     #[serde(default)]
     pub power: Option<PowerRow>,
+    /// The estimate's origin (latitude and longitude in degrees, altitude in metres), once
+    /// the navigation has one: the frame of the positions north and east.
+    #[serde(default)]
+    pub origin: Option<[f64; 3]>,
 }
 
 /// The messages of the telemetry, in the order they are offered, by message id.
-pub const TELEMETRY_MESSAGES: [u32; 12] = [
+pub const TELEMETRY_MESSAGES: [u32; 13] = [
     ATTITUDE_DATA::ID,
     LOCAL_POSITION_NED_DATA::ID,
     GLOBAL_POSITION_INT_DATA::ID,
@@ -179,6 +187,7 @@ pub const TELEMETRY_MESSAGES: [u32; 12] = [
     BATTERY_STATUS_DATA::ID,
     HEARTBEAT_DATA::ID,
     RAW_RPM_DATA::ID,
+    GPS_GLOBAL_ORIGIN_DATA::ID,
 ];
 
 /// `BATTERY_STATUS.id` of the flight computer's battery.
@@ -320,12 +329,22 @@ pub fn message(id: u32, t: &Telemetry, time_boot_ms: u32) -> Option<MavMessage> 
                 ..Default::default()
             })
         }
+        GPS_GLOBAL_ORIGIN_DATA::ID => {
+            let [lat, lon, alt] = t.origin?;
+            MavMessage::GPS_GLOBAL_ORIGIN(GPS_GLOBAL_ORIGIN_DATA {
+                latitude: scaled_i32(lat, 1e7),
+                longitude: scaled_i32(lon, 1e7),
+                altitude: scaled_i32(alt, 1e3),
+            })
+        }
         GPS_RAW_INT_DATA::ID => {
             let g = t.gps.as_ref()?;
             let [vn, ve, _] = g.vel_ned_mps;
             let speed = vn.hypot(ve);
+            // The fix's own time (MAVLink's time_usec is the fix's), on the link's clock.
+            let age_us = (g.age_s.max(0.0) * 1e6) as u64;
             MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA {
-                time_usec: u64::from(time_boot_ms) * 1000,
+                time_usec: (u64::from(time_boot_ms) * 1000).saturating_sub(age_us),
                 lat: scaled_i32(g.lat_deg, 1e7),
                 lon: scaled_i32(g.lon_deg, 1e7),
                 alt: scaled_i32(g.alt_m, 1e3),

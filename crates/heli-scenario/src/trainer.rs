@@ -9,7 +9,9 @@
 
 use serde::Deserialize;
 
-use crate::faults::{EngineFault, GpsGlitch, ServoFault, ServoFaultKind, WindChange, WindShape};
+use crate::faults::{
+    EngineFault, ForcedSatellites, GpsGlitch, ServoFault, ServoFaultKind, WindChange, WindShape,
+};
 use crate::pilot::Channel;
 use crate::scenario::Scenario;
 
@@ -31,6 +33,13 @@ pub enum TrainerFault {
     },
     /// No GPS fix for `seconds`.
     GpsOutage {
+        /// How long (s).
+        seconds: f64,
+    },
+    /// The GPS reports only `satellites` for `seconds` (its fixes go on).
+    GpsSatellites {
+        /// Satellites reported (0-40).
+        satellites: u8,
         /// How long (s).
         seconds: f64,
     },
@@ -190,6 +199,13 @@ impl TrainerFault {
                 within("east_mps", east_mps, 30.0)?;
                 seconds_ok(seconds).map(|_| ())
             }
+            TrainerFault::GpsSatellites {
+                satellites,
+                seconds,
+            } => {
+                within("satellites", f64::from(satellites), 40.0)?;
+                seconds_ok(seconds).map(|_| ())
+            }
             TrainerFault::GpsOutage { seconds }
             | TrainerFault::ImuSilent { seconds }
             | TrainerFault::AltimeterSilent { seconds }
@@ -226,6 +242,17 @@ impl TrainerFault {
             TrainerFault::GpsOutage { seconds } => {
                 f.gps_outages.push([now_s, until(seconds)]);
                 format!("GPS outage for {seconds} s")
+            }
+            TrainerFault::GpsSatellites {
+                satellites,
+                seconds,
+            } => {
+                f.gps_satellites.push(ForcedSatellites {
+                    start_s: now_s,
+                    end_s: until(seconds),
+                    satellites,
+                });
+                format!("GPS reports {satellites} satellites for {seconds} s")
             }
             TrainerFault::GpsGlitch {
                 north_m,
@@ -327,6 +354,10 @@ mod tests {
     fn nonsense_is_refused_with_the_reason() {
         for (json, says) in [
             (r#"{"kind":"gps-outage","seconds":-1}"#, "seconds -1"),
+            (
+                r#"{"kind":"gps-satellites","satellites":41,"seconds":5}"#,
+                "satellites 41",
+            ),
             (r#"{"kind":"gps-outage","seconds":1e9}"#, "at most 600"),
             (r#"{"kind":"gps-outage"}"#, "missing field `seconds`"),
             (

@@ -50,8 +50,12 @@ impl Proc {
     fn spawn(program: &Path, name: &'static str, dir: &Path, args: &[String]) -> Result<Self> {
         use std::os::unix::process::CommandExt;
         let log = dir.join(format!("{name}.log"));
-        let mut file =
-            std::fs::File::create(&log).map_err(context(format!("creating {}", log.display())))?;
+        // Appended to: a process started again (the simulator after a crash) adds to it.
+        let mut file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&log)
+            .map_err(context(format!("creating {}", log.display())))?;
         let mut child = Command::new(program)
             .args(args)
             .stdin(Stdio::null())
@@ -195,24 +199,22 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
     let link = format!("udp:127.0.0.1:{}", free_udp_port()?);
     let dev = format!("{dir_s}/dev");
     let mut procs: Vec<Proc> = Vec::new();
-    let started = (|| -> Result<(String, String)> {
-        let mut hil = Proc::spawn(
-            program,
+    let hil_args = |view: &str| {
+        strings(&[
             "hilsim",
-            &dir,
-            &strings(&[
-                "hilsim",
-                "--ptys",
-                &dev,
-                "--scenario",
-                &options.scenario,
-                "--duration",
-                "86400",
-                "--view",
-                "127.0.0.1:0",
-                "--pilot",
-            ]),
-        )?;
+            "--ptys",
+            &dev,
+            "--scenario",
+            &options.scenario,
+            "--duration",
+            "86400",
+            "--view",
+            view,
+            "--pilot",
+        ])
+    };
+    let started = (|| -> Result<(String, String)> {
+        let mut hil = Proc::spawn(program, "hilsim", &dir, &hil_args("127.0.0.1:0"))?;
         hil.wait_for("hilsim: ready", Duration::from_secs(20), &stop)?;
         // Printed before "ready".
         let view = hil
@@ -298,12 +300,54 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
     println!("  processes' output, logs and saved flights in {dir_s}");
     println!("  Ctrl-C stops everything");
     let _ = std::io::stdout().flush();
+    // The simulator is started again on the same view address after it ends.
+    let view_addr = view_url
+        .trim_start_matches("http://")
+        .trim_end_matches('/')
+        .to_string();
+    let ctl = format!("{dir_s}/ctl.sock");
     let mut code = ExitCode::SUCCESS;
     while !stop.load(Ordering::Relaxed) {
-        if let Some(p) = procs
+        let ended = procs
             .iter_mut()
-            .find_map(|p| p.child.try_wait().ok().flatten().map(|_| &*p))
+            .position(|p| p.child.try_wait().ok().flatten().is_some());
+        // The simulator ended (its helicopter crashed, or its time ran out): that ends the
+        // flight, not the station. The flight is stopped on the vehicle (its log closed; the
+        // ground station saves it, as for any flight ended without its Stop) and a new
+        // simulator stands ready for the next Connect.
+        if let Some(i) = ended
+            && procs.get(i).is_some_and(|p| p.name == "hilsim")
+            && let Some(hil) = procs.get_mut(i)
         {
+            println!(
+                "heli sim --ui: the simulator ended ({}): stopping the vehicle's flight; the ground station saves its log",
+                outcome_in(&hil.log)
+            );
+            let _ = Command::new(program)
+                .args(["vehicle", "ctl", "stop", "--socket", &ctl])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .status();
+            match Proc::spawn(program, "hilsim", &dir, &hil_args(&view_addr)).and_then(|mut p| {
+                p.wait_for("hilsim: ready", Duration::from_secs(20), &stop)
+                    .map(|_| p)
+            }) {
+                Ok(p) => {
+                    *hil = p;
+                    println!(
+                        "heli sim --ui: a new simulator is ready at {view_url}: Connect and Start Logging for the next flight"
+                    );
+                    let _ = std::io::stdout().flush();
+                    continue;
+                }
+                Err(e) => {
+                    eprintln!("heli sim --ui: the simulator could not be started again: {e}");
+                    code = ExitCode::FAILURE;
+                    break;
+                }
+            }
+        }
+        if let Some(p) = ended.and_then(|i| procs.get(i)) {
             eprintln!(
                 "heli sim --ui: heli {} ended on its own: see {}",
                 p.name,
@@ -316,6 +360,21 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
     }
     shut_down(program, &mut procs, &dir_s);
     Ok(code)
+}
+
+/// What the simulator's log says of how its run ended: its `outcome` line, or its last.
+fn outcome_in(log: &Path) -> String {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+    lines
+        .iter()
+        .rev()
+        .find(|l| l.trim_start().starts_with("outcome"))
+        .or(lines.last())
+        .map_or_else(
+            || "no word in its log".to_string(),
+            |l| l.split_whitespace().collect::<Vec<_>>().join(" "),
+        )
 }
 
 /// Stops the display, then the vehicle (its flight process ends and closes its log), then

@@ -3,8 +3,9 @@
 // Gamepad API) or, with none connected, the keyboard gives the sticks and the auto and
 // bypass switches; they go to the simulator 50 times a second, which hands them to its
 // receiver and servo controller board as a transmitter's would. "Take the transmitter"
-// starts it, "Release" gives it back to the scenario's pilot; a page that stops sending
-// loses the signal after half a second, as a receiver would.
+// asks the simulator for it — one page holds it at a time, and the sticks of any other page
+// are refused — and "Release" gives it back to the scenario's pilot; a page that stops
+// sending (or closes) loses the signal after half a second, as a receiver would.
 //
 // Stick mapping, expo and trims are kept in the browser (localStorage "heli.pilot.v1").
 // The trainer's panel triggers failures of the fault catalog now.
@@ -29,6 +30,7 @@
     ["engine failure", { kind: "engine-failure" }],
     ["GPS outage 15 s", { kind: "gps-outage", seconds: 15 }],
     ["GPS glitch 20 m", { kind: "gps-glitch", north_m: 20, east_m: 0, seconds: 10 }],
+    ["GPS 3 satellites 60 s", { kind: "gps-satellites", satellites: 3, seconds: 60 }],
     ["IMU silent 0.5 s", { kind: "imu-silent", seconds: 0.5 }],
     ["altimeter silent 10 s", { kind: "altimeter-silent", seconds: 10 }],
     ["compass silent 10 s", { kind: "compass-silent", seconds: 10 }],
@@ -54,7 +56,7 @@
   }
 
   const st = {
-    enabled: false, holding: false, source: "none", settings: load(),
+    enabled: false, holding: false, you: null, holder: null, source: "none", settings: load(),
     auto: true, bypass: false, throttle: 0.8, keyCollective: 0,
     keys: new Set(), buttons: [], sent: null, errors: [], frames: 0, trainer: [],
   };
@@ -141,7 +143,9 @@
     const f = st.frame;
     const sw = (on) => (on ? "ON" : "off");
     document.getElementById("pilot-state").innerHTML =
-      `<div>${st.holding ? "<b class=ok>you have the transmitter</b>" : "the scenario's pilot has the transmitter"}` +
+      `<div>${st.holding ? "<b class=ok>you have the transmitter</b>"
+        : st.holder !== null ? `page ${st.holder} has the transmitter (you are page ${st.you})`
+          : "the scenario's pilot has the transmitter"}` +
       ` · input: ${st.source}</div>` +
       CHANNELS.map((ch) => bar(ch, s[ch], -1)).join("") +
       `<div>auto switch <b id="sw-auto">${sw(st.auto)}</b> · bypass <b id="sw-bypass">${sw(st.bypass)}</b>` +
@@ -217,6 +221,16 @@
           m.trainer.map((e) => `t=${e.t_s.toFixed(1)} s  ${e.message}`).join("\n");
       }
     },
+    // Who holds the transmitter, from the simulator: this page flies only when it does.
+    transmitter(m) {
+      st.you = m.you;
+      st.holder = m.holder;
+      st.holding = m.holder !== null && m.holder === m.you;
+      const take = document.getElementById("take");
+      take.textContent = st.holding ? "Release the transmitter" : "Take the transmitter";
+      take.disabled = m.holder !== null && !st.holding;
+      take.title = take.disabled ? `page ${m.holder} holds the transmitter` : "";
+    },
     error(m) {
       st.errors.push(m.message);
       document.getElementById("pilot-error").textContent = m.message;
@@ -226,9 +240,8 @@
   document.addEventListener("DOMContentLoaded", () => {
     const take = document.getElementById("take");
     take.onclick = () => {
-      st.holding = !st.holding;
-      if (!st.holding && window.heliViewSend) window.heliViewSend({ type: "release" });
-      take.textContent = st.holding ? "Release the transmitter" : "Take the transmitter";
+      if (!window.heliViewSend) return;
+      window.heliViewSend({ type: st.holding ? "release" : "take" });
     };
     document.getElementById("sw-auto-btn").onclick = () => { st.auto = !st.auto; };
     document.getElementById("sw-bypass-btn").onclick = () => { st.bypass = !st.bypass; };

@@ -21,6 +21,8 @@
       const m = JSON.parse(e.data);
       if (m.type === "error") {
         if (hooks().error) hooks().error(m);
+      } else if (m.type === "transmitter") {
+        if (hooks().transmitter) hooks().transmitter(m);
       } else if (m.type === "setup") {
         if (hooks().setup) hooks().setup(m);
         state.setup = m;

@@ -335,6 +335,7 @@ fn control_loop(
             streams
                 .power
                 .publish(crate::telemetry::power_row(computer.core(), t_us));
+            streams.origin.publish(computer.core().navigator().origin());
         }
         let warm = computer.core().warm_start();
         setup.supervision.in_air.store(

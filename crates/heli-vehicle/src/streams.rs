@@ -109,6 +109,9 @@ pub struct LiveStreams {
     /// The batteries' gauges and the hot-swap, written by the loop after every input that
     /// changed them.
     pub power: Latest<heli_link::telemetry::PowerRow>,
+    /// The navigation's origin (the frame of the positions north and east), once it has one;
+    /// written with the power row.
+    pub origin: Latest<Option<heli_nav::GeoOrigin>>,
 }
 
 impl LiveStreams {

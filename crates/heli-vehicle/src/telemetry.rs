@@ -127,6 +127,9 @@ pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u6
             servo_batt_v: u.value.servo_batt_v,
         }
     });
+    // The flight software's clock now (its newest estimate's stamp; the records are stamped
+    // on it, not on the wall clock): the GPS fix's age is measured on it.
+    let core_now_us = streams.state.latest().map_or(now_us, |s| s.t_us);
     let gps = streams.gps.latest().map(|g| t::GpsRow {
         lat_deg: g.value.lat_deg,
         lon_deg: g.value.lon_deg,
@@ -134,6 +137,7 @@ pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u6
         vel_ned_mps: g.value.vel_ned_mps,
         satellites: g.value.satellites,
         fix_3d: g.value.fix == heli_proto::gps::FixType::Fix3D,
+        age_s: core_now_us.saturating_sub(g.t_us) as f64 * 1e-6,
     });
     let imu = streams.imu.latest().map(|i| t::ImuRow {
         rate_rps: i.value.imu.rate_rps,
@@ -179,6 +183,11 @@ pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u6
         }),
         health,
         power,
+        origin: streams
+            .origin
+            .latest()
+            .and_then(|o| *o)
+            .map(|o| [o.lat_deg, o.lon_deg, o.alt_m]),
     };
     let mut value = serde_json::to_value(&telemetry).unwrap_or(Value::Null);
     if let Some(map) = value.as_object_mut() {
@@ -372,6 +381,12 @@ mod tests {
         assert_eq!(v["servo"]["commands"], json!([0.1, 0.2, 0.3, 0.4, 0.8]));
         assert_eq!(v["uplink"]["rotor_rpm"], 1590);
         assert_eq!(v["uplink"]["auto_mode"], true);
+        // The fix's age, on the flight software's clock (its newest estimate's stamp), not
+        // the telemetry thread's: a GPS gone silent ages while the estimate goes on.
+        let state = streams.state.latest().map(|s| s.value.clone()).unwrap();
+        streams.state.publish(Stamped::new(1_500_005, state));
+        let aged = snapshot(&streams, None, 9);
+        close(&aged["gps"]["age_s"], 1.5);
         assert_eq!(v["uplink"]["bypass"], false);
         assert_eq!(v["uplink"]["receiver_batt_v"], 5.1);
         assert_eq!(v["uplink"]["servo_batt_v"], 4.9);

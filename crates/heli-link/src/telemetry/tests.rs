@@ -32,6 +32,7 @@ fn full() -> Telemetry {
             vel_ned_mps: [0.0, 1.0, 0.0],
             satellites: 8,
             fix_3d: true,
+            age_s: 0.25,
         }),
         baro: Some(BaroRow {
             pressure_mbar: 1013.0,
@@ -44,6 +45,7 @@ fn full() -> Telemetry {
         battery_v: Some(12.3),
         battery_remaining: None,
         power: None,
+        origin: Some([42.36, -71.09, 15.0]),
         health: vec![
             DeviceHealth {
                 device: "imu".into(),
@@ -105,6 +107,20 @@ fn units_are_mavlinks() {
             .contains(MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS)
     );
     assert_eq!(st.voltage_battery, 12_300);
+    // The GPS message carries its fix's time (0.25 s before the snapshot), not the send time.
+    let Some(MavMessage::GPS_RAW_INT(g)) = message(GPS_RAW_INT_DATA::ID, &full(), 10_000) else {
+        panic!()
+    };
+    assert_eq!(g.time_usec, 9_750_000);
+    // The estimate's origin, as MAVLink's local frame's.
+    let Some(MavMessage::GPS_GLOBAL_ORIGIN(o)) = message(GPS_GLOBAL_ORIGIN_DATA::ID, &full(), 0)
+    else {
+        panic!()
+    };
+    assert_eq!(
+        (o.latitude, o.longitude, o.altitude),
+        (423_600_000, -710_900_000, 15_000)
+    );
 }
 
 #[test]

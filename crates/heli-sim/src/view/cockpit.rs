@@ -150,6 +150,13 @@ impl Cockpit {
                     self.signal_lost = false;
                     sim.set_live_pilot(None);
                 }
+                // Taken: the first sticks say so.
+                ViewInput::Take => {}
+                ViewInput::Gone => {
+                    if self.held.is_some() {
+                        self.say(t_s, "pilot: the page holding the transmitter closed".into());
+                    }
+                }
                 ViewInput::Fault(json) => {
                     let said = TrainerFault::parse(&json).and_then(|f| sim.trigger_fault(&f));
                     match said {

@@ -33,6 +33,7 @@ use include_dir::{Dir, include_dir};
 use tokio::sync::watch;
 
 pub mod cockpit;
+pub mod holder;
 
 /// Longest between two frames to a page.
 const FRAME_EVERY: Duration = Duration::from_millis(33);
@@ -42,10 +43,14 @@ const FRAME_EVERY: Duration = Duration::from_millis(33);
 pub enum ViewInput {
     /// The page holds the transmitter: its sticks and switches now.
     Pilot(Transmitter),
+    /// The page takes the transmitter (refused while another page holds it).
+    Take,
     /// The page hands the transmitter back to the scenario's pilot.
     Release,
     /// Trigger a failure: the request as the page wrote it (JSON with a `kind`).
     Fault(String),
+    /// The page holding the transmitter is gone (not sent by a page).
+    Gone,
 }
 
 /// Why a page's message is refused.
@@ -71,7 +76,10 @@ impl std::fmt::Display for InputError {
             InputError::OutOfRange(e) => write!(f, "{e}"),
             InputError::NoFault => write!(f, "fault message: no `fault` object"),
             InputError::UnknownType(t) => {
-                write!(f, "unknown message type '{t}' (pilot, release, fault)")
+                write!(
+                    f,
+                    "unknown message type '{t}' (take, pilot, release, fault)"
+                )
             }
         }
     }
@@ -94,6 +102,7 @@ pub fn parse_input(text: &str) -> Result<ViewInput, InputError> {
             frame.check().map_err(InputError::OutOfRange)?;
             Ok(ViewInput::Pilot(frame))
         }
+        "take" => Ok(ViewInput::Take),
         "release" => Ok(ViewInput::Release),
         "fault" => match value.get("fault") {
             Some(fault) if fault.is_object() => Ok(ViewInput::Fault(fault.to_string())),
@@ -121,6 +130,8 @@ struct ViewState {
     setup: Arc<str>,
     frames: watch::Receiver<Arc<str>>,
     control: Option<std::sync::mpsc::Sender<ViewInput>>,
+    /// Who holds the transmitter.
+    holder: holder::Holder,
 }
 
 /// Serves the view on `addr` from a thread of its own; returns the address it is served on
@@ -139,6 +150,7 @@ pub fn spawn(
         setup: Arc::from(setup_json),
         frames: rx,
         control,
+        holder: holder::Holder::default(),
     };
     let (bound_tx, bound_rx) = std::sync::mpsc::channel();
     std::thread::Builder::new()
@@ -210,16 +222,56 @@ async fn ws(upgrade: WebSocketUpgrade, State(state): State<ViewState>) -> Respon
 /// The setup, then the newest frame whenever there is a new one, at most every
 /// [`FRAME_EVERY`]; what the page sends goes to the control channel, or is refused. Ends
 /// when the page goes.
-async fn feed(mut socket: WebSocket, mut state: ViewState) {
+async fn feed(socket: WebSocket, state: ViewState) {
+    let page = state.holder.join();
+    let holder = state.holder.clone();
+    let control = state.control.clone();
+    feed_page(socket, state, page).await;
+    // A page gone with the transmitter: nobody holds it; the receiver loses the signal
+    // (the cockpit hears no more sticks), as with a transmitter switched off.
+    if holder.leave(page)
+        && let Some(c) = control
+    {
+        let _ = c.send(ViewInput::Gone);
+    }
+}
+
+/// What a page's message does with the transmitter: `Ok(Some(input))` goes to the
+/// simulator, `Ok(None)` is done here, `Err` is refused with its words.
+fn admit(
+    state: &ViewState,
+    page: holder::PageId,
+    input: ViewInput,
+) -> Result<Option<ViewInput>, String> {
+    match input {
+        ViewInput::Take => state.holder.take(page).map(|()| None),
+        ViewInput::Pilot(_) => state.holder.check(page).map(|()| Some(input)),
+        ViewInput::Release => state.holder.release(page).map(|()| Some(input)),
+        ViewInput::Fault(_) | ViewInput::Gone => Ok(Some(input)),
+    }
+    .map_err(|e| e.to_string())
+}
+
+async fn feed_page(mut socket: WebSocket, mut state: ViewState, page: holder::PageId) {
     let setup = WsMessage::Text(state.setup.to_string().into());
     if socket.send(setup).await.is_err() {
         return;
     }
+    // Which page this is and who holds the transmitter, sent again whenever it changes.
+    let mut told: Option<Option<holder::PageId>> = None;
     let mut tick = tokio::time::interval(FRAME_EVERY);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     loop {
         tokio::select! {
             _ = tick.tick() => {
+                let now = state.holder.holder();
+                if state.control.is_some() && told != Some(now) {
+                    told = Some(now);
+                    let msg = serde_json::json!({"type": "transmitter", "you": page, "holder": now});
+                    if socket.send(WsMessage::Text(msg.to_string().into())).await.is_err() {
+                        return;
+                    }
+                }
                 if !state.frames.has_changed().unwrap_or(false) {
                     continue;
                 }
@@ -244,10 +296,14 @@ async fn feed(mut socket: WebSocket, mut state: ViewState) {
                         "this view is read-only: start heli hilsim with --pilot to fly".into(),
                     ),
                     (Some(_), Err(e)) => Some(e.to_string()),
-                    (Some(control), Ok(input)) => control
-                        .send(input)
-                        .err()
-                        .map(|_| "the simulator has stopped".to_string()),
+                    (Some(control), Ok(input)) => match admit(&state, page, input) {
+                        Err(why) => Some(why),
+                        Ok(None) => None,
+                        Ok(Some(input)) => control
+                            .send(input)
+                            .err()
+                            .map(|_| "the simulator has stopped".to_string()),
+                    },
                 };
                 if let Some(message) = refusal {
                     let reply = serde_json::json!({"type": "error", "message": message});

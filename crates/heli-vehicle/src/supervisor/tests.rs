@@ -214,7 +214,7 @@ proptest! {
     }
 
     #[test]
-    fn starts_round_trip(suffix in "[A-Za-z0-9_-]{1,20}", mode in 0usize..5, plan in proptest::option::of("[a-z0-9-]{1,20}")) {
+    fn starts_round_trip(suffix in "[A-Za-z0-9_-]{1,15}", mode in 0usize..5, plan in proptest::option::of("[a-z0-9-]{1,20}")) {
         let p = params(&suffix, FlightMode::ALL[mode].name(), plan.as_deref());
         for message in [ToFlight::Start(p.clone()), ToFlight::Restart(p.clone())] {
             prop_assert_eq!(ToFlight::parse(&message.to_line()).unwrap(), message);

@@ -1,0 +1,296 @@
+//! The operator's truth: what the ground display shows never contradicts the vehicle. Three
+//! flights from the display in headless Chromium (`tests/ui/truth.mjs`) with faults from the
+//! HILSim's trainer panel — a refused take-off, a GPS outage, an IMU stall, a draining pack —
+//! while the page (what the operator sees) and the vehicle (its bootstrap's status and the
+//! flight process's telemetry) are sampled every 0.5 s. Every lamp, meter, verdict and header
+//! state on the page must match what the vehicle was within 1 s: not one disagreement. The
+//! three logs saved are the vehicle's three, byte for byte.
+
+use std::path::Path;
+use std::process::Command;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use heli_control::safety::{AUTOMATIC, Condition, Facts};
+use serde_json::Value;
+
+use crate::display::{browser_ready, run_page_script_with};
+use crate::exclusive;
+use crate::procs::{Display, Vehicle, free_udp_port, heli, vehicle_program};
+use crate::view::hilsim_with_view;
+
+/// How far apart in time a page's state and the vehicle's may be and still agree.
+const WITHIN_MS: u64 = 1000;
+
+fn unix_ms() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64)
+}
+
+/// The vehicle as it is: what each display element should say.
+#[derive(Clone, Debug)]
+struct Truth {
+    t_ms: u64,
+    /// The bootstrap's state.
+    state: String,
+    /// The phase flown (none without a flight's telemetry).
+    phase: Option<String>,
+    /// The GPS lamp should be green: the GPS on time with five satellites or more.
+    gps_green: bool,
+    /// The battery meter should be green (None: no reading).
+    battery_green: Option<bool>,
+    /// The automatic rule on the vehicle's own facts, and no take-off refusal standing.
+    automatic: bool,
+    /// A take-off refusal stands.
+    refused: bool,
+}
+
+fn truth_of(t_ms: u64, status: &Value) -> Truth {
+    let state = status["state"].as_str().unwrap_or("?").to_string();
+    let tel = &status["telemetry"];
+    let flying = state == "flying" && tel.is_object();
+    let phase = tel["state"]["phase"]
+        .as_str()
+        .filter(|_| flying)
+        .map(str::to_string);
+    let health = |device: &str| {
+        tel["health"].as_array().is_some_and(|all| {
+            all.iter()
+                .any(|h| h["device"] == device && h["state"] == "ok")
+        })
+    };
+    let satellites = tel["gps"]["satellites"].as_u64().unwrap_or(0);
+    let remaining = tel["battery_remaining"].as_f64();
+    let packs_good = tel["power"]["batteries"].as_array().is_none_or(|b| {
+        b.iter()
+            .all(|p| p["percent"].as_f64().unwrap_or(0.0) > 100.0 / 3.0)
+    });
+    let battery_green = remaining
+        .filter(|_| flying)
+        .map(|r| r * 100.0 > 100.0 / 3.0);
+    // The estimate runs: calibrated, and not in the blind failsafe of a lost estimate.
+    let calibrated = phase
+        .as_deref()
+        .is_some_and(|p| !matches!(p, "calibrating" | "blind-descent"));
+    let refused = phase.as_deref() == Some("takeoff-refused");
+    let facts = Facts::none()
+        .with(Condition::Calibrated, calibrated)
+        .with(Condition::Imu, flying && health("imu"))
+        .with(Condition::Uplink, flying && health("uplink"))
+        .with(Condition::Gps, flying && health("gps"))
+        .with(Condition::Satellites, flying && satellites >= 5)
+        .with(Condition::Altimeter, flying && health("baro"))
+        .with(Condition::Compass, flying && health("compass"))
+        .with(
+            Condition::Battery,
+            battery_green == Some(true) && packs_good,
+        )
+        .with(Condition::Link, true)
+        .with(Condition::Bypass, tel["uplink"]["bypass"] == true);
+    Truth {
+        t_ms,
+        state,
+        phase,
+        gps_green: flying && health("gps") && satellites >= 5,
+        battery_green,
+        automatic: AUTOMATIC.judge(facts).allowed && !refused,
+        refused,
+    }
+}
+
+/// The disagreements of one page sample with the vehicle's states around it: each element
+/// must match one of the vehicle's states within [`WITHIN_MS`].
+fn disagreements(page: &Value, near: &[&Truth]) -> Vec<String> {
+    let header = page["header"].as_str().unwrap_or("");
+    let any = |f: &dyn Fn(&Truth) -> bool| near.iter().any(|t| f(t));
+    let mut wrong = Vec::new();
+    if !any(&|t| {
+        header.contains(&format!("vehicle: {}", t.state))
+            && t.phase.as_ref().is_none_or(|p| header.contains(p.as_str()))
+    }) {
+        wrong.push(format!("header '{header}'"));
+    }
+    let lamp_green = page["lamp"] == "green";
+    if !any(&|t| t.gps_green == lamp_green) {
+        wrong.push(format!("GPS lamp {}", page["lamp"]));
+    }
+    let battery = match page["battery"].as_str() {
+        Some("green") => Some(true),
+        Some("red") => Some(false),
+        _ => None,
+    };
+    // A meter with no reading, or a stale one (grey), agrees with a vehicle that sends none.
+    if !any(&|t| t.battery_green == battery) {
+        wrong.push(format!("battery meter {}", page["battery"]));
+    }
+    let automatic = page["automatic"] == true;
+    if !any(&|t| t.automatic == automatic) {
+        wrong.push(format!("automatic verdict {automatic}"));
+    }
+    let standing = page["standing"].is_string();
+    if !any(&|t| t.refused == standing) {
+        wrong.push(format!("standing refusal {}", page["standing"]));
+    }
+    wrong
+}
+
+#[test]
+fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults() {
+    let ui = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ui");
+    if !browser_ready(&ui) {
+        return;
+    }
+    let _one = exclusive();
+    let _ =
+        std::fs::remove_dir_all(Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/truth"));
+    let dir = tempfile::tempdir().unwrap();
+    let key = dir.path().join("link.key");
+    assert!(
+        heli(&["link", "keygen", "--out", &key.display().to_string()])
+            .status
+            .success()
+    );
+    let link = format!("udp:127.0.0.1:{}", free_udp_port());
+    let dev = dir.path().join("dev");
+    let scenario = ui.join("truth-flight.toml").display().to_string();
+    let (hil, view_url) =
+        hilsim_with_view(&dev.display().to_string(), &scenario, "400", &["--pilot"]);
+    let logs = dir.path().join("logs");
+    std::fs::create_dir_all(&logs).unwrap();
+    let vehicle = Vehicle::start_linked(&logs, &dev, &link, Some(&key));
+    let saved = dir.path().join("saved");
+    let display = Display::start(&link, Some(&key), &saved);
+
+    // The vehicle's side, sampled as the page is.
+    let socket = logs.join("ctl.sock").display().to_string();
+    let done = Arc::new(AtomicBool::new(false));
+    let truths = Arc::new(Mutex::new(Vec::<Truth>::new()));
+    let sampler = {
+        let (done, truths) = (Arc::clone(&done), Arc::clone(&truths));
+        std::thread::spawn(move || {
+            while !done.load(Ordering::Relaxed) {
+                let out = Command::new(vehicle_program())
+                    .args(["ctl", "status", "--socket", &socket])
+                    .output();
+                let t_ms = unix_ms();
+                if let Ok(out) = out {
+                    let text = String::from_utf8_lossy(&out.stdout);
+                    if let Ok(v) =
+                        serde_json::from_str::<Value>(text.trim().trim_start_matches("ok "))
+                    {
+                        truths.lock().unwrap().push(truth_of(t_ms, &v));
+                    }
+                }
+                std::thread::sleep(Duration::from_millis(500));
+            }
+        })
+    };
+    let (run, said, shots) = run_page_script_with(
+        &ui,
+        "truth",
+        &view_url,
+        &[("HELI_UI_URL", display.url.as_str())],
+    );
+    done.store(true, Ordering::Relaxed);
+    sampler.join().unwrap();
+    let vehicle_said = vehicle.output();
+    display.stop();
+    vehicle.quit();
+    drop(hil);
+    assert!(
+        run.success(),
+        "the page script failed:\n{said}\nthe vehicle said:\n{vehicle_said}"
+    );
+
+    let steps: Vec<Value> = said
+        .lines()
+        .filter_map(|l| l.strip_prefix("STEP "))
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect();
+    let step = |name: &str| {
+        steps
+            .iter()
+            .find(|s| s["step"] == name)
+            .unwrap_or_else(|| panic!("no step {name} in\n{said}"))
+            .clone()
+    };
+    // Page against vehicle, sample by sample.
+    let truths = truths.lock().unwrap().clone();
+    let pages: Vec<Value> = said
+        .lines()
+        .filter_map(|l| l.strip_prefix("SAMPLE "))
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect();
+    assert!(pages.len() > 200, "{} page samples", pages.len());
+    assert!(truths.len() > 200, "{} vehicle samples", truths.len());
+    let mut wrong = Vec::new();
+    let mut compared = 0;
+    for p in &pages {
+        let t = p["t_ms"].as_u64().unwrap();
+        let near: Vec<&Truth> = truths
+            .iter()
+            .filter(|v| v.t_ms + WITHIN_MS >= t && v.t_ms <= t + WITHIN_MS)
+            .collect();
+        if near.is_empty() {
+            continue;
+        }
+        compared += 1;
+        for w in disagreements(p, &near) {
+            wrong.push(format!("at {t}: {w} (vehicle: {:?})", near.last()));
+        }
+    }
+    assert!(compared > 200, "only {compared} samples compared");
+    eprintln!(
+        "operator truth: {compared} page samples compared with {} vehicle samples, {} disagreements",
+        truths.len(),
+        wrong.len()
+    );
+    assert!(
+        wrong.is_empty(),
+        "{} disagreements of {compared} samples:\n{}",
+        wrong.len(),
+        wrong.join("\n")
+    );
+
+    // The GPS lamp leaves green within 1.5 s of the GPS's last fix (half a second after the
+    // next one was due): timed by the page from that fix's arrival, and by the fix's age.
+    let lamp = step("gps-lamp");
+    let after_fix_ms = lamp["after_last_fix_ms"].as_u64().unwrap();
+    let age_s = lamp["fix_age_shown_s"].as_f64().unwrap();
+    assert!(
+        after_fix_ms <= 1500 && age_s <= 1.5,
+        "the GPS lamp left green {after_fix_ms} ms after the last fix, at a fix age of {age_s} s: {lamp}"
+    );
+    // A refused take-off stands, and the verdict never says safe meanwhile.
+    assert!(step("refused-after-satellites-back")["standing"].is_string());
+    // The fatal event is above the fold a minute later.
+    let fold = step("fatal-above-the-fold");
+    assert!(
+        fold["text"].as_str().unwrap().contains("imu silent"),
+        "{fold}"
+    );
+
+    // Three flights, three saves: three different files, each the vehicle's own.
+    for (saved_as, onboard) in [("one", "one"), ("two", "two"), ("three", "three")] {
+        let downloaded =
+            std::fs::read(saved.join(format!("truth/flight_{saved_as}.mcap"))).unwrap();
+        let log = std::fs::read(logs.join(format!("flight_{onboard}.mcap"))).unwrap();
+        assert!(
+            downloaded == log,
+            "flight_{saved_as}.mcap is not the vehicle's log"
+        );
+    }
+    for shot in [
+        "01-takeoff-refused",
+        "02-refusal-stands",
+        "03-gps-silent",
+        "04-fatal-pinned-after-notices",
+    ] {
+        assert!(
+            shots.join(format!("{shot}.png")).exists(),
+            "no screenshot {shot}"
+        );
+    }
+}
