@@ -50,6 +50,20 @@ fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and
         run_page_script_with(&ui, "pilot", &url, &[("HELI_PILOT_PHASE", "manual")]);
     assert!(run.success(), "the manual phase failed:\n{said}");
     let manual = steps(&said);
+    // One transmitter: a second page could not take it, and its sticks never reached the
+    // simulator's receiver (checked on the ground after the manual flight).
+    let second = step(&manual, "second-pilot-refused", &said);
+    assert!(
+        second["max_collective_stick"].as_f64().unwrap() < 0.2,
+        "{second}"
+    );
+    assert!(
+        second["refusal"]
+            .as_str()
+            .unwrap()
+            .contains("holds the transmitter"),
+        "{second}"
+    );
     assert!(
         step(&manual, "manual-holding", &said)["source"]
             .as_str()
@@ -102,20 +116,6 @@ fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and
     );
     let aug = steps(&said);
     assert_eq!(step(&aug, "augmented-holding", &said)["source"], "keyboard");
-    // One transmitter: a second page could not take it, and its sticks never reached the
-    // simulator's receiver.
-    let second = step(&aug, "second-pilot-refused", &said);
-    assert!(
-        second["max_collective_stick"].as_f64().unwrap() < 0.2,
-        "{second}"
-    );
-    assert!(
-        second["refusal"]
-            .as_str()
-            .unwrap()
-            .contains("holds the transmitter"),
-        "{second}"
-    );
     assert!(
         step(&aug, "augmented-forward", &said)["forward_mps"]
             .as_f64()

@@ -121,24 +121,10 @@ try {
       throw new Error(`the landing: not settled on the skids (${JSON.stringify(settled)})`);
     }
     say("manual-down", down, {});
-  } else if (phase === "augmented") {
-    // The stick settings are kept across a reload.
-    await page.fill("#set-aileron-expo", "0.45");
-    await page.dispatchEvent("#set-aileron-expo", "change");
-    await page.reload();
-    await page.waitForFunction(() => window.heliPilot && window.heliPilot.enabled, null, { timeout: 20000 });
-    const expo = await page.inputValue("#set-aileron-expo");
-    if (Number(expo) !== 0.45) throw new Error(`settings: aileron expo ${expo} after a reload, not 0.45`);
-    console.log(JSON.stringify({ step: "settings-kept", aileron_expo: Number(expo) }));
-    await page.fill("#set-aileron-expo", "0");
-    await page.dispatchEvent("#set-aileron-expo", "change");
-
-    await page.click("#take");
-    const held = await waitFor(page, "the page holding the transmitter, auto on",
-      (f) => f.live && f.auto, 5000);
-    say("augmented-holding", held, { source: await page.evaluate(() => window.heliPilot.source) });
     // A second pilot page: it sees who holds the transmitter, cannot take it, and its sticks
     // (full collective, sent for a second) are refused — the helicopter never feels them.
+    // Done on the ground, the first page holding: a second renderer starting up on a 2-core
+    // machine can starve the real-time processes, which a flight in the air would feel.
     const second = await browser.newPage({ viewport: { width: 1340, height: 1000 } });
     await second.goto(url);
     await second.waitForFunction(() => window.heliPilot && window.heliPilot.holder !== null &&
@@ -162,6 +148,22 @@ try {
     await second.screenshot({ path: join(out, "02-second-pilot-refused.png") });
     await second.close();
     await page.bringToFront();
+  } else if (phase === "augmented") {
+    // The stick settings are kept across a reload.
+    await page.fill("#set-aileron-expo", "0.45");
+    await page.dispatchEvent("#set-aileron-expo", "change");
+    await page.reload();
+    await page.waitForFunction(() => window.heliPilot && window.heliPilot.enabled, null, { timeout: 20000 });
+    const expo = await page.inputValue("#set-aileron-expo");
+    if (Number(expo) !== 0.45) throw new Error(`settings: aileron expo ${expo} after a reload, not 0.45`);
+    console.log(JSON.stringify({ step: "settings-kept", aileron_expo: Number(expo) }));
+    await page.fill("#set-aileron-expo", "0");
+    await page.dispatchEvent("#set-aileron-expo", "change");
+
+    await page.click("#take");
+    const held = await waitFor(page, "the page holding the transmitter, auto on",
+      (f) => f.live && f.auto, 5000);
+    say("augmented-holding", held, { source: await page.evaluate(() => window.heliPilot.source) });
     await page.keyboard.down("w"); // collective stick up: climb
     await sleep(650);
     await page.keyboard.up("w");

@@ -143,7 +143,11 @@ try {
         const v = window.heli.view();
         return v && v.rows.gps ? v.rows.gps.time_s : null;
       }).catch(() => null);
-      if (t !== lastFix.time) lastFix = { time: t, wall: Date.now() };
+      // A new fix moves the fix time on by about a second; the same fix's time wobbles by
+      // the telemetry's own timing (tens of ms) and is not a new one.
+      if (t !== null && (lastFix.time === null || t > lastFix.time + 0.5)) {
+        lastFix = { time: t, wall: Date.now() };
+      }
       await sleep(20);
     }
   })();

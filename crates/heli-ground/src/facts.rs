@@ -13,13 +13,15 @@ use crate::rows::{Latest, Rows, sensor_health};
 /// The vehicle's heartbeat must be this recent (µs) for the link to be fresh.
 pub const LINK_FRESH_US: u64 = 3_000_000;
 
-/// Every condition's fact from the telemetry, the rows made from it, the link's age and the
-/// battery meter's colour (green: more than a third of its life left).
+/// Every condition's fact from the telemetry, the rows made from it, the link's age, the
+/// battery meter's colour (green: more than a third of its life left) and whether the
+/// vehicle's heartbeat says a flight process flies.
 pub fn facts(
     latest: &Latest,
     rows: &Rows,
     heartbeat_age_us: Option<u64>,
     battery_green: bool,
+    flying: bool,
 ) -> Facts {
     let fresh = |row: &Option<crate::rows::Row>| row.as_ref().is_some_and(|r| !r.stale);
     let satellites = match latest.get(&GPS_RAW_INT_DATA::ID) {
@@ -30,7 +32,10 @@ pub fn facts(
         Some((_, MavMessage::RC_CHANNELS(rc))) => rc.chan7_raw > 1500,
         _ => false,
     };
-    let calibrated = sensor_health(latest, MavSysStatusSensor::MAV_SYS_STATUS_AHRS) == Some(true)
+    // The estimate runs only in a flight process that flies (the heartbeat, sent at once on
+    // a change, says so before the last flight's telemetry has aged).
+    let calibrated = flying
+        && sensor_health(latest, MavSysStatusSensor::MAV_SYS_STATUS_AHRS) == Some(true)
         && fresh(&rows.state);
     Facts::none()
         .with(Condition::Calibrated, calibrated)

@@ -79,35 +79,13 @@ pub enum Op {
     /// Connect.
     Connect,
     /// Start Logging with the flight parameters.
-    Start {
-        /// The log file suffix.
-        suffix: String,
-        /// The controller's name.
-        controller: String,
-        /// The flight plan's name (empty or absent: the vehicle's default).
-        #[serde(default)]
-        plan: Option<String>,
-        /// The flight pack installed, as the packs file names it (absent: not said).
-        #[serde(default)]
-        pack: Option<String>,
-    },
+    Start(StartForm),
     /// Acknowledge the field rule's message (a pack drained abnormally: the flight test is
     /// over), which blocks Start Logging until then.
     Acknowledge,
     /// Whether Start Logging with these parameters would be sent and taken (nothing is
     /// sent): the page asks as the operator types.
-    CheckStart {
-        /// The log file suffix.
-        suffix: String,
-        /// The controller's name.
-        controller: String,
-        /// The flight plan's name.
-        #[serde(default)]
-        plan: Option<String>,
-        /// The flight pack.
-        #[serde(default)]
-        pack: Option<String>,
-    },
+    CheckStart(StartForm),
     /// Acknowledge the pinned errors and critical messages, every one changed up to `upto`
     /// (the newest the page has shown).
     AcknowledgeMessages {
@@ -123,6 +101,21 @@ pub enum Op {
         #[serde(default)]
         suffix: Option<String>,
     },
+}
+
+/// Start Logging's form, as the page sends it.
+#[derive(Clone, Debug, Deserialize)]
+pub struct StartForm {
+    /// The log file suffix.
+    pub suffix: String,
+    /// The controller's name.
+    pub controller: String,
+    /// The flight plan's name (empty or absent: the vehicle's default).
+    #[serde(default)]
+    pub plan: Option<String>,
+    /// The flight pack installed, as the packs file names it (absent: not said).
+    #[serde(default)]
+    pub pack: Option<String>,
 }
 
 /// A command on its way.
@@ -568,7 +561,7 @@ impl Station {
         let quiet = matches!(
             &req,
             Ok(Request {
-                op: Op::CheckStart { .. },
+                op: Op::CheckStart(_),
                 ..
             })
         );
@@ -586,7 +579,9 @@ impl Station {
                 line.truncate(cut);
                 line.push('…');
             }
-            self.note("error", line);
+            // The operator's own mistake, answered in red on the page: kept as a warning
+            // (not pinned as a fault of the vehicle or the station would be).
+            self.note("warning", line);
         }
         result
     }
@@ -618,20 +613,13 @@ impl Station {
                     None => Err(Refusal::NothingToAcknowledge),
                 }
             }
-            Op::CheckStart {
-                suffix,
-                controller,
-                plan,
-                pack,
-            } => self
-                .start_check(&suffix, &controller, plan, pack.as_deref())
-                .map(|p| {
-                    let mut ok = format!("Start Logging would send flight_{}", p.file_suffix);
-                    if let Some(wait) = self.takeoff_wait(p.controller) {
-                        ok.push_str(&format!("; the take-off would wait: {wait}"));
-                    }
-                    ok
-                }),
+            Op::CheckStart(form) => self.start_check(&form).map(|p| {
+                let mut ok = format!("Start Logging would send flight_{}", p.file_suffix);
+                if let Some(wait) = self.takeoff_wait(p.controller) {
+                    ok.push_str(&format!("; the take-off would wait: {wait}"));
+                }
+                ok
+            }),
             Op::AcknowledgeMessages { upto } => {
                 self.operators.may_command(client)?;
                 match self.messages.acknowledge(upto) {
@@ -667,13 +655,9 @@ impl Station {
                 PanelState::Connecting,
                 None,
             ),
-            Op::Start {
-                suffix,
-                controller,
-                plan,
-                pack,
-            } if start => {
-                let p = self.start_check(&suffix, &controller, plan, pack.as_deref())?;
+            Op::Start(form) if start => {
+                let p = self.start_check(&form)?;
+                let pack = form.pack;
                 self.packs_begin(pack.as_deref())?;
                 self.chosen = p.controller;
                 self.refusals = Refusals::default();
@@ -717,9 +701,8 @@ impl Station {
                 return Err(Refusal::NotActive {
                     button: match other {
                         Op::Connect => "Connect",
-                        Op::Start { .. } => "Start Logging",
+                        Op::Start(_) | Op::CheckStart(_) => "Start Logging",
                         Op::Acknowledge | Op::AcknowledgeMessages { .. } => "Acknowledge",
-                        Op::CheckStart { .. } => "Start Logging",
                         _ => "Stop",
                     },
                     panel: state.name(),
@@ -748,20 +731,20 @@ impl Station {
 
     /// What Start Logging would send, or why the ground or the vehicle would refuse it:
     /// the field rule, the pack, the parameters, the plan, a suffix already logged.
-    fn start_check(
-        &self,
-        suffix: &str,
-        controller: &str,
-        plan: Option<String>,
-        pack: Option<&str>,
-    ) -> Result<StartParameters, Refusal> {
+    fn start_check(&self, form: &StartForm) -> Result<StartParameters, Refusal> {
+        let StartForm {
+            suffix,
+            controller,
+            plan,
+            pack,
+        } = form;
         if let Some(why) = self.field_rule.blocks_start() {
             return Err(Refusal::FieldRule(why));
         }
-        self.packs.check(pack).map_err(Refusal::Pack)?;
+        self.packs.check(pack.as_deref()).map_err(Refusal::Pack)?;
         let mut p =
             StartParameters::new(suffix.trim(), controller.trim()).map_err(Refusal::Parameters)?;
-        let plan = plan.filter(|p| !p.trim().is_empty());
+        let plan = plan.clone().filter(|p| !p.trim().is_empty());
         if let Some(name) = plan.as_deref()
             && !PLANS.contains(&name)
         {

@@ -208,6 +208,17 @@ impl Bench {
         op
     }
 
+    /// A page that took control, connected and started flight `suffix` with `controller`
+    /// (its requests 1 to 3), a second later.
+    pub(crate) fn flying_operator(&mut self, suffix: &str, controller: &str) -> u64 {
+        let op = self.connected_operator();
+        let start =
+            format!(r#"{{"seq":3,"op":"start","suffix":"{suffix}","controller":"{controller}"}}"#);
+        self.ask(op, &start).unwrap();
+        self.run(1.0);
+        op
+    }
+
     pub(crate) fn panel(&self) -> PanelState {
         self.station.view(self.t).panel.state
     }

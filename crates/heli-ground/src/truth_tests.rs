@@ -10,13 +10,7 @@ use crate::station_tests::{Bench, flying_telemetry};
 #[test]
 fn a_refused_take_off_stands_in_the_header_and_the_verdict_until_the_phase_moves_on() {
     let mut b = Bench::new();
-    let op = b.connected_operator();
-    b.ask(
-        op,
-        r#"{"seq":3,"op":"start","suffix":"r1","controller":"autonomous"}"#,
-    )
-    .unwrap();
-    b.run(1.0);
+    b.flying_operator("r1", "autonomous");
     // The vehicle refused the take-off; then every condition became good again (the
     // satellites came back), but the refusal stands until the auto switch is cycled.
     b.vehicle.status_text(
@@ -49,13 +43,7 @@ fn a_refused_take_off_stands_in_the_header_and_the_verdict_until_the_phase_moves
 #[test]
 fn a_mode_refused_in_the_air_stands_while_the_pilot_flies_manual_with_the_switch_on() {
     let mut b = Bench::new();
-    let op = b.connected_operator();
-    b.ask(
-        op,
-        r#"{"seq":3,"op":"start","suffix":"m1","controller":"velocity"}"#,
-    )
-    .unwrap();
-    b.run(1.0);
+    b.flying_operator("m1", "velocity");
     b.vehicle.status_text(
         MavSeverity::MAV_SEVERITY_WARNING,
         "flight: event warning-hi t=90.00 s velocity flight refused: fewer than 5 satellites",
@@ -312,13 +300,7 @@ fn a_flight_that_ends_without_stop_is_saved_all_the_same() {
 #[test]
 fn the_gps_row_has_posn_pose_from_the_estimates_origin_and_ages_by_its_fix() {
     let mut b = Bench::new();
-    let op = b.connected_operator();
-    b.ask(
-        op,
-        r#"{"seq":3,"op":"start","suffix":"g1","controller":"manual"}"#,
-    )
-    .unwrap();
-    b.run(1.0);
+    b.flying_operator("g1", "manual");
     let mut t = flying_telemetry("manual");
     t.origin = Some([42.36, -71.09, 10.0]);
     if let Some(g) = t.gps.as_mut() {

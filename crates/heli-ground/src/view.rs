@@ -210,11 +210,13 @@ impl Station {
                 .packs
                 .iter()
                 .all(|p| matches!(p.state, "good" | "unknown"));
-        let facts = facts(latest, &rows, heartbeat_age_us, battery_green);
+        let flying = status.is_some_and(|s| s.state == heli_link::status::BootstrapState::Flying);
+        let facts = facts(latest, &rows, heartbeat_age_us, battery_green, flying);
         let why = self.why(
             &rows,
             battery.as_ref().map(|b| (b.stale, b.age_s)),
             heartbeat_age_us,
+            status.and_then(|s| s.phase_name()),
         );
         let standing = self.standing(status);
         let gps = match (latest.get(&GPS_RAW_INT_DATA::ID), rows.gps.as_ref()) {
@@ -314,7 +316,13 @@ impl Station {
     /// Why each false condition is false, where the ground knows more than the rule's words:
     /// a row never received, a row gone stale (with its age), a battery not read (or not for
     /// long), a vehicle not heard.
-    fn why(&self, rows: &Rows, battery: Option<(bool, f64)>, heartbeat_age_us: Option<u64>) -> Why {
+    fn why(
+        &self,
+        rows: &Rows,
+        battery: Option<(bool, f64)>,
+        heartbeat_age_us: Option<u64>,
+        phase: Option<&str>,
+    ) -> Why {
         use heli_control::safety::Condition as C;
         let mut why = Vec::new();
         // A stale row is old, or fresh with the vehicle's watchdog saying the device is
@@ -338,7 +346,11 @@ impl Station {
         row(C::Gps, &rows.gps, "GPS");
         row(C::Altimeter, &rows.bar, "altimeter");
         row(C::Compass, &rows.cmps, "compass");
-        row(C::Calibrated, &rows.state, "state");
+        // Not calibrated yet, the rule's own words say it ("still calibrating": no estimate
+        // is sent before); an estimate that stopped coming says so.
+        if phase != Some("calibrating") && rows.state.as_ref().is_some_and(|r| r.stale) {
+            row(C::Calibrated, &rows.state, "state");
+        }
         match &rows.gps {
             None => why.push((
                 C::Satellites,

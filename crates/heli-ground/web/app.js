@@ -109,7 +109,9 @@ function showCheck(msg) {
 
 function showReply(msg) {
   const el = $("reply");
-  el.textContent = msg.text || "";
+  // A command's "sent" is followed on the command line (beside) to its outcome: not said
+  // twice.
+  el.textContent = msg.ok && / sent$/.test(msg.text || "") ? "" : msg.text || "";
   el.className = msg.ok ? "" : "error";
 }
 
@@ -371,7 +373,7 @@ function renderMessages(messages) {
     li.dataset.rank = SEVERITY_RANK[m.severity] ?? 0;
     li.dataset.device = m.device;
     const repeats = m.count > 1
-      ? ` <span class="count">×${m.count}${m.rate_hz ? `, ${m.rate_hz.toFixed(1)}/s` : ""}</span>` : "";
+      ? ` <span class="count">×${m.count}${rate(m.rate_hz)}</span>` : "";
     li.innerHTML = `<span class="src">${m.source}</span> ${esc(m.text)}${repeats}`;
     list.appendChild(li);
     filterOne(li);
@@ -383,6 +385,12 @@ function renderMessages(messages) {
     list.removeChild(first);
   }
   if (added && atEnd) list.scrollTop = list.scrollHeight;
+}
+
+// A repeat rate in words: per second when often, per minute when not.
+function rate(hz) {
+  if (!hz) return "";
+  return hz >= 1 ? `, ${hz.toFixed(1)}/s` : `, ${(hz * 60).toFixed(1)}/min`;
 }
 
 function noteDevice(device) {

@@ -36,6 +36,15 @@ pub enum SetupError {
     },
     /// keygen would replace a key that exists.
     KeyExists(PathBuf),
+    /// The key file is not kept as a key must be (readable or writable by others, a
+    /// symbolic link keygen would write through, not a regular file, a key that is not
+    /// random): what is wrong, and the fix.
+    KeyUnsafe {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, with the fix.
+        why: String,
+    },
 }
 
 impl fmt::Display for SetupError {
@@ -49,6 +58,9 @@ impl fmt::Display for SetupError {
             ),
             SetupError::BadKey { path, error } => {
                 write!(f, "signing key {}: {error}", path.display())
+            }
+            SetupError::KeyUnsafe { path, why } => {
+                write!(f, "signing key {}: {why}", path.display())
             }
             SetupError::KeyExists(path) => write!(
                 f,
@@ -78,26 +90,64 @@ pub fn parse_address(text: &str) -> Result<SocketAddr, SetupError> {
         .ok_or_else(|| error("no address".into()))
 }
 
-/// The key in `path`, or none without a path.
+/// Fewest different byte values a key of 32 random bytes may have: a random key has about
+/// 30; fewer than this is a key typed by hand or a placeholder (all zero, a repeated pattern).
+pub const MIN_DISTINCT_KEY_BYTES: usize = 12;
+
+/// The key in `path`, or none without a path. Refused, with the fix: a file others may read
+/// or write (the key signs every command), and a key that is not random.
 pub fn load_key(path: Option<&Path>) -> Result<Option<Key>, SetupError> {
     let Some(path) = path else { return Ok(None) };
+    let unsafe_key = |why: String| SetupError::KeyUnsafe {
+        path: path.to_path_buf(),
+        why,
+    };
+    let meta = std::fs::metadata(path).map_err(|error| SetupError::KeyFile {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    let mode = meta.permissions().mode() & 0o777;
+    if mode & 0o077 != 0 {
+        return Err(unsafe_key(format!(
+            "mode {mode:03o}: others may read or write it, and the key signs every command (chmod 600 {})",
+            path.display()
+        )));
+    }
     let text = std::fs::read_to_string(path).map_err(|error| SetupError::KeyFile {
         path: path.to_path_buf(),
         error,
     })?;
-    Key::from_text(&text)
-        .map(Some)
-        .map_err(|error| SetupError::BadKey {
-            path: path.to_path_buf(),
-            error,
-        })
+    let key = Key::from_text(&text).map_err(|error| SetupError::BadKey {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    let distinct = key.distinct_bytes();
+    if distinct < MIN_DISTINCT_KEY_BYTES {
+        return Err(unsafe_key(format!(
+            "not a random key ({distinct} different byte values of 32; all zero, or a pattern): make one with heli link keygen"
+        )));
+    }
+    Ok(Some(key))
 }
 
 /// A new random key (32 bytes of `/dev/urandom`) written to `out`, readable by its owner
 /// only; an existing file is replaced only when `force`.
 pub fn keygen(out: &Path, force: bool) -> Result<Key, SetupError> {
-    if out.exists() && !force {
-        return Err(SetupError::KeyExists(out.to_path_buf()));
+    let unsafe_key = |why: &str| SetupError::KeyUnsafe {
+        path: out.to_path_buf(),
+        why: why.to_string(),
+    };
+    // Only a regular file of its own: a symbolic link (perhaps planted in a shared
+    // directory) would have the key written, and its target's mode changed, elsewhere.
+    match std::fs::symlink_metadata(out) {
+        Ok(m) if m.file_type().is_symlink() => {
+            return Err(unsafe_key(
+                "is a symbolic link: keygen writes only a regular file (remove the link, or give the path it points to)",
+            ));
+        }
+        Ok(m) if !m.is_file() => return Err(unsafe_key("is not a regular file")),
+        Ok(_) if !force => return Err(SetupError::KeyExists(out.to_path_buf())),
+        _ => {}
     }
     let io = |error| SetupError::KeyFile {
         path: out.to_path_buf(),
@@ -108,11 +158,15 @@ pub fn keygen(out: &Path, force: bool) -> Result<Key, SetupError> {
         .and_then(|mut f| f.read_exact(&mut bytes))
         .map_err(io)?;
     let key = Key::new(bytes);
+    // O_NOFOLLOW: a link put in its place since the check above is refused, not followed;
+    // a new file is created exclusively (O_EXCL) unless replacing one was asked.
     let mut file = std::fs::OpenOptions::new()
         .write(true)
-        .create(true)
-        .truncate(true)
+        .create(force)
+        .create_new(!force)
+        .truncate(force)
         .mode(0o600)
+        .custom_flags(nix::fcntl::OFlag::O_NOFOLLOW.bits())
         .open(out)
         .map_err(io)?;
     // `mode` applies only to a file created here: an old key file replaced with --force
@@ -169,6 +223,46 @@ mod tests {
         let mode = std::fs::metadata(&path).unwrap().permissions().mode() & 0o777;
         assert_eq!(mode, 0o600);
         assert!(load_key(None).unwrap().is_none());
+    }
+
+    #[test]
+    fn keys_are_kept_as_keys_or_refused_with_the_fix() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("k.key");
+        keygen(&path, false).unwrap();
+        // Readable by others: refused, naming the mode and the fix.
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let e = load_key(Some(&path)).unwrap_err().to_string();
+        assert!(e.contains("mode 644") && e.contains("chmod 600"), "{e}");
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o620)).unwrap();
+        assert!(load_key(Some(&path)).is_err(), "writable by the group");
+        // All zero, or a short pattern: not random.
+        for text in ["0".repeat(64), "01020304".repeat(8)] {
+            let weak = dir.path().join("weak.key");
+            let _ = std::fs::remove_file(&weak);
+            std::fs::write(&weak, &text).unwrap();
+            std::fs::set_permissions(&weak, std::fs::Permissions::from_mode(0o600)).unwrap();
+            let e = load_key(Some(&weak)).unwrap_err().to_string();
+            assert!(
+                e.contains("not a random key") && e.contains("keygen"),
+                "{e}"
+            );
+        }
+        // keygen never writes through a symbolic link, forced or not, nor changes its target.
+        let target = dir.path().join("target");
+        std::fs::write(&target, "precious").unwrap();
+        std::fs::set_permissions(&target, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let link = dir.path().join("link.key");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        for force in [false, true] {
+            let e = keygen(&link, force).unwrap_err().to_string();
+            assert!(e.contains("is a symbolic link"), "{e}");
+        }
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "precious");
+        let mode = std::fs::metadata(&target).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o644);
+        let e = keygen(dir.path(), true).unwrap_err().to_string();
+        assert!(e.contains("not a regular file"), "{e}");
     }
 
     #[test]

@@ -57,6 +57,15 @@ impl Key {
         Self(bytes)
     }
 
+    /// How many different byte values the key has (a random key of 32 bytes has about 30).
+    pub fn distinct_bytes(&self) -> usize {
+        let mut seen = [false; 256];
+        for b in self.0 {
+            seen[usize::from(b)] = true;
+        }
+        seen.iter().filter(|s| **s).count()
+    }
+
     /// The key in a key file's text: 64 hex digits; blank lines and lines starting with `#`
     /// are comments.
     pub fn from_text(text: &str) -> Result<Self, BadKey> {

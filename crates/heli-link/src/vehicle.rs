@@ -515,8 +515,16 @@ impl VehicleLink {
                 .map_or(0, |s| crate::status::phase_code(&s.phase)),
             ..status
         };
+        // A change of state, mode or phase goes out at once, not at the next beat: the
+        // ground's display follows the vehicle within the link's latency (the beat's 1 Hz
+        // cadence starts again from it).
+        let changed = status != self.status;
         self.status = status;
-        if self.due(HEARTBEAT_DATA::ID, Some(HEARTBEAT_US), now_us) {
+        if changed {
+            self.next_due
+                .insert(HEARTBEAT_DATA::ID, now_us.saturating_add(HEARTBEAT_US));
+        }
+        if changed || self.due(HEARTBEAT_DATA::ID, Some(HEARTBEAT_US), now_us) {
             let hb = heartbeat(status);
             self.send(&hb, now_us);
         }

@@ -609,3 +609,39 @@ fn the_heartbeat_carries_the_phase_flown_beside_the_mode_asked() {
     assert_eq!(crate::status::phase_code("somersault"), 0);
     assert_eq!(VehicleStatus::default().phase_name(), None);
 }
+
+#[test]
+fn a_change_of_state_is_said_at_once_not_at_the_next_beat() {
+    use crate::status::BootstrapState;
+    let mut v = VehicleLink::new(None, T0);
+    let mut g = GroundLink::new(None);
+    let s = store();
+    let mut beat = |t: u64, state: BootstrapState| {
+        let status = VehicleStatus {
+            state,
+            ..VehicleStatus::default()
+        };
+        v.tick(t, status, None, &s);
+        for d in v.take_outgoing() {
+            g.receive(&d, t);
+        }
+        g.counts.get(&HEARTBEAT_DATA::ID).copied().unwrap_or(0)
+    };
+    assert_eq!(beat(T0 + 10_000, BootstrapState::Idle), 1);
+    assert_eq!(
+        beat(T0 + 110_000, BootstrapState::Idle),
+        1,
+        "a second to the next beat"
+    );
+    assert_eq!(
+        beat(T0 + 210_000, BootstrapState::Connected),
+        2,
+        "a change at once"
+    );
+    assert_eq!(beat(T0 + 310_000, BootstrapState::Connected), 2);
+    assert_eq!(
+        beat(T0 + 1_210_000, BootstrapState::Connected),
+        3,
+        "the beat goes on from it"
+    );
+}

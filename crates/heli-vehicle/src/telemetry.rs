@@ -383,7 +383,7 @@ mod tests {
         assert_eq!(v["uplink"]["auto_mode"], true);
         // The fix's age, on the flight software's clock (its newest estimate's stamp), not
         // the telemetry thread's: a GPS gone silent ages while the estimate goes on.
-        let state = streams.state.latest().map(|s| s.value.clone()).unwrap();
+        let state = streams.state.latest().map(|s| s.value).unwrap();
         streams.state.publish(Stamped::new(1_500_005, state));
         let aged = snapshot(&streams, None, 9);
         close(&aged["gps"]["age_s"], 1.5);
