@@ -59,11 +59,14 @@ impl Key {
 
     /// How many different byte values the key has (a random key of 32 bytes has about 30).
     pub fn distinct_bytes(&self) -> usize {
-        let mut seen = [false; 256];
+        let mut seen = [0u64; 4];
         for b in self.0 {
-            seen[usize::from(b)] = true;
+            let (word, bit) = (usize::from(b / 64), b % 64);
+            if let Some(w) = seen.get_mut(word) {
+                *w |= 1 << bit;
+            }
         }
-        seen.iter().filter(|s| **s).count()
+        seen.iter().map(|w| w.count_ones() as usize).sum()
     }
 
     /// The key in a key file's text: 64 hex digits; blank lines and lines starting with `#`
