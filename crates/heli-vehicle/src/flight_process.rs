@@ -145,11 +145,13 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
         };
         match startable(&args.log_dir, fallback.as_deref(), &start, restart) {
             Ok(plan) => break (restart, start, plan),
-            Err(why) if restart => {
+            Err(why) => {
                 say(FromFlight::Refused(why.clone()));
-                bail!("{why}");
+                // A restart the process cannot fly has nobody to choose again: it ends.
+                if restart {
+                    bail!("{why}");
+                }
             }
-            Err(why) => say(FromFlight::Refused(why)),
         }
     };
     let mode = start.controller;
