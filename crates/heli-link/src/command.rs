@@ -21,8 +21,9 @@ pub const CMD_START_LOGGING: MavCmd = MavCmd::MAV_CMD_USER_2;
 /// Stop the flight process.
 pub const CMD_STOP: MavCmd = MavCmd::MAV_CMD_USER_3;
 
-/// Longest file suffix a Start Logging command carries.
-pub const MAX_LINK_SUFFIX: usize = 15;
+/// Longest file suffix a Start Logging command carries (the suffix's one limit, kept with
+/// the parameters it limits).
+pub use crate::messages::MAX_LINK_SUFFIX;
 
 /// The flight plans the vehicle knows by name, by their link index (plan parameter − 1).
 pub const PLANS: [&str; 3] = ["hover", "demo", "rolls"];

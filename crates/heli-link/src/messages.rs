@@ -40,6 +40,11 @@ pub enum GroundCommand {
     Final(FinalParameters),
 }
 
+/// Longest file suffix: what a Start Logging command can carry over the link (five floats
+/// of three bytes), and so the one limit everywhere (a suffix typed on the local console may
+/// have to be said over the link).
+pub const MAX_LINK_SUFFIX: usize = 15;
+
 /// A message from the ground that the vehicle refuses.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum LinkError {
@@ -60,7 +65,7 @@ impl fmt::Display for LinkError {
                 write!(
                     f,
                     "file suffix '{s}' must be 1-{} letters, digits, '-' or '_'",
-                    crate::command::MAX_LINK_SUFFIX
+                    MAX_LINK_SUFFIX
                 )
             }
         }
@@ -75,7 +80,7 @@ impl StartParameters {
         let ok = !file_suffix.is_empty()
             // One limit everywhere: what the link can carry (a suffix typed on the local
             // console may have to be said over the link).
-            && file_suffix.len() <= crate::command::MAX_LINK_SUFFIX
+            && file_suffix.len() <= MAX_LINK_SUFFIX
             && file_suffix
                 .chars()
                 .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
