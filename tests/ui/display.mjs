@@ -139,6 +139,13 @@ try {
   for (const row of ["imu", "state", "uplink", "servo", "gps", "bar", "cmps"]) {
     await waitFor(`row ${row}`, async () => !(await text(page, `#row-${row}`)).includes("NOTHING YET"));
   }
+  // The GPS row's PosN/PosE: the fix in the estimate's frame, from the origin the vehicle
+  // sends (GPS_GLOBAL_ORIGIN) once its navigation has one.
+  await waitFor("PosN from the vehicle's origin", async () => {
+    const gps = await page.evaluate(() => window.heli.view().rows.gps);
+    const posN = gps && gps.cells.find((c) => c.label === "PosN m");
+    return posN && posN.value !== "–" && Math.abs(Number(posN.value)) < 50;
+  });
   const c0 = Number(await text(page, "#counter"));
   const t0 = Date.now();
   await new Promise((res) => setTimeout(res, 5000));

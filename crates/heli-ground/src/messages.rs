@@ -85,15 +85,13 @@ fn pins(severity: &str) -> bool {
     matches!(severity, "critical" | "error")
 }
 
-/// The words of a line that say what it is about: without the prefix the vehicle gives it
-/// (`flight: event warning-hi t=12.00 s `), its numbers as `#`.
-fn words(text: &str) -> (String, &str) {
-    let body = strip_prefix(text);
-    let key = body
+/// The words of a line that say what it is about, by which its repeats are known: without
+/// the prefix the vehicle gives it (`flight: event warning-hi t=12.00 s `), its numbers as `#`.
+fn repeat_key(text: &str) -> String {
+    strip_prefix(text)
         .chars()
         .map(|c| if c.is_ascii_digit() { '#' } else { c })
-        .collect();
-    (key, body)
+        .collect()
 }
 
 /// The line without the vehicle's `flight: event SEVERITY t=… s ` or `bootstrap: `.
@@ -153,7 +151,7 @@ impl MessageArea {
     /// Adds a line from `source` ("vehicle" or "ground") at the ground's time `now_s`.
     pub fn push(&mut self, severity: &'static str, source: &'static str, text: String, now_s: f64) {
         self.next = self.next.saturating_add(1);
-        let (key, _) = words(&text);
+        let key = repeat_key(&text);
         let newest = self.entries.len().saturating_sub(REPEAT_WINDOW);
         let repeat = (newest..self.entries.len()).rev().find(|i| {
             self.entries.get(*i).is_some_and(|e| {

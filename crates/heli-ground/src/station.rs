@@ -149,9 +149,6 @@ pub struct Station {
     answered_us: u64,
     /// A flight was seen under way since the station started or since the last Stop.
     flight_seen: bool,
-    /// The suffix of the flight this station started, until its Stop: the log a Stop with
-    /// final parameters saves must be that flight's.
-    flight_suffix: Option<String>,
     /// The field rule's message, until acknowledged.
     pub(crate) field_rule: crate::power_view::FieldRule,
     /// The packs' logbook.
@@ -163,8 +160,9 @@ pub struct Station {
     first_us: Option<u64>,
     /// The last command and what became of it.
     pub(crate) command: Option<CommandView>,
-    /// The parameters of the flight this station started, until its Stop (every page shows
-    /// them, not its own form's).
+    /// The parameters of the flight this station started, until its Stop: every page shows
+    /// them, not its own form's, and the log a Stop with final parameters saves must be the
+    /// flight of their suffix.
     pub(crate) flight_params: Option<FlightParams>,
     /// The vehicle's last refusals of the flight under way, in its words.
     pub(crate) refusals: Refusals,
@@ -225,7 +223,6 @@ impl Station {
             outbox: Vec::new(),
             answered_us: 0,
             flight_seen: false,
-            flight_suffix: None,
             field_rule: crate::power_view::FieldRule::default(),
             now_us: 0,
             first_us: None,
@@ -407,8 +404,7 @@ impl Station {
             return;
         }
         self.flight_seen = false;
-        self.flight_params = None;
-        let suffix = self.flight_suffix.take();
+        let suffix = self.flight_params.take().map(|f| f.suffix);
         let mut dest = self.config.save_root.clone();
         dest.push(format!(
             "flight_{}.mcap",
@@ -494,8 +490,8 @@ impl Station {
             ("start logging", true) => {
                 self.panel.vehicle(Some(BootstrapState::Flying));
                 self.flight_seen = true;
-                self.flight_suffix = p.params.as_ref().map(|f| f.suffix.clone());
-                self.suffixes_used.extend(self.flight_suffix.clone());
+                self.suffixes_used
+                    .extend(p.params.as_ref().map(|f| f.suffix.clone()));
                 self.flight_params = p.params.clone();
             }
             ("start logging", false) => {
@@ -509,8 +505,7 @@ impl Station {
             ("stop", true) => {
                 self.panel.vehicle(Some(BootstrapState::Idle));
                 self.flight_seen = false;
-                self.flight_params = None;
-                let suffix = self.flight_suffix.take();
+                let suffix = self.flight_params.take().map(|f| f.suffix);
                 if let Some(dest) = p.dest.clone() {
                     self.transfer = Some(Transfer::of_flight(dest, suffix, now_us));
                 }
