@@ -6,8 +6,8 @@
 //! pushing away from the ground — and hands back to the trim-trajectory controller just
 //! before the roll angle reaches 360°.
 
-use heli_nav::NavState;
 use heli_proto::scb::Controls;
+use nalgebra::Vector3;
 
 use crate::{GOVERNED_THROTTLE, limit};
 
@@ -56,9 +56,11 @@ impl Default for RollGains {
     }
 }
 
-/// Servo commands during the roll, `angle_rad` into it.
-pub fn rolling_controls(est: &NavState, angle_rad: f64, g: &RollGains) -> Controls {
-    let rate = est.rate_body_rps;
+/// Servo commands during the roll, `angle_rad` into it, at the body rates `rate_body_rps`
+/// (the estimate's; the commanded roll rate alone when the roll is finished blind, so that
+/// only the feedforward acts).
+pub fn rolling_controls(rate_body_rps: &Vector3<f64>, angle_rad: f64, g: &RollGains) -> Controls {
+    let rate = rate_body_rps;
     let aileron = g.rate_feedforward * g.rate_cmd_rps + g.rate_feedback * (g.rate_cmd_rps - rate.x);
     let collective = g.collective_amplitude * angle_rad.cos();
     // The rotor's torque follows the magnitude of the collective, upright or inverted.
@@ -76,19 +78,9 @@ pub fn rolling_controls(est: &NavState, angle_rad: f64, g: &RollGains) -> Contro
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::{UnitQuaternion, Vector3};
 
-    fn est(rate: Vector3<f64>) -> NavState {
-        NavState {
-            t_us: 0,
-            att: UnitQuaternion::identity(),
-            vel_ned_mps: Vector3::zeros(),
-            pos_ned_m: Vector3::zeros(),
-            rate_body_rps: rate,
-            accel_body_mps2: Vector3::zeros(),
-            gyro_bias_rps: Vector3::zeros(),
-            accel_bias_mps2: Vector3::zeros(),
-        }
+    fn est(rate: Vector3<f64>) -> Vector3<f64> {
+        rate
     }
 
     #[test]

@@ -99,7 +99,7 @@ fn the_roll_flies_its_rate_and_schedules_the_collective_on_the_angle() {
         ..RollGains::default()
     };
     let e = est();
-    let u = rolling_controls(&e, 0.7, &g);
+    let u = rolling_controls(&e.rate_body_rps, 0.7, &g);
     close(u.aileron, 0.3 * 2.0 + 0.07 * (2.0 - 0.15));
     close(u.elevator, -0.15 * -0.25);
     let collective = 0.6 * 0.7f64.cos();
@@ -107,7 +107,7 @@ fn the_roll_flies_its_rate_and_schedules_the_collective_on_the_angle() {
     close(u.rudder, 0.35 * collective / 0.6 - 0.25 * 0.4);
     assert_eq!(u.throttle, GOVERNED_THROTTLE);
     // Inverted: the collective pushes the other way, the tail sees the same torque.
-    let u = rolling_controls(&e, 2.6, &g);
+    let u = rolling_controls(&e.rate_body_rps, 2.6, &g);
     close(u.collective, 0.6 * 2.6f64.cos());
     close(
         u.rudder,

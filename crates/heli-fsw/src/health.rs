@@ -23,6 +23,11 @@
 /// meaningless at the helicopter's rates.
 pub const IMU_FIRES_TO_INVALID: u32 = 25;
 
+/// Watchdog fires in a row after which the estimate is declared invalid during a roll (60 ms
+/// at the 12 ms watchdog): a roll flown on a repeated sample turns the estimate at a rate the
+/// helicopter no longer has, so it is finished or stopped blind at once.
+pub const IMU_FIRES_TO_INVALID_IN_ROLL: u32 = 5;
+
 use heli_types::Device;
 
 /// A device's expected period, late and silent thresholds (µs).

@@ -79,7 +79,7 @@ pub enum Violation {
         /// The deadline the core asked for (µs), `None` if it asked for none.
         poll_at_us: Option<u64>,
     },
-    /// An estimate declared invalid became valid again.
+    /// An estimate declared invalid became valid again without an alignment in the air.
     EstimateRevived,
     /// The phase changed without a `PhaseChanged` event, or an event named another phase.
     PhaseEventMismatch {
@@ -366,6 +366,7 @@ impl Invariants {
         let stats = core.stats();
         // The engine failure raised before this input, or by it.
         let mut engine_failed = self.engine_failed;
+        let mut aligned_in_air = false;
         let mut phase_events = Vec::new();
         let mut result = Ok(());
         let mut servos = 0u32;
@@ -385,6 +386,7 @@ impl Invariants {
                     match e.value {
                         CoreEvent::PhaseChanged(p) => phase_events.push(p),
                         CoreEvent::EngineFailure { .. } => engine_failed = true,
+                        CoreEvent::AlignedInAir { .. } => aligned_in_air = true,
                         _ => {}
                     }
                     (e.t_us, None)
@@ -417,7 +419,8 @@ impl Invariants {
                     to: after.name(),
                 });
             }
-            if !before.2 && core.estimate_valid() {
+            // Only an alignment in the air (after the IMU came back) starts it again.
+            if !before.2 && core.estimate_valid() && !aligned_in_air {
                 return Err(Violation::EstimateRevived);
             }
             self.check_watchdog(core, now_us)?;

@@ -150,6 +150,12 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
         CoreEvent::RestartedInAir => {
             format!("t={t:.2} s flight process restarted in the air: aligning, blind failsafe")
         }
+        CoreEvent::RollEndedBlind { finished: true } => format!(
+            "t={t:.2} s roll finished without the estimate: cyclic levelled, blind failsafe"
+        ),
+        CoreEvent::RollEndedBlind { finished: false } => {
+            format!("t={t:.2} s roll stopped without the estimate: cyclic levelled, blind failsafe")
+        }
         CoreEvent::ImuBackInAir => format!(
             "t={t:.2} s IMU back after the estimate was declared invalid: aligning in the air, \
              blind failsafe"
@@ -199,6 +205,8 @@ fn events_without_numbers() -> Vec<CoreEvent> {
         CoreEvent::TakeoffRefused(heli_fsw::core::Refusal::ImuNotHealthy),
         CoreEvent::RestartedInAir,
         CoreEvent::ImuBackInAir,
+        CoreEvent::RollEndedBlind { finished: true },
+        CoreEvent::RollEndedBlind { finished: false },
         CoreEvent::AlignedInAir { gps: true },
         CoreEvent::AlignedInAir { gps: false },
         CoreEvent::AidAccepted(heli_fsw::core::Aid::Altimeter),

@@ -221,6 +221,8 @@ pub struct Navigator {
     cov: Covariance,
     origin: Option<GeoOrigin>,
     last_gps_ned: Option<Vector3<f64>>,
+    /// When the last usable fix was valid (its arrival less the GPS's latency, µs).
+    last_gps_valid_us: Option<u64>,
     baro_reference_mbar: Option<f64>,
     baro_reference_z_m: f64,
     baro_sum_mbar: f64,
@@ -299,6 +301,7 @@ impl Navigator {
             cov: Covariance::zeros(),
             origin: None,
             last_gps_ned: None,
+            last_gps_valid_us: None,
             baro_reference_mbar: None,
             baro_reference_z_m: 0.0,
             baro_sum_mbar: 0.0,

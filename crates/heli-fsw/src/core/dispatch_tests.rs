@@ -90,7 +90,10 @@ fn a_roll_in_progress_flies_the_roll_law() {
     );
     let e = est(20.0);
     let u = core.phase_controls(Some(e), &imu(), DT);
-    assert_eq!(u, rolling_controls(&e, 2.0, &core.config.roll));
+    assert_eq!(
+        u,
+        rolling_controls(&e.rate_body_rps, 2.0, &core.config.roll)
+    );
 }
 
 #[test]

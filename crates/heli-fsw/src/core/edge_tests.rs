@@ -266,7 +266,7 @@ fn gps_lost_and_regained_are_raised_once_each_and_only_with_an_estimate() {
     let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
     let mut out = Vec::new();
     // No estimate yet: the outage is nobody's concern.
-    core.control_step(still_imu(), still_imu(), 10 * S, &mut out);
+    core.control_step(still_imu(), still_imu(), false, 10 * S, &mut out);
     assert!(!raised(&out, CoreEvent::GpsLost));
     core.nav.initialise(
         0,
@@ -277,8 +277,8 @@ fn gps_lost_and_regained_are_raised_once_each_and_only_with_an_estimate() {
         },
     );
     core.main_loop.estimate_valid = true;
-    core.control_step(still_imu(), still_imu(), 10 * S + 20_000, &mut out);
-    core.control_step(still_imu(), still_imu(), 10 * S + 40_000, &mut out);
+    core.control_step(still_imu(), still_imu(), false, 10 * S + 20_000, &mut out);
+    core.control_step(still_imu(), still_imu(), false, 10 * S + 40_000, &mut out);
     let lost = |out: &[Action]| {
         out.iter()
             .filter(|a| matches!(a, Action::Event(e) if e.value == CoreEvent::GpsLost))
@@ -314,7 +314,7 @@ fn a_helicopter_exactly_at_the_airborne_height_has_not_yet_flown() {
         );
         core.main_loop.estimate_valid = true;
         core.seq.home_ned_m = Some(Vector3::new(0.0, 0.0, home_z));
-        core.control_step(level, level, 20_000, &mut Vec::new());
+        core.control_step(level, level, false, 20_000, &mut Vec::new());
         assert_eq!(core.nav.state().map(|s| s.pos_ned_m.z), Some(0.0));
         assert_eq!(core.seq.airborne_once, flown, "{home_z}");
     }

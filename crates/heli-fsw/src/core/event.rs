@@ -140,6 +140,13 @@ pub enum CoreEvent {
     /// The flight process started again in the air (a brown-out, a crash): it aligns
     /// instead of calibrating, flying the blind failsafe meanwhile.
     RestartedInAir,
+    /// A roll under way when the estimate was declared invalid ended without it, and the
+    /// cyclic was levelled: `finished` all the way round (open loop while the IMU was
+    /// silent), or stopped where it was, less than a quarter of the way round.
+    RollEndedBlind {
+        /// Turned all the way round, not stopped.
+        finished: bool,
+    },
     /// The IMU is back after the estimate was declared invalid, in the air: the flight
     /// aligns again as after a restart, flying the blind failsafe (or the pilot) meanwhile.
     ImuBackInAir,
@@ -255,6 +262,7 @@ impl CoreEvent {
             | CoreEvent::GpsReset
             | CoreEvent::RestartedInAir
             | CoreEvent::ImuBackInAir
+            | CoreEvent::RollEndedBlind { .. }
             | CoreEvent::EstimateDegraded { .. }
             | CoreEvent::AidRefused { .. }
             | CoreEvent::TakeoffRefused(_)

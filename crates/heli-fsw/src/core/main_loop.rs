@@ -64,6 +64,13 @@ impl MainLoop {
     /// yet (a port still opening, a slow boot) has no estimate to invalidate: only fires
     /// after a first sample count towards [`IMU_FIRES_TO_INVALID`].
     pub fn timer(&mut self, now_us: u64) -> Option<Fire> {
+        self.timer_within(now_us, IMU_FIRES_TO_INVALID)
+    }
+
+    /// [`MainLoop::timer`], the estimate declared invalid after `fires_to_invalid` fires in a
+    /// row (fewer in a roll: an estimate coasting on a repeated sample there turns with a
+    /// rate the helicopter no longer has).
+    pub fn timer_within(&mut self, now_us: u64, fires_to_invalid: u32) -> Option<Fire> {
         if !self.watchdog.expired(now_us) {
             return None;
         }
@@ -71,8 +78,7 @@ impl MainLoop {
         if self.last_imu.is_some() {
             self.imu_fires_in_row = self.imu_fires_in_row.saturating_add(1);
         }
-        let estimate_invalidated =
-            self.imu_fires_in_row >= IMU_FIRES_TO_INVALID && self.estimate_valid;
+        let estimate_invalidated = self.imu_fires_in_row >= fires_to_invalid && self.estimate_valid;
         if estimate_invalidated {
             self.estimate_valid = false;
         }

@@ -64,7 +64,7 @@ use heli_types::{Device, FlightMode, Plan};
 use nalgebra::Vector3;
 
 use crate::health::Health;
-use crate::phase::Phase;
+use crate::phase::{Phase, RollStage};
 use crate::streams::Stamped;
 use crate::streams::{BaroRecord, CompassRecord, Record};
 use aids::Aiding;
@@ -82,7 +82,6 @@ use watchdog::WATCHDOG_PERIOD_US;
 #[cfg(test)]
 use {
     crate::health::HealthState,
-    crate::phase::RollStage,
     heli_control::{Target, augmented_controls, manual_with_yaw_damping, rolling_controls},
     heli_nav::NavState,
     heli_types::{AugmentedMode, Leg},
@@ -269,6 +268,10 @@ pub struct FlightCore {
     restart: Restart,
     /// The hover controller's state (its integrators), kept across phases that fly it.
     hover: HoverController,
+    /// This control step's body rates from a real IMU sample, less the known gyro bias;
+    /// `None` when the watchdog repeated the last sample (what a roll the estimate is gone
+    /// from is finished on: `roll::blind_step`).
+    gyro_rps: Option<Vector3<f64>>,
     stats: CoreStats,
     last_input_us: u64,
 }
@@ -289,6 +292,7 @@ impl FlightCore {
             power: power::Power::new(&config.power),
             restart: Restart::default(),
             hover: HoverController::new(config.hover),
+            gyro_rps: None,
             stats: CoreStats::default(),
             last_input_us: 0,
         }
@@ -428,6 +432,17 @@ impl FlightCore {
         if self.main_loop.estimate_valid() || self.restart.aligning() || !self.seq.airborne_once {
             return;
         }
+        // A roll under way is finished first: the accelerometers of a rolling helicopter
+        // say nothing of which way is up.
+        if matches!(
+            self.seq.phase,
+            Phase::Maneuver {
+                stage: RollStage::Rolling { .. },
+                ..
+            }
+        ) {
+            return;
+        }
         if let Some(warm) = self.warm_start() {
             self.restart.align_after_stall(warm);
             self.seq.plan_abandoned = true;
@@ -452,7 +467,19 @@ impl FlightCore {
             Input::DeviceFailed(device) => self.devices.failed(device, now_us, out),
             Input::Timer => {
                 self.devices.check(now_us, out);
-                if let Some(fire) = self.main_loop.timer(now_us) {
+                let rolling = matches!(
+                    self.seq.phase,
+                    Phase::Maneuver {
+                        stage: RollStage::Rolling { .. },
+                        ..
+                    }
+                );
+                let fires_to_invalid = if rolling {
+                    crate::health::IMU_FIRES_TO_INVALID_IN_ROLL
+                } else {
+                    crate::health::IMU_FIRES_TO_INVALID
+                };
+                if let Some(fire) = self.main_loop.timer_within(now_us, fires_to_invalid) {
                     out.push(Action::Event(Stamped::new(
                         now_us,
                         CoreEvent::WatchdogFired,

@@ -210,7 +210,12 @@ impl Restart {
         a.last_us = Some(now_us);
         a.accel_sum_mps2 += a.to_start * Vector3::from(sample.accel_mps2);
         a.samples = a.samples.saturating_add(1);
-        a.gps_seen |= nav.origin().is_some() && last_good_fix.is_some();
+        // After a stall, a fix from before the window (the last one before the IMU went
+        // silent) places the helicopter where it was, not where it is: only a fix that came
+        // while aligning counts. A restarted process has only fixes of its own.
+        let after_stall = a.after_stall;
+        a.gps_seen |= nav.origin().is_some()
+            && last_good_fix.is_some_and(|(at_us, _)| !after_stall || at_us >= since);
         let elapsed = seconds_between(since, now_us);
         if elapsed < ALIGN_S || (!a.gps_seen && elapsed < ALIGN_GPS_WAIT_S) {
             return;

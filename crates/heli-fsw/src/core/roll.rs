@@ -33,6 +33,58 @@ pub enum RollStep {
     NextLeg(Option<Phase>),
 }
 
+/// How a roll the estimate is gone from goes on ([`blind_step`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BlindRoll {
+    /// Still rolling, in this stage.
+    Rolling(RollStage),
+    /// Stopped where it was, less than a quarter of the way round: the cyclic is levelled.
+    Stopped,
+    /// Turned all the way round (or given up after twice its nominal time): levelled.
+    Finished,
+}
+
+/// A roll is stopped blind, rather than finished, when it is less than this far round
+/// (rad): nearer upright that way, where the rest of a roll flown open loop would tumble.
+pub const BLIND_STOP_BEFORE_RAD: f64 = core::f64::consts::FRAC_PI_2;
+
+/// One step of a roll the estimate is gone from (the IMU fell silent in it). Less than a
+/// quarter of the way round it is stopped at once; further round it is finished rather than
+/// left on its side or inverted with no attitude to recover by. The angle turned goes on at
+/// the body roll rate the gyro measures (`roll_rate_rps`, a real sample less the known
+/// bias) or, while the IMU is silent, at the commanded rate that the roll's feedforward flies
+/// open loop.
+pub fn blind_step(
+    g: &RollGains,
+    stage: RollStage,
+    roll_rate_rps: Option<f64>,
+    now_us: u64,
+    dt_s: f64,
+) -> BlindRoll {
+    let RollStage::Rolling {
+        angle_rad,
+        since_us,
+    } = stage
+    else {
+        return BlindRoll::Stopped;
+    };
+    if angle_rad < BLIND_STOP_BEFORE_RAD {
+        return BlindRoll::Stopped;
+    }
+    let rate_rps = roll_rate_rps.map_or(g.rate_cmd_rps.abs(), |p| p * g.rate_cmd_rps.signum());
+    let angle_rad = angle_rad + rate_rps * dt_s;
+    let nominal_s = 2.0 * core::f64::consts::PI / g.rate_cmd_rps.abs().max(0.5);
+    let turned = angle_rad >= 2.0 * core::f64::consts::PI - g.exit_lead_rad;
+    if turned || seconds_between(since_us, now_us) > 2.0 * nominal_s {
+        BlindRoll::Finished
+    } else {
+        BlindRoll::Rolling(RollStage::Rolling {
+            angle_rad,
+            since_us,
+        })
+    }
+}
+
 /// One step of the roll maneuver on the leg being flown (`leg`), from `stage` with
 /// `rolls_done` rolls behind it.
 #[allow(clippy::too_many_arguments)]

@@ -4,6 +4,7 @@
 
 use super::*;
 use nalgebra::UnitQuaternion;
+use roll::{BLIND_STOP_BEFORE_RAD, BlindRoll, blind_step};
 
 const S: u64 = 1_000_000;
 
@@ -257,4 +258,63 @@ fn after_recovering_it_rolls_again_until_the_count_then_flies_the_next_leg() {
     let (phase, _) = step(&mut core, &e, end, recover, 2);
     assert!(matches!(phase, Phase::Holding { .. }), "{phase:?}");
     assert_eq!(core.seq.leg, 2);
+}
+
+#[test]
+fn a_blind_roll_goes_on_at_the_gyro_or_the_commanded_rate_and_ends_round_or_stopped() {
+    let g = RollGains::default();
+    let at = |angle_rad: f64| RollStage::Rolling {
+        angle_rad,
+        since_us: 0,
+    };
+    let angle = |r: BlindRoll| match r {
+        BlindRoll::Rolling(RollStage::Rolling { angle_rad, .. }) => angle_rad,
+        other => panic!("{other:?}"),
+    };
+    // Silent: the commanded rate.
+    let a = angle(blind_step(&g, at(2.0), None, S, 0.1));
+    assert!((a - (2.0 + 0.1 * g.rate_cmd_rps)).abs() < 1e-12, "{a}");
+    // A real sample: the gyro's rate, in the roll's direction.
+    let a = angle(blind_step(&g, at(2.0), Some(1.0), S, 0.1));
+    assert!((a - 2.1).abs() < 1e-12, "{a}");
+    let left = RollGains {
+        rate_cmd_rps: -3.0,
+        ..g
+    };
+    let a = angle(blind_step(&left, at(2.0), Some(-1.0), S, 0.1));
+    assert!((a - 2.1).abs() < 1e-12, "{a}");
+    // Before a quarter turn: stopped where it is.
+    assert_eq!(
+        blind_step(&g, at(BLIND_STOP_BEFORE_RAD - 0.01), None, S, 0.02),
+        BlindRoll::Stopped
+    );
+    assert!(matches!(
+        blind_step(&g, at(BLIND_STOP_BEFORE_RAD), None, S, 0.0),
+        BlindRoll::Rolling(_)
+    ));
+    // Round, less the exit lead: finished.
+    let end = 2.0 * std::f64::consts::PI - g.exit_lead_rad;
+    assert_eq!(
+        blind_step(&g, at(end), Some(0.0), S, 0.02),
+        BlindRoll::Finished
+    );
+    assert!(matches!(
+        blind_step(&g, at(end - 0.01), Some(0.0), S, 0.02),
+        BlindRoll::Rolling(_)
+    ));
+    // Twice its nominal time: given up.
+    let nominal_us = (2.0 * std::f64::consts::PI / g.rate_cmd_rps * 1e6) as u64;
+    assert!(matches!(
+        blind_step(&g, at(3.0), Some(0.0), 2 * nominal_us - 1_000, 0.02),
+        BlindRoll::Rolling(_)
+    ));
+    assert_eq!(
+        blind_step(&g, at(3.0), Some(0.0), 2 * nominal_us + 1_000, 0.02),
+        BlindRoll::Finished
+    );
+    // Not rolling at all: nothing to finish.
+    assert_eq!(
+        blind_step(&g, RollStage::Recover { since_us: 0 }, None, S, 0.02),
+        BlindRoll::Stopped
+    );
 }

@@ -23,7 +23,7 @@ use super::legs::{self, Begin};
 use super::mode_check::{ModeCheck, automatic_verdict, safety_facts};
 use super::power::{Failsafe, Power};
 use super::preflight::{self, Refusal};
-use super::roll::{self, RollEnd, RollStep};
+use super::roll::{self, BlindRoll, RollEnd, RollStep};
 use super::{Action, CoreConfig, CoreStats, FlightParams, Stamped, degraded, weathervane};
 use crate::phase::{Phase, RollStage};
 
@@ -44,6 +44,9 @@ pub struct Crew<'a> {
     pub estimate_valid: bool,
     /// An in-air alignment is under way.
     pub aligning: bool,
+    /// This step's body roll rate from a real IMU sample less the gyro bias (`None` when
+    /// the watchdog repeated the last sample): what a roll is finished blind on.
+    pub roll_rate_rps: Option<f64>,
     /// The hover controller's wind trim (m/s², NED), for the weathervane.
     pub hover_trim_ned_mps2: Vector3<f64>,
     /// The mode check.
@@ -299,6 +302,35 @@ impl Sequencer {
         // The board's line going silent is transmitter loss too.
         let signal_lost = crew.devices.signal_lost();
         let Some(est) = estimate else {
+            // A roll under way when the estimate went is finished before anything else.
+            if let Phase::Maneuver {
+                target,
+                stage: stage @ RollStage::Rolling { .. },
+                rolls_done,
+            } = self.phase
+            {
+                let finished = match roll::blind_step(
+                    &crew.config.roll,
+                    stage,
+                    crew.roll_rate_rps,
+                    now_us,
+                    dt_s,
+                ) {
+                    BlindRoll::Rolling(stage) => {
+                        return Phase::Maneuver {
+                            target,
+                            stage,
+                            rolls_done,
+                        };
+                    }
+                    BlindRoll::Stopped => false,
+                    BlindRoll::Finished => true,
+                };
+                out.push(Action::Event(Stamped::new(
+                    now_us,
+                    CoreEvent::RollEndedBlind { finished },
+                )));
+            }
             if crew.aligning {
                 // Restarted in the air and aligning: the pilot flies if the switch is off,
                 // otherwise the blind failsafe holds on until the estimate starts.

@@ -171,3 +171,102 @@ fn the_watchdogs_copies_of_a_sample_never_count_as_calibration_samples() {
     core.handle(Input::Imu(super::tests::still()), t + 1_000, &mut out);
     assert!(done(&out));
 }
+
+/// The hold of [`holding`] turned into the first roll of a roll leg, `angle_rad` round.
+fn rolling_at(angle_rad: f64) -> (FlightCore, Vec<Action>, u64) {
+    let (mut core, out, t) = holding();
+    core.seq.params.plan = Plan::new(&[
+        Leg::Rolls {
+            count: 1,
+            speed_mps: 5.0,
+        },
+        Leg::Hold { seconds: 5.0 },
+    ])
+    .unwrap_or_else(|e| panic!("{e}"));
+    core.seq.leg = 0;
+    let target = core
+        .seq
+        .phase
+        .target()
+        .unwrap_or_else(|| Target::hold(Vector3::zeros(), 0.0));
+    core.seq.phase = Phase::Maneuver {
+        target,
+        stage: RollStage::Rolling {
+            angle_rad,
+            since_us: t,
+        },
+        rolls_done: 0,
+    };
+    (core, out, t)
+}
+
+#[test]
+fn in_a_roll_the_estimate_is_given_up_at_the_fifth_missed_sample_not_the_twenty_fifth() {
+    let (mut core, mut out, mut t) = rolling_at(2.0);
+    // Four watchdog periods: a packet or two lost, nothing more.
+    stall(&mut core, &mut out, &mut t, 0.059);
+    assert!(!raised(&out, CoreEvent::EstimateInvalid));
+    // Five (60 ms) and a little.
+    stall(&mut core, &mut out, &mut t, 0.003);
+    assert!(raised(&out, CoreEvent::EstimateInvalid));
+    assert!(!core.estimate_valid());
+    // In the hold the same silence is only late.
+    let (mut core, mut out, mut t) = holding();
+    stall(&mut core, &mut out, &mut t, 0.062);
+    assert!(!raised(&out, CoreEvent::EstimateInvalid));
+    assert!(core.estimate_valid());
+}
+
+#[test]
+fn a_roll_blinded_past_a_quarter_turn_is_finished_and_only_then_aligned() {
+    let (mut core, mut out, mut t) = rolling_at(3.0);
+    // Blind for 0.3 s: still rolling, on the feedforward alone, full lateral cyclic.
+    stall(&mut core, &mut out, &mut t, 0.3);
+    let Phase::Maneuver {
+        stage: RollStage::Rolling { angle_rad, .. },
+        ..
+    } = core.phase()
+    else {
+        panic!("still rolling: {:?}", core.phase());
+    };
+    assert!(
+        angle_rad > 3.5,
+        "went on at the commanded rate: {angle_rad}"
+    );
+    let g = core.config.roll;
+    let last = out.iter().rev().find_map(|a| match a {
+        Action::Servo(s) => Some(s.value),
+        _ => None,
+    });
+    let expected =
+        heli_control::rolling_controls(&Vector3::new(g.rate_cmd_rps, 0.0, 0.0), angle_rad, &g);
+    assert_eq!(last, Some(expected));
+    // The IMU back mid-roll: no alignment yet (a rolling helicopter's accelerometers say
+    // nothing of which way is up); the roll goes on, on the gyros.
+    out.clear();
+    fly(&mut core, &mut out, &mut t, 0.2, uplink(true, false), 8.0);
+    assert!(!core.aligning(), "{:?}", core.phase());
+    assert!(!raised(&out, CoreEvent::ImuBackInAir));
+    // The helicopter in `fly` does not turn, so the gyros say the roll stands still: the
+    // roll is given up at twice its nominal time and the cyclic levelled; then it aligns.
+    fly(&mut core, &mut out, &mut t, 6.0, uplink(true, false), 8.0);
+    assert!(raised(&out, CoreEvent::RollEndedBlind { finished: true }));
+    assert!(raised(&out, CoreEvent::ImuBackInAir));
+    assert!(raised(&out, CoreEvent::AlignedInAir { gps: true }));
+}
+
+#[test]
+fn a_roll_blinded_before_a_quarter_turn_is_stopped_at_once() {
+    let (mut core, mut out, mut t) = rolling_at(1.0);
+    stall(&mut core, &mut out, &mut t, 0.08);
+    assert!(raised(&out, CoreEvent::RollEndedBlind { finished: false }));
+    assert_eq!(core.phase(), Phase::BlindDescent);
+    let last = out.iter().rev().find_map(|a| match a {
+        Action::Servo(s) => Some(s.value),
+        _ => None,
+    });
+    assert!(
+        last.is_some_and(|c| c.aileron == 0.0 && c.elevator == 0.0),
+        "{last:?}"
+    );
+}

@@ -9,6 +9,7 @@ use heli_nav::NavState;
 use heli_proto::imu::ImuRepr;
 use heli_proto::scb::Controls;
 use heli_types::AugmentedMode;
+use nalgebra::Vector3;
 
 use super::sequencer::Crew;
 use super::{Action, BLIND_DESCENT_COLLECTIVE_MARGIN, CoreEvent, FlightCore};
@@ -61,7 +62,7 @@ impl FlightCore {
             }
         }
         if let Some((previous, current)) = self.main_loop.iterate(sample) {
-            self.control_step(previous, current, now_us, out);
+            self.control_step(previous, current, repeated, now_us, out);
         }
     }
 
@@ -70,10 +71,16 @@ impl FlightCore {
         &mut self,
         previous: ImuRepr,
         current: ImuRepr,
+        repeated: bool,
         now_us: u64,
         out: &mut Vec<Action>,
     ) {
         self.stats.control_steps = self.stats.control_steps.saturating_add(1);
+        let bias = self
+            .nav
+            .state()
+            .map_or(Vector3::zeros(), |s| s.gyro_bias_rps);
+        self.gyro_rps = (!repeated).then(|| Vector3::from(current.rate_rps) - bias);
         let dt_s = self.main_loop.step_dt(now_us);
         self.nav.propagate(now_us, &previous, &current);
 
@@ -165,7 +172,23 @@ impl FlightCore {
                     ..
                 },
                 Some(est),
-            ) => rolling_controls(&est, angle_rad, &self.config.roll),
+            ) => rolling_controls(&est.rate_body_rps, angle_rad, &self.config.roll),
+            // Finished blind (`roll::blind_step`): on the gyro's rates when a real sample
+            // came, on the feedforward alone while the IMU is silent.
+            (
+                Phase::Maneuver {
+                    stage: RollStage::Rolling { angle_rad, .. },
+                    ..
+                },
+                None,
+            ) => {
+                let commanded = Vector3::new(self.config.roll.rate_cmd_rps, 0.0, 0.0);
+                rolling_controls(
+                    &self.gyro_rps.unwrap_or(commanded),
+                    angle_rad,
+                    &self.config.roll,
+                )
+            }
             (
                 Phase::TakingOff { target }
                 | Phase::Holding { target, .. }
@@ -284,6 +307,7 @@ impl FlightCore {
             nav: &self.nav,
             estimate_valid: self.main_loop.estimate_valid(),
             aligning: self.restart.aligning(),
+            roll_rate_rps: self.gyro_rps.map(|w| w.x),
             hover_trim_ned_mps2: self.hover.trim_accel_ned_mps2(),
             modes: &mut self.modes,
             engine: &mut self.engine,

@@ -21,6 +21,7 @@ macro_rules! crew {
             nav: &$core.nav,
             estimate_valid: $core.main_loop.estimate_valid(),
             aligning: $core.restart.aligning(),
+            roll_rate_rps: $core.gyro_rps.map(|w| w.x),
             hover_trim_ned_mps2: $core.hover.trim_accel_ned_mps2(),
             modes: &mut $core.modes,
             engine: &mut $core.engine,

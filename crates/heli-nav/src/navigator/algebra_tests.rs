@@ -360,15 +360,56 @@ fn started_in_the_air_it_moves_at_the_gps_velocity_with_roll_and_pitch_uncertain
         .unwrap_or_else(|| panic!("initialised"));
     assert_eq!(s.vel_ned_mps, vel);
     assert_eq!(s.accel_bias_mps2, Vector3::zeros());
+    // The attitude (heading too: tilt-compensated with that levelling), the velocity and
+    // the position uncertain as in the air, not as on the skids.
     let tilt = reset::IN_AIR_TILT_SIGMA_RAD * reset::IN_AIR_TILT_SIGMA_RAD;
-    assert_eq!(nav.cov[(ix::ATT, ix::ATT)], tilt);
-    assert_eq!(nav.cov[(ix::ATT + 1, ix::ATT + 1)], tilt);
-    assert_eq!(
-        nav.cov[(ix::ATT + 2, ix::ATT + 2)],
-        c.initial_heading_sigma_rad.powi(2)
-    );
+    assert!(tilt > c.initial_heading_sigma_rad.powi(2));
+    for i in 0..3 {
+        assert_eq!(nav.cov[(ix::ATT + i, ix::ATT + i)], tilt);
+        assert_eq!(
+            nav.cov[(ix::VEL + i, ix::VEL + i)],
+            reset::IN_AIR_VEL_SIGMA_MPS.powi(2)
+        );
+        assert_eq!(
+            nav.cov[(ix::POS + i, ix::POS + i)],
+            reset::IN_AIR_POS_SIGMA_M.powi(2)
+        );
+    }
     // Without a GPS velocity it starts at rest.
     let mut nav = Navigator::new(c);
     nav.initialise_in_air(0, &level_biases(), None);
     assert_eq!(nav.state().map(|s| s.vel_ned_mps), Some(Vector3::zeros()));
+}
+
+#[test]
+fn started_again_in_the_air_it_keeps_the_ground_references_and_places_itself_where_the_fix_leads() {
+    // On the skids: the altimeter's reference and the earth's field learned.
+    let mut nav = Navigator::new(NavConfig::default());
+    nav.set_origin(origin());
+    nav.fuse_baro(1000.0);
+    nav.fuse_gps(0, &fix_at(Vector3::zeros(), Vector3::zeros()));
+    nav.fuse_compass(&MagField {
+        field_gauss: [0.2, 0.0, 0.45],
+    });
+    nav.initialise(0, &level_biases());
+    let field = nav.earth_field_ned;
+    let reference = nav.baro_reference_mbar();
+    assert!(field.is_some() && reference == Some(1000.0));
+    // In the air, after a stall: a fix (1 s latency) of a helicopter at 5 m/s north, and a
+    // compass read while tilted — which would teach it a wrong field.
+    let vel = Vector3::new(5.0, 0.0, 0.0);
+    let t_arrival = 10_000_000;
+    nav.fuse_gps(t_arrival, &fix_at(Vector3::new(50.0, 0.0, -20.0), vel));
+    nav.fuse_compass(&MagField {
+        field_gauss: [0.0, 0.2, 0.45],
+    });
+    nav.fuse_baro(990.0);
+    let t_us = t_arrival + 200_000;
+    nav.initialise_in_air(t_us, &level_biases(), Some(vel));
+    assert_eq!(nav.earth_field_ned, field);
+    assert_eq!(nav.baro_reference_mbar(), reference);
+    // Valid a latency before it arrived, 0.2 s before now: 1.2 s along at 5 m/s.
+    let pos = nav.state().map(|s| s.pos_ned_m).unwrap_or_default();
+    assert!((pos.x - 56.0).abs() < 1e-6, "{pos:?}");
+    assert!((pos.z + 20.0).abs() < 1e-6, "{pos:?}");
 }

@@ -66,10 +66,11 @@ impl Navigator {
         let gps_pos = Vector3::from(origin.to_ned(fix.lat_deg, fix.lon_deg, fix.alt_m));
         let gps_vel = Vector3::from(fix.vel_ned_mps);
         self.last_gps_ned = Some(gps_pos);
+        let t_valid = t_arrival_us.saturating_sub(seconds_to_us(self.config.gps_latency_s));
+        self.last_gps_valid_us = Some(t_valid);
         if self.state.is_none() {
             return; // before initialisation a fix only sets the origin and the start position
         }
-        let t_valid = t_arrival_us.saturating_sub(seconds_to_us(self.config.gps_latency_s));
         // Roll back to the last propagation at or before the time of validity: restore the
         // state and covariance from just before the first propagation after it.
         // Roll back to the last propagation at or before the time of validity: restore the

@@ -73,21 +73,60 @@ impl Navigator {
         biases: &ImuBiases,
         vel_ned_mps: Option<Vector3<f64>>,
     ) {
+        // The earth's field learned on the skids, where the levelling was true, is kept: one
+        // learned again from a levelling in the air would bake its tilt error into every
+        // later compass reading, where the kept one lets the compass correct it.
+        // So is the altimeter's reference, set on the ground: a mean of the pressures read
+        // in flight, placed at a fix's height, is no reference at all.
+        let earth_field = self.earth_field_ned;
+        let baro_reference = self
+            .baro_reference_mbar
+            .map(|p| (p, self.baro_reference_z_m));
         self.initialise(t_us, biases);
+        if let Some(field) = earth_field {
+            self.earth_field_ned = Some(field);
+        }
+        if let Some((p_mbar, z_m)) = baro_reference {
+            self.baro_reference_mbar = Some(p_mbar);
+            self.baro_reference_z_m = z_m;
+        }
+        let fix_valid_us = self.last_gps_valid_us;
         if let Some(state) = self.state.as_mut() {
             if let Some(v) = vel_ned_mps {
                 state.vel_ned_mps = v;
+                // The fix placed the helicopter where it was a latency ago; moving, it is
+                // that far along its velocity now.
+                if let Some(valid_us) = fix_valid_us {
+                    state.pos_ned_m += v * seconds_between(valid_us, t_us);
+                }
             }
             state.accel_bias_mps2 = Vector3::zeros();
         }
-        let tilt = IN_AIR_TILT_SIGMA_RAD * IN_AIR_TILT_SIGMA_RAD;
-        for i in ix::ATT..ix::ATT.saturating_add(2) {
-            if let Some(x) = self.cov.get_mut((i, i)) {
-                *x = x.max(tilt);
+        // In the air nothing is at rest or exactly placed: the attitude as uncertain as a
+        // levelling under acceleration, the velocity and position as a fix a latency old.
+        let blocks = [
+            (ix::ATT, IN_AIR_TILT_SIGMA_RAD),
+            (ix::VEL, IN_AIR_VEL_SIGMA_MPS),
+            (ix::POS, IN_AIR_POS_SIGMA_M),
+        ];
+        for (offset, sigma) in blocks {
+            for i in offset..offset.saturating_add(3) {
+                if let Some(x) = self.cov.get_mut((i, i)) {
+                    *x = x.max(sigma * sigma);
+                }
             }
         }
     }
 }
 
-/// How uncertain roll and pitch are after a levelling in the air (rad): 10 deg.
-pub const IN_AIR_TILT_SIGMA_RAD: f64 = 0.17;
+/// How uncertain the attitude is after a levelling in the air (rad): 20 deg — the
+/// accelerometers of a helicopter that is speeding up or slowing down lean with it, and the
+/// heading, tilt-compensated with that levelling, errs with it.
+pub const IN_AIR_TILT_SIGMA_RAD: f64 = 0.35;
+
+/// How uncertain the velocity is after a start in the air (m/s): a fix a latency old, of a
+/// helicopter that may have been braking or speeding up since.
+pub const IN_AIR_VEL_SIGMA_MPS: f64 = 2.0;
+
+/// How uncertain the position is after a start in the air (m).
+pub const IN_AIR_POS_SIGMA_M: f64 = 5.0;
