@@ -19,7 +19,6 @@
 
 use std::ffi::OsString;
 use std::io::{BufRead, BufReader, Write};
-use std::os::unix::net::{UnixListener, UnixStream};
 use std::os::unix::process::{CommandExt, ExitStatusExt};
 use std::path::PathBuf;
 use std::process::{Command, ExitStatus, Stdio};
@@ -313,20 +312,27 @@ impl Bootstrap {
     /// Listens on the control socket and serves until `quit`.
     pub fn run(mut self) -> Result<(), VehicleError> {
         let socket = &self.config.socket;
-        if socket.exists() {
-            // A stale socket from a bootstrap that died; a live one would answer.
-            if UnixStream::connect(socket).is_ok() {
+        let listener = match crate::control_socket::bind(socket) {
+            Ok(Some(listener)) => listener,
+            Ok(None) => {
                 return Err(VehicleError::Socket {
                     path: socket.clone(),
                     source: None,
                 });
             }
-            let _ = std::fs::remove_file(socket);
-        }
-        let listener = UnixListener::bind(socket).map_err(|e| VehicleError::Socket {
-            path: socket.clone(),
-            source: Some(e),
-        })?;
+            Err(crate::control_socket::BindError::Io(e)) => {
+                return Err(VehicleError::Socket {
+                    path: socket.clone(),
+                    source: Some(e),
+                });
+            }
+            Err(crate::control_socket::BindError::Unsafe(why)) => {
+                return Err(VehicleError::Socket {
+                    path: socket.clone(),
+                    source: Some(std::io::Error::other(why.to_string())),
+                });
+            }
+        };
         let handle = self.requests();
         let (written_tx, written_rx) = channel();
         self.written = Some(written_rx);

@@ -17,9 +17,6 @@ use crate::ctl::{self, Request};
 use crate::devices::Devices;
 use crate::standalone::{self, DriverKind, Source};
 
-/// The control socket when none is given.
-pub const DEFAULT_SOCKET: &str = "/tmp/heli-vehicle.sock";
-
 /// Where the devices are and how the flight software is set up: shared by the bootstrap
 /// (which passes them on) and the flight process.
 #[derive(clap::Args, Clone, Debug)]
@@ -183,7 +180,7 @@ pub struct BootstrapArgs {
     #[allow(missing_docs)]
     pub flight: FlightArgs,
     /// The bootstrap's control socket.
-    #[arg(long, global = true, env = "HELI_VEHICLE_SOCKET", default_value = DEFAULT_SOCKET)]
+    #[arg(long, global = true, env = "HELI_VEHICLE_SOCKET", default_value_os_t = crate::control_socket::default_path())]
     pub socket: PathBuf,
     /// Serve the MAVLink 2 link on this address (udp:HOST:PORT; e.g. udp:0.0.0.0:14550).
     #[arg(long)]

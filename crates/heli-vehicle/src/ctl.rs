@@ -19,10 +19,13 @@ use std::fmt;
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use heli_link::vehicle::CommandOutcome;
 use heli_link::{GroundCommand, StartParameters};
+
+use crate::control_socket;
 
 /// How long a client waits for the bootstrap's reply (a Connect waits for the flight
 /// process to confirm it is up).
@@ -256,44 +259,66 @@ pub fn send(socket: &Path, request: &Request) -> Result<String, CtlError> {
 }
 
 /// Accepts control connections on the bootstrap's socket: one request line, one reply line.
+/// A peer of another user, or one past [`control_socket::MAX_CONNECTIONS`], is answered with
+/// the refusal at once and closed.
 pub fn serve(
     listener: &std::os::unix::net::UnixListener,
     bootstrap: &RequestHandle,
     written: &std::sync::mpsc::Sender<()>,
 ) {
+    let live = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
     for stream in listener.incoming() {
-        let Ok(stream) = stream else { continue };
-        // One thread a connection, with a read timeout: an idle client holds up no one.
+        let Ok(mut stream) = stream else { continue };
+        let _ = stream.set_write_timeout(Some(Duration::from_secs(1)));
+        let refusal = match control_socket::peer_allowed(&stream) {
+            Err(why) => Some(why),
+            Ok(()) if live.load(Ordering::Acquire) >= control_socket::MAX_CONNECTIONS => {
+                Some(format!(
+                    "busy: {} control connections open",
+                    control_socket::MAX_CONNECTIONS
+                ))
+            }
+            Ok(()) => None,
+        };
+        if let Some(why) = refusal {
+            let _ = writeln!(stream, "{}", Reply::refused(why).to_line());
+            continue;
+        }
         let bootstrap = bootstrap.clone();
         let written = written.clone();
-        let _ = std::thread::Builder::new()
+        let live_here = live.clone();
+        live.fetch_add(1, Ordering::AcqRel);
+        let spawned = std::thread::Builder::new()
             .name("ctl-conn".into())
-            .spawn(move || serve_one(stream, &bootstrap, &written));
+            .spawn(move || {
+                serve_one(stream, &bootstrap, &written);
+                live_here.fetch_sub(1, Ordering::AcqRel);
+            });
+        if spawned.is_err() {
+            live.fetch_sub(1, Ordering::AcqRel);
+        }
     }
 }
 
-/// One control connection: one request line, one reply line.
+/// One control connection: one request line (bounded in length and in time), one reply
+/// line — for every line, a malformed one included.
 fn serve_one(
     mut stream: UnixStream,
     bootstrap: &RequestHandle,
     written: &std::sync::mpsc::Sender<()>,
 ) {
-    let _ = stream.set_read_timeout(Some(Duration::from_secs(2)));
-    let mut line = String::new();
-    let read = stream
-        .try_clone()
-        .map(BufReader::new)
-        .and_then(|mut r| r.read_line(&mut line));
-    if read.is_err() {
-        return;
-    }
-    let reply = match Request::parse(&line) {
+    let line = control_socket::read_line(
+        &mut stream,
+        std::time::Instant::now(),
+        control_socket::REQUEST_DEADLINE,
+    );
+    let reply = match line.and_then(|l| Request::parse(&l).map_err(|e| e.to_string())) {
         // The reply may wait for the flight process (connect, stop).
         Ok(request) => bootstrap
             .send(request)
             .recv()
             .unwrap_or_else(|_| Reply::refused("the bootstrap is ending")),
-        Err(e) => Reply::refused(e.to_string()),
+        Err(why) => Reply::refused(why),
     };
     let _ = writeln!(stream, "{}", reply.to_line());
     let _ = stream.flush();

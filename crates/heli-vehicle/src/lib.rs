@@ -46,6 +46,7 @@ pub mod adopt;
 pub mod bootstrap;
 pub mod cli;
 pub mod compass_file;
+pub mod control_socket;
 pub mod ctl;
 pub mod devices;
 pub mod error;
