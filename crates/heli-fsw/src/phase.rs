@@ -96,6 +96,18 @@ impl Phase {
         }
     }
 
+    /// True in the roll itself (not its run-up, pull-up or recovery): where the helicopter
+    /// may be on its side or inverted.
+    pub fn rolling(&self) -> bool {
+        matches!(
+            self,
+            Phase::Maneuver {
+                stage: RollStage::Rolling { .. },
+                ..
+            }
+        )
+    }
+
     /// Short name for displays and logs.
     pub fn name(&self) -> &'static str {
         match self {

@@ -64,7 +64,7 @@ use heli_types::{Device, FlightMode, Plan};
 use nalgebra::Vector3;
 
 use crate::health::Health;
-use crate::phase::{Phase, RollStage};
+use crate::phase::Phase;
 use crate::streams::Stamped;
 use crate::streams::{BaroRecord, CompassRecord, Record};
 use aids::Aiding;
@@ -82,6 +82,7 @@ use watchdog::WATCHDOG_PERIOD_US;
 #[cfg(test)]
 use {
     crate::health::HealthState,
+    crate::phase::RollStage,
     heli_control::{Target, augmented_controls, manual_with_yaw_damping, rolling_controls},
     heli_nav::NavState,
     heli_types::{AugmentedMode, Leg},
@@ -434,13 +435,7 @@ impl FlightCore {
         }
         // A roll under way is finished first: the accelerometers of a rolling helicopter
         // say nothing of which way is up.
-        if matches!(
-            self.seq.phase,
-            Phase::Maneuver {
-                stage: RollStage::Rolling { .. },
-                ..
-            }
-        ) {
+        if self.seq.phase.rolling() {
             return;
         }
         if let Some(warm) = self.warm_start() {
@@ -467,14 +462,7 @@ impl FlightCore {
             Input::DeviceFailed(device) => self.devices.failed(device, now_us, out),
             Input::Timer => {
                 self.devices.check(now_us, out);
-                let rolling = matches!(
-                    self.seq.phase,
-                    Phase::Maneuver {
-                        stage: RollStage::Rolling { .. },
-                        ..
-                    }
-                );
-                let fires_to_invalid = if rolling {
+                let fires_to_invalid = if self.seq.phase.rolling() {
                     crate::health::IMU_FIRES_TO_INVALID_IN_ROLL
                 } else {
                     crate::health::IMU_FIRES_TO_INVALID

@@ -23,7 +23,7 @@ use heli_power::{FuelGauge, GaugeConfig, GaugeState, Level, PowerSource, Reading
 
 use super::event::CoreEvent;
 use super::{Action, Stamped};
-use crate::phase::{Phase, RollStage};
+use crate::phase::Phase;
 
 pub use super::event::Battery;
 
@@ -236,15 +236,8 @@ impl Power {
     /// where it meant to (the level is taken as acted on).
     pub fn failsafe(&mut self, phase: &Phase, airborne_once: bool) -> Option<Failsafe> {
         let worst = self.worst();
-        let rolling = matches!(
-            phase,
-            Phase::Maneuver {
-                stage: RollStage::Rolling { .. },
-                ..
-            }
-        );
         if worst <= self.acted
-            || rolling
+            || phase.rolling()
             || !airborne_once
             || !matches!(
                 phase,

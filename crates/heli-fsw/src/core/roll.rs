@@ -33,6 +33,29 @@ pub enum RollStep {
     NextLeg(Option<Phase>),
 }
 
+/// The angle turned after `dt_s` more at the body roll rate `roll_rate_rps`, counted in the
+/// commanded direction, and how the roll ends there, if it does: turned all the way round
+/// less the exit lead, or given up after twice its nominal time.
+fn turn(
+    g: &RollGains,
+    angle_rad: f64,
+    roll_rate_rps: f64,
+    since_us: u64,
+    now_us: u64,
+    dt_s: f64,
+) -> (f64, Option<RollEnd>) {
+    let angle_rad = angle_rad + roll_rate_rps * g.rate_cmd_rps.signum() * dt_s;
+    let nominal_s = 2.0 * core::f64::consts::PI / g.rate_cmd_rps.abs().max(0.5);
+    let end = if angle_rad >= 2.0 * core::f64::consts::PI - g.exit_lead_rad {
+        Some(RollEnd::Completed)
+    } else if seconds_between(since_us, now_us) > 2.0 * nominal_s {
+        Some(RollEnd::Abandoned)
+    } else {
+        None
+    };
+    (angle_rad, end)
+}
+
 /// How a roll the estimate is gone from goes on ([`blind_step`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum BlindRoll {
@@ -71,17 +94,13 @@ pub fn blind_step(
     if angle_rad < BLIND_STOP_BEFORE_RAD {
         return BlindRoll::Stopped;
     }
-    let rate_rps = roll_rate_rps.map_or(g.rate_cmd_rps.abs(), |p| p * g.rate_cmd_rps.signum());
-    let angle_rad = angle_rad + rate_rps * dt_s;
-    let nominal_s = 2.0 * core::f64::consts::PI / g.rate_cmd_rps.abs().max(0.5);
-    let turned = angle_rad >= 2.0 * core::f64::consts::PI - g.exit_lead_rad;
-    if turned || seconds_between(since_us, now_us) > 2.0 * nominal_s {
-        BlindRoll::Finished
-    } else {
-        BlindRoll::Rolling(RollStage::Rolling {
+    let rate_rps = roll_rate_rps.unwrap_or(g.rate_cmd_rps);
+    match turn(g, angle_rad, rate_rps, since_us, now_us, dt_s) {
+        (_, Some(_)) => BlindRoll::Finished,
+        (angle_rad, None) => BlindRoll::Rolling(RollStage::Rolling {
             angle_rad,
             since_us,
-        })
+        }),
     }
 }
 
@@ -142,15 +161,8 @@ pub fn step(
         } => {
             // Turned in the commanded direction; a roll that takes more than twice its
             // nominal time is given up and the trim controller takes over.
-            let angle_rad = angle_rad + est.rate_body_rps.x * g.rate_cmd_rps.signum() * dt_s;
-            let nominal_s = 2.0 * core::f64::consts::PI / g.rate_cmd_rps.abs().max(0.5);
-            let turned = angle_rad >= 2.0 * core::f64::consts::PI - g.exit_lead_rad;
-            if turned || seconds_between(since_us, now_us) > 2.0 * nominal_s {
-                let end = if turned {
-                    RollEnd::Completed
-                } else {
-                    RollEnd::Abandoned
-                };
+            let (angle_rad, end) = turn(g, angle_rad, est.rate_body_rps.x, since_us, now_us, dt_s);
+            if let Some(end) = end {
                 // Back on the trim trajectory from here, at this height.
                 let target = Target {
                     pos_ned_m: est.pos_ned_m,

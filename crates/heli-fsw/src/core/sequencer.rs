@@ -386,13 +386,7 @@ impl Sequencer {
             } = self.phase
         {
             let next = self.maneuver(crew, est, now_us, dt_s, target, stage, rolls_done, out);
-            if matches!(
-                next,
-                Phase::Maneuver {
-                    stage: RollStage::Rolling { .. },
-                    ..
-                }
-            ) {
+            if next.rolling() {
                 return next;
             }
             // Upright again: the rules below take over from the maneuver.

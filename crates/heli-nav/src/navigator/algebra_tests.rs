@@ -362,7 +362,7 @@ fn started_in_the_air_it_moves_at_the_gps_velocity_with_roll_and_pitch_uncertain
     assert_eq!(s.accel_bias_mps2, Vector3::zeros());
     // The attitude (heading too: tilt-compensated with that levelling), the velocity and
     // the position uncertain as in the air, not as on the skids.
-    let tilt = reset::IN_AIR_TILT_SIGMA_RAD * reset::IN_AIR_TILT_SIGMA_RAD;
+    let tilt = reset::IN_AIR_ATTITUDE_SIGMA_RAD * reset::IN_AIR_ATTITUDE_SIGMA_RAD;
     assert!(tilt > c.initial_heading_sigma_rad.powi(2));
     for i in 0..3 {
         assert_eq!(nav.cov[(ix::ATT + i, ix::ATT + i)], tilt);

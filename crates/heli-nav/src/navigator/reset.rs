@@ -64,9 +64,11 @@ impl Navigator {
     /// Starts the estimate in the air (a flight process started again in flight): as
     /// [`Navigator::initialise`], but moving at the GPS's velocity `vel_ned_mps` if a fix
     /// gave one, with no accelerometer bias taken from the mean specific force (in the air it
-    /// holds the helicopter's acceleration, not only gravity), and with roll and pitch as
-    /// uncertain as [`IN_AIR_TILT_SIGMA_RAD`] so that the GPS corrects a levelling taken
-    /// while manoeuvring.
+    /// holds the helicopter's acceleration, not only gravity), placed where the last fix
+    /// leads after its latency, keeping the earth's field and the altimeter reference learned
+    /// on the ground, and with the attitude, velocity and position as uncertain as
+    /// [`IN_AIR_ATTITUDE_SIGMA_RAD`], [`IN_AIR_VEL_SIGMA_MPS`] and [`IN_AIR_POS_SIGMA_M`] so
+    /// that the GPS corrects a levelling taken while manoeuvring.
     pub fn initialise_in_air(
         &mut self,
         t_us: u64,
@@ -105,7 +107,7 @@ impl Navigator {
         // In the air nothing is at rest or exactly placed: the attitude as uncertain as a
         // levelling under acceleration, the velocity and position as a fix a latency old.
         let blocks = [
-            (ix::ATT, IN_AIR_TILT_SIGMA_RAD),
+            (ix::ATT, IN_AIR_ATTITUDE_SIGMA_RAD),
             (ix::VEL, IN_AIR_VEL_SIGMA_MPS),
             (ix::POS, IN_AIR_POS_SIGMA_M),
         ];
@@ -122,7 +124,7 @@ impl Navigator {
 /// How uncertain the attitude is after a levelling in the air (rad): 20 deg — the
 /// accelerometers of a helicopter that is speeding up or slowing down lean with it, and the
 /// heading, tilt-compensated with that levelling, errs with it.
-pub const IN_AIR_TILT_SIGMA_RAD: f64 = 0.35;
+pub const IN_AIR_ATTITUDE_SIGMA_RAD: f64 = 0.35;
 
 /// How uncertain the velocity is after a start in the air (m/s): a fix a latency old, of a
 /// helicopter that may have been braking or speeding up since.
