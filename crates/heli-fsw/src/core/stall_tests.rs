@@ -3,7 +3,7 @@
 //! the air that starts the estimate again when the IMU returns.
 
 use super::engine_tests::{fly, hovering};
-use super::tests::{fly_for, raised, uplink};
+use super::tests::{fly_for, gps_fix, raised, still, uplink};
 use super::*;
 
 /// `seconds` with no device at all (the whole HILSim stopped): only the watchdog runs.
@@ -269,4 +269,31 @@ fn a_roll_blinded_before_a_quarter_turn_is_stopped_at_once() {
         last.is_some_and(|c| c.aileron == 0.0 && c.elevator == 0.0),
         "{last:?}"
     );
+}
+
+#[test]
+fn the_estimate_started_again_by_an_alignment_in_the_air_keeps_the_invariants() {
+    let (mut core, mut out, mut t) = holding();
+    stall(&mut core, &mut out, &mut t, 1.0);
+    assert!(!core.estimate_valid());
+    let mut checker = crate::invariants::Invariants::new(&core, core.config.watchdog_us);
+    let mut aligned = false;
+    let end = t + 3_000_000;
+    while t < end && !aligned {
+        t += 10_000;
+        let mut inputs = vec![Input::Imu(still())];
+        if t.is_multiple_of(200_000) {
+            inputs.push(Input::Gps(GpsNav {
+                alt_m: gps_fix(8).alt_m + 8.0,
+                ..gps_fix(8)
+            }));
+        }
+        for input in inputs {
+            let mut actions = Vec::new();
+            core.handle(input, t, &mut actions);
+            aligned |= raised(&actions, CoreEvent::AlignedInAir { gps: true });
+            assert_eq!(checker.check(&core, t, &actions), Ok(()), "t = {t}");
+        }
+    }
+    assert!(aligned && core.estimate_valid());
 }
