@@ -297,3 +297,32 @@ fn the_estimate_started_again_by_an_alignment_in_the_air_keeps_the_invariants() 
     }
     assert!(aligned && core.estimate_valid());
 }
+
+#[test]
+fn after_a_stall_only_a_fix_that_came_while_aligning_places_the_helicopter() {
+    let (mut core, mut out, mut t) = holding();
+    stall(&mut core, &mut out, &mut t, 1.0);
+    out.clear();
+    // The IMU back, no fix since the one from before the stall: past the accelerometers'
+    // second it still waits for a fix.
+    let imu_only = |core: &mut FlightCore, out: &mut Vec<Action>, t: &mut u64, seconds: f64| {
+        let end = *t + (seconds * 1e6) as u64;
+        while *t < end {
+            *t += 10_000;
+            core.handle(Input::Imu(still()), *t, out);
+        }
+    };
+    imu_only(&mut core, &mut out, &mut t, 1.5);
+    assert!(core.aligning(), "aligned on the fix from before the stall");
+    // A fix now: aligned on it at the next sample.
+    core.handle(
+        Input::Gps(GpsNav {
+            alt_m: gps_fix(8).alt_m + 8.0,
+            ..gps_fix(8)
+        }),
+        t,
+        &mut out,
+    );
+    imu_only(&mut core, &mut out, &mut t, 0.02);
+    assert!(raised(&out, CoreEvent::AlignedInAir { gps: true }));
+}
