@@ -326,3 +326,70 @@ fn after_a_stall_only_a_fix_that_came_while_aligning_places_the_helicopter() {
     imu_only(&mut core, &mut out, &mut t, 0.02);
     assert!(raised(&out, CoreEvent::AlignedInAir { gps: true }));
 }
+
+#[test]
+fn a_roll_finished_blind_counts_the_gyro_less_its_bias() {
+    // A process started again in the air with a large roll-gyro bias, aligned, then blinded
+    // in a roll: when the IMU speaks again the roll goes on at the gyro's rate less that bias.
+    let bias_x = 0.3;
+    let warm = WarmStart {
+        gyro_bias_rps: [bias_x, 0.0, 0.0],
+        origin: None,
+        home_ned_m: Some([0.0, 0.0, 0.0]),
+        airborne: true,
+        trim: None,
+    };
+    let mut core = FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm);
+    let mut out = Vec::new();
+    let biased = |p: f64| ImuRepr {
+        rate_rps: [p + bias_x, 0.0, 0.0],
+        ..still()
+    };
+    let mut t = 0;
+    core.start(0);
+    core.handle(Input::Gps(gps_fix(8)), 0, &mut out);
+    while core.aligning() && t < 5_000_000 {
+        t += 10_000;
+        core.handle(Input::Imu(biased(0.0)), t, &mut out);
+    }
+    assert!(core.estimate_valid(), "aligned");
+    let (mut core, mut out, mut t) = {
+        let target = Target::hold(Vector3::zeros(), 0.0);
+        core.seq.params.plan = Plan::new(&[Leg::Rolls {
+            count: 1,
+            speed_mps: 5.0,
+        }])
+        .unwrap_or_else(|e| panic!("{e}"));
+        core.seq.phase = Phase::Maneuver {
+            target,
+            stage: RollStage::Rolling {
+                angle_rad: 3.0,
+                since_us: t,
+            },
+            rolls_done: 0,
+        };
+        (core, out, t)
+    };
+    stall(&mut core, &mut out, &mut t, 0.1);
+    assert!(!core.estimate_valid());
+    let angle = |core: &FlightCore| match core.phase() {
+        Phase::Maneuver {
+            stage: RollStage::Rolling { angle_rad, .. },
+            ..
+        } => angle_rad,
+        other => panic!("{other:?}"),
+    };
+    // Real samples turning at 1 rad/s: the first control step after the stall spans the
+    // gap; the next is 20 ms.
+    for _ in 0..2 {
+        t += 10_000;
+        core.handle(Input::Imu(biased(1.0)), t, &mut out);
+    }
+    let before = angle(&core);
+    for _ in 0..2 {
+        t += 10_000;
+        core.handle(Input::Imu(biased(1.0)), t, &mut out);
+    }
+    let turned = angle(&core) - before;
+    assert!((turned - 1.0 * 0.02).abs() < 1e-9, "{turned} rad in a step");
+}
