@@ -34,10 +34,20 @@ pub fn effective_uid() -> u32 {
 /// Where the control socket is when none is given: `$XDG_RUNTIME_DIR/heli/vehicle.sock`,
 /// `/run/heli/vehicle.sock` for root, else `<temporary directory>/heli-<uid>/vehicle.sock`.
 pub fn default_path() -> PathBuf {
-    let dir = match std::env::var_os("XDG_RUNTIME_DIR").filter(|d| !d.is_empty()) {
+    socket_path(
+        std::env::var_os("XDG_RUNTIME_DIR"),
+        effective_uid(),
+        &std::env::temp_dir(),
+    )
+}
+
+/// [`default_path`] for a runtime directory (`XDG_RUNTIME_DIR`, if set), a user and a
+/// temporary directory.
+fn socket_path(runtime_dir: Option<std::ffi::OsString>, uid: u32, temp_dir: &Path) -> PathBuf {
+    let dir = match runtime_dir.filter(|d| !d.is_empty()) {
         Some(runtime) => PathBuf::from(runtime).join("heli"),
-        None if effective_uid() == 0 => PathBuf::from("/run/heli"),
-        None => std::env::temp_dir().join(format!("heli-{}", effective_uid())),
+        None if uid == 0 => PathBuf::from("/run/heli"),
+        None => temp_dir.join(format!("heli-{uid}")),
     };
     dir.join(SOCKET_NAME)
 }

@@ -129,13 +129,34 @@ fn a_request_is_one_bounded_utf8_line_within_the_deadline() {
 
 #[test]
 fn the_default_is_private_to_the_user() {
-    let path = default_path();
-    assert!(path.ends_with("vehicle.sock"), "{}", path.display());
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let name = dir.display().to_string();
-    assert!(
-        name.ends_with("/heli") || name.ends_with(&format!("heli-{}", effective_uid())),
-        "{name}"
+    let tmp = Path::new("/tmp");
+    let place = |runtime: Option<&str>, uid| socket_path(runtime.map(Into::into), uid, tmp);
+    assert_eq!(
+        place(Some("/run/user/1000"), 1000),
+        PathBuf::from("/run/user/1000/heli/vehicle.sock")
+    );
+    assert_eq!(
+        place(Some("/run/user/0"), 0),
+        PathBuf::from("/run/user/0/heli/vehicle.sock")
+    );
+    assert_eq!(place(None, 0), PathBuf::from("/run/heli/vehicle.sock"));
+    assert_eq!(place(Some(""), 0), PathBuf::from("/run/heli/vehicle.sock"));
+    assert_eq!(
+        place(None, 1000),
+        PathBuf::from("/tmp/heli-1000/vehicle.sock")
+    );
+    assert_eq!(
+        place(Some(""), 1000),
+        PathBuf::from("/tmp/heli-1000/vehicle.sock")
+    );
+    // This process's own.
+    assert_eq!(
+        default_path(),
+        socket_path(
+            std::env::var_os("XDG_RUNTIME_DIR"),
+            effective_uid(),
+            &std::env::temp_dir()
+        )
     );
 }
 
