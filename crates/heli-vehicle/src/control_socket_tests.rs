@@ -236,3 +236,35 @@ fn idle_clients_hold_no_more_than_the_connection_bound_and_every_line_is_answere
     s.write_all(b"stop\n").unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(reply(&mut s), "ok nothing to stop\n");
 }
+
+#[test]
+fn a_directory_of_another_user_is_refused() {
+    // Handing a directory to another user needs root (CI runs as root).
+    if effective_uid() != 0 {
+        eprintln!("not root: cannot give a directory to another user; skipped");
+        return;
+    }
+    let dir = private_dir();
+    let theirs = dir.path().join("theirs");
+    fs::create_dir(&theirs).unwrap_or_else(|e| panic!("{e}"));
+    fs::set_permissions(&theirs, fs::Permissions::from_mode(0o700))
+        .unwrap_or_else(|e| panic!("{e}"));
+    std::os::unix::fs::chown(&theirs, Some(65534), Some(65534)).unwrap_or_else(|e| panic!("{e}"));
+    let text = match bind(&theirs.join("vehicle.sock")) {
+        Err(BindError::Unsafe(why)) => why.to_string(),
+        other => panic!("{other:?}"),
+    };
+    assert!(text.contains("belongs to uid 65534"), "{text}");
+    // A socket of another user at the path (as root we could connect; we do not replace it).
+    let path = dir.path().join("vehicle.sock");
+    let _listener = UnixListener::bind(&path).unwrap_or_else(|e| panic!("{e}"));
+    std::os::unix::fs::lchown(&path, Some(65534), Some(65534)).unwrap_or_else(|e| panic!("{e}"));
+    let text = match bind(&path) {
+        Err(BindError::Unsafe(why)) => why.to_string(),
+        other => panic!("{other:?}"),
+    };
+    assert!(
+        text.contains("belongs to uid 65534") && text.contains("not replaced"),
+        "{text}"
+    );
+}
