@@ -164,21 +164,38 @@ pub enum BindError {
 pub fn peer_allowed(stream: &UnixStream) -> Result<(), String> {
     let creds = nix::sys::socket::getsockopt(stream, nix::sys::socket::sockopt::PeerCredentials)
         .map_err(|e| format!("the peer's credentials cannot be read: {e}"))?;
-    let uid = creds.uid();
-    if uid == effective_uid() || uid == 0 {
+    may_command(creds.uid(), effective_uid())
+}
+
+/// Whether a peer of user `peer_uid` may command a vehicle running as `vehicle_uid`: the
+/// same user, or root.
+fn may_command(peer_uid: u32, vehicle_uid: u32) -> Result<(), String> {
+    if peer_uid == vehicle_uid || peer_uid == 0 {
         Ok(())
     } else {
         Err(format!(
-            "uid {uid} may not command this vehicle (it runs as uid {})",
-            effective_uid()
+            "uid {peer_uid} may not command this vehicle (it runs as uid {vehicle_uid})"
         ))
+    }
+}
+
+/// A byte stream whose reads can be given a timeout: the control connection (a fake one in
+/// tests).
+pub trait TimedRead: Read {
+    /// The next read gives up after `timeout`.
+    fn set_timeout(&mut self, timeout: Duration) -> io::Result<()>;
+}
+
+impl TimedRead for UnixStream {
+    fn set_timeout(&mut self, timeout: Duration) -> io::Result<()> {
+        self.set_read_timeout(Some(timeout))
     }
 }
 
 /// Reads one request line from `stream` within `deadline` of `started`: at most
 /// [`MAX_LINE_BYTES`], UTF-8. The error is the reply's reason.
 pub fn read_line(
-    stream: &mut UnixStream,
+    stream: &mut impl TimedRead,
     started: Instant,
     deadline: Duration,
 ) -> Result<String, String> {
@@ -192,20 +209,20 @@ pub fn read_line(
                 deadline.as_secs_f64()
             ));
         }
-        stream
-            .set_read_timeout(Some(left))
-            .map_err(|e| e.to_string())?;
+        stream.set_timeout(left).map_err(|e| e.to_string())?;
         let n = match stream.read(&mut chunk) {
             Ok(n) => n,
+            // Timed out (the deadline is checked above) or interrupted: read again.
             Err(e)
                 if matches!(
                     e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                    io::ErrorKind::WouldBlock
+                        | io::ErrorKind::TimedOut
+                        | io::ErrorKind::Interrupted
                 ) =>
             {
                 continue;
             }
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
             Err(e) => return Err(e.to_string()),
         };
         let got = chunk.get(..n).unwrap_or_default();

@@ -68,6 +68,77 @@ fn a_directory_others_may_write_in_or_a_squatted_path_is_refused() {
 }
 
 #[test]
+fn the_vehicles_user_and_root_may_command_no_one_else() {
+    assert_eq!(may_command(1000, 1000), Ok(()));
+    assert_eq!(may_command(0, 1000), Ok(()));
+    assert_eq!(may_command(0, 0), Ok(()));
+    assert_eq!(
+        may_command(1001, 1000),
+        Err("uid 1001 may not command this vehicle (it runs as uid 1000)".into())
+    );
+    assert!(may_command(1000, 0).is_err());
+}
+
+/// A connection that yields these reads in turn, then the end.
+struct Scripted(std::collections::VecDeque<io::Result<Vec<u8>>>);
+
+impl Read for Scripted {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        match self.0.pop_front() {
+            None => Ok(0),
+            Some(Err(e)) => Err(e),
+            Some(Ok(bytes)) => {
+                let n = bytes.len().min(buf.len());
+                buf[..n].copy_from_slice(&bytes[..n]);
+                Ok(n)
+            }
+        }
+    }
+}
+
+impl TimedRead for Scripted {
+    fn set_timeout(&mut self, _: Duration) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+#[test]
+fn timeouts_and_interruptions_are_read_through_and_other_errors_end_the_request() {
+    let kind = |k: io::ErrorKind| Err(io::Error::from(k));
+    let mut s = Scripted(
+        [
+            kind(io::ErrorKind::Interrupted),
+            Ok(b"st".to_vec()),
+            kind(io::ErrorKind::WouldBlock),
+            kind(io::ErrorKind::TimedOut),
+            Ok(b"atus\n".to_vec()),
+        ]
+        .into(),
+    );
+    assert_eq!(
+        read_line(&mut s, Instant::now(), REQUEST_DEADLINE),
+        Ok("status".into())
+    );
+    let mut s = Scripted([Ok(b"st".to_vec()), kind(io::ErrorKind::ConnectionReset)].into());
+    let e = read_line(&mut s, Instant::now(), REQUEST_DEADLINE);
+    assert_eq!(
+        e,
+        Err(io::Error::from(io::ErrorKind::ConnectionReset).to_string())
+    );
+    // A last line without its newline is the request; an empty one is a line too.
+    let mut s = Scripted([Ok(b"status".to_vec())].into());
+    assert_eq!(
+        read_line(&mut s, Instant::now(), REQUEST_DEADLINE),
+        Ok("status".into())
+    );
+    let mut s = Scripted([Ok(b"\n".to_vec())].into());
+    assert_eq!(
+        read_line(&mut s, Instant::now(), REQUEST_DEADLINE),
+        Ok(String::new())
+    );
+}
+
+#[test]
 fn a_peer_of_the_same_user_may_command() {
     let (a, _b) = UnixStream::pair().unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(peer_allowed(&a), Ok(()));
