@@ -94,8 +94,7 @@ fn private_directory(dir: &Path) -> Result<(), Unsafe> {
             .map_err(|e| Unsafe::Directory(dir.to_path_buf(), e))?;
     }
     let meta = fs::metadata(dir).map_err(|e| Unsafe::Directory(dir.to_path_buf(), e))?;
-    let me = effective_uid();
-    if meta.uid() != me && meta.uid() != 0 {
+    if !trusted(meta.uid(), effective_uid()) {
         return Err(Unsafe::DirectoryOpen(
             dir.to_path_buf(),
             format!("belongs to uid {}", meta.uid()),
@@ -167,16 +166,21 @@ pub fn peer_allowed(stream: &UnixStream) -> Result<(), String> {
     may_command(creds.uid(), effective_uid())
 }
 
-/// Whether a peer of user `peer_uid` may command a vehicle running as `vehicle_uid`: the
-/// same user, or root.
+/// Whether a peer of user `peer_uid` may command a vehicle running as `vehicle_uid`.
 fn may_command(peer_uid: u32, vehicle_uid: u32) -> Result<(), String> {
-    if peer_uid == vehicle_uid || peer_uid == 0 {
+    if trusted(peer_uid, vehicle_uid) {
         Ok(())
     } else {
         Err(format!(
             "uid {peer_uid} may not command this vehicle (it runs as uid {vehicle_uid})"
         ))
     }
+}
+
+/// The users a vehicle running as `vehicle_uid` trusts with its socket (who may command
+/// it, whose directory may hold it): itself and root.
+fn trusted(uid: u32, vehicle_uid: u32) -> bool {
+    uid == vehicle_uid || uid == 0
 }
 
 /// A byte stream whose reads can be given a timeout: the control connection (a fake one in
