@@ -79,6 +79,7 @@ pub fn field_day(args: &FieldDayArgs) -> Result<ExitCode> {
         options.trials.len(),
         options.out.display()
     );
+    let options_out = options.out.clone();
     let outcomes = heli_fieldday::run(&options, |o| {
         eprintln!(
             "field day: {} while {}: {} ({:.0} s)",
@@ -87,6 +88,12 @@ pub fn field_day(args: &FieldDayArgs) -> Result<ExitCode> {
             if o.pass { "pass" } else { "FAIL" },
             o.seconds
         );
+        if !o.pass {
+            eprint!(
+                "{}",
+                story(&options_out.join(format!("{}-{}", o.fault, o.phase)))
+            );
+        }
     })?;
     let report = heli_fieldday::report::table(&outcomes);
     std::fs::create_dir_all(&args.out)?;
@@ -105,4 +112,34 @@ pub fn field_day(args: &FieldDayArgs) -> Result<ExitCode> {
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// What a failed trial's processes said, for a reader who has only the console (CI keeps
+/// nothing else): the vehicle's lines less the routine late/ok notices, and the HILSim's last.
+fn story(trial_dir: &std::path::Path) -> String {
+    const VEHICLE_LINES: usize = 60;
+    const HILSIM_LINES: usize = 15;
+    let read = |name: &str| std::fs::read_to_string(trial_dir.join(name)).unwrap_or_default();
+    let said = read("said.txt");
+    let told: Vec<&str> = said
+        .lines()
+        .filter(|l| !(l.ends_with(" late") || l.ends_with(" ok")))
+        .collect();
+    let hilsim = read("hilsim.txt");
+    let hil: Vec<&str> = hilsim.lines().collect();
+    let mut text = format!(
+        "  what the vehicle said (less late/ok notices; last {VEHICLE_LINES} of {}):\n",
+        told.len()
+    );
+    for line in &told[told.len().saturating_sub(VEHICLE_LINES)..] {
+        text.push_str(&format!("    {line}\n"));
+    }
+    text.push_str(&format!(
+        "  what the HILSim said (last {HILSIM_LINES} of {}):\n",
+        hil.len()
+    ));
+    for line in &hil[hil.len().saturating_sub(HILSIM_LINES)..] {
+        text.push_str(&format!("    {line}\n"));
+    }
+    text
 }

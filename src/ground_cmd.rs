@@ -26,6 +26,10 @@ pub struct GroundArgs {
     /// The signing key file shared with the vehicle (heli link keygen).
     #[arg(long, global = true, env = "HELI_LINK_KEY")]
     key: Option<PathBuf>,
+    /// The link id this ground signs its frames on (1-255; default a random one per run, so
+    /// that grounds signing at once never look like each other's replays).
+    #[arg(long, global = true, value_parser = clap::value_parser!(u8).range(1..))]
+    link_id: Option<u8>,
     /// How long to wait for the vehicle's answer (s).
     #[arg(long, global = true, default_value_t = 30.0)]
     timeout: f64,
@@ -104,7 +108,22 @@ fn open(args: &GroundArgs, timeout: Duration) -> Result<Client> {
             heli_ground::messages::severity_word(severity)
         );
     });
-    Ok(Client::open(vehicle, key, timeout, on_text)?)
+    Ok(Client::open(
+        vehicle,
+        key,
+        link_id(args)?,
+        timeout,
+        on_text,
+    )?)
+}
+
+/// The link id to sign on: the one given, or a random one.
+fn link_id(args: &GroundArgs) -> Result<u8> {
+    match args.link_id {
+        Some(id) => Ok(id),
+        None => heli_link::setup::random_link_id()
+            .map_err(|e| anyhow::anyhow!("choosing a link id (/dev/urandom): {e}")),
+    }
 }
 
 /// Downloads log `which` to `out` with a progress bar.
@@ -282,6 +301,7 @@ fn display(args: &GroundArgs, http: SocketAddr) -> Result<ExitCode> {
             save_root: args.save_root.clone(),
             curve: heli_ground::checks::BatteryCurve::default(),
             key: load_key(args.key.as_deref())?,
+            link_id: link_id(args)?,
             packs,
             packs_totals,
         },

@@ -71,6 +71,7 @@ fn the_ground_flies_a_signed_hover_over_the_link_and_saves_its_log_by_the_final_
         "refused unsigned",
         "refused wrongly signed",
         "refused replayed",
+        "refused stamped in the future",
     ] {
         assert!(
             told.contains(kind),
@@ -90,6 +91,8 @@ fn the_ground_flies_a_signed_hover_over_the_link_and_saves_its_log_by_the_final_
         &link,
         Some(&key),
         &[
+            "--link-id",
+            "1",
             "stop",
             "--base-dir",
             &saved.display().to_string(),
@@ -154,11 +157,11 @@ fn the_ground_flies_a_signed_hover_over_the_link_and_saves_its_log_by_the_final_
 }
 
 /// Sends a signed, harmless command (a message interval) twice over, then random bytes.
-fn replay_and_garbage(link: &str, key: &Path) {
+fn replay_and_garbage(link: &str, key_path: &Path) {
     use heli_link::ground::GroundLink;
     use heli_link::signing::Key;
     use mavlink::dialects::common::{COMMAND_LONG_DATA, MavCmd};
-    let key = Key::from_text(&std::fs::read_to_string(key).unwrap()).unwrap();
+    let key = Key::from_text(&std::fs::read_to_string(key_path).unwrap()).unwrap();
     let addr = link.trim_start_matches("udp:");
     let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let mut g = GroundLink::new(Some(key));
@@ -178,6 +181,22 @@ fn replay_and_garbage(link: &str, key: &Path) {
     socket.send_to(&frame, addr).unwrap();
     std::thread::sleep(Duration::from_millis(200));
     socket.send_to(&frame, addr).unwrap();
+    // A ground whose clock is an hour fast, on link 1: refused, it must lock out no one (the
+    // operator's Stop below signs on link 1 too).
+    let mut fast = GroundLink::on_link(
+        Some(Key::from_text(&std::fs::read_to_string(key_path).unwrap()).unwrap()),
+        1,
+    );
+    let ahead = fast.command_frame(
+        COMMAND_LONG_DATA {
+            command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+            param1: 30.0,
+            param2: 0.0,
+            ..Default::default()
+        },
+        now + 3_600_000_000,
+    );
+    socket.send_to(&ahead, addr).unwrap();
     let mut x = 0x9e37_79b9_u32;
     for len in [0usize, 1, 7, 64, 280, 1400] {
         let bytes: Vec<u8> = (0..len)

@@ -42,6 +42,8 @@ pub enum ClientError {
         seconds: f64,
         /// Whether any heartbeat came (without one, the link itself is in doubt).
         heard: bool,
+        /// The vehicle's word on refusing this ground's frames, which names the cause.
+        refused: Option<String>,
     },
     /// The vehicle has no parameter of that name.
     NoSuchParameter(String),
@@ -68,15 +70,22 @@ impl fmt::Display for ClientError {
                 vehicle,
                 seconds,
                 heard,
-            } => write!(
-                f,
-                "{what}: no answer from the vehicle at {vehicle} within {seconds:.0} s{}",
-                if *heard {
-                    ""
-                } else {
-                    " (no heartbeat either: is `heli vehicle --link` running there, with the same key?)"
-                }
-            ),
+                refused,
+            } => match refused {
+                Some(refusal) => write!(
+                    f,
+                    "{what}: the vehicle at {vehicle} refused this ground's frames: {refusal}"
+                ),
+                None => write!(
+                    f,
+                    "{what}: no answer from the vehicle at {vehicle} within {seconds:.0} s{}",
+                    if *heard {
+                        ""
+                    } else {
+                        " (no heartbeat either: is `heli vehicle --link` running there, with the same key?)"
+                    }
+                ),
+            },
             ClientError::NoSuchParameter(name) => {
                 write!(f, "param {name}: the vehicle has no such parameter")
             }
@@ -104,11 +113,12 @@ pub struct Client {
 }
 
 impl Client {
-    /// A session with the vehicle at `vehicle`, signed with `key`; each request waits up to
+    /// A session with the vehicle at `vehicle`, signed with `key` on `link_id`; each request waits up to
     /// `timeout`, and the vehicle's status texts go to `on_text` as they arrive.
     pub fn open(
         vehicle: SocketAddr,
         key: Option<Key>,
+        link_id: u8,
         timeout: Duration,
         on_text: TextSink,
     ) -> Result<Self, ClientError> {
@@ -126,7 +136,7 @@ impl Client {
         Ok(Self {
             socket,
             vehicle,
-            link: GroundLink::new(key),
+            link: GroundLink::on_link(key, link_id),
             timeout,
             last_heartbeat: None,
             texts_shown: 0,
@@ -144,6 +154,7 @@ impl Client {
             vehicle: self.vehicle,
             seconds: self.timeout.as_secs_f64(),
             heard: self.link.heartbeat.is_some(),
+            refused: self.link.refusal_of_ours().map(str::to_string),
         }
     }
 

@@ -41,6 +41,9 @@ pub struct StationConfig {
     pub curve: BatteryCurve,
     /// The link's signing key.
     pub key: Option<Key>,
+    /// The link id this station signs on (its own: another ground's frames are another
+    /// stream).
+    pub link_id: u8,
     /// The packs' logbook (`--packs FILE`; empty without one).
     pub packs: crate::pack_log::PackLog,
     /// Where the packs' totals are saved.
@@ -208,7 +211,7 @@ impl Station {
     /// A station on a link signed with the configuration's key.
     pub fn new(config: StationConfig) -> Self {
         Self {
-            link: GroundLink::new(config.key.clone()),
+            link: GroundLink::on_link(config.key.clone(), config.link_id),
             packs: config.packs.clone(),
             writes: Vec::new(),
             config,

@@ -91,6 +91,7 @@ impl Bench {
                 save_root: PathBuf::from("/ground"),
                 curve: BatteryCurve::default(),
                 key: None,
+                link_id: 1,
                 packs: crate::pack_log::PackLog::parse(
                     "[[pack]]\nname = \"F1\"\nrole = \"flight\"\n[[pack]]\nname = \"G\"\nrole = \"ground\"\n",
                     None,

@@ -117,6 +117,15 @@ impl RawFrame {
         self.bytes.get(2).is_some_and(|f| f & IFLAG_SIGNED != 0)
     }
 
+    /// The link id of a signed frame's signature (`None` unsigned).
+    pub fn signing_link_id(&self) -> Option<u8> {
+        if !self.is_signed() {
+            return None;
+        }
+        let at = self.bytes.len().checked_sub(SIGNATURE_LEN)?;
+        self.bytes.get(at).copied()
+    }
+
     /// The message the frame carries.
     pub fn message(&self) -> Result<MavMessage, FrameError> {
         let len = usize::from(self.bytes.get(1).copied().unwrap_or(0));

@@ -115,6 +115,7 @@ impl Download {
 
 /// The ground's link.
 pub struct GroundLink {
+    link_id: u8,
     out: crate::outgoing::Outgoing,
     verifier: Verifier,
     /// The vehicle's last heartbeat and when it came (µs).
@@ -152,10 +153,22 @@ pub struct GroundLink {
 pub const TEXT_JOIN_US: u64 = 1_000_000;
 
 impl GroundLink {
-    /// A ground link signing with `key` (and refusing what the vehicle did not sign with it).
+    /// A ground link signing with `key` on link id 1 (and refusing what the vehicle did not
+    /// sign with it).
     pub fn new(key: Option<Key>) -> Self {
+        Self::on_link(key, 1)
+    }
+
+    /// A ground link signing with `key` on `link_id`: each ground process its own, so that
+    /// two grounds signing at once are two streams, not one that looks replayed (the vehicle
+    /// signs on link 0).
+    pub fn on_link(key: Option<Key>, link_id: u8) -> Self {
         Self {
-            out: crate::outgoing::Outgoing::new(GROUND, key.clone().map(|k| Signer::new(k, 1))),
+            link_id,
+            out: crate::outgoing::Outgoing::new(
+                GROUND,
+                key.clone().map(|k| Signer::new(k, link_id)),
+            ),
             verifier: Verifier::new(key),
             heartbeat: None,
             latest: BTreeMap::new(),
@@ -171,6 +184,25 @@ impl GroundLink {
             partial_text: None,
             mission: crate::mission::MissionClient::default(),
         }
+    }
+
+    /// The link id this ground signs on.
+    pub fn link_id(&self) -> u8 {
+        self.link_id
+    }
+
+    /// The vehicle's newest word on refusing this ground's own frames (its signing stream:
+    /// system, component and link id), which names the cause: the key, or a clock.
+    pub fn refusal_of_ours(&self) -> Option<&str> {
+        let ours = format!(
+            "from {}/{} link {} ",
+            GROUND.system, GROUND.component, self.link_id
+        );
+        self.texts
+            .iter()
+            .rev()
+            .map(|(_, t)| t.as_str())
+            .find(|t| t.starts_with("refused ") && t.contains(&ours))
     }
 
     /// The bytes of `message`, signed if a key is set.

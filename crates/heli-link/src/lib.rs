@@ -41,3 +41,6 @@ pub mod telemetry;
 pub mod vehicle;
 
 pub use messages::{FinalParameters, GroundCommand, LinkError, StartParameters};
+
+#[cfg(test)]
+mod clock_tests;

@@ -130,6 +130,20 @@ pub fn load_key(path: Option<&Path>) -> Result<Option<Key>, SetupError> {
     Ok(Some(key))
 }
 
+/// A random signing link id for a ground process, 1 to 255 (`/dev/urandom`; the vehicle
+/// signs on 0): two grounds that sign at once are two streams to the vehicle, so that
+/// neither's frames look like the other's replays.
+pub fn random_link_id() -> std::io::Result<u8> {
+    let mut file = std::fs::File::open("/dev/urandom")?;
+    loop {
+        let mut byte = [0u8; 1];
+        file.read_exact(&mut byte)?;
+        if byte[0] != 0 {
+            return Ok(byte[0]);
+        }
+    }
+}
+
 /// A new random key (32 bytes of `/dev/urandom`) written to `out`, readable by its owner
 /// only; an existing file is replaced only when `force`.
 pub fn keygen(out: &Path, force: bool) -> Result<Key, SetupError> {

@@ -4,7 +4,12 @@
 //! SHA-256(key + header + payload + CRC + link id + timestamp). A receiver with a key refuses
 //! unsigned frames, frames whose signature is wrong, and frames whose timestamp is not newer
 //! than the last one of their stream (system, component, link) — a replay — or, for a stream
-//! it has not heard before, more than a minute older than its own clock.
+//! it has not heard before, more than a minute older than its own clock. Unlike the
+//! specification's receiver, it also refuses frames stamped more than a minute *ahead* of its
+//! clock: one sender whose clock is fast would otherwise move every stream's floor into the
+//! future and lock out each correctly clocked sender until the receiver restarts. A receiver
+//! whose own clock was never set (before [`CLOCK_SET_FLOOR`]: a flight computer without a
+//! real-time clock or network time) judges by the newest timestamp it accepted instead.
 //!
 //! Sans-I/O: the time comes in as an argument; the key file is read and written by the
 //! caller ([`Key::from_text`], [`Key::to_text`]).
@@ -22,6 +27,8 @@ pub const MAVLINK_EPOCH_UNIX_S: u64 = 1_420_070_400;
 /// How far a new stream's first timestamp may lag the receiver's clock (10 µs units): one
 /// minute, as the MAVLink specification says.
 pub const NEW_STREAM_WINDOW: u64 = 6_000_000;
+/// A receiver clock earlier than this (signing units: 2025-01-01 00:00:00 UTC) was never set.
+pub const CLOCK_SET_FLOOR: u64 = (1_735_689_600 - MAVLINK_EPOCH_UNIX_S) * 100_000;
 
 /// The signing timestamp (10 µs since the MAVLink epoch) of a Unix time in microseconds.
 pub fn timestamp_from_unix_us(unix_us: u64) -> u64 {
@@ -152,8 +159,11 @@ pub enum Refusal {
     BadSignature,
     /// Not newer than the last frame of its stream: a replay.
     Replayed,
-    /// A new stream's first frame, more than a minute older than the receiver's clock.
+    /// A new stream's first frame, more than a minute older than the receiver's clock (or
+    /// a command older than the vehicle's age limit).
     Stale,
+    /// Stamped more than a minute ahead of the receiver's clock.
+    Future,
 }
 
 impl Refusal {
@@ -164,6 +174,30 @@ impl Refusal {
             Refusal::BadSignature => "wrongly signed",
             Refusal::Replayed => "replayed",
             Refusal::Stale => "signed too long ago",
+            Refusal::Future => "stamped in the future",
+        }
+    }
+
+    /// Whether the frame was signed with the key (refused for its timestamp only): its sender
+    /// holds the key, and may be told why.
+    pub fn keyed(self) -> bool {
+        matches!(self, Refusal::Replayed | Refusal::Stale | Refusal::Future)
+    }
+
+    /// What the sender can do about it: the refusal's likely cause in the sender's words.
+    pub fn cause(self) -> &'static str {
+        match self {
+            Refusal::Unsigned => "this vehicle takes only signed frames: give the ground its key",
+            Refusal::BadSignature => "not signed with this vehicle's key",
+            Refusal::Replayed => {
+                "not newer than the last frame of its stream: another ground signs on the same link id, or this ground's clock went back"
+            }
+            Refusal::Stale => {
+                "stamped too long before the vehicle's clock: the ground's clock is slow, or the frame was held back"
+            }
+            Refusal::Future => {
+                "stamped more than a minute after the vehicle's clock: the ground's clock is fast, or the vehicle's is slow"
+            }
         }
     }
 }
@@ -177,8 +211,10 @@ pub struct RefusalCounts {
     pub bad_signature: u64,
     /// Replayed.
     pub replayed: u64,
-    /// Too old for a new stream.
+    /// Too old for a new stream, or a command too old to obey.
     pub stale: u64,
+    /// Stamped ahead of the receiver's clock.
+    pub future: u64,
 }
 
 impl RefusalCounts {
@@ -188,14 +224,17 @@ impl RefusalCounts {
             .saturating_add(self.bad_signature)
             .saturating_add(self.replayed)
             .saturating_add(self.stale)
+            .saturating_add(self.future)
     }
 
-    fn count(&mut self, r: Refusal) {
+    /// Counts one refusal.
+    pub fn count(&mut self, r: Refusal) {
         let c = match r {
             Refusal::Unsigned => &mut self.unsigned,
             Refusal::BadSignature => &mut self.bad_signature,
             Refusal::Replayed => &mut self.replayed,
             Refusal::Stale => &mut self.stale,
+            Refusal::Future => &mut self.future,
         };
         *c = c.saturating_add(1);
     }
@@ -223,6 +262,16 @@ impl Verifier {
     /// Whether a key is set.
     pub fn has_key(&self) -> bool {
         self.key.is_some()
+    }
+
+    /// The receiver's clock at `now` (signing units): `now` when it was set, else the newest
+    /// timestamp accepted (0 before any).
+    pub fn clock(&self, now: u64) -> u64 {
+        if now >= CLOCK_SET_FLOOR {
+            now
+        } else {
+            self.clock
+        }
     }
 
     /// Checks `frame` at the receiver's `now` (signing timestamp units); counts a refusal.
@@ -258,16 +307,19 @@ impl Verifier {
         }
         let ts = u64::from_le_bytes(ts_bytes);
         let stream = (frame.sender.system, frame.sender.component, link_id);
-        let clock = self.clock.max(now);
+        let clock = self.clock(now);
+        // A frame from the future would raise its stream's floor beyond every correctly
+        // clocked frame; with a clock never set, the first frame heard sets it.
+        if clock > 0 && ts > clock.saturating_add(NEW_STREAM_WINDOW) {
+            return Err(Refusal::Future);
+        }
         match self.streams.get(&stream) {
             Some(&last) if ts <= last => return Err(Refusal::Replayed),
             None if ts.saturating_add(NEW_STREAM_WINDOW) < clock => return Err(Refusal::Stale),
             _ => {}
         }
         self.streams.insert(stream, ts);
-        // A frame from the future does not move the clock further than a minute ahead, so
-        // one bad timestamp cannot lock out every correctly clocked sender.
-        self.clock = clock.max(ts.min(now.saturating_add(NEW_STREAM_WINDOW)));
+        self.clock = self.clock.max(ts);
         Ok(Some(ts))
     }
 }
@@ -279,7 +331,8 @@ mod tests {
     use crate::outgoing::encode;
     use mavlink::dialects::common::*;
 
-    const NOW: u64 = 300_000_000_000;
+    /// 2026-11-27, a set clock.
+    const NOW: u64 = 37_242_000_000_000;
 
     fn stop() -> MavMessage {
         MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
@@ -366,7 +419,8 @@ mod tests {
                 unsigned: 1,
                 bad_signature: 1,
                 replayed: 1,
-                stale: 1
+                stale: 1,
+                future: 0
             }
         );
     }
@@ -401,5 +455,51 @@ mod tests {
             2
         );
         assert_eq!(timestamp_from_unix_us(0), 0);
+    }
+
+    #[test]
+    fn a_frame_from_the_future_is_refused_and_a_correct_clock_still_commands() {
+        let key = Key::new([9; 32]);
+        let mut verifier = Verifier::new(Some(key.clone()));
+        // A ground whose clock is an hour fast, on the stream a correct ground also uses.
+        let mut fast = Signer::new(key.clone(), 1);
+        let hour = 360_000_000;
+        let ahead = encode(GROUND, 1, &stop(), Some((&mut fast, NOW + hour)));
+        assert_eq!(verifier.check(&frame_of(&ahead), NOW), Err(Refusal::Future));
+        assert_eq!(verifier.refused.future, 1);
+        let mut correct = Signer::new(key, 1);
+        let good = encode(GROUND, 2, &stop(), Some((&mut correct, NOW)));
+        assert!(verifier.check(&frame_of(&good), NOW).is_ok());
+        // Up to the window ahead is a clock's ordinary disagreement.
+        let slightly = encode(
+            GROUND,
+            3,
+            &stop(),
+            Some((&mut correct, NOW + NEW_STREAM_WINDOW)),
+        );
+        assert!(verifier.check(&frame_of(&slightly), NOW).is_ok());
+        assert!(Refusal::Future.cause().contains("clock is fast"));
+    }
+
+    #[test]
+    fn a_receiver_whose_clock_was_never_set_learns_it_from_the_first_frame() {
+        let key = Key::new([9; 32]);
+        let mut verifier = Verifier::new(Some(key.clone()));
+        // A flight computer booted without a real-time clock: 1970.
+        let unset = 0;
+        assert_eq!(verifier.clock(unset), 0);
+        let mut ground = Signer::new(key.clone(), 1);
+        let first = encode(GROUND, 1, &stop(), Some((&mut ground, NOW)));
+        assert!(verifier.check(&frame_of(&first), unset).is_ok());
+        assert_eq!(verifier.clock(unset), NOW);
+        assert_eq!(verifier.clock(CLOCK_SET_FLOOR), CLOCK_SET_FLOOR);
+        // Now judged by the learned clock: a year ahead of it is refused.
+        let mut fast = Signer::new(key, 2);
+        let year = 365 * 24 * 360_000_000;
+        let ahead = encode(GROUND, 2, &stop(), Some((&mut fast, NOW + year)));
+        assert_eq!(
+            verifier.check(&frame_of(&ahead), unset),
+            Err(Refusal::Future)
+        );
     }
 }

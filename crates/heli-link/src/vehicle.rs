@@ -27,8 +27,16 @@ pub const HEARTBEAT_US: u64 = 1_000_000;
 pub const LINK_LOST_AFTER_US: u64 = 5_000_000;
 /// Log packets sent per [`VehicleLink::tick`].
 pub const LOG_PACKETS_PER_TICK: usize = 40;
-/// A signed command older than this (10 µs units: 10 s) is refused as held back.
+/// A signed command or parameter write older than this (10 µs units: 10 s) is refused as
+/// held back.
 pub const COMMAND_MAX_AGE: u64 = 1_000_000;
+/// The messages that change the vehicle (commands and parameter writes): a signed one is
+/// obeyed only within [`COMMAND_MAX_AGE`] of its timestamp.
+pub const AGE_LIMITED: [u32; 3] = [
+    COMMAND_LONG_DATA::ID,
+    COMMAND_INT_DATA::ID,
+    PARAM_SET_DATA::ID,
+];
 /// A retried command (`confirmation` > 0) this soon (µs) after one finished gets its result
 /// again instead of being carried out twice.
 const RESULT_KEPT_US: u64 = 10_000_000;
@@ -114,6 +122,7 @@ pub struct VehicleLink {
     /// The last thesis command answered: which, its result, when.
     last_result: Option<(MavCmd, MavResult, u64)>,
     outbox: Vec<Vec<u8>>,
+    replies: Vec<Vec<u8>>,
     /// Counters.
     pub stats: LinkStats,
 }
@@ -142,6 +151,7 @@ impl VehicleLink {
             pending: None,
             last_result: None,
             outbox: Vec::new(),
+            replies: Vec::new(),
             stats: LinkStats::default(),
         }
     }
@@ -182,6 +192,14 @@ impl VehicleLink {
         std::mem::take(&mut self.outbox)
     }
 
+    /// The datagrams for the sender of the datagram just received, taken: a ground that
+    /// holds the key but whose frame was refused for its timestamp (its clock, or another
+    /// ground on its stream) is told why, though it is no peer; at most one answer of each
+    /// kind a second. A sender without the key is told nothing.
+    pub fn take_replies(&mut self) -> Vec<Vec<u8>> {
+        std::mem::take(&mut self.replies)
+    }
+
     /// Queues `message`.
     pub fn send(&mut self, message: &MavMessage, now_us: u64) {
         let bytes = self.out.encode(message, now_us);
@@ -192,13 +210,23 @@ impl VehicleLink {
     /// Queues a status text, cut into pieces of a STATUSTEXT's 50 bytes that join back to it
     /// exactly ([`chunks`]: after a space, or full).
     pub fn status_text(&mut self, severity: MavSeverity, text: &str, now_us: u64) {
-        for chunk in chunks(text, 50) {
-            let msg = MavMessage::STATUSTEXT(STATUSTEXT_DATA {
-                severity,
-                text: chunk.as_str().into(),
-            });
-            self.send(&msg, now_us);
-        }
+        let frames = self.status_frames(severity, text, now_us);
+        self.outbox.extend(frames);
+    }
+
+    /// A status text's frames (see [`VehicleLink::status_text`]).
+    fn status_frames(&mut self, severity: MavSeverity, text: &str, now_us: u64) -> Vec<Vec<u8>> {
+        chunks(text, 50)
+            .into_iter()
+            .map(|chunk| {
+                let msg = MavMessage::STATUSTEXT(STATUSTEXT_DATA {
+                    severity,
+                    text: chunk.as_str().into(),
+                });
+                self.stats.frames_out = self.stats.frames_out.saturating_add(1);
+                self.out.encode(&msg, now_us)
+            })
+            .collect()
     }
 
     /// Handles one datagram; returns what the runtime must act on.
@@ -230,12 +258,14 @@ impl VehicleLink {
                     continue;
                 }
             };
-            // A signed command held back and let go later (an operator's Stop delivered in
-            // the middle of the next flight) is too old to obey.
-            let held_back = signed_ts.is_some_and(|ts| ts.saturating_add(COMMAND_MAX_AGE) < now_ts)
-                && raw.message_id == COMMAND_LONG_DATA::ID;
+            // A signed command or parameter write held back and let go later (an operator's
+            // Stop delivered in the middle of the next flight; a recorded PARAM_SET sent as
+            // the first frame after a restart) is too old to obey.
+            let clock = self.verifier.clock(now_ts);
+            let held_back = signed_ts.is_some_and(|ts| ts.saturating_add(COMMAND_MAX_AGE) < clock)
+                && AGE_LIMITED.contains(&raw.message_id);
             if held_back {
-                self.verifier.refused.stale = self.verifier.refused.stale.saturating_add(1);
+                self.verifier.refused.count(Refusal::Stale);
                 self.refuse(Refusal::Stale, &raw, now_us, &mut events);
                 continue;
             }
@@ -278,14 +308,21 @@ impl VehicleLink {
             .is_none_or(|t| now_us.saturating_sub(*t) >= REFUSAL_NOTICE_US);
         if due {
             let text = format!(
-                "refused {} msg {} from {}/{} (#{})",
+                "refused {} msg {} from {}/{} link {} (#{}): {}",
                 reason.text(),
                 raw.message_id,
                 raw.sender.system,
                 raw.sender.component,
-                self.verifier.refused.total()
+                raw.signing_link_id()
+                    .map_or_else(|| "-".to_string(), |l| l.to_string()),
+                self.verifier.refused.total(),
+                reason.cause()
             );
             self.status_text(MavSeverity::MAV_SEVERITY_WARNING, &text, now_us);
+            if reason.keyed() {
+                let frames = self.status_frames(MavSeverity::MAV_SEVERITY_WARNING, &text, now_us);
+                self.replies.extend(frames);
+            }
             self.last_refusal_notice_us.insert(reason.text(), now_us);
         }
     }

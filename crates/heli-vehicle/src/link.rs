@@ -352,6 +352,10 @@ pub fn spawn(
             while let Ok((n, from)) = socket.recv_from(&mut buf) {
                 let accepted_before = link.stats.frames_in;
                 events.extend(link.receive(buf.get(..n).unwrap_or(&[]), unix_us(), &store));
+                // A key holder refused for its timestamp is told why, peer or not.
+                for reply in link.take_replies() {
+                    let _ = socket.send_to(&reply, from);
+                }
                 // Only a sender of a frame that passed the checks is sent to: a refused or
                 // garbled datagram earns its sender nothing.
                 if link.stats.frames_in > accepted_before && peers.heard(from, Instant::now()) {
