@@ -63,7 +63,9 @@ pub enum GroundAction {
         /// Flight plan the vehicle knows by name (hover, demo, rolls); its default if absent.
         plan: Option<String>,
     },
-    /// Stop; then, with the final parameters, the flight's log is saved as
+    /// Stop: ends the flight on the ground. In the air the vehicle lands first when it flies
+    /// (this waits for the flight to end on the skids), or refuses while the pilot flies.
+    /// Then, with the final parameters, the flight's log is saved as
     /// BASE_DIR/flight_SUFFIX.mcap.
     Stop {
         /// Base directory for the flight's log.
@@ -72,6 +74,13 @@ pub enum GroundAction {
         /// File suffix for the flight's log.
         #[arg(long)]
         suffix: Option<String>,
+    },
+    /// Kill: ends the flight process now, in the air too — the helicopter falls. Asks for
+    /// confirmation on a terminal; `--confirm` confirms beforehand (scripts).
+    Kill {
+        /// The operator confirms the kill (no question asked).
+        #[arg(long)]
+        confirm: bool,
     },
     /// The vehicle's heartbeat, telemetry and messages for a few seconds.
     Status {
@@ -190,6 +199,7 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
                 return outcome("stop", result);
             }
             println!("stop: accepted");
+            wait_for_the_end(&mut s, timeout)?;
             // The thesis's cleanup routine: the final parameters say where the flight's
             // log goes. The newest log on the vehicle is the flight just stopped.
             let (Some(dir), Some(suffix)) = (base_dir, suffix) else {
@@ -202,6 +212,12 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
                 &dir.join(format!("flight_{suffix}.mcap")),
             )?;
             Ok(ExitCode::SUCCESS)
+        }
+        GroundAction::Kill { confirm } => {
+            if !confirm && !confirmed_on_terminal()? {
+                bail!("kill: not confirmed; nothing sent");
+            }
+            outcome("kill", s.command(&GroundCommand::Kill)?)
         }
         GroundAction::Status { seconds } => {
             s.listen(*seconds);
@@ -313,4 +329,52 @@ fn display(args: &GroundArgs, http: SocketAddr) -> Result<ExitCode> {
     .map_err(anyhow::Error::msg)?;
     println!("ground: stopped");
     Ok(ExitCode::SUCCESS)
+}
+
+/// After an accepted Stop: a flight that lands first ends on the skids later; waits (up to
+/// `timeout`, at least two minutes: a landing from 60 m) until the bootstrap is idle.
+fn wait_for_the_end(s: &mut Client, timeout: Duration) -> Result<()> {
+    let idle = |s: &Client| {
+        s.link.heartbeat.as_ref().is_some_and(|(_, hb)| {
+            heli_link::status::VehicleStatus::from_heartbeat(hb)
+                .is_some_and(|v| v.state == heli_link::status::BootstrapState::Idle)
+        })
+    };
+    let end = std::time::Instant::now() + timeout.max(Duration::from_secs(120));
+    let mut said = false;
+    s.listen(0.5);
+    while !idle(s) {
+        if !said {
+            println!(
+                "stop: the helicopter is in the air: landing first; waiting for the flight to end on the ground"
+            );
+            said = true;
+        }
+        if std::time::Instant::now() > end {
+            bail!("stop: the flight has not ended (still landing?); its log stays on the vehicle");
+        }
+        s.listen(0.5);
+    }
+    if said {
+        println!("stop: landed; the flight ended");
+    }
+    Ok(())
+}
+
+/// Asks the operator on the terminal to type `kill`; false without a terminal.
+fn confirmed_on_terminal() -> Result<bool> {
+    use std::io::{BufRead, IsTerminal, Write};
+    if !std::io::stdin().is_terminal() {
+        eprintln!("kill: no terminal to confirm on: give --confirm");
+        return Ok(false);
+    }
+    eprint!(
+        "kill ends the flight process now, in the air too: the helicopter FALLS.\n\
+         (Stop lands it first, or is refused while the pilot flies.)\n\
+         Type 'kill' to confirm: "
+    );
+    std::io::stderr().flush()?;
+    let mut answer = String::new();
+    std::io::stdin().lock().read_line(&mut answer)?;
+    Ok(answer.trim() == "kill")
 }

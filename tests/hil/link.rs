@@ -87,6 +87,10 @@ fn the_ground_flies_a_signed_hover_over_the_link_and_saves_its_log_by_the_final_
     assert!(status.contains("ATTITUDE"), "{status}");
     let summary = hil.wait_json(Duration::from_secs(90));
     let saved = dir.path().join("ground");
+    // The simulated world ended (the helicopter may be blind in the air): the flight is
+    // killed, confirmed beforehand; the Stop that follows finds it ended and saves its log.
+    let (ok, text) = ground(&link, Some(&key), &["kill", "--confirm"]);
+    assert!(ok && text.contains("kill: accepted"), "{text}");
     let (ok, text) = ground(
         &link,
         Some(&key),

@@ -9,6 +9,7 @@ mod link;
 mod pilot;
 mod procs;
 mod replay;
+mod stop;
 mod truth;
 mod view;
 
@@ -35,7 +36,7 @@ fn the_vehicle_flies_the_hover_scenario_against_the_hilsim_in_real_time() {
     assert!(reply.starts_with("ok flying"), "{reply}");
     // The flight goes on while the HILSim runs; its truth summary decides.
     let summary = hil.wait_json(Duration::from_secs(90));
-    let reply = vehicle.ctl(&["stop"]);
+    let reply = vehicle.ctl(&["kill", "confirmed"]);
     assert!(reply.starts_with("ok stopped (exit code 0)"), "{reply}");
     let said = vehicle.output();
     vehicle.quit();
@@ -81,7 +82,7 @@ fn the_same_flight_faster_than_real_time_is_reported_not_asserted() {
     let reply = vehicle.ctl(&["start-logging", "fast", "autonomous", "hover"]);
     assert!(reply.starts_with("ok flying"), "{reply}");
     let summary = hil.wait_json(Duration::from_secs(60));
-    vehicle.ctl(&["stop"]);
+    vehicle.ctl(&["kill", "confirmed"]);
     vehicle.quit();
     eprintln!(
         "HIL hover at 4x real time: outcome {}, criteria {}, latency {}",
@@ -166,7 +167,7 @@ fn a_flight_process_that_crashes_in_the_air_is_restarted_and_holds_the_hover() {
     assert_ne!(new, old);
     // The HILSim's truth: the climb, and the hold's drift through the crash and restart.
     let summary = hil.wait_json(Duration::from_secs(60));
-    let reply = vehicle.ctl(&["stop"]);
+    let reply = vehicle.ctl(&["kill", "confirmed"]);
     assert!(reply.starts_with("ok stopped (exit code 0)"), "{reply}");
     let said = vehicle.output();
     vehicle.quit();
@@ -219,7 +220,7 @@ fn a_bootstrap_killed_in_the_air_leaves_the_flight_flying_and_a_new_one_takes_it
     again.wait_for_line("a bootstrap took the flight back", Duration::from_secs(5));
     // The HILSim's truth: the hover held to the end of the run, through both.
     let summary = hil.wait_json(Duration::from_secs(40));
-    let reply = again.ctl(&["stop"]);
+    let reply = again.ctl(&["kill", "confirmed"]);
     assert!(
         reply.starts_with("ok stopped (ended after saying stopped"),
         "{reply}"
@@ -274,7 +275,7 @@ fn a_three_second_stall_of_every_device_line_ends_in_an_alignment_and_the_hold()
     let aligned = vehicle.wait_for_line("aligned in the air", Duration::from_secs(10));
     assert!(aligned.contains("estimate running"), "{aligned}");
     let summary = hil.wait_json(Duration::from_secs(40));
-    let reply = vehicle.ctl(&["stop"]);
+    let reply = vehicle.ctl(&["kill", "confirmed"]);
     assert!(reply.starts_with("ok stopped"), "{reply}");
     let said = vehicle.output();
     vehicle.quit();

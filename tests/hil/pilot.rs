@@ -72,7 +72,7 @@ fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and
     );
     let roll = &step(&manual, "manual-roll-right", &said)["roll_change_deg"];
     assert!(roll.as_f64().unwrap() > 5.0, "{roll}");
-    vehicle.ctl(&["stop"]);
+    vehicle.ctl(&["kill", "confirmed"]);
 
     assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
     let reply = vehicle.ctl(&["start-logging", "pilot-velocity", "velocity", "hover"]);
@@ -95,7 +95,7 @@ fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and
         run_page_script_with(&ui, "pilot", &url, &[("HELI_PILOT_PHASE", "augmented")]);
     std::thread::sleep(Duration::from_millis(500));
     let flown = vehicle.output();
-    vehicle.ctl(&["stop"]);
+    vehicle.ctl(&["kill", "confirmed"]);
     vehicle.quit();
     drop(hil);
     assert!(

@@ -22,7 +22,7 @@ fn replay_to(flight: &Path, params: Option<&str>) -> serde_json::Value {
     let reply = vehicle.ctl(&["start-logging", "replayed", "autonomous", "hover"]);
     assert!(reply.starts_with("ok flying"), "{reply}");
     let report = hil.wait_json(Duration::from_secs(90));
-    vehicle.ctl(&["stop"]);
+    vehicle.ctl(&["kill", "confirmed"]);
     vehicle.quit();
     report
 }
@@ -38,7 +38,7 @@ fn a_recorded_flight_replayed_to_the_vehicle_gives_its_commands_and_a_changed_ga
     let reply = vehicle.ctl(&["start-logging", "recorded", "autonomous", "hover"]);
     assert!(reply.starts_with("ok flying"), "{reply}");
     hil.wait_json(Duration::from_secs(60));
-    vehicle.ctl(&["stop"]);
+    vehicle.ctl(&["kill", "confirmed"]);
     vehicle.quit();
     let flight = dir.path().join("flight_recorded.mcap");
 

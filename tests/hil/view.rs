@@ -24,7 +24,7 @@ fn the_truth_view_shows_the_helicopter_the_field_and_the_trail_before_and_during
     let reply = vehicle.ctl(&["start-logging", "view", "autonomous", "rolls"]);
     assert!(reply.starts_with("ok flying"), "{reply}");
     let (run, said, shots) = run_page_script(&ui, "view", "HELI_VIEW_URL", &url);
-    vehicle.ctl(&["stop"]);
+    vehicle.ctl(&["kill", "confirmed"]);
     vehicle.quit();
     drop(hil);
     assert!(run.success(), "the view test failed:\n{said}");

@@ -399,7 +399,7 @@ pub fn run(
         run.problems
             .push("the HILSim did not end on SIGTERM".into());
     }
-    let _ = procs::ctl(&socket, "stop");
+    let _ = procs::ctl(&socket, "kill confirmed");
     let _ = procs::ctl(&socket, "quit");
     for boot in &mut run.boots {
         boot.wait_end(Duration::from_secs(5));

@@ -49,6 +49,8 @@ pub enum DeviceInput<'a> {
         /// The line's level.
         high: bool,
     },
+    /// The operator asked to stop the flight (the bootstrap's `stop`).
+    StopRequested,
 }
 
 /// An owned [`DeviceInput`], for recordings and flight logs.
@@ -68,6 +70,8 @@ pub enum RecordedInput {
     GroundLink(bool),
     /// The hot-swap's digital input.
     PowerLine(bool),
+    /// The operator's Stop.
+    StopRequested,
 }
 
 impl RecordedInput {
@@ -81,6 +85,7 @@ impl RecordedInput {
             RecordedInput::Battery(adc) => DeviceInput::Battery(*adc),
             RecordedInput::GroundLink(fresh) => DeviceInput::GroundLink { fresh: *fresh },
             RecordedInput::PowerLine(high) => DeviceInput::PowerLine { high: *high },
+            RecordedInput::StopRequested => DeviceInput::StopRequested,
         }
     }
 }
@@ -95,6 +100,7 @@ impl From<DeviceInput<'_>> for RecordedInput {
             DeviceInput::Battery(adc) => RecordedInput::Battery(adc),
             DeviceInput::GroundLink { fresh } => RecordedInput::GroundLink(fresh),
             DeviceInput::PowerLine { high } => RecordedInput::PowerLine(high),
+            DeviceInput::StopRequested => RecordedInput::StopRequested,
         }
     }
 }
@@ -190,6 +196,7 @@ impl FlightComputer {
             DeviceInput::Compass(adc) => samples.push(Input::Compass(adc)),
             DeviceInput::Battery(adc) => samples.push(Input::Battery { volts: adc.volts() }),
             DeviceInput::GroundLink { fresh } => samples.push(Input::GroundLink { fresh }),
+            DeviceInput::StopRequested => samples.push(Input::StopRequested),
             DeviceInput::PowerLine { high } => {
                 samples.push(Input::PowerSource(heli_power::PowerSource::from_line(high)))
             }

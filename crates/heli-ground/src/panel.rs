@@ -75,6 +75,11 @@ impl PanelState {
         }
     }
 
+    /// Kill is active: a flight process is up (connected, flying, stopping or landing).
+    pub fn kill_active(self) -> bool {
+        !matches!(self, PanelState::Idle | PanelState::Connecting)
+    }
+
     /// The large indicator is green: the flight process has registered with the ground.
     pub fn green(self) -> bool {
         matches!(

@@ -45,6 +45,8 @@ pub enum Refusal {
     /// A flight of this session already logs under this suffix on the vehicle: the vehicle
     /// never replaces a log, so it would refuse.
     SuffixUsed(String),
+    /// Kill without the operator's confirmation.
+    KillUnconfirmed,
 }
 
 /// Why Stop's final parameters (where to save the flight's log) cannot be used.
@@ -90,6 +92,9 @@ impl fmt::Display for Refusal {
             }
             Refusal::TooLongForTheLink => f.write_str(
                 "the parameters cannot go over the link (a suffix is at most 15 characters)",
+            ),
+            Refusal::KillUnconfirmed => f.write_str(
+                "kill not confirmed: it ends the flight process now, in the air too (the helicopter falls); Stop lands it first",
             ),
             Refusal::SuffixUsed(s) => write!(
                 f,

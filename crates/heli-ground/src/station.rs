@@ -95,6 +95,13 @@ pub enum Op {
         /// The newest message change seen (`seq`).
         upto: u64,
     },
+    /// Kill: end the flight process now, in the air too (the helicopter falls); sent only
+    /// with `confirmed`, which the page sets after the operator typed the word.
+    Kill {
+        /// The operator confirmed it.
+        #[serde(default)]
+        confirmed: bool,
+    },
     /// Stop, with the final parameters (both absent: no log transfer).
     Stop {
         /// Base directory, below the station's save root.
@@ -172,6 +179,9 @@ pub struct Station {
     /// Suffixes the vehicle has a log of, as far as this station knows (the flights it
     /// started, and those the vehicle refused as existing).
     suffixes_used: std::collections::BTreeSet<String>,
+    /// A Stop in the air was answered "landing first": the flight ends on the ground, and
+    /// then its log is saved where the final parameters said (`None`: not saved).
+    landing_then_save: Option<Option<PathBuf>>,
 }
 
 /// The vehicle's last words refusing a take-off or a mode (cleared at each Start Logging).
@@ -233,6 +243,7 @@ impl Station {
             flight_params: None,
             refusals: Refusals::default(),
             suffixes_used: Default::default(),
+            landing_then_save: None,
         }
     }
 
@@ -347,6 +358,7 @@ impl Station {
             self.panel.vehicle(status.map(|s| s.state));
         }
         if heard_after {
+            self.landed_after_stop(now_us);
             self.flight_ended_alone(now_us);
         }
         // A flight seen under way: its log is the newest on the vehicle, the one a Stop with
@@ -432,6 +444,26 @@ impl Station {
         });
     }
 
+    /// A Stop's landing is over (the vehicle is idle): the flight ended on the ground; its
+    /// log is saved where the Stop's final parameters said.
+    fn landed_after_stop(&mut self, now_us: u64) {
+        let idle = self
+            .vehicle_status(now_us)
+            .is_some_and(|s| s.state == BootstrapState::Idle);
+        if !(idle && self.pending.is_none()) {
+            return;
+        }
+        let Some(dest) = self.landing_then_save.take() else {
+            return;
+        };
+        self.flight_seen = false;
+        let suffix = self.flight_params.take().map(|f| f.suffix);
+        self.note("info", "stop: landed; the flight ended on the ground");
+        if let Some(dest) = dest {
+            self.transfer = Some(Transfer::of_flight(dest, suffix, now_us));
+        }
+    }
+
     fn command_tick(&mut self, now_us: u64, out: &mut Vec<Output>) {
         let Some(mut p) = self.pending.take() else {
             return;
@@ -504,6 +536,14 @@ impl Station {
                 }
                 self.panel.logging_failed();
                 self.note("error", "logging failed: press Stop to reset the display");
+            }
+            // In the air: the flight ends (and its log is saved) once it has landed.
+            ("stop", true) if said.contains("landing first") => {
+                self.landing_then_save = Some(p.dest.clone());
+                self.note(
+                    "warning",
+                    "stop: the helicopter is in the air and lands where it is first; the flight ends, and its log is saved, on the ground",
+                );
             }
             ("stop", true) => {
                 self.panel.vehicle(Some(BootstrapState::Idle));
@@ -695,12 +735,20 @@ impl Station {
                 self.packs_end();
                 (GroundCommand::Stop, "stop", PanelState::Stopping, dest)
             }
+            Op::Kill { confirmed } if state.kill_active() => {
+                if !confirmed {
+                    return Err(Refusal::KillUnconfirmed);
+                }
+                self.landing_then_save = None;
+                (GroundCommand::Kill, "kill", PanelState::Stopping, None)
+            }
             other => {
                 return Err(Refusal::NotActive {
                     button: match other {
                         Op::Connect => "Connect",
                         Op::Start(_) | Op::CheckStart(_) => "Start Logging",
                         Op::Acknowledge | Op::AcknowledgeMessages { .. } => "Acknowledge",
+                        Op::Kill { .. } => "Kill",
                         _ => "Stop",
                     },
                     panel: state.name(),

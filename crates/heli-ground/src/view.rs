@@ -30,6 +30,8 @@ pub struct PanelView {
     pub start: bool,
     /// Stop is active.
     pub stop: bool,
+    /// Kill is active (a flight process is up).
+    pub kill: bool,
     /// The large indicator is green.
     pub green: bool,
     /// Telemetry messages received (the counter; the indicator flashes as it rises).
@@ -261,6 +263,7 @@ impl Station {
                 connect,
                 start,
                 stop,
+                kill: state.kill_active(),
                 green: state.green(),
                 telemetry_count: self
                     .link

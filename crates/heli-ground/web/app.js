@@ -159,7 +159,7 @@ function renderOperators(view, inControl) {
 function renderPanel(view, inControl) {
   const p = view.panel;
   const watching = inControl ? "" : "take control to command";
-  for (const [id, active] of [["connect", p.connect], ["start", p.start], ["stop", p.stop]]) {
+  for (const [id, active] of [["connect", p.connect], ["start", p.start], ["stop", p.stop], ["kill", p.kill]]) {
     $(id).disabled = !(active && inControl);
     $(id).title = active ? watching : "not active now";
   }
@@ -436,6 +436,19 @@ function wire() {
     $("final-dialog").returnValue = "";
     $("final-dialog").showModal();
   };
+  $("kill").onclick = () => {
+    $("kill-word").value = "";
+    $("kill-dialog").returnValue = "";
+    $("kill-dialog").showModal();
+  };
+  $("kill-dialog").addEventListener("close", () => {
+    // Only the typed word confirms: a stray click or Enter kills nothing.
+    if ($("kill-dialog").returnValue === "kill" && $("kill-word").value.trim() === "kill") {
+      send("kill", { confirmed: true });
+    } else if ($("kill-dialog").returnValue === "kill") {
+      showReply({ ok: false, text: "kill not confirmed: type kill to confirm" });
+    }
+  });
   $("final-dialog").addEventListener("close", () => {
     const how = $("final-dialog").returnValue;
     if (how === "save") {

@@ -5,6 +5,7 @@
 //! | Connect | `MAV_CMD_USER_1` (31010) | — |
 //! | Start Logging | `MAV_CMD_USER_2` (31011) | 1: controller (0 manual, 1 autonomous, 2 rate, 3 attitude, 4 velocity); 2: plan (0 the vehicle's default, else the index in [`PLANS`] plus one); 3–7: the file suffix, 3 ASCII bytes per parameter |
 //! | Stop | `MAV_CMD_USER_3` (31012) | — |
+//! | Kill (Stop in the air, confirmed) | `MAV_CMD_USER_3` (31012) | 1: [`KILL_CODE`] (21196, MAVLink's force code) |
 //!
 //! MAVLink has no string parameter in a command; the suffix (up to 15 characters) travels as
 //! whole numbers below 2²⁴, which a float carries exactly ([`pack_text`]).
@@ -20,6 +21,9 @@ pub const CMD_CONNECT: MavCmd = MavCmd::MAV_CMD_USER_1;
 pub const CMD_START_LOGGING: MavCmd = MavCmd::MAV_CMD_USER_2;
 /// Stop the flight process.
 pub const CMD_STOP: MavCmd = MavCmd::MAV_CMD_USER_3;
+/// Stop's first parameter for a kill: the code MAVLink's `MAV_CMD_COMPONENT_ARM_DISARM`
+/// takes to force a disarm in flight, so that no stray value kills.
+pub const KILL_CODE: f32 = 21196.0;
 
 /// Longest file suffix a Start Logging command carries (the suffix's one limit, kept with
 /// the parameters it limits).
@@ -91,7 +95,12 @@ impl std::fmt::Display for CommandError {
 pub fn ground_command(cmd: &COMMAND_LONG_DATA) -> Result<GroundCommand, CommandError> {
     match cmd.command {
         CMD_CONNECT => Ok(GroundCommand::Connect),
-        CMD_STOP => Ok(GroundCommand::Stop),
+        CMD_STOP if cmd.param1 == KILL_CODE => Ok(GroundCommand::Kill),
+        CMD_STOP if cmd.param1 == 0.0 => Ok(GroundCommand::Stop),
+        CMD_STOP => Err(CommandError::BadParameter(format!(
+            "stop's parameter 1 is {}: 0 for Stop, {KILL_CODE} for a kill",
+            cmd.param1
+        ))),
         CMD_START_LOGGING => {
             let controller = whole(cmd.param1)
                 .and_then(|i| CONTROLLERS.get(i))
@@ -160,6 +169,11 @@ pub fn command_long(command: &GroundCommand, target: (u8, u8)) -> Option<COMMAND
             command: CMD_STOP,
             ..base
         }),
+        GroundCommand::Kill => Some(COMMAND_LONG_DATA {
+            command: CMD_STOP,
+            param1: KILL_CODE,
+            ..base
+        }),
         GroundCommand::StartLogging(p) => {
             if p.file_suffix.len() > MAX_LINK_SUFFIX {
                 return None;
@@ -211,6 +225,7 @@ mod tests {
         for c in [
             GroundCommand::Connect,
             GroundCommand::Stop,
+            GroundCommand::Kill,
             GroundCommand::StartLogging(start),
             GroundCommand::StartLogging(StartParameters::new("x", "manual").unwrap()),
         ] {

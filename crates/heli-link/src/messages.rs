@@ -32,8 +32,12 @@ pub enum GroundCommand {
     Connect,
     /// Begin logging and control with these parameters.
     StartLogging(StartParameters),
-    /// Stop the main control process (clean shutdown).
+    /// Stop: end the flight on the ground (clean shutdown). In the air the flight computer
+    /// lands first when it flies, and refuses when the pilot flies.
     Stop,
+    /// Kill: end the flight process now, in the air too (the helicopter falls). Sent only
+    /// after the operator confirmed it.
+    Kill,
     /// Send the freshest telemetry.
     TelemetryRequest,
     /// Where to save the logs, answering the cleanup routine.

@@ -12,7 +12,7 @@
 //! late device, an abandoned roll) is `warning`; something that changes what it does
 //! (transmitter lost, GPS outage, a silent device) is `error`; an invalid estimate is `fatal`.
 
-use heli_fsw::core::{CoreEvent, Severity};
+use heli_fsw::core::{CoreEvent, Severity, StopAnswer, StopRefusal};
 use heli_fsw::health::HealthState;
 use heli_types::Device;
 use serde_json::{Value, json};
@@ -88,6 +88,16 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
             m.turn_rad.to_degrees()
         ),
         CoreEvent::PhaseChanged(p) => format!("t={t:.2} s phase {}", p.name()),
+        CoreEvent::Stop(answer) => match answer {
+            StopAnswer::Now => format!("t={t:.2} s stop: on the ground, the flight ends"),
+            StopAnswer::Landing => format!(
+                "t={t:.2} s stop in the air: landing where it is first, the flight ends on the ground"
+            ),
+            StopAnswer::Refused(why) => format!("t={t:.2} s stop refused: {}", why.text()),
+            StopAnswer::Cancelled => format!(
+                "t={t:.2} s stop cancelled: the landing was given up (the pilot took the helicopter); Stop again once it is down"
+            ),
+        },
         CoreEvent::EstimateDegraded { since_gps_s } => format!(
             "t={t:.2} s estimate degraded: no GPS fused for {since_gps_s:.0} s, landing where it is"
         ),
@@ -209,6 +219,11 @@ fn events_without_numbers() -> Vec<CoreEvent> {
         CoreEvent::RollEndedBlind { finished: false },
         CoreEvent::AlignedInAir { gps: true },
         CoreEvent::AlignedInAir { gps: false },
+        CoreEvent::Stop(StopAnswer::Now),
+        CoreEvent::Stop(StopAnswer::Landing),
+        CoreEvent::Stop(StopAnswer::Refused(StopRefusal::PilotFlying)),
+        CoreEvent::Stop(StopAnswer::Refused(StopRefusal::Blind)),
+        CoreEvent::Stop(StopAnswer::Cancelled),
         CoreEvent::AidAccepted(heli_fsw::core::Aid::Altimeter),
         CoreEvent::AidAccepted(heli_fsw::core::Aid::Compass),
     ];

@@ -83,6 +83,7 @@ pub fn input_json(input: &RecordedInput) -> Value {
         RecordedInput::Battery(adc) => json!({"kind": "battery", "adc": adc.counts}),
         RecordedInput::GroundLink(fresh) => json!({"kind": "ground_link", "fresh": fresh}),
         RecordedInput::PowerLine(high) => json!({"kind": "power_line", "high": high}),
+        RecordedInput::StopRequested => json!({"kind": "stop_requested"}),
     }
 }
 
@@ -150,6 +151,7 @@ pub fn input_from_json(value: &Value) -> Result<RecordedInput, InputError> {
                 kind: "power_line",
                 needs: "'high'",
             }),
+        Some("stop_requested") => Ok(RecordedInput::StopRequested),
         Some(other) => Err(InputError::UnknownKind(other.to_string())),
         None => Err(InputError::NoKind),
     }
@@ -207,6 +209,7 @@ mod tests {
             RecordedInput::Battery(BatteryAdc { counts: 3012 }),
             RecordedInput::GroundLink(false),
             RecordedInput::PowerLine(true),
+            RecordedInput::StopRequested,
         ];
         for i in &inputs {
             // Every kind is listed above: a new one fails to compile here until it is.
@@ -217,7 +220,8 @@ mod tests {
                 | RecordedInput::Tick
                 | RecordedInput::Battery(_)
                 | RecordedInput::GroundLink(_)
-                | RecordedInput::PowerLine(_) => {}
+                | RecordedInput::PowerLine(_)
+                | RecordedInput::StopRequested => {}
             }
             assert_eq!(input_from_json(&input_json(i)).as_ref(), Ok(i));
             // And each as written conforms to the channel's schema.

@@ -314,8 +314,8 @@ fn device_schema() -> ChannelSchema {
             "type": "object",
             "properties": {
                 "kind": {
-                    "type": "string", "enum": ["start", "bytes", "compass", "port_failed", "tick", "battery", "ground_link", "power_line"],
-                    "description": "the flight computer started (the origin of a replay), bytes read from a port, a compass reading, a port that failed, a timer tick, a battery reading, whether the bootstrap hears a ground station, or the hot-swap's power line",
+                    "type": "string", "enum": ["start", "bytes", "compass", "port_failed", "tick", "battery", "ground_link", "power_line", "stop_requested"],
+                    "description": "the flight computer started (the origin of a replay), bytes read from a port, a compass reading, a port that failed, a timer tick, a battery reading, whether the bootstrap hears a ground station, the hot-swap's power line, or the operator's Stop",
                 },
                 "port": { "type": "string", "enum": ports, "description": "serial port (kinds bytes and port_failed)" },
                 "hex": string("the bytes read, two lowercase hex digits per byte (kind bytes)"),
@@ -537,6 +537,8 @@ mod tests {
             json!({"kind": "start"}),
             json!({"kind": "battery", "adc": 3012}),
             json!({"kind": "ground_link", "fresh": false}),
+            json!({"kind": "power_line", "high": true}),
+            json!({"kind": "stop_requested"}),
         ] {
             assert_eq!(validate(&device, &message, "device"), Ok(()), "{message}");
         }

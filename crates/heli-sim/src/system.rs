@@ -312,7 +312,8 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
             .iter_mut()
             .position(|p| p.child.try_wait().ok().flatten().is_some());
         // The simulator ended (its helicopter crashed, or its time ran out): that ends the
-        // flight, not the station. The flight is stopped on the vehicle (its log closed; the
+        // flight, not the station. The flight is ended on the vehicle — killed, since the
+        // world it flew in is gone and a Stop would wait for a landing — (its log closed; the
         // ground station saves it, as for any flight ended without its Stop) and a new
         // simulator stands ready for the next Connect.
         if let Some(i) = ended
@@ -324,7 +325,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
                 outcome_in(&hil.log)
             );
             let _ = Command::new(program)
-                .args(["vehicle", "ctl", "stop", "--socket", &ctl])
+                .args(["vehicle", "ctl", "kill", "confirmed", "--socket", &ctl])
                 .stdout(Stdio::null())
                 .stderr(Stdio::null())
                 .status();
@@ -383,6 +384,20 @@ fn shut_down(program: &Path, procs: &mut [Proc], dir: &str) {
     println!("heli sim --ui: stopping");
     for p in procs.iter_mut().rev() {
         if p.name == "vehicle" && p.child.try_wait().ok().flatten().is_none() {
+            // The simulation ends: its flight with it (a bootstrap does not quit while its
+            // helicopter is in the air).
+            let _ = Command::new(program)
+                .args([
+                    "vehicle",
+                    "ctl",
+                    "kill",
+                    "confirmed",
+                    "--socket",
+                    &format!("{dir}/ctl.sock"),
+                ])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .status();
             let _ = Command::new(program)
                 .args([
                     "vehicle",

@@ -5,8 +5,14 @@
 //!   process, and the reply waits for its `ready` line.
 //! - Start Logging: the parameters go to the child's standard input; the reply waits for its
 //!   `started` line.
-//! - Stop: the child is told to stop; the reply waits for its exit and gives the status. A
-//!   child that does not exit within [`STOP_TIMEOUT`] is killed.
+//! - Stop: the child is told to stop. On the ground it ends the flight and exits, and the
+//!   reply gives its exit status. In the air it lands first (the reply says so, the state is
+//!   `landing`, and its exit follows on the skids) or refuses while the pilot flies (the
+//!   reply gives the reason): a Stop never drops the helicopter. A child that answers
+//!   nothing within [`STOP_TIMEOUT`] is killed.
+//! - Kill (`kill confirmed`; the link's Stop with the kill code): the child ends the flight
+//!   now, in the air too.
+//! - Quit: as Stop; in the air the bootstrap does not quit (the reply says why).
 //! - A child that exits on its own (a crash, `kill -9`) is reported at once with its exit
 //!   status; a later Connect starts a fresh one.
 //! - At start, a flight process that flies on since the last bootstrap died is taken back
@@ -80,6 +86,8 @@ pub enum State {
     Flying,
     /// Told to stop, waiting for the exit.
     Stopping,
+    /// Stopped in the air: the flight computer lands first; the exit follows on the ground.
+    Landing,
 }
 
 impl State {
@@ -92,6 +100,7 @@ impl State {
             State::Starting => "starting",
             State::Flying => "flying",
             State::Stopping => "stopping",
+            State::Landing => "landing",
         }
     }
 }
@@ -407,7 +416,12 @@ impl Bootstrap {
             };
             match msg {
                 Some(Msg::Request(Request::Quit, reply)) => {
-                    self.stop_child_and_wait();
+                    if let Err(why) = self.stop_child_and_wait() {
+                        let _ = reply.send(Reply::refused(format!(
+                            "not quitting: the helicopter is in the air and the flight goes on ({why})"
+                        )));
+                        continue;
+                    }
                     if let Some(written) = &self.written {
                         while written.try_recv().is_ok() {}
                     }
@@ -439,10 +453,11 @@ impl Bootstrap {
     }
 
     /// Tells the flight process to stop and waits for it (up to [`STOP_TIMEOUT`]); kills it
-    /// if it does not go.
-    fn stop_child_and_wait(&mut self) {
+    /// if it does not go. `Err` with the flight computer's words when it does not stop
+    /// because the helicopter is in the air (landing first, or refused): it flies on.
+    fn stop_child_and_wait(&mut self) -> Result<(), String> {
         let Some(generation) = self.child.as_ref().map(|c| c.generation) else {
-            return;
+            return Ok(());
         };
         if self.tell_child(&ToFlight::Stop) {
             self.set_state(State::Stopping);
@@ -451,7 +466,19 @@ impl Bootstrap {
                 match self.rx.recv_timeout(left) {
                     Ok(Msg::ChildExited(g, status)) if g == generation => {
                         self.child_exited(g, status);
-                        return;
+                        return Ok(());
+                    }
+                    Ok(Msg::FromChild(g, Said::Flight(FromFlight::Landing(why))))
+                        if g == generation =>
+                    {
+                        self.set_state(State::Landing);
+                        return Err(why);
+                    }
+                    Ok(Msg::FromChild(g, Said::Flight(FromFlight::Refused(why))))
+                        if g == generation =>
+                    {
+                        self.set_state(State::Flying);
+                        return Err(why);
                     }
                     Ok(Msg::FromChild(g, said)) => self.heard(g, said),
                     Ok(Msg::Request(_, reply)) => {
@@ -463,6 +490,7 @@ impl Bootstrap {
             }
         }
         self.kill_child();
+        Ok(())
     }
 
     fn answer(&mut self, reply: Reply) {
@@ -516,6 +544,23 @@ impl Bootstrap {
                     return;
                 }
                 if self.tell_child(&ToFlight::Stop) {
+                    self.wait_for(reply, self.stop_timeout, State::Stopping);
+                } else {
+                    // Already dying: its exit is reported when it arrives.
+                    self.kill_child();
+                    let _ = reply.send(Reply::Killed);
+                }
+            }
+            GroundCommand::Kill => {
+                if self.child.is_none() {
+                    let _ = reply.send(Reply::NothingToStop);
+                    return;
+                }
+                self.say(
+                    Severity::WarningHi,
+                    "kill: ending the flight process now, in the air too",
+                );
+                if self.tell_child(&ToFlight::Kill) {
                     self.wait_for(reply, self.stop_timeout, State::Stopping);
                 } else {
                     // Already dying: its exit is reported when it arrives.

@@ -51,6 +51,8 @@ pub enum RequestError {
     Usage,
     /// Start Logging's parameters are refused (the link's check).
     Parameters(heli_link::LinkError),
+    /// `kill` without its confirmation.
+    KillUnconfirmed,
 }
 
 impl fmt::Display for RequestError {
@@ -59,10 +61,15 @@ impl fmt::Display for RequestError {
             RequestError::Empty => write!(f, "empty command"),
             RequestError::Unknown(word) => write!(
                 f,
-                "unknown command '{word}' (expected connect, start-logging, stop, status or quit)"
+                "unknown command '{word}' (expected connect, start-logging, stop, kill confirmed, status or quit)"
             ),
             RequestError::Usage => write!(f, "usage: start-logging SUFFIX MODE [PLAN]"),
             RequestError::Parameters(e) => write!(f, "{e}"),
+            RequestError::KillUnconfirmed => write!(
+                f,
+                "kill ends the flight process now, in the air too: the helicopter falls. Stop \
+                 lands it first (or is refused while the pilot flies); to kill, send 'kill confirmed'"
+            ),
         }
     }
 }
@@ -76,6 +83,8 @@ impl Request {
         match words.as_slice() {
             ["connect"] => Ok(Request::Ground(GroundCommand::Connect)),
             ["stop"] => Ok(Request::Ground(GroundCommand::Stop)),
+            ["kill", "confirmed"] => Ok(Request::Ground(GroundCommand::Kill)),
+            ["kill", ..] => Err(RequestError::KillUnconfirmed),
             ["status"] => Ok(Request::Ground(GroundCommand::TelemetryRequest)),
             ["quit"] => Ok(Request::Quit),
             ["start-logging", suffix, mode, rest @ ..] if rest.len() <= 1 => {
@@ -95,6 +104,7 @@ impl Request {
         match self {
             Request::Ground(GroundCommand::Connect) => "connect".into(),
             Request::Ground(GroundCommand::Stop) => "stop".into(),
+            Request::Ground(GroundCommand::Kill) => "kill confirmed".into(),
             Request::Ground(GroundCommand::TelemetryRequest) => "status".into(),
             Request::Ground(GroundCommand::StartLogging(p)) => {
                 format!("start-logging {}", crate::supervisor::start_words(p))
@@ -128,6 +138,9 @@ pub enum Reply {
     },
     /// Stop: the flight process was not listening and was killed.
     Killed,
+    /// Stop in the air: the flight computer lands first (what it said); the flight ends on
+    /// the ground.
+    Landing(String),
     /// Stop with no flight process.
     NothingToStop,
     /// Status: the bootstrap's state, the flight process's, the freshest telemetry.
@@ -151,6 +164,10 @@ impl Reply {
             Reply::Flying { log } => format!("flying, logging to {log}"),
             Reply::Stopped { how } => format!("stopped ({how})"),
             Reply::Killed => "stopped (the flight process was not listening; killed)".into(),
+            Reply::Landing(what) => format!(
+                "landing first: the flight ends on the ground ({})",
+                what.replace(['\n', '\r'], " ")
+            ),
             Reply::NothingToStop => "nothing to stop".into(),
             Reply::Status(v) => v.to_string(),
             Reply::Quitting => "quitting".into(),

@@ -11,7 +11,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
 use std::time::Duration;
 
-use heli_fsw::core::{Action, CoreConfig, CoreStats, FlightParams, Severity};
+use heli_fsw::core::{
+    Action, CoreConfig, CoreEvent, CoreStats, FlightParams, Severity, StopAnswer,
+};
 use heli_fsw::{FlightComputer, Phase, RecordedInput};
 use heli_types::Port;
 use serde_json::Value;
@@ -86,6 +88,9 @@ pub enum Report {
     },
     /// A telemetry snapshot.
     Telemetry(Value),
+    /// The flight computer's answer to a Stop that does not end the flight now (landing
+    /// first, refused, a landing given up), with its text.
+    Stop(StopAnswer, String),
 }
 
 /// What a flight did.
@@ -145,7 +150,9 @@ fn open_log(
     (None, None, None)
 }
 
-/// Runs a flight until `stop` is set. Reports go to `report` (from several threads).
+/// Runs a flight until `stop` is set (a kill, or the end of the process), or a Stop asked
+/// through `setup.supervision` ends it on the ground. Reports go to `report` (from several
+/// threads).
 pub fn run(
     setup: FlightSetup,
     stop: Arc<AtomicBool>,
@@ -301,6 +308,8 @@ fn control_loop(
     computer.start(last_t_us, &mut tx);
     let mut inputs = 0u64;
     let mut input_log = logger::InputLog::new(log);
+    // A Stop the flight computer said may end the flight now (on the ground).
+    let stop_now = std::cell::Cell::new(false);
     let mut feed = |computer: &mut FlightComputer, t_us: u64, input: RecordedInput| {
         if let Some(note) = input_log.record(|| LogItem::Input(t_us, inputs, input.clone())) {
             report(Report::Note(note.into()));
@@ -318,6 +327,14 @@ fn control_loop(
                             severity: e.value.severity(),
                             text: heli_log::events::event_text(e.t_us, &e.value),
                         });
+                    }
+                    match e.value {
+                        CoreEvent::Stop(StopAnswer::Now) => stop_now.set(true),
+                        CoreEvent::Stop(answer) => report(Report::Stop(
+                            answer,
+                            heli_log::events::event_text(e.t_us, &e.value),
+                        )),
+                        _ => {}
                     }
                 }
                 Action::Servo(_) => {}
@@ -381,6 +398,14 @@ fn control_loop(
                 RecordedInput::GroundLink(link == 1),
             );
         }
+        if setup
+            .supervision
+            .stop_requested
+            .swap(false, Ordering::AcqRel)
+        {
+            last_t_us = last_t_us.max(clock.now_us());
+            feed(&mut computer, last_t_us, RecordedInput::StopRequested);
+        }
         let now = clock.now_us();
         if computer.poll_at().is_some_and(|at| at <= now) {
             last_t_us = last_t_us.max(now);
@@ -398,7 +423,7 @@ fn control_loop(
                 text: text.to_string(),
             });
         }
-        if verdict.end {
+        if verdict.end || stop_now.get() {
             break;
         }
     }

@@ -11,7 +11,7 @@ use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use anyhow::{Result, bail};
-use heli_fsw::core::{CoreConfig, FlightParams};
+use heli_fsw::core::{CoreConfig, FlightParams, StopAnswer};
 use heli_link::StartParameters;
 
 use crate::adopt::Outbox;
@@ -138,7 +138,7 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
                 ground_link.store(link_state(fresh), Ordering::Release);
                 continue;
             }
-            Some(ToFlight::Stop) | None => {
+            Some(ToFlight::Stop | ToFlight::Kill) | None => {
                 say(FromFlight::Stopped(serde_json::json!({})));
                 return Ok(ExitCode::SUCCESS);
             }
@@ -286,6 +286,9 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
             Report::Note(text) => FromFlight::Note(text),
             Report::Event { severity, text, .. } => FromFlight::Event { severity, text },
             Report::Telemetry(v) => FromFlight::Telemetry(v),
+            Report::Stop(StopAnswer::Landing, text) => FromFlight::Landing(text),
+            // Refused, a landing given up (`Now` ends the flight: `stopped` says it).
+            Report::Stop(_, text) => FromFlight::Refused(text),
         });
     });
     let summary = match flight::run(setup, stop, report) {
@@ -353,7 +356,7 @@ impl BootstrapLines {
         self.outbox.say(&message);
     }
 
-    /// Serves standard input, then each bootstrap that takes the flight back, until a Stop.
+    /// Serves standard input, then each bootstrap that takes the flight back, until a kill.
     fn serve(self) {
         let mut input: Box<dyn BufRead> = Box::new(std::io::stdin().lock());
         loop {
@@ -370,12 +373,18 @@ impl BootstrapLines {
         }
     }
 
-    /// Whether the lines ended in a Stop (not in the end of the input).
+    /// Whether the lines ended in a kill (not in the end of the input). A Stop goes to the
+    /// flight computer, which ends the flight on the ground.
     fn read_until_stop(&self, input: &mut dyn BufRead) -> bool {
         let say = |m: FromFlight| self.say(m);
         while let Some(message) = next_message(input, &say) {
             match message {
-                ToFlight::Stop => return true,
+                ToFlight::Kill => return true,
+                ToFlight::Stop => {
+                    self.supervision
+                        .stop_requested
+                        .store(true, Ordering::Release);
+                }
                 ToFlight::Link { fresh } => {
                     self.ground_link.store(link_state(fresh), Ordering::Release);
                 }

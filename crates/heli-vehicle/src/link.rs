@@ -92,7 +92,8 @@ impl LinkPort for LinkShared {
             State::Connected => BootstrapState::Connected,
             State::Starting => BootstrapState::Starting,
             State::Flying => BootstrapState::Flying,
-            State::Stopping => BootstrapState::Stopping,
+            // Landing shows as stopping; the heartbeat's phase says `land`.
+            State::Stopping | State::Landing => BootstrapState::Stopping,
         };
         let mode = flying.map_or(0, heli_link::status::mode_code);
         let mut shared = self.lock();

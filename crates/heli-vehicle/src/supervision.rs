@@ -20,6 +20,9 @@ pub struct Supervision {
     /// Set when the bootstrap's line ended without a Stop; cleared when a bootstrap takes
     /// the flight back.
     pub line_ended: AtomicBool,
+    /// Set when the bootstrap asked to stop; the control loop takes it and gives it to the
+    /// flight computer, which answers (`heli_fsw::core::stop`).
+    pub stop_requested: AtomicBool,
 }
 
 /// What the control loop does about its supervision at one turn.

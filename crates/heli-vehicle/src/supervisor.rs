@@ -9,10 +9,12 @@
 //! | bootstrap → flight | `start SUFFIX MODE [PLAN]` | [`ToFlight::Start`] |
 //! | | `restart SUFFIX MODE [PLAN]` | [`ToFlight::Restart`]: resume after a crash |
 //! | | `link fresh` / `link lost` | [`ToFlight::Link`]: whether a ground is heard |
-//! | | `stop` (or the end of input) | [`ToFlight::Stop`] |
+//! | | `stop` | [`ToFlight::Stop`]: end the flight on the ground (in the air: land first, or refused) |
+//! | | `kill` | [`ToFlight::Kill`]: end the flight process now, in the air too |
 //! | flight → bootstrap | `ready V` | [`FromFlight::Ready`]: up, speaking protocol version V |
 //! | | `started LOG` | [`FromFlight::Started`] (`(no log)` without one) |
-//! | | `error TEXT` | [`FromFlight::Refused`]: a start it cannot fly, a line it does not understand |
+//! | | `error TEXT` | [`FromFlight::Refused`]: a start it cannot fly, a Stop refused in the air (or its landing given up), a line it does not understand |
+//! | | `landing TEXT` | [`FromFlight::Landing`]: a Stop in the air, landing first; `stopped` follows on the ground |
 //! | | `note TEXT` | [`FromFlight::Note`]: from the runtime |
 //! | | `event SEVERITY TEXT` | [`FromFlight::Event`]: from the flight computer |
 //! | | `telemetry JSON` | [`FromFlight::Telemetry`] |
@@ -39,7 +41,7 @@ use heli_types::Leg;
 use serde_json::Value;
 
 /// The protocol's version.
-pub const VERSION: u16 = 2;
+pub const VERSION: u16 = 3;
 
 /// The longest line either side sends or takes (a telemetry snapshot is about 2 kB).
 pub const MAX_LINE: usize = 64 * 1024;
@@ -57,8 +59,12 @@ pub enum ToFlight {
         /// A ground heard in the last few seconds.
         fresh: bool,
     },
-    /// Stop cleanly (the end of input means the same).
+    /// Stop: end the flight on the ground. The flight computer answers: at once on the
+    /// ground, landing first in the air when it flies ([`FromFlight::Landing`]), refused when
+    /// the pilot flies ([`FromFlight::Refused`]).
     Stop,
+    /// Kill: end the flight process now, in the air too (the operator confirmed it).
+    Kill,
 }
 
 /// What the flight process tells the bootstrap.
@@ -89,6 +95,9 @@ pub enum FromFlight {
     Telemetry(Value),
     /// The flight plan's legs.
     Plan(Vec<Leg>),
+    /// A Stop in the air: the flight computer lands first (what it said); `stopped`
+    /// follows on the ground.
+    Landing(String),
     /// The flight is over: its counts (a JSON object).
     Stopped(Value),
     /// Said to a bootstrap that connected to the adoption socket: this process (`pid`) is
@@ -212,6 +221,8 @@ impl ToFlight {
             },
             "stop" if rest.is_empty() => Ok(ToFlight::Stop),
             "stop" => Err(malformed("stop", "takes nothing")),
+            "kill" if rest.is_empty() => Ok(ToFlight::Kill),
+            "kill" => Err(malformed("kill", "takes nothing")),
             other => Err(ProtocolError::Unknown(other.to_string())),
         }
     }
@@ -224,6 +235,7 @@ impl ToFlight {
             ToFlight::Link { fresh: true } => "link fresh".into(),
             ToFlight::Link { fresh: false } => "link lost".into(),
             ToFlight::Stop => "stop".into(),
+            ToFlight::Kill => "kill".into(),
         }
     }
 }
@@ -253,6 +265,7 @@ impl FromFlight {
             }),
             "error" => Ok(FromFlight::Refused(rest.to_string())),
             "note" => Ok(FromFlight::Note(rest.to_string())),
+            "landing" => Ok(FromFlight::Landing(rest.to_string())),
             "event" => {
                 let (severity, text) = rest.split_once(' ').unwrap_or((rest, ""));
                 let severity = Severity::from_name(severity)
@@ -290,6 +303,7 @@ impl FromFlight {
             }
             FromFlight::Refused(why) => format!("error {}", text(why)),
             FromFlight::Note(note) => format!("note {}", text(note)),
+            FromFlight::Landing(what) => format!("landing {}", text(what)),
             FromFlight::Event { severity, text: t } => {
                 format!("event {} {}", severity.name(), text(t))
             }

@@ -224,6 +224,8 @@ pub enum CoreEvent {
         /// Which battery.
         battery: Battery,
     },
+    /// The answer to the operator's Stop (`core::stop`), and the end of a Stop's landing.
+    Stop(super::stop::StopAnswer),
     /// The hot-swap changed what powers the avionics.
     PowerSource {
         /// The source now.
@@ -275,6 +277,14 @@ impl CoreEvent {
                 (_, HealthState::Silent | HealthState::Failed) => Severity::WarningHi,
             },
             CoreEvent::EstimateInvalid | CoreEvent::EngineFailure { .. } => Severity::Fatal,
+            CoreEvent::Stop(answer) => match answer {
+                super::stop::StopAnswer::Now | super::stop::StopAnswer::Landing => {
+                    Severity::ActivityHi
+                }
+                super::stop::StopAnswer::Refused(_) | super::stop::StopAnswer::Cancelled => {
+                    Severity::WarningHi
+                }
+            },
         }
     }
 }

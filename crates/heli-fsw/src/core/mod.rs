@@ -43,6 +43,7 @@ pub mod restart;
 pub mod roll;
 pub mod sequencer;
 mod step;
+pub mod stop;
 pub mod watchdog;
 mod weathervane;
 
@@ -53,6 +54,7 @@ pub use heli_nav::calibration::Motion;
 pub use mode_check::ModeRefusal;
 pub use preflight::Refusal;
 pub use restart::WarmStart;
+pub use stop::{StopAnswer, StopRefusal};
 
 use heli_control::{HoverController, HoverGains, RollGains, StickScales, YawDamper};
 use heli_nav::{NavConfig, Navigator};
@@ -201,6 +203,9 @@ pub enum Input {
     },
     /// The watchdog timer (deliver at [`FlightCore::poll_at`]).
     Timer,
+    /// The operator asked to stop the flight (`stop`): answered with
+    /// [`CoreEvent::Stop`].
+    StopRequested,
 }
 
 /// One output of the main control process.
@@ -551,7 +556,30 @@ impl FlightCore {
             }
             Input::PowerSource(source) => self.power.read_power_source(source, now_us, out),
             Input::GroundLink { fresh } => self.devices.ground_link(fresh),
+            Input::StopRequested => self.stop_requested(now_us, out),
         }
+    }
+
+    /// The operator's Stop: answered at once ([`stop::answer`]); a landing first is flown
+    /// by the sequencer and its end said from the control step.
+    fn stop_requested(&mut self, now_us: u64, out: &mut Vec<Action>) {
+        let est = self
+            .nav
+            .state()
+            .copied()
+            .filter(|_| self.main_loop.estimate_valid());
+        let answer = stop::answer(
+            self.seq.phase,
+            self.seq.airborne_once,
+            stop::settled(&self.seq, est.as_ref()),
+        );
+        self.seq.operator_stop = answer == StopAnswer::Landing;
+        out.push(Action::Event(Stamped::new(now_us, CoreEvent::Stop(answer))));
+    }
+
+    /// Whether a Stop's landing is under way.
+    pub fn stop_landing(&self) -> bool {
+        self.seq.operator_stop
     }
 
     /// A compass heading, for the calibration's watch of a turning fuselage.
@@ -587,6 +615,7 @@ fn input_is_finite(input: &Input) -> bool {
         | Input::DeviceFailed(_)
         | Input::Timer
         | Input::GroundLink { .. }
+        | Input::StopRequested
         | Input::PowerSource(_) => true,
     }
 }
@@ -611,6 +640,8 @@ mod roll_tests;
 mod sequencer_tests;
 #[cfg(test)]
 mod stall_tests;
+#[cfg(test)]
+mod stop_tests;
 #[cfg(test)]
 mod test_routes;
 #[cfg(test)]

@@ -80,6 +80,9 @@ pub struct Sequencer {
     pub(super) has_flown: bool,
     /// The helicopter has been airborne (above the airborne height) in this flight.
     pub(super) airborne_once: bool,
+    /// The operator's Stop came in the air: landing where it is, then the flight ends
+    /// (`core::stop`).
+    pub(super) operator_stop: bool,
 }
 
 impl Sequencer {
@@ -95,6 +98,7 @@ impl Sequencer {
             home_ned_m: None,
             has_flown: false,
             airborne_once: false,
+            operator_stop: false,
         }
     }
 
@@ -354,8 +358,11 @@ impl Sequencer {
                 && pilot.is_some_and(|p| {
                     !p.auto_mode || p.bypass || self.params.mode != FlightMode::Autonomous
                 });
+            // Landed already, it stays on its skids: no blind descent on the ground.
             return if pilot_flies {
                 Phase::Manual
+            } else if self.phase == Phase::Landed {
+                Phase::Landed
             } else if self.airborne_once {
                 Phase::BlindDescent
             } else {
@@ -421,6 +428,20 @@ impl Sequencer {
         }
         if let (FlightMode::Augmented(mode), false) = (self.params.mode, signal_lost) {
             return Phase::Augmented(mode);
+        }
+        // The operator's Stop in the air: down where it is (a roll under way is finished
+        // first), before a lost transmitter's hover: the flight is to end.
+        if self.operator_stop
+            && !self.phase.rolling()
+            && !matches!(
+                self.phase,
+                Phase::Landing { .. } | Phase::Landed | Phase::Autorotation { .. }
+            )
+            && (!signal_lost || !on_ground)
+        {
+            self.plan_abandoned = true;
+            self.braking = None;
+            return degraded::land_where_it_is(est);
         }
         if signal_lost {
             return match self.phase {

@@ -124,6 +124,15 @@ impl FlightCore {
                 CoreEvent::PhaseChanged(next_phase),
             )));
         }
+        if self.seq.operator_stop
+            && let Some(outcome) = super::stop::landing_outcome(next_phase)
+        {
+            self.seq.operator_stop = false;
+            out.push(Action::Event(Stamped::new(
+                now_us,
+                CoreEvent::Stop(outcome),
+            )));
+        }
 
         let controls = self.phase_controls(estimate, &current, dt_s);
         if self.averages_trim() {

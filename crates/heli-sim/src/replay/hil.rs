@@ -223,9 +223,10 @@ pub fn run(
             RecordedInput::PowerLine(high) => {
                 Some(crate::hil::write_line(&devices.hotswap, *high).is_ok())
             }
-            RecordedInput::PortFailed(_) | RecordedInput::Tick | RecordedInput::GroundLink(_) => {
-                None
-            }
+            RecordedInput::PortFailed(_)
+            | RecordedInput::Tick
+            | RecordedInput::GroundLink(_)
+            | RecordedInput::StopRequested => None,
         };
         match written {
             Some(true) => played += 1,

@@ -188,7 +188,17 @@ impl Bootstrap {
                     self.flying = None;
                     self.set_state(State::Connected);
                 }
+                // A Stop refused in the air, or its landing given up: the flight goes on.
+                if matches!(self.state, State::Stopping | State::Landing) {
+                    self.set_state(State::Flying);
+                }
                 self.answer(Reply::Refused(why));
+            }
+            FromFlight::Landing(what) => {
+                if matches!(self.state, State::Stopping | State::Flying) {
+                    self.set_state(State::Landing);
+                }
+                self.answer(Reply::Landing(what));
             }
             _ => {}
         }
@@ -204,11 +214,12 @@ impl Bootstrap {
             );
             return;
         }
-        let stopping = self.state == State::Stopping;
-        let in_flight =
-            matches!(self.state, State::Flying | State::Starting) && self.flying.is_some();
+        let stopping = matches!(self.state, State::Stopping | State::Landing);
+        let in_flight = matches!(self.state, State::Flying | State::Starting | State::Landing)
+            && self.flying.is_some();
+        let clean = stopping && status.success();
         self.child = None;
-        if stopping && status.success() {
+        if clean {
             self.flying = None;
             self.say(
                 Severity::ActivityHi,
@@ -220,7 +231,7 @@ impl Bootstrap {
             self.answer(Reply::refused(format!("the flight process ended: {how}")));
         }
         self.set_state(State::Idle);
-        if in_flight && !stopping {
+        if in_flight && !clean {
             self.restart_in_flight();
         }
     }

@@ -28,6 +28,7 @@ fn every_message_to_the_flight_process_round_trips() {
         (ToFlight::Link { fresh: true }, "link fresh"),
         (ToFlight::Link { fresh: false }, "link lost"),
         (ToFlight::Stop, "stop"),
+        (ToFlight::Kill, "kill"),
     ];
     for (message, line) in cases {
         assert_eq!(message.to_line(), line);
@@ -49,7 +50,11 @@ fn every_message_to_the_flight_process_round_trips() {
 #[test]
 fn every_message_from_the_flight_process_round_trips() {
     let cases = [
-        (FromFlight::Ready { version: VERSION }, "ready 2"),
+        (FromFlight::Ready { version: VERSION }, "ready 3"),
+        (
+            FromFlight::Landing("stop in the air: landing where it is first".into()),
+            "landing stop in the air: landing where it is first",
+        ),
         (
             FromFlight::Started {
                 log: Some("/var/log/heli/flight_a b.mcap".into()),
