@@ -52,7 +52,7 @@ fn the_operator_flies_a_hover_from_the_display_in_headless_chromium() {
     assert!(out.status.success());
     let link = format!("udp:127.0.0.1:{}", free_udp_port());
     let scenario = ui.join("display-flight.toml");
-    let hil = Hilsim::start(dir.path(), &scenario.display().to_string(), 1.0, 75.0);
+    let hil = Hilsim::start(dir.path(), &scenario.display().to_string(), 1.0, 150.0);
     let logs = dir.path().join("logs");
     std::fs::create_dir_all(&logs).unwrap();
     let vehicle = Vehicle::start_linked(&logs, &hil.dev, &link, Some(&key));
