@@ -41,6 +41,10 @@ pub struct GroundArgs {
     /// saved only below it.
     #[arg(long, default_value = "flights")]
     save_root: PathBuf,
+    /// With --http: a host name the display may be reached by, besides IP addresses and
+    /// localhost (repeatable); any other name in a request's Host is refused (DNS rebinding).
+    #[arg(long)]
+    allow_host: Vec<String>,
     /// With --http: the battery packs' file (docs/power.md): their names, roles and charge
     /// cycles; the time each powered the avionics is added up in FILE.times.json.
     #[arg(long)]
@@ -313,6 +317,7 @@ fn display(args: &GroundArgs, http: SocketAddr) -> Result<ExitCode> {
     let config = heli_ground::server::ServerConfig {
         vehicle: parse_address(&args.link)?,
         http,
+        allow_hosts: args.allow_host.clone(),
         station: heli_ground::station::StationConfig {
             save_root: args.save_root.clone(),
             curve: heli_ground::checks::BatteryCurve::default(),
@@ -323,8 +328,12 @@ fn display(args: &GroundArgs, http: SocketAddr) -> Result<ExitCode> {
         },
     };
     let link = args.link.clone();
-    heli_ground::server::run(config, |addr| {
-        println!("ground: display at http://{addr}/ (vehicle at {link}); Ctrl-C to stop");
+    heli_ground::server::run(config, |served| {
+        println!(
+            "ground: display at {} (vehicle at {link}); Ctrl-C to stop",
+            served.operator_url
+        );
+        println!("ground: observers (watch only) at {}", served.observer_url);
     })
     .map_err(anyhow::Error::msg)?;
     println!("ground: stopped");

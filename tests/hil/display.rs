@@ -206,17 +206,11 @@ fn heli_sim_ui_brings_up_the_whole_system_and_ctrl_c_stops_it() {
     let key = word_after("(key ");
     let dir = word_after("saved flights in ");
     let view = word_after("(not the estimate) is at ");
+    // Each page with its key (exchanged for its cookie).
     let get = |url: &str| {
-        let addr = url.trim_start_matches("http://").trim_end_matches('/');
-        let mut http = std::net::TcpStream::connect(addr).unwrap();
-        write!(
-            http,
-            "GET / HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
-        )
-        .unwrap();
-        let mut page = String::new();
-        http.read_to_string(&mut page).unwrap();
-        page
+        let cookie = crate::web::login(url);
+        let (addr, _) = crate::web::split_url(url);
+        crate::web::get(&addr, "/", &cookie)
     };
     // The display answers, and the simulator's view of the truth.
     let page = get(&url);
@@ -229,7 +223,8 @@ fn heli_sim_ui_brings_up_the_whole_system_and_ctrl_c_stops_it() {
         page.starts_with("HTTP/1.1 200") && page.contains("TRUTH (simulator)"),
         "{page}"
     );
-    let addr = url.trim_start_matches("http://").trim_end_matches('/');
+    let (addr, _) = crate::web::split_url(&url);
+    let addr = addr.as_str();
     // A WebSocket opened by another site's page is refused.
     let mut ws = std::net::TcpStream::connect(addr).unwrap();
     write!(

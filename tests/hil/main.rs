@@ -12,6 +12,7 @@ mod replay;
 mod stop;
 mod truth;
 mod view;
+mod web;
 
 use std::time::{Duration, Instant};
 

@@ -416,8 +416,10 @@ pub fn ground(link: &str, key: Option<&Path>, args: &[&str]) -> (bool, String) {
 /// A running `heli ground --http` (the operator's display).
 pub struct Display {
     proc: Lines,
-    /// The display's address, `http://127.0.0.1:PORT/`.
+    /// The operator's address, `http://127.0.0.1:PORT/?key=…`.
     pub url: String,
+    /// An observer's address (watch only), with the observer's key.
+    pub observer_url: String,
 }
 
 impl Display {
@@ -441,12 +443,19 @@ impl Display {
         }
         let proc = Lines::spawn(&args);
         let line = proc.wait_for("ground: display at ", Duration::from_secs(10));
-        let url = line
-            .split_whitespace()
-            .find(|w| w.starts_with("http://"))
-            .unwrap_or_else(|| panic!("no address in {line}"))
-            .to_string();
-        Self { proc, url }
+        let url_in = |line: &str| {
+            line.split_whitespace()
+                .find(|w| w.starts_with("http://"))
+                .unwrap_or_else(|| panic!("no address in {line}"))
+                .to_string()
+        };
+        let url = url_in(&line);
+        let observer_url = url_in(&proc.wait_for("ground: observers", Duration::from_secs(10)));
+        Self {
+            proc,
+            url,
+            observer_url,
+        }
     }
 
     /// Stops it with SIGTERM, as Ctrl-C would; returns whether it said it stopped.

@@ -42,6 +42,8 @@ pub mod server;
 pub mod station;
 #[cfg(test)]
 mod station_tests;
+#[cfg(test)]
+mod stop_tests;
 pub mod transfer;
 #[cfg(test)]
 mod truth_tests;

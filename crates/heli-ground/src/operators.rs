@@ -23,6 +23,8 @@ pub enum Refused {
         /// The last number accepted.
         last: u64,
     },
+    /// The page was opened with the observer's key: it watches, it never commands.
+    Observer,
     /// Another operator holds the control token.
     NotInControl {
         /// Who holds it.
@@ -34,6 +36,10 @@ impl std::fmt::Display for Refused {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Refused::UnknownClient => write!(f, "this page is not connected to the station"),
+            Refused::Observer => write!(
+                f,
+                "this page is an observer's (opened with the observer's key): it watches; open the operator's address to command"
+            ),
             Refused::Replayed { seq, last } => write!(
                 f,
                 "replayed request refused (sequence {seq}, the last accepted was {last}): nothing done"
@@ -56,6 +62,8 @@ pub struct Operators {
     /// Each page's last accepted sequence number.
     pages: BTreeMap<ClientId, u64>,
     holder: Option<ClientId>,
+    /// The pages opened with the observer's key.
+    observers: std::collections::BTreeSet<ClientId>,
 }
 
 impl Operators {
@@ -66,9 +74,17 @@ impl Operators {
         self.next_id
     }
 
+    /// A page opened with the observer's key joins: it may watch, never take the token.
+    pub fn join_observer(&mut self) -> ClientId {
+        let id = self.join();
+        self.observers.insert(id);
+        id
+    }
+
     /// A page leaves; the token it held is free again.
     pub fn leave(&mut self, id: ClientId) {
         self.pages.remove(&id);
+        self.observers.remove(&id);
         if self.holder == Some(id) {
             self.holder = None;
         }
@@ -109,6 +125,9 @@ impl Operators {
     pub fn take(&mut self, id: ClientId) -> Result<(), Refused> {
         if !self.pages.contains_key(&id) {
             return Err(Refused::UnknownClient);
+        }
+        if self.observers.contains(&id) {
+            return Err(Refused::Observer);
         }
         match self.holder {
             Some(h) if h != id => Err(Refused::NotInControl { holder: Some(h) }),

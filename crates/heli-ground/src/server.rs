@@ -23,6 +23,8 @@ use include_dir::{Dir, include_dir};
 use tokio::net::UdpSocket;
 use tokio::sync::broadcast;
 
+use heli_web::gate::Role;
+
 use crate::refusal::SaveError;
 use crate::station::{Output, Station, StationConfig};
 
@@ -47,6 +49,9 @@ pub struct ServerConfig {
     pub vehicle: SocketAddr,
     /// Where the display is served.
     pub http: SocketAddr,
+    /// Host names besides IP addresses and `localhost` the display may be reached by
+    /// (`heli_web::gate`).
+    pub allow_hosts: Vec<String>,
     /// The station.
     pub station: StationConfig,
 }
@@ -107,9 +112,20 @@ fn lock(station: &Shared) -> std::sync::MutexGuard<'_, Station> {
     station.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
-/// Runs the ground station until Ctrl-C or SIGTERM; `ready` is called with the display's
-/// address once it is served.
-pub fn run(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(), ServerError> {
+/// Where the display is served, once it is.
+#[derive(Clone, Debug)]
+pub struct Served {
+    /// The bound address.
+    pub addr: SocketAddr,
+    /// The operator's address, with the key (`heli_web::gate`).
+    pub operator_url: String,
+    /// An observer's address, with the observer's key (watch only).
+    pub observer_url: String,
+}
+
+/// Runs the ground station until Ctrl-C or SIGTERM; `ready` is told where the display is
+/// served once it is.
+pub fn run(config: ServerConfig, ready: impl FnOnce(Served)) -> Result<(), ServerError> {
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -118,7 +134,7 @@ pub fn run(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(), S
     rt.block_on(serve(config, ready))
 }
 
-async fn serve(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(), ServerError> {
+async fn serve(config: ServerConfig, ready: impl FnOnce(Served)) -> Result<(), ServerError> {
     let bind: SocketAddr = if config.vehicle.is_ipv4() {
         SocketAddr::from(([0, 0, 0, 0], 0))
     } else {
@@ -137,6 +153,16 @@ async fn serve(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(
     let addr = listener
         .local_addr()
         .map_err(failed("serving the display"))?;
+    let gate = heli_web::gate::Gate::new("ground", addr.port(), config.allow_hosts.clone())
+        .map_err(|e| ServerError {
+            doing: "guarding the display".into(),
+            source: std::io::Error::other(e.to_string()),
+        })?;
+    let served = Served {
+        addr,
+        operator_url: gate.operator_url(addr),
+        observer_url: gate.observer_url(addr),
+    };
     let station: Shared = Arc::new(Mutex::new(Station::new(config.station)));
     let (views, _) = broadcast::channel(16);
     let (frames, outgoing) = tokio::sync::mpsc::unbounded_channel::<Vec<u8>>();
@@ -151,8 +177,12 @@ async fn serve(config: ServerConfig, ready: impl FnOnce(SocketAddr)) -> Result<(
     let app = Router::new()
         .route("/ws", get(ws))
         .fallback(asset)
-        .with_state(state);
-    ready(addr);
+        .with_state(state)
+        .layer(axum::middleware::from_fn_with_state(
+            Arc::new(gate),
+            heli_web::gate::guard,
+        ));
+    ready(served);
     axum::serve(listener, app)
         .with_graceful_shutdown(shutdown())
         .await
@@ -289,25 +319,24 @@ async fn asset(uri: Uri) -> Response {
     SITE.file(&uri)
 }
 
+/// A page's WebSocket: the gate (`heli_web::gate::guard`) let it through with its role.
 async fn ws(
     upgrade: WebSocketUpgrade,
-    headers: axum::http::HeaderMap,
+    axum::Extension(role): axum::Extension<Role>,
     State(state): State<AppState>,
 ) -> Response {
-    // Only the display's own pages: a page of another site the operator has open must not
-    // drive the vehicle through this socket.
-    if let Err(refusal) = heli_web::same_origin(&headers, "this display's pages") {
-        return *refusal;
-    }
     upgrade
         .max_message_size(MAX_REQUEST_BYTES)
         .max_frame_size(MAX_REQUEST_BYTES)
-        .on_upgrade(move |socket| page(socket, state))
+        .on_upgrade(move |socket| page(socket, state, role))
 }
 
 /// One page: the views out, its requests in.
-async fn page(mut socket: WebSocket, state: AppState) {
-    let id = lock(&state.station).join();
+async fn page(mut socket: WebSocket, state: AppState, role: Role) {
+    let id = match role {
+        Role::Operator => lock(&state.station).join(),
+        Role::Observer => lock(&state.station).join_observer(),
+    };
     let mut views = state.views.subscribe();
     let hello = serde_json::json!({"type": "hello", "client": id}).to_string();
     // A page opened late gets every message kept (each warning and worse of the session),

@@ -562,6 +562,12 @@ impl Station {
         self.operators.join()
     }
 
+    /// A page opened with the observer's key joins (it watches, never commands); returns
+    /// its id.
+    pub fn join_observer(&mut self) -> ClientId {
+        self.operators.join_observer()
+    }
+
     /// A page leaves.
     pub fn leave(&mut self, id: ClientId) {
         self.operators.leave(id);

@@ -34,6 +34,9 @@ pub(crate) struct Bench {
     pub(crate) refuse_start: Option<String>,
     pub(crate) commands: Vec<GroundCommand>,
     pub(crate) saved: Vec<(PathBuf, Vec<u8>)>,
+    /// The helicopter is in the air under the computer: a Stop lands first (the vehicle
+    /// stays stopping until the test lands it).
+    pub(crate) land_first: bool,
 }
 
 pub(crate) fn flying_telemetry(phase: &str) -> Telemetry {
@@ -108,6 +111,7 @@ impl Bench {
             refuse_start: None,
             commands: Vec::new(),
             saved: Vec::new(),
+            land_first: false,
         };
         b.run(1.5);
         b
@@ -150,7 +154,13 @@ impl Bench {
                             self.telemetry = Some(flying_telemetry("calibrating"));
                             CommandOutcome::Accepted("flying".to_string())
                         }
-                        GroundCommand::Stop => {
+                        GroundCommand::Stop if self.land_first => {
+                            self.state = BootstrapState::Stopping;
+                            CommandOutcome::Accepted(
+                                "landing first: the flight ends on the ground (t=30.00 s stop in the air: landing where it is first, the flight ends on the ground)".to_string(),
+                            )
+                        }
+                        GroundCommand::Stop | GroundCommand::Kill => {
                             self.state = BootstrapState::Idle;
                             self.telemetry = None;
                             CommandOutcome::Accepted("stopped".to_string())

@@ -46,7 +46,8 @@ struct Proc {
 
 impl Proc {
     /// Starts `heli ARGS` in its own process group (Ctrl-C reaches only `heli sim --ui`,
-    /// which stops the others in order), its output copied to `DIR/NAME.log`.
+    /// which stops the others in order), its output copied to `DIR/NAME.log`. Its pages'
+    /// keys are the session's ([`page_keys`]): a simulator started again keeps the pages open.
     fn spawn(program: &Path, name: &'static str, dir: &Path, args: &[String]) -> Result<Self> {
         use std::os::unix::process::CommandExt;
         let log = dir.join(format!("{name}.log"));
@@ -56,8 +57,11 @@ impl Proc {
             .append(true)
             .open(&log)
             .map_err(context(format!("creating {}", log.display())))?;
+        let (key, observer_key) = page_keys()?;
         let mut child = Command::new(program)
             .args(args)
+            .env(heli_web::gate::KEY_ENV, key)
+            .env(heli_web::gate::OBSERVER_KEY_ENV, observer_key)
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
@@ -303,9 +307,11 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
     // The simulator is started again on the same view address after it ends.
     let view_addr = view_url
         .trim_start_matches("http://")
-        .trim_end_matches('/')
+        .split('/')
+        .next()
+        .unwrap_or_default()
         .to_string();
-    let ctl = format!("{dir_s}/ctl.sock");
+    let ctl_socket = format!("{dir_s}/ctl.sock");
     let mut code = ExitCode::SUCCESS;
     while !stop.load(Ordering::Relaxed) {
         let ended = procs
@@ -324,11 +330,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
                 "heli sim --ui: the simulator ended ({}): stopping the vehicle's flight; the ground station saves its log",
                 outcome_in(&hil.log)
             );
-            let _ = Command::new(program)
-                .args(["vehicle", "ctl", "kill", "confirmed", "--socket", &ctl])
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .status();
+            ctl(program, &["kill", "confirmed"], &ctl_socket);
             match Proc::spawn(program, "hilsim", &dir, &hil_args(&view_addr)).and_then(|mut p| {
                 p.wait_for("hilsim: ready", Duration::from_secs(20), &stop)
                     .map(|_| p)
@@ -386,33 +388,39 @@ fn shut_down(program: &Path, procs: &mut [Proc], dir: &str) {
         if p.name == "vehicle" && p.child.try_wait().ok().flatten().is_none() {
             // The simulation ends: its flight with it (a bootstrap does not quit while its
             // helicopter is in the air).
-            let _ = Command::new(program)
-                .args([
-                    "vehicle",
-                    "ctl",
-                    "kill",
-                    "confirmed",
-                    "--socket",
-                    &format!("{dir}/ctl.sock"),
-                ])
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .status();
-            let _ = Command::new(program)
-                .args([
-                    "vehicle",
-                    "ctl",
-                    "quit",
-                    "--socket",
-                    &format!("{dir}/ctl.sock"),
-                ])
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .status();
+            let socket = format!("{dir}/ctl.sock");
+            ctl(program, &["kill", "confirmed"], &socket);
+            ctl(program, &["quit"], &socket);
             p.wait_or_kill(Duration::from_secs(10));
         } else {
             p.terminate(Duration::from_secs(5));
         }
     }
     println!("heli sim --ui: stopped; everything it wrote is in {dir}");
+}
+
+/// The session's page keys (the operator's, the observer's), made once: every server of the
+/// session, and a simulator started again, serve their pages with them.
+fn page_keys() -> Result<(&'static str, &'static str)> {
+    static KEYS: std::sync::OnceLock<(String, String)> = std::sync::OnceLock::new();
+    if let Some((k, o)) = KEYS.get() {
+        return Ok((k, o));
+    }
+    let made = (
+        heli_web::gate::new_key().map_err(Error::other)?,
+        heli_web::gate::new_key().map_err(Error::other)?,
+    );
+    let (k, o) = KEYS.get_or_init(|| made);
+    Ok((k, o))
+}
+
+/// `heli vehicle ctl WORDS --socket SOCKET`, its answer not wanted.
+fn ctl(program: &Path, words: &[&str], socket: &str) {
+    let _ = Command::new(program)
+        .args(["vehicle", "ctl"])
+        .args(words)
+        .args(["--socket", socket])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status();
 }

@@ -36,6 +36,10 @@ pub struct FlightArgs {
     /// `--fallback-dir none` for no fallback.
     #[arg(long)]
     pub fallback_dir: Option<PathBuf>,
+    /// The lab's plan directory: a plan name that is no library plan flies `DIR/NAME.toml`
+    /// (docs/scenarios.md). Plans are asked for by name only, never by path.
+    #[arg(long)]
+    pub plans_dir: Option<PathBuf>,
     /// Compass calibration (TOML: bias_gauss = [x, y, z], scale = [x, y, z]).
     #[arg(long)]
     pub compass_cal: Option<PathBuf>,
@@ -144,6 +148,9 @@ impl FlightArgs {
         }
         if let Some(d) = &self.fallback_dir {
             args.extend(["--fallback-dir".into(), d.clone().into_os_string()]);
+        }
+        if let Some(d) = &self.plans_dir {
+            args.extend(["--plans-dir".into(), d.clone().into_os_string()]);
         }
         args.extend([
             "--log-dir".into(),

@@ -143,7 +143,7 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
                 return Ok(ExitCode::SUCCESS);
             }
         };
-        match startable(&args.log_dir, fallback.as_deref(), &start, restart) {
+        match startable(args, fallback.as_deref(), &start, restart) {
             Ok(plan) => break (restart, start, plan),
             Err(why) => {
                 say(FromFlight::Refused(why.clone()));
@@ -429,12 +429,14 @@ impl BootstrapLines {
 /// (a new flight, not a restart) a log of that suffix already in the log directory or the
 /// fallback (a log is never replaced).
 fn startable(
-    dir: &std::path::Path,
+    args: &crate::cli::FlightArgs,
     fallback: Option<&std::path::Path>,
     start: &heli_link::StartParameters,
     restart: bool,
 ) -> Result<crate::plans::FlightPlan, String> {
-    let plan = crate::plans::named(start.plan.as_deref()).map_err(|e| e.to_string())?;
+    let dir = args.log_dir.as_path();
+    let plan = crate::plans::named(start.plan.as_deref(), args.plans_dir.as_deref())
+        .map_err(|e| e.to_string())?;
     let name = heli_log::file_name("flight", &start.file_suffix, "mcap");
     if !restart {
         // The parameters set over the link: a file that cannot be used refuses the start,

@@ -3,13 +3,15 @@
 //!
 //! What it is: a page's files served from the binary ([`Site`]: the page's own directory,
 //! then the shared one), the shared files themselves (`web/`: the 3D instruments and the
-//! style), and the check that a WebSocket comes from the page's own origin
-//! ([`same_origin`]).
+//! style), and the gate every page and WebSocket is served through ([`gate`]: a key per
+//! run, the Host and Origin checked, framing refused, the operator's and observer's roles).
 //!
 //! What it is not: a page. Each crate embeds its own HTML and scripts and serves them with
 //! its own routes; nothing is fetched from elsewhere, at build or run time.
 
-use axum::http::{HeaderMap, StatusCode, Uri, header};
+pub mod gate;
+
+use axum::http::{StatusCode, Uri, header};
 use axum::response::{IntoResponse, Response};
 use include_dir::{Dir, include_dir};
 
@@ -62,32 +64,10 @@ pub fn content_type(path: &str) -> &'static str {
     }
 }
 
-/// Whether a WebSocket's handshake comes from a page of this server: its `Origin`'s host
-/// must be the `Host` it asked (browsers always send `Origin` on a WebSocket). `Err` is the
-/// refusal to answer with.
-pub fn same_origin(headers: &HeaderMap, what: &str) -> Result<(), Box<Response>> {
-    let host = headers.get(header::HOST).and_then(|h| h.to_str().ok());
-    let origin = headers.get(header::ORIGIN).and_then(|h| h.to_str().ok());
-    if let Some(origin) = origin {
-        let origin_host = origin.split("://").nth(1).unwrap_or("");
-        if host != Some(origin_host) {
-            return Err(Box::new(
-                (
-                    StatusCode::FORBIDDEN,
-                    format!("WebSocket from {origin} refused: only {what}"),
-                )
-                    .into_response(),
-            ));
-        }
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use axum::body::to_bytes;
-    use axum::http::HeaderValue;
 
     static NONE: Dir<'_> = include_dir!("$CARGO_MANIFEST_DIR/src");
 
@@ -128,31 +108,5 @@ mod tests {
         assert_eq!(text, "no index.html on this test page");
         assert_eq!(content_type("a.css"), "text/css; charset=utf-8");
         assert_eq!(content_type("a.html"), "text/html; charset=utf-8");
-    }
-
-    #[test]
-    fn a_websocket_from_another_origin_is_refused() {
-        let mut headers = HeaderMap::new();
-        headers.insert(header::HOST, HeaderValue::from_static("127.0.0.1:8080"));
-        assert!(
-            same_origin(&headers, "x").is_ok(),
-            "no Origin: not a browser's"
-        );
-        headers.insert(
-            header::ORIGIN,
-            HeaderValue::from_static("http://127.0.0.1:8080"),
-        );
-        assert!(same_origin(&headers, "x").is_ok());
-        headers.insert(
-            header::ORIGIN,
-            HeaderValue::from_static("http://evil.example"),
-        );
-        let refused = same_origin(&headers, "this display's pages").unwrap_err();
-        let (status, _, text) = body(*refused);
-        assert_eq!(status, StatusCode::FORBIDDEN);
-        assert_eq!(
-            text,
-            "WebSocket from http://evil.example refused: only this display's pages"
-        );
     }
 }

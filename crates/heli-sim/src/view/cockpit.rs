@@ -47,8 +47,12 @@ pub fn serve(
     });
     let (tx, rx) = channel();
     let control = pilot.then_some(tx);
-    let (bound, feed) = super::spawn(addr, setup.to_string(), control)?;
-    println!("hilsim: view http://{bound}/ (the simulator's truth)");
+    let (served, feed) = super::spawn(addr, setup.to_string(), control)?;
+    println!(
+        "hilsim: view {} (the simulator's truth)",
+        served.operator_url
+    );
+    println!("hilsim: observers (watch only) at {}", served.observer_url);
     if pilot {
         println!("hilsim: pilot in the loop: fly from the view's page (gamepad or keyboard)");
     }

@@ -29,6 +29,7 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use heli_types::Transmitter;
 use heli_types::transmitter::OutOfRange;
+use heli_web::gate::Role;
 use include_dir::{Dir, include_dir};
 use tokio::sync::watch;
 
@@ -134,14 +135,26 @@ struct ViewState {
     holder: holder::Holder,
 }
 
-/// Serves the view on `addr` from a thread of its own; returns the address it is served on
-/// (port 0 picks a free one) and the feed. `setup_json` goes to every page first. With
-/// `control`, what pages send goes there ([`ViewInput`]); without, it is refused.
+/// Where the view is served: the bound address, and the pilot's and an observer's addresses
+/// with their keys (`heli_web::gate`: every page and WebSocket needs one).
+#[derive(Clone, Debug)]
+pub struct Served {
+    /// The bound address.
+    pub addr: SocketAddr,
+    /// The pilot's (operator's) address: may take the transmitter, trigger failures.
+    pub operator_url: String,
+    /// An observer's address: watches only.
+    pub observer_url: String,
+}
+
+/// Serves the view on `addr` from a thread of its own; returns where it is served (port 0
+/// picks a free one) and the feed. `setup_json` goes to every page first. With `control`,
+/// what pages send goes there ([`ViewInput`]); without, it is refused.
 pub fn spawn(
     addr: SocketAddr,
     setup_json: String,
     control: Option<std::sync::mpsc::Sender<ViewInput>>,
-) -> std::io::Result<(SocketAddr, TruthFeed)> {
+) -> std::io::Result<(Served, TruthFeed)> {
     let context = |what: String| {
         move |e: std::io::Error| std::io::Error::new(e.kind(), format!("{what}: {e}"))
     };
@@ -175,16 +188,37 @@ pub fn spawn(
                         return;
                     }
                 };
-                let _ = bound_tx.send(
-                    listener
-                        .local_addr()
-                        .map_err(context("serving the view".into())),
-                );
+                let served = listener
+                    .local_addr()
+                    .map_err(context("serving the view".into()))
+                    .and_then(|bound| {
+                        heli_web::gate::Gate::new("view", bound.port(), Vec::new())
+                            .map(|gate| (bound, gate))
+                            .map_err(|e| std::io::Error::other(e.to_string()))
+                    });
+                let gate = match served {
+                    Ok((bound, gate)) => {
+                        let _ = bound_tx.send(Ok(Served {
+                            addr: bound,
+                            operator_url: gate.operator_url(bound),
+                            observer_url: gate.observer_url(bound),
+                        }));
+                        gate
+                    }
+                    Err(e) => {
+                        let _ = bound_tx.send(Err(e));
+                        return;
+                    }
+                };
                 let app = Router::new()
                     .route("/", get(page))
                     .route("/ws", get(ws))
                     .fallback(asset)
-                    .with_state(state);
+                    .with_state(state)
+                    .layer(axum::middleware::from_fn_with_state(
+                        Arc::new(gate),
+                        heli_web::gate::guard,
+                    ));
                 let _ = axum::serve(listener, app).await;
             });
         })
@@ -212,21 +246,26 @@ async fn asset(uri: Uri) -> Response {
     SITE.file(&uri)
 }
 
-async fn ws(upgrade: WebSocketUpgrade, State(state): State<ViewState>) -> Response {
+/// A page's WebSocket: the gate (`heli_web::gate::guard`) let it through with its role.
+async fn ws(
+    upgrade: WebSocketUpgrade,
+    axum::Extension(role): axum::Extension<Role>,
+    State(state): State<ViewState>,
+) -> Response {
     upgrade
         .max_message_size(1024)
-        .on_upgrade(move |socket| feed(socket, state))
+        .on_upgrade(move |socket| feed(socket, state, role))
         .into_response()
 }
 
 /// The setup, then the newest frame whenever there is a new one, at most every
 /// [`FRAME_EVERY`]; what the page sends goes to the control channel, or is refused. Ends
 /// when the page goes.
-async fn feed(socket: WebSocket, state: ViewState) {
+async fn feed(socket: WebSocket, state: ViewState, role: Role) {
     let page = state.holder.join();
     let holder = state.holder.clone();
     let control = state.control.clone();
-    feed_page(socket, state, page).await;
+    feed_page(socket, state, page, role).await;
     // A page gone with the transmitter: nobody holds it; the receiver loses the signal
     // (the cockpit hears no more sticks), as with a transmitter switched off.
     if holder.leave(page)
@@ -241,8 +280,14 @@ async fn feed(socket: WebSocket, state: ViewState) {
 fn admit(
     state: &ViewState,
     page: holder::PageId,
+    role: Role,
     input: ViewInput,
 ) -> Result<Option<ViewInput>, String> {
+    if role == Role::Observer && matches!(input, ViewInput::Take | ViewInput::Fault(_)) {
+        return Err(
+            "this page is an observer's (opened with the observer's key): it watches; open the pilot's address to fly or fail things".into(),
+        );
+    }
     match input {
         ViewInput::Take => state.holder.take(page).map(|()| None),
         ViewInput::Pilot(_) => state.holder.check(page).map(|()| Some(input)),
@@ -252,7 +297,7 @@ fn admit(
     .map_err(|e| e.to_string())
 }
 
-async fn feed_page(mut socket: WebSocket, mut state: ViewState, page: holder::PageId) {
+async fn feed_page(mut socket: WebSocket, mut state: ViewState, page: holder::PageId, role: Role) {
     let setup = WsMessage::Text(state.setup.to_string().into());
     if socket.send(setup).await.is_err() {
         return;
@@ -296,7 +341,7 @@ async fn feed_page(mut socket: WebSocket, mut state: ViewState, page: holder::Pa
                         "this view is read-only: start heli hilsim with --pilot to fly".into(),
                     ),
                     (Some(_), Err(e)) => Some(e.to_string()),
-                    (Some(control), Ok(input)) => match admit(&state, page, input) {
+                    (Some(control), Ok(input)) => match admit(&state, page, role, input) {
                         Err(why) => Some(why),
                         Ok(None) => None,
                         Ok(Some(input)) => control
