@@ -164,14 +164,18 @@ try {
     const held = await waitFor(page, "the page holding the transmitter, auto on",
       (f) => f.live && f.auto, 5000);
     say("augmented-holding", held, { source: await page.evaluate(() => window.heliPilot.source) });
-    await page.keyboard.down("w"); // collective stick up: climb
-    await sleep(650);
+    // Collective stick up: climb, high enough that the bypass below (the servos on the sticks,
+    // the collective stick low) has room to fall while a loaded machine answers.
+    // The keys move the stick at the page's frame rate: held until the stick is there, not
+    // for a time (a loaded machine draws fewer frames).
+    await page.keyboard.down("w");
+    await waitFor(page, "the collective stick up", (f) => f.sticks[3] > 0.7, 10000);
     await page.keyboard.up("w");
     const climbing = await waitFor(page, "the helicopter climbing on the collective stick",
-      (f) => h(f) > 3.0, 60000);
+      (f) => h(f) > 6.0, 60000);
     say("augmented-climb", climbing, { collective_stick: climbing.sticks[3] });
     await page.keyboard.down("s"); // back to the centre: hold the height
-    await sleep(650);
+    await waitFor(page, "the collective stick back at the centre", (f) => f.sticks[3] < 0.53, 10000);
     await page.keyboard.up("s");
     await sleep(1500);
     const start = await frame(page);
@@ -193,7 +197,7 @@ try {
     await page.keyboard.down("ArrowRight");
     const direct = await waitFor(page, "the aileron servo at the stick, the helicopter rolling right",
       (f) => Math.abs(f.servos[0] - f.sticks[0]) < 0.02 && f.sticks[0] > 0.4 &&
-        f.roll_deg - before.roll_deg > 3, 3000);
+        f.roll_deg - before.roll_deg > 1.5, 3000);
     say("bypass-direct", direct, { aileron_stick: direct.sticks[0], aileron_servo: direct.servos[0],
       collective_stick: direct.sticks[3], collective_servo: direct.servos[3],
       roll_change_deg: direct.roll_deg - before.roll_deg });
