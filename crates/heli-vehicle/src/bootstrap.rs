@@ -468,19 +468,22 @@ impl Bootstrap {
                         self.child_exited(g, status);
                         return Ok(());
                     }
-                    Ok(Msg::FromChild(g, Said::Flight(FromFlight::Landing(why))))
-                        if g == generation =>
-                    {
-                        self.set_state(State::Landing);
-                        return Err(why);
+                    Ok(Msg::FromChild(g, said)) => {
+                        let answer = match &said {
+                            Said::Flight(FromFlight::Landing(why) | FromFlight::Refused(why)) => {
+                                Some(why.clone())
+                            }
+                            _ => None,
+                        };
+                        // `heard` takes an answer only from the current process, and then
+                        // leaves stopping (landing, or flying on): the state says it answered.
+                        self.heard(g, said);
+                        if self.state != State::Stopping
+                            && let Some(why) = answer
+                        {
+                            return Err(why);
+                        }
                     }
-                    Ok(Msg::FromChild(g, Said::Flight(FromFlight::Refused(why))))
-                        if g == generation =>
-                    {
-                        self.set_state(State::Flying);
-                        return Err(why);
-                    }
-                    Ok(Msg::FromChild(g, said)) => self.heard(g, said),
                     Ok(Msg::Request(_, reply)) => {
                         let _ = reply.send(Reply::refused("the bootstrap is quitting"));
                     }

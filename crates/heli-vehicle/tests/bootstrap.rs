@@ -451,3 +451,58 @@ fn a_process_that_fails_while_stopping_is_reported_as_failed() {
     assert_eq!(boot.count("flight process CRASHED: exit code 1"), 1);
     assert_eq!(boot.count("restarting"), 0, "stopping: not resumed");
 }
+
+/// A flight process in the air: `stop` is answered with `words` (a landing first, or a
+/// refusal) and the process flies on; `kill` ends it.
+fn airborne_child(words: &str) -> Vec<std::ffi::OsString> {
+    let script = format!(
+        "echo ready 3; while read line; do case \"$line\" in \
+         start*) echo started /logs/flight_air.mcap ;; \
+         stop) echo '{words}' ;; \
+         kill) exit 0 ;; esac; done"
+    );
+    vec!["sh".into(), "-c".into(), script.into()]
+}
+
+#[test]
+fn a_stop_in_the_air_is_answered_by_the_flight_and_the_bootstrap_does_not_quit_under_it() {
+    for (words, reply, state) in [
+        (
+            "landing t=9.00 s stop in the air: landing where it is first",
+            "ok landing first: the flight ends on the ground (t=9.00 s stop in the air",
+            "landing",
+        ),
+        (
+            "error t=9.00 s stop refused: in the air under the pilot, land then Stop",
+            "t=9.00 s stop refused: in the air under the pilot, land then Stop",
+            "flying",
+        ),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let boot = Running::start(dir.path(), airborne_child(words), None);
+        boot.ctl("connect").unwrap();
+        boot.ctl("start-logging air autonomous hover").unwrap();
+        let answer = boot.ctl("stop").unwrap_or_else(|e| e);
+        assert!(answer.contains(reply), "{answer}");
+        assert_eq!(status(&boot)["state"], state);
+        // Quit asks the same Stop: in the air the bootstrap stays, and says why.
+        let started = std::time::Instant::now();
+        let answer = boot.ctl("quit").unwrap_or_else(|e| e);
+        assert!(
+            answer.contains("not quitting: the helicopter is in the air"),
+            "{answer}"
+        );
+        assert!(
+            started.elapsed() < Duration::from_secs(5),
+            "answered, not timed out"
+        );
+        // A kill needs its confirmation, then ends the flight process.
+        let answer = boot.ctl("kill").unwrap_or_else(|e| e);
+        assert!(answer.contains("the helicopter falls"), "{answer}");
+        assert_eq!(
+            boot.ctl("kill confirmed").unwrap(),
+            "ok stopped (exit code 0)"
+        );
+        assert_eq!(status(&boot)["state"], "idle");
+    }
+}

@@ -186,3 +186,57 @@ fn a_landed_helicopter_whose_imu_goes_silent_stays_landed_not_blind() {
     assert_eq!(phase, Phase::Landed);
     assert_eq!(answer(phase, true, false), StopAnswer::Now);
 }
+
+#[test]
+fn on_the_ground_means_within_half_a_metre_of_the_take_off_height_and_slower_than_half_a_metre_a_second()
+ {
+    let core = core_in(Phase::Manual, FlightMode::Manual, false, S);
+    let settled = |h: f64, v: f64| {
+        super::stop::settled(&core.seq, Some(&est(h, 0.0, Vector3::new(v, 0.0, 0.0))))
+    };
+    assert!(settled(0.2, 0.1));
+    assert!(settled(0.0, 0.0));
+    assert!(!settled(0.5, 0.1), "at the height limit: not on the ground");
+    assert!(!settled(0.6, 0.1));
+    assert!(!settled(0.2, 0.5), "at the speed limit: still moving");
+    assert!(!settled(0.2, 0.7));
+    assert!(
+        !super::stop::settled(&core.seq, None),
+        "no estimate: nothing known"
+    );
+    // So a pilot who has landed may Stop; one still up may not.
+    let e = est(0.1, 0.0, Vector3::zeros());
+    assert_eq!(
+        answer(
+            Phase::Manual,
+            true,
+            super::stop::settled(&core.seq, Some(&e))
+        ),
+        StopAnswer::Now
+    );
+}
+
+#[test]
+fn a_stop_landing_gives_way_only_to_a_lost_transmitter_on_the_ground() {
+    let lost = super::tests::uplink(true, true);
+    // In the air with the transmitter lost: the Stop's landing, not the loss's hover.
+    let mut core = core_in(hold(), FlightMode::Autonomous, true, S);
+    core.seq.airborne_once = true;
+    stop(&mut core, S);
+    core.devices.pilot = Some(lost);
+    let (phase, _) = next(&mut core, &est(10.0, 0.0, Vector3::zeros()), S + 20_000);
+    assert!(matches!(phase, Phase::Landing { .. }), "{phase:?}");
+    // On the ground with the transmitter lost: everything idles.
+    let mut core = core_in(hold(), FlightMode::Autonomous, true, S);
+    core.seq.airborne_once = true;
+    stop(&mut core, S);
+    core.devices.pilot = Some(lost);
+    let (phase, _) = next(&mut core, &est(0.0, 0.0, Vector3::zeros()), S + 20_000);
+    assert!(!matches!(phase, Phase::Landing { .. }), "{phase:?}");
+    // On the ground with the transmitter: the Stop's landing (it ends at once on the skids).
+    let mut core = core_in(hold(), FlightMode::Autonomous, true, S);
+    core.seq.airborne_once = true;
+    stop(&mut core, S);
+    let (phase, _) = next(&mut core, &est(0.0, 0.0, Vector3::zeros()), S + 20_000);
+    assert!(matches!(phase, Phase::Landing { .. }), "{phase:?}");
+}
