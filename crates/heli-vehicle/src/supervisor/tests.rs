@@ -129,6 +129,7 @@ fn what_is_not_the_protocol_is_refused_with_the_reason() {
         (" start", ProtocolError::Empty),
         ("fly", ProtocolError::Unknown("fly".into())),
         ("stop now", malformed("stop", "takes nothing")),
+        ("kill now", malformed("kill", "takes nothing")),
         ("link maybe", malformed("link", "expected fresh or lost")),
         ("start a", malformed("start", "expected SUFFIX MODE [PLAN]")),
         (
