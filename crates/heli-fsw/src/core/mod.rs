@@ -568,11 +568,10 @@ impl FlightCore {
             .state()
             .copied()
             .filter(|_| self.main_loop.estimate_valid());
-        let answer = stop::answer(
-            self.seq.phase,
-            self.seq.airborne_once,
-            stop::settled(&self.seq, est.as_ref()),
-        );
+        let settled = est
+            .as_ref()
+            .is_some_and(|e| stop::settled(self.seq.height_above_home(e), e.vel_ned_mps.norm()));
+        let answer = stop::answer(self.seq.phase, self.seq.airborne_once, settled);
         self.seq.operator_stop = answer == StopAnswer::Landing;
         out.push(Action::Event(Stamped::new(now_us, CoreEvent::Stop(answer))));
     }

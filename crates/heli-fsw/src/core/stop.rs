@@ -9,9 +9,6 @@
 //! replayed flight answers it the same way; the answer is an event
 //! ([`super::CoreEvent::Stop`]) the runtime acts on.
 
-use heli_nav::NavState;
-
-use super::sequencer::Sequencer;
 use crate::phase::Phase;
 
 /// Below this height above the take-off point (m) ...
@@ -79,12 +76,10 @@ pub fn answer(phase: Phase, airborne_once: bool, settled: bool) -> StopAnswer {
     }
 }
 
-/// Whether the helicopter the estimate `est` sees is on the ground at the take-off height.
-pub fn settled(seq: &Sequencer, est: Option<&NavState>) -> bool {
-    est.is_some_and(|est| {
-        seq.height_above_home(est) < ON_GROUND_HEIGHT_M
-            && est.vel_ned_mps.norm() < ON_GROUND_SPEED_MPS
-    })
+/// Whether a helicopter `height_m` above the take-off point, moving at `speed_mps` (by a
+/// valid estimate), is on the ground.
+pub fn settled(height_m: f64, speed_mps: f64) -> bool {
+    height_m < ON_GROUND_HEIGHT_M && speed_mps < ON_GROUND_SPEED_MPS
 }
 
 /// What a Stop's landing under way comes to in `phase`: `Some(Now)` down, `Some(Cancelled)`

@@ -191,8 +191,10 @@ fn a_landed_helicopter_whose_imu_goes_silent_stays_landed_not_blind() {
 fn on_the_ground_means_within_half_a_metre_of_the_take_off_height_and_slower_than_half_a_metre_a_second()
  {
     let core = core_in(Phase::Manual, FlightMode::Manual, false, S);
+    // As the core asks it: the height above the take-off point, the speed.
     let settled = |h: f64, v: f64| {
-        super::stop::settled(&core.seq, Some(&est(h, 0.0, Vector3::new(v, 0.0, 0.0))))
+        let e = est(h, 0.0, Vector3::new(v, 0.0, 0.0));
+        super::stop::settled(core.seq.height_above_home(&e), e.vel_ned_mps.norm())
     };
     assert!(settled(0.2, 0.1));
     assert!(settled(0.0, 0.0));
@@ -200,19 +202,14 @@ fn on_the_ground_means_within_half_a_metre_of_the_take_off_height_and_slower_tha
     assert!(!settled(0.6, 0.1));
     assert!(!settled(0.2, 0.5), "at the speed limit: still moving");
     assert!(!settled(0.2, 0.7));
-    assert!(
-        !super::stop::settled(&core.seq, None),
-        "no estimate: nothing known"
-    );
     // So a pilot who has landed may Stop; one still up may not.
-    let e = est(0.1, 0.0, Vector3::zeros());
     assert_eq!(
-        answer(
-            Phase::Manual,
-            true,
-            super::stop::settled(&core.seq, Some(&e))
-        ),
+        answer(Phase::Manual, true, settled(0.1, 0.0)),
         StopAnswer::Now
+    );
+    assert_eq!(
+        answer(Phase::Manual, true, settled(3.0, 0.0)),
+        StopAnswer::Refused(StopRefusal::PilotFlying)
     );
 }
 
