@@ -538,7 +538,7 @@ impl Station {
                 self.note("error", "logging failed: press Stop to reset the display");
             }
             // In the air: the flight ends (and its log is saved) once it has landed.
-            ("stop", true) if said.contains("landing first") => {
+            ("stop", true) if said.contains(heli_link::messages::LANDING_FIRST) => {
                 self.landing_then_save = Some(p.dest.clone());
                 self.note(
                     "warning",

@@ -156,9 +156,10 @@ impl Bench {
                         }
                         GroundCommand::Stop if self.land_first => {
                             self.state = BootstrapState::Stopping;
-                            CommandOutcome::Accepted(
-                                "landing first: the flight ends on the ground (t=30.00 s stop in the air: landing where it is first, the flight ends on the ground)".to_string(),
-                            )
+                            CommandOutcome::Accepted(format!(
+                                "{} (t=30.00 s stop in the air: landing where it is first)",
+                                heli_link::messages::LANDING_FIRST
+                            ))
                         }
                         GroundCommand::Stop | GroundCommand::Kill => {
                             self.state = BootstrapState::Idle;

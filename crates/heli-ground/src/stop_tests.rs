@@ -12,16 +12,7 @@ use crate::station_tests::{Bench, flying_telemetry};
 
 fn flying() -> (Bench, u64) {
     let mut b = Bench::new();
-    let op = b.station.join();
-    b.ask(op, r#"{"seq":1,"op":"take"}"#).unwrap();
-    b.ask(op, r#"{"seq":2,"op":"connect"}"#).unwrap();
-    b.run(1.0);
-    b.ask(
-        op,
-        r#"{"seq":3,"op":"start","suffix":"f1","controller":"autonomous","plan":"hover"}"#,
-    )
-    .unwrap();
-    b.run(1.0);
+    let op = b.flying_operator("f1", "autonomous");
     b.telemetry = Some(flying_telemetry("hold"));
     b.run(1.0);
     (b, op)

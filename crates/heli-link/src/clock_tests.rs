@@ -8,21 +8,13 @@ use crate::command::{CMD_CONNECT, command_long};
 use crate::ground::GroundLink;
 use crate::logs::MemoryStore;
 use crate::messages::GroundCommand;
-use crate::params::{ParamSpec, ParamTable};
+use crate::params::{ONE_GAIN, ParamTable};
 use crate::signing::{Key, Refusal};
 use crate::vehicle::{LinkEvent, VehicleLink};
 
 /// 2025-11-23: the vehicle's clock is set.
 const T0: u64 = 1_763_900_000_000_000;
 const HOUR_US: u64 = 3_600_000_000;
-
-const SPECS: [ParamSpec; 1] = [ParamSpec {
-    name: "A_GAIN",
-    what: "",
-    min: 0.0,
-    max: 1.0,
-    default: 0.5,
-}];
 
 fn connect(g: &mut GroundLink, now_us: u64) -> Vec<u8> {
     g.command_frame(
@@ -118,7 +110,7 @@ fn a_recorded_parameter_write_sent_after_a_restart_is_not_obeyed() {
     let set = g.param_set_frame("A_GAIN", 0.9, T0);
     // The vehicle restarts (its streams forgotten); the frame comes 30 s after it was
     // signed, well inside a new stream's minute.
-    let mut v = VehicleLink::new(Some(key), T0).with_params(ParamTable::new(&SPECS));
+    let mut v = VehicleLink::new(Some(key), T0).with_params(ParamTable::new(&ONE_GAIN));
     let ev = v.receive(&set, T0 + 30_000_000, &store);
     assert_eq!(refusals(&ev), [Refusal::Stale]);
     assert_eq!(v.params().get("A_GAIN"), Some(0.5));

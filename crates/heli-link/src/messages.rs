@@ -49,6 +49,11 @@ pub enum GroundCommand {
 /// have to be said over the link).
 pub const MAX_LINK_SUFFIX: usize = 15;
 
+/// How the vehicle's answer to a Stop in the air begins (its acknowledgement's text): the
+/// flight lands first and ends on the ground. A ground waits for that end before it saves
+/// the flight's log.
+pub const LANDING_FIRST: &str = "landing first: the flight ends on the ground";
+
 /// A message from the ground that the vehicle refuses.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum LinkError {

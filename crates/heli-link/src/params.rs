@@ -197,6 +197,16 @@ pub fn param_name(id: &mavlink::types::CharArray<16>) -> String {
     id.to_str().unwrap_or("").trim_end_matches('\0').to_string()
 }
 
+/// One gain of 0 to 1, 0.5 by default: the parameter table of the link's tests.
+#[cfg(test)]
+pub(crate) const ONE_GAIN: [ParamSpec; 1] = [ParamSpec {
+    name: "A_GAIN",
+    what: "",
+    min: 0.0,
+    max: 1.0,
+    default: 0.5,
+}];
+
 #[cfg(test)]
 mod tests {
     use super::*;

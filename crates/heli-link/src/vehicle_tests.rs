@@ -565,15 +565,8 @@ fn a_signed_command_held_back_is_refused_and_reflections_are_ignored() {
 
 #[test]
 fn messages_for_another_system_change_nothing() {
-    use crate::params::{ParamSpec, ParamTable};
-    const SPECS: [ParamSpec; 1] = [ParamSpec {
-        name: "A_GAIN",
-        what: "",
-        min: 0.0,
-        max: 1.0,
-        default: 0.5,
-    }];
-    let mut v = VehicleLink::new(None, T0).with_params(ParamTable::new(&SPECS));
+    use crate::params::{ONE_GAIN, ParamTable};
+    let mut v = VehicleLink::new(None, T0).with_params(ParamTable::new(&ONE_GAIN));
     let mut g = GroundLink::new(None);
     let set = g.encode(
         &MavMessage::PARAM_SET(PARAM_SET_DATA {

@@ -46,9 +46,15 @@ struct Proc {
 
 impl Proc {
     /// Starts `heli ARGS` in its own process group (Ctrl-C reaches only `heli sim --ui`,
-    /// which stops the others in order), its output copied to `DIR/NAME.log`. Its pages'
-    /// keys are the session's ([`page_keys`]): a simulator started again keeps the pages open.
-    fn spawn(program: &Path, name: &'static str, dir: &Path, args: &[String]) -> Result<Self> {
+    /// which stops the others in order), its output copied to `DIR/NAME.log`. Its pages are
+    /// served with the session's keys, so that a simulator started again keeps them open.
+    fn spawn(
+        program: &Path,
+        name: &'static str,
+        dir: &Path,
+        args: &[String],
+        keys: &PageKeys,
+    ) -> Result<Self> {
         use std::os::unix::process::CommandExt;
         let log = dir.join(format!("{name}.log"));
         // Appended to: a process started again (the simulator after a crash) adds to it.
@@ -57,11 +63,10 @@ impl Proc {
             .append(true)
             .open(&log)
             .map_err(context(format!("creating {}", log.display())))?;
-        let (key, observer_key) = page_keys()?;
         let mut child = Command::new(program)
             .args(args)
-            .env(heli_web::gate::KEY_ENV, key)
-            .env(heli_web::gate::OBSERVER_KEY_ENV, observer_key)
+            .env(heli_web::gate::KEY_ENV, &keys.operator)
+            .env(heli_web::gate::OBSERVER_KEY_ENV, &keys.observer)
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
@@ -202,6 +207,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
     heli_link::setup::keygen(&key, false).map_err(Error::other)?;
     let link = format!("udp:127.0.0.1:{}", free_udp_port()?);
     let dev = format!("{dir_s}/dev");
+    let keys = PageKeys::new()?;
     let mut procs: Vec<Proc> = Vec::new();
     let hil_args = |view: &str| {
         strings(&[
@@ -218,7 +224,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
         ])
     };
     let started = (|| -> Result<(String, String)> {
-        let mut hil = Proc::spawn(program, "hilsim", &dir, &hil_args("127.0.0.1:0"))?;
+        let mut hil = Proc::spawn(program, "hilsim", &dir, &hil_args("127.0.0.1:0"), &keys)?;
         hil.wait_for("hilsim: ready", Duration::from_secs(20), &stop)?;
         // Printed before "ready".
         let view = hil
@@ -248,6 +254,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
                 "--key",
                 &key_s,
             ]),
+            &keys,
         )?;
         vehicle.wait_for("bootstrap: listening", Duration::from_secs(20), &stop)?;
         procs.push(vehicle);
@@ -266,6 +273,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
                 "--save-root",
                 &format!("{dir_s}/flights"),
             ]),
+            &keys,
         )?;
         let line = ground.wait_for("ground: display at", Duration::from_secs(20), &stop)?;
         procs.push(ground);
@@ -331,10 +339,12 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
                 outcome_in(&hil.log)
             );
             ctl(program, &["kill", "confirmed"], &ctl_socket);
-            match Proc::spawn(program, "hilsim", &dir, &hil_args(&view_addr)).and_then(|mut p| {
-                p.wait_for("hilsim: ready", Duration::from_secs(20), &stop)
-                    .map(|_| p)
-            }) {
+            match Proc::spawn(program, "hilsim", &dir, &hil_args(&view_addr), &keys).and_then(
+                |mut p| {
+                    p.wait_for("hilsim: ready", Duration::from_secs(20), &stop)
+                        .map(|_| p)
+                },
+            ) {
                 Ok(p) => {
                     *hil = p;
                     println!(
@@ -399,19 +409,20 @@ fn shut_down(program: &Path, procs: &mut [Proc], dir: &str) {
     println!("heli sim --ui: stopped; everything it wrote is in {dir}");
 }
 
-/// The session's page keys (the operator's, the observer's), made once: every server of the
-/// session, and a simulator started again, serve their pages with them.
-fn page_keys() -> Result<(&'static str, &'static str)> {
-    static KEYS: std::sync::OnceLock<(String, String)> = std::sync::OnceLock::new();
-    if let Some((k, o)) = KEYS.get() {
-        return Ok((k, o));
+/// The session's page keys: every server of the session, and a simulator started again,
+/// serve their pages with them (`heli_web::gate`).
+struct PageKeys {
+    operator: String,
+    observer: String,
+}
+
+impl PageKeys {
+    fn new() -> Result<Self> {
+        Ok(Self {
+            operator: heli_web::gate::new_key().map_err(Error::other)?,
+            observer: heli_web::gate::new_key().map_err(Error::other)?,
+        })
     }
-    let made = (
-        heli_web::gate::new_key().map_err(Error::other)?,
-        heli_web::gate::new_key().map_err(Error::other)?,
-    );
-    let (k, o) = KEYS.get_or_init(|| made);
-    Ok((k, o))
 }
 
 /// `heli vehicle ctl WORDS --socket SOCKET`, its answer not wanted.

@@ -165,7 +165,8 @@ impl Reply {
             Reply::Stopped { how } => format!("stopped ({how})"),
             Reply::Killed => "stopped (the flight process was not listening; killed)".into(),
             Reply::Landing(what) => format!(
-                "landing first: the flight ends on the ground ({})",
+                "{} ({})",
+                heli_link::messages::LANDING_FIRST,
                 what.replace(['\n', '\r'], " ")
             ),
             Reply::NothingToStop => "nothing to stop".into(),

@@ -576,11 +576,6 @@ impl FlightCore {
         out.push(Action::Event(Stamped::new(now_us, CoreEvent::Stop(answer))));
     }
 
-    /// Whether a Stop's landing is under way.
-    pub fn stop_landing(&self) -> bool {
-        self.seq.operator_stop
-    }
-
     /// A compass heading, for the calibration's watch of a turning fuselage.
     pub(super) fn watch_calibration_heading(
         &mut self,

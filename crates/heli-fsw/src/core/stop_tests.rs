@@ -84,7 +84,7 @@ fn a_stop_in_a_hover_lands_where_it_is_and_gives_up_the_plan() {
         raised(&out, CoreEvent::Stop(StopAnswer::Landing)),
         "{out:?}"
     );
-    assert!(core.stop_landing());
+    assert!(core.seq.operator_stop);
     let e = est(10.0, 3.0, Vector3::zeros());
     let (phase, _) = next(&mut core, &e, S + 20_000);
     let Phase::Landing { target, .. } = phase else {
@@ -130,7 +130,7 @@ fn under_the_pilot_in_the_air_a_stop_is_refused_and_changes_nothing() {
         &out,
         CoreEvent::Stop(StopAnswer::Refused(StopRefusal::PilotFlying))
     ));
-    assert!(!core.stop_landing());
+    assert!(!core.seq.operator_stop);
     let (phase, _) = next(&mut core, &est(10.0, 0.0, Vector3::zeros()), S + 20_000);
     assert_eq!(phase, Phase::Manual);
 }
