@@ -293,8 +293,8 @@ fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults()
 
     // Three flights, three saves: three different files, each the vehicle's own.
     for (saved_as, onboard) in [("one", "one"), ("two", "two"), ("three", "three")] {
-        let downloaded =
-            std::fs::read(saved.join(format!("truth/flight_{saved_as}.mcap"))).unwrap();
+        let downloaded = std::fs::read(saved.join(format!("truth/flight_{saved_as}.mcap")))
+            .unwrap_or_else(|e| panic!("flight_{saved_as}.mcap was not saved ({e}):\n{said}"));
         let log = std::fs::read(logs.join(format!("flight_{onboard}.mcap"))).unwrap();
         assert!(
             downloaded == log,

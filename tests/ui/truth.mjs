@@ -87,9 +87,12 @@ try {
     await page.fill("#final-base", "truth");
     await page.fill("#final-suffix", suffix);
     await page.click("#final-save");
+    // This flight's own save: one message line naming the file it was saved as (an earlier
+    // flight's "log saved" and another line naming this flight's file are not it).
     await waitFor(`the log of ${suffix} saved`, async () =>
-      (await page.innerText("#messages")).includes(`log saved: `) &&
-      (await page.innerText("#messages")).includes(`flight_${suffix}.mcap`), 90000);
+      (await page.evaluate(() => Array.from(document.querySelectorAll("#messages li"))
+        .map((li) => li.innerText))).some((line) =>
+        line.includes("log saved: ") && line.includes(`truth/flight_${suffix}.mcap`)), 90000);
     step("saved", { suffix });
   };
   const connect = async () => {
