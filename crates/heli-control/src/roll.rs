@@ -36,6 +36,10 @@ pub struct RollGains {
     pub pull_up_s: f64,
     /// Time the trim-trajectory controller gets after each roll before the next (s).
     pub recover_s: f64,
+    /// Time constant of the body roll rate's response to a step of lateral cyclic (s): the
+    /// rotor's flapping and the fuselage's damping together. A process started again in a
+    /// roll uses it to reckon how far the helicopter turned while nobody saw it.
+    pub rate_response_s: f64,
 }
 
 impl Default for RollGains {
@@ -52,6 +56,7 @@ impl Default for RollGains {
             pull_up_climb_mps: 5.0,
             pull_up_s: 1.5,
             recover_s: 4.0,
+            rate_response_s: 0.1,
         }
     }
 }

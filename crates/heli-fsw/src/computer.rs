@@ -389,6 +389,8 @@ mod tests {
             home_ned_m: Some([0.0, 0.0, 0.0]),
             airborne: true,
             trim: None,
+            references: heli_nav::GroundReferences::default(),
+            roll: None,
         };
         let fc = FlightComputer::restarted(CoreConfig::default(), FlightParams::default(), 5, warm);
         assert_eq!(fc.core().phase(), crate::phase::Phase::BlindDescent);

@@ -160,6 +160,21 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
         CoreEvent::RestartedInAir => {
             format!("t={t:.2} s flight process restarted in the air: aligning, blind failsafe")
         }
+        CoreEvent::RestartedInRoll {
+            angle_rad: Some(angle),
+            unseen_s,
+        } => format!(
+            "t={t:.2} s flight process restarted in a roll: {:.0} deg round after {unseen_s:.2} s \
+             unseen; finishing it on the gyros, then aligning",
+            angle.to_degrees()
+        ),
+        CoreEvent::RestartedInRoll {
+            angle_rad: None,
+            unseen_s,
+        } => format!(
+            "t={t:.2} s flight process restarted in a roll unseen for {unseen_s:.2} s, longer \
+             than the servo board holds a command: aligning in the air, blind failsafe"
+        ),
         CoreEvent::RollEndedBlind { finished: true } => format!(
             "t={t:.2} s roll finished without the estimate: cyclic levelled, blind failsafe"
         ),

@@ -32,7 +32,9 @@ pub mod navigator;
 
 pub use calibration::{BiasCalibration, CalibrationPhase, ImuBiases};
 pub use geo::GeoOrigin;
-pub use navigator::{FilterHealth, NavConfig, NavSensorStats, NavState, Navigator};
+pub use navigator::{
+    FilterHealth, GroundReferences, NavConfig, NavSensorStats, NavState, Navigator,
+};
 
 /// Standard gravity used by the navigation equations (m/s²).
 pub const GRAVITY_MPS2: f64 = 9.81;

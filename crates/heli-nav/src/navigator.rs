@@ -245,6 +245,7 @@ mod covariance;
 mod fusion;
 mod health;
 mod reset;
+pub use reset::GroundReferences;
 
 use covariance::Transition;
 

@@ -48,9 +48,9 @@ pub struct FlightSetup {
     pub log_fallback_dir: Option<PathBuf>,
     /// What to record in the log's `flight` metadata (parameters, version, wall clock).
     pub metadata: BTreeMap<String, String>,
-    /// How many times as fast as the wall clock the flight clock runs: 1 on a vehicle;
-    /// more only against a HILSim run at `--speed` above 1.
-    pub clock_speed: f64,
+    /// The flight clock (started when the process started): at wall-clock speed on a
+    /// vehicle; faster only against a HILSim run at `--speed` above 1.
+    pub clock: Clock,
     /// Started again after a crash or a brown-out: the record the process before left
     /// (`heli_fsw::core::restart`).
     pub restart_from: Option<heli_fsw::core::WarmStart>,
@@ -158,7 +158,7 @@ pub fn run(
     stop: Arc<AtomicBool>,
     report: Arc<dyn Fn(Report) + Send + Sync>,
 ) -> Result<FlightSummary, VehicleError> {
-    let clock = Clock::with_speed(setup.clock_speed);
+    let clock = setup.clock;
     report(Report::Note(rt::lock_memory()));
     let (tx, rx) = channel::<LoopMsg>();
     let writers = Arc::new(Writers::default());
@@ -442,7 +442,8 @@ fn control_loop(
 
 /// Whether the warm-start record `warm` at `t_us` must be written, the last one written
 /// being `last` (its time and record): the first, one that says something new (airborne or
-/// not, another origin), or one a [`crate::warm::REWRITE_S`] after the last.
+/// not, another origin, a roll begun or ended), one a [`crate::warm::REWRITE_S`] after the
+/// last, or in a roll one a [`crate::warm::ROLL_REWRITE_S`] after it.
 fn rewrite_due(
     last: Option<&(u64, heli_fsw::core::WarmStart)>,
     t_us: u64,
@@ -451,9 +452,12 @@ fn rewrite_due(
     match last {
         None => true,
         Some((at, last)) => {
+            let since_s = heli_nav::seconds_between(*at, t_us);
             last.airborne != warm.airborne
                 || last.origin != warm.origin
-                || heli_nav::seconds_between(*at, t_us) >= crate::warm::REWRITE_S
+                || last.roll.is_some() != warm.roll.is_some()
+                || since_s >= crate::warm::REWRITE_S
+                || (warm.roll.is_some() && since_s >= crate::warm::ROLL_REWRITE_S)
         }
     }
 }
@@ -494,11 +498,10 @@ impl WarmKeeper {
                 for record in rx {
                     for (path, failing) in paths.iter().zip(failing.iter_mut()) {
                         let result = match record {
-                            Some(warm) => crate::warm::WarmFile {
-                                warm,
-                                start: start.clone(),
+                            Some(warm) => {
+                                crate::warm::WarmFile::for_successor(warm, start.clone(), &clock)
+                                    .write(path)
                             }
-                            .write(path),
                             None => crate::warm::remove(path),
                         };
                         let text = match (&result, *failing) {
@@ -571,6 +574,8 @@ mod tests {
             home_ned_m: None,
             airborne: true,
             trim: None,
+            references: heli_nav::GroundReferences::default(),
+            roll: None,
         };
         let never = WarmStart {
             airborne: false,
@@ -599,6 +604,8 @@ mod tests {
             home_ned_m: None,
             airborne: false,
             trim: None,
+            references: heli_nav::GroundReferences::default(),
+            roll: None,
         };
         assert!(rewrite_due(None, 0, &warm), "the first");
         let last = (10_000_000, warm);
@@ -626,5 +633,25 @@ mod tests {
             ..warm
         };
         assert!(rewrite_due(Some(&last), 10_000_001, &located));
+        // A roll begun: at once; in the roll, every control step; the roll over: at once.
+        let rolling = WarmStart {
+            roll: Some(heli_fsw::core::RollRecord {
+                at_us: 10_000_000,
+                angle_rad: 0.1,
+                rate_rps: [3.0, 0.0, 0.0],
+                att: [1.0, 0.0, 0.0, 0.0],
+                elapsed_s: 0.02,
+                rolls_done: 0,
+                pos_ned_m: [0.0; 3],
+                yaw_rad: 0.0,
+            }),
+            ..warm
+        };
+        assert!(rewrite_due(Some(&last), 10_000_001, &rolling));
+        let in_roll = (10_000_000, rolling);
+        let step_us = 10_000_000 + (crate::warm::ROLL_REWRITE_S * 1e6) as u64;
+        assert!(!rewrite_due(Some(&in_roll), step_us - 1, &rolling));
+        assert!(rewrite_due(Some(&in_roll), step_us, &rolling));
+        assert!(rewrite_due(Some(&in_roll), 10_000_001, &warm));
     }
 }

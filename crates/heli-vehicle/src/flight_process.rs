@@ -172,8 +172,12 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
         .collect();
     // Started again by the bootstrap after a crash or a brown-out: resume from the newest
     // record the process before left, if one can be read (otherwise start cold, and say so).
+    // The flight clock starts here: a record's roll, seen on the wall clock by the process
+    // before, is set against it.
+    let clock = crate::threads::Clock::with_speed(args.clock_speed);
     let restart_from = if restart {
         crate::warm::newest(&warm_paths, &|text| say(FromFlight::Note(text)))
+            .map(|file| file.rebased(&clock))
     } else {
         None
     };
@@ -255,7 +259,7 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
         log_path: Some(log_path.clone()),
         log_fallback_dir: fallback.clone(),
         metadata,
-        clock_speed: args.clock_speed,
+        clock,
         restart_from: restart_from.map(|w| w.warm),
         warm_file: Some((warm_paths, start.clone())),
         ground_link: Arc::clone(&ground_link),

@@ -38,6 +38,8 @@ pub const COMPASS_PERIOD: Duration = Duration::from_millis(50);
 pub struct Clock {
     start: Instant,
     speed: f64,
+    /// The wall-clock time of the start (µs since 1970), for records a successor reads.
+    unix_start_us: i64,
 }
 
 impl Clock {
@@ -49,8 +51,12 @@ impl Clock {
     /// A clock starting now, running `speed` times as fast as the wall clock (values that
     /// are not finite and positive count as 1).
     pub fn with_speed(speed: f64) -> Self {
+        let unix_start_us = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| i64::try_from(d.as_micros()).unwrap_or(i64::MAX));
         Self {
             start: Instant::now(),
+            unix_start_us,
             speed: if speed.is_finite() && speed > 0.0 {
                 speed
             } else {
@@ -67,6 +73,26 @@ impl Clock {
     )]
     pub fn now_us(&self) -> u64 {
         (self.start.elapsed().as_secs_f64() * 1e6 * self.speed) as u64
+    }
+
+    /// The wall-clock time (µs since 1970) of the time `flight_us` on this clock.
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+    )]
+    pub fn unix_us(&self, flight_us: i64) -> i64 {
+        self.unix_start_us
+            .saturating_add((flight_us as f64 / self.speed) as i64)
+    }
+
+    /// The time on this clock of the wall-clock time `unix_us` (µs since 1970): negative
+    /// before the clock started.
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+    )]
+    pub fn flight_us_of_unix(&self, unix_us: i64) -> i64 {
+        (unix_us.saturating_sub(self.unix_start_us) as f64 * self.speed) as i64
     }
 
     /// The wall-clock time `flight_us` of this clock take.

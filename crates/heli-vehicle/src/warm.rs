@@ -11,7 +11,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::VehicleError;
-use heli_fsw::core::WarmStart;
+use heli_fsw::core::{RollRecord, WarmStart};
 use heli_link::StartParameters;
 use heli_nav::GeoOrigin;
 use heli_proto::scb::Controls;
@@ -22,6 +22,10 @@ pub const FILE_NAME: &str = "warm-start";
 /// How often the flight process rewrites the file while flying (s of flight clock): the
 /// biases and the trim drift slowly; being airborne is written at once.
 pub const REWRITE_S: f64 = 1.0;
+
+/// How often the file is rewritten in a roll (s of flight clock): every control step, so
+/// that a successor started within the servo board's hold knows the roll it has to finish.
+pub const ROLL_REWRITE_S: f64 = 0.02;
 
 /// The warm-start file of a log directory.
 pub fn path_in(log_dir: &Path) -> PathBuf {
@@ -35,6 +39,33 @@ pub struct WarmFile {
     pub warm: WarmStart,
     /// The parameters the flight was started with.
     pub start: StartParameters,
+    /// The roll record's time is a wall-clock time (µs since 1970), as in the file a
+    /// process leaves (`clock = unix`); otherwise it is on the reading process's own clock,
+    /// as in the log's metadata, once [`WarmFile::rebased`].
+    pub unix_times: bool,
+}
+
+/// The roll record's numbers, in the order of its `roll` line: angle, rates (3), attitude
+/// (4), time in the roll, position (3), heading.
+fn roll_numbers(r: &RollRecord) -> [f64; 13] {
+    let [p, q, rr] = r.rate_rps;
+    let [w, x, y, z] = r.att;
+    let [n, e, d] = r.pos_ned_m;
+    [
+        r.angle_rad,
+        p,
+        q,
+        rr,
+        w,
+        x,
+        y,
+        z,
+        r.elapsed_s,
+        n,
+        e,
+        d,
+        r.yaw_rad,
+    ]
 }
 
 /// `N` numbers whose count was checked.
@@ -75,7 +106,55 @@ impl WarmFile {
                 numbers(&[t.aileron, t.elevator, t.rudder, t.collective, t.throttle])
             ));
         }
+        if let Some(f) = w.references.earth_field_ned_gauss {
+            text.push_str(&format!("earth_field_ned_gauss = {}\n", numbers(&f)));
+        }
+        if let Some((p, z)) = w.references.baro_reference {
+            text.push_str(&format!("baro_reference = {}\n", numbers(&[p, z])));
+        }
+        if let Some(r) = w.roll {
+            if self.unix_times {
+                text.push_str("clock = unix\n");
+            }
+            text.push_str(&format!(
+                "roll_at_us = {}\nroll_rolls_done = {}\nroll = {}\n",
+                r.at_us,
+                r.rolls_done,
+                numbers(&roll_numbers(&r))
+            ));
+        }
         text
+    }
+
+    /// The record with its roll's time moved from the wall clock onto `clock` (the reading
+    /// process's flight clock): how long ago the roll was seen is then a difference of two
+    /// times on the clock the flight software runs on.
+    pub fn rebased(mut self, clock: &crate::threads::Clock) -> Self {
+        if self.unix_times {
+            if let Some(r) = self.warm.roll.as_mut() {
+                r.at_us = clock.flight_us_of_unix(r.at_us);
+            }
+            self.unix_times = false;
+        }
+        self
+    }
+
+    /// The record as its writer on `clock` leaves it in a file: its roll's time on the wall
+    /// clock, which a successor's clock can be set against.
+    pub fn for_successor(
+        warm: WarmStart,
+        start: StartParameters,
+        clock: &crate::threads::Clock,
+    ) -> Self {
+        let mut warm = warm;
+        if let Some(r) = warm.roll.as_mut() {
+            r.at_us = clock.unix_us(r.at_us);
+        }
+        Self {
+            warm,
+            start,
+            unix_times: true,
+        }
     }
 
     /// Reads the file's text; an error names the line and what is wrong with it.
@@ -86,6 +165,12 @@ impl WarmFile {
         let mut origin = None;
         let mut home = None;
         let mut trim = None;
+        let mut field = None;
+        let mut baro = None;
+        let mut roll = None;
+        let mut roll_at = None;
+        let mut rolls_done = None;
+        let mut unix_times = false;
         for (n, line) in (1usize..).zip(text.lines().map(str::trim)) {
             if line.is_empty() {
                 continue;
@@ -129,6 +214,21 @@ impl WarmFile {
                 "origin" => origin = Some(array::<3>(floats(3)?)),
                 "home_ned_m" => home = Some(array::<3>(floats(3)?)),
                 "trim" => trim = Some(array::<5>(floats(5)?)),
+                "earth_field_ned_gauss" => field = Some(array::<3>(floats(3)?)),
+                "baro_reference" => baro = Some(array::<2>(floats(2)?)),
+                "roll" => roll = Some(array::<13>(floats(13)?)),
+                "roll_at_us" => {
+                    roll_at =
+                        Some(value.parse::<i64>().map_err(|e| {
+                            VehicleError::invalid(format!("line {n}: roll_at_us"), e)
+                        })?);
+                }
+                "roll_rolls_done" => {
+                    rolls_done = Some(value.parse::<u32>().map_err(|e| {
+                        VehicleError::invalid(format!("line {n}: roll_rolls_done"), e)
+                    })?);
+                }
+                "clock" if value == "unix" => unix_times = true,
                 _ => {
                     return Err(VehicleError::invalid(
                         format!("line {n}"),
@@ -157,7 +257,22 @@ impl WarmFile {
                         throttle,
                     },
                 ),
+                references: heli_nav::GroundReferences {
+                    earth_field_ned_gauss: field,
+                    baro_reference: baro.map(|[p, z]| (p, z)),
+                },
+                roll: match (roll, roll_at) {
+                    (Some(v), Some(at_us)) => Some(roll_record(v, at_us, rolls_done.unwrap_or(0))),
+                    (None, None) => None,
+                    _ => {
+                        return Err(VehicleError::invalid(
+                            "",
+                            "'roll' and 'roll_at_us' go together",
+                        ));
+                    }
+                },
             },
+            unix_times,
         })
     }
 
@@ -204,6 +319,21 @@ pub fn newest(paths: &[PathBuf], note: &dyn Fn(String)) -> Option<WarmFile> {
         note("restarted without a warm-start record: calibrating from scratch".into());
     }
     best.map(|(_, file)| file)
+}
+
+/// The roll record of a `roll` line's numbers ([`roll_numbers`]).
+fn roll_record(v: [f64; 13], at_us: i64, rolls_done: u32) -> RollRecord {
+    let [angle_rad, p, q, r, w, x, y, z, elapsed_s, n, e, d, yaw_rad] = v;
+    RollRecord {
+        at_us,
+        angle_rad,
+        rate_rps: [p, q, r],
+        att: [w, x, y, z],
+        elapsed_s,
+        rolls_done,
+        pos_ned_m: [n, e, d],
+        yaw_rad,
+    }
 }
 
 /// A line the file must have.
@@ -284,7 +414,61 @@ mod tests {
                     collective: 0.55,
                     throttle: 0.8,
                 }),
+                references: heli_nav::GroundReferences {
+                    earth_field_ned_gauss: Some([0.19, -0.05, 0.48]),
+                    baro_reference: Some((1012.25, -0.5)),
+                },
+                roll: Some(RollRecord {
+                    at_us: 1_795_765_182_802_125,
+                    angle_rad: 1.25,
+                    rate_rps: [3.1, -0.02, 0.4],
+                    att: [0.8, 0.6, 0.0, 0.0],
+                    elapsed_s: 0.42,
+                    rolls_done: 1,
+                    pos_ned_m: [70.0, -0.4, -31.5],
+                    yaw_rad: 0.05,
+                }),
             },
+            unix_times: true,
+        }
+    }
+
+    #[test]
+    fn a_roll_seen_on_the_wall_clock_is_set_against_the_successors_clock() {
+        use std::time::{Duration, SystemTime, UNIX_EPOCH};
+        let unix_now_us = |ago: Duration| {
+            i64::try_from(
+                (SystemTime::now() - ago)
+                    .duration_since(UNIX_EPOCH)
+                    .unwrap()
+                    .as_micros(),
+            )
+            .unwrap()
+        };
+        for speed in [1.0, 4.0] {
+            let clock = crate::threads::Clock::with_speed(speed);
+            // Seen 0.6 s of wall clock before this clock began: that far back on it, at its speed.
+            let mut file = sample();
+            file.warm.roll.as_mut().unwrap().at_us = unix_now_us(Duration::from_millis(600));
+            let rebased = file.clone().rebased(&clock);
+            assert!(!rebased.unix_times);
+            let at = rebased.warm.roll.unwrap().at_us;
+            let expect = -600_000.0 * speed;
+            assert!(
+                (at as f64 - expect).abs() < 50_000.0 * speed,
+                "{at} at speed {speed}"
+            );
+            // Rebasing twice changes nothing; the metadata's text keeps the flight clock's time.
+            assert_eq!(rebased.clone().rebased(&clock), rebased);
+            assert_eq!(
+                WarmFile::parse(&rebased.to_text()).ok(),
+                Some(rebased.clone())
+            );
+            // And a writer's record goes out on the wall clock its successor reads.
+            let out = WarmFile::for_successor(rebased.warm, rebased.start.clone(), &clock);
+            assert!(out.unix_times);
+            let back = out.warm.roll.unwrap().at_us;
+            assert!((back - file.warm.roll.unwrap().at_us).abs() < 50, "{back}");
         }
     }
 
@@ -300,8 +484,11 @@ mod tests {
                 origin: None,
                 home_ned_m: None,
                 trim: None,
+                references: heli_nav::GroundReferences::default(),
+                roll: None,
                 ..sample().warm
             },
+            unix_times: false,
             ..sample()
         };
         assert_eq!(WarmFile::parse(&bare.to_text()).ok(), Some(bare));
@@ -329,6 +516,11 @@ mod tests {
                 "no 'start' line",
             ),
             ("start = a loop\n", "line 1: start: "),
+            ("start = a manual\nroll = 1 2 3\n", "line 2: roll needs 13"),
+            (
+                "start = a manual\nroll_at_us = soon\n",
+                "line 2: roll_at_us",
+            ),
         ] {
             let e = WarmFile::parse(text).unwrap_err().to_string();
             assert!(e.contains(expect), "{text:?}: {e}");

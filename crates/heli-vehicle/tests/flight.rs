@@ -178,7 +178,7 @@ fn fly_with(
         log_path: Some(dir.join("flight.mcap")),
         log_fallback_dir: None,
         metadata: BTreeMap::new(),
-        clock_speed: 1.0,
+        clock: heli_vehicle::threads::Clock::start(),
         restart_from: None,
         warm_file: Some((
             vec![dir.join("warm-start")],

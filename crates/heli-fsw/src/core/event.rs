@@ -140,6 +140,16 @@ pub enum CoreEvent {
     /// The flight process started again in the air (a brown-out, a crash): it aligns
     /// instead of calibrating, flying the blind failsafe meanwhile.
     RestartedInAir,
+    /// The flight process started again in a roll its predecessor recorded: the roll goes on
+    /// (`angle_rad`: turned by now, counting the `unseen_s` nobody saw it) and is finished on
+    /// the gyros before the alignment; with no angle, unseen for longer than the servo board
+    /// holds a command, it was given up and the process aligns at once.
+    RestartedInRoll {
+        /// The angle turned by now, if it could be reckoned (rad).
+        angle_rad: Option<f64>,
+        /// Time since the predecessor's last record of the roll (s).
+        unseen_s: f64,
+    },
     /// A roll under way when the estimate was declared invalid ended without it, and the
     /// cyclic was levelled: `finished` all the way round (open loop while the IMU was
     /// silent), or stopped where it was, less than a quarter of the way round.
@@ -263,6 +273,7 @@ impl CoreEvent {
             | CoreEvent::UplinkLost
             | CoreEvent::GpsReset
             | CoreEvent::RestartedInAir
+            | CoreEvent::RestartedInRoll { .. }
             | CoreEvent::ImuBackInAir
             | CoreEvent::RollEndedBlind { .. }
             | CoreEvent::EstimateDegraded { .. }

@@ -113,6 +113,17 @@ impl MainLoop {
         self.estimate_valid = true;
     }
 
+    /// There is no estimate to fly on until one is started again (a process restarted in a
+    /// roll: [`MainLoop::revalidate`] once it has aligned).
+    pub fn invalidate(&mut self) {
+        self.estimate_valid = false;
+    }
+
+    /// The time of the last control step, if there was one.
+    pub fn last_step_us(&self) -> Option<u64> {
+        self.last_control_us
+    }
+
     /// False once the estimate was declared invalid (until it is started again).
     pub fn estimate_valid(&self) -> bool {
         self.estimate_valid

@@ -40,6 +40,7 @@ pub mod mode_check;
 pub mod power;
 pub mod preflight;
 pub mod restart;
+mod resume;
 pub mod roll;
 pub mod sequencer;
 mod step;
@@ -53,7 +54,7 @@ pub use gps::Implausible;
 pub use heli_nav::calibration::Motion;
 pub use mode_check::ModeRefusal;
 pub use preflight::Refusal;
-pub use restart::WarmStart;
+pub use restart::{RollRecord, WarmStart};
 pub use stop::{StopAnswer, StopRefusal};
 
 use heli_control::{HoverController, HoverGains, RollGains, StickScales, YawDamper};
@@ -314,12 +315,18 @@ impl FlightCore {
         if let Some(origin) = warm.origin {
             core.nav.set_origin(origin);
         }
+        core.nav.restore_ground_references(warm.references);
         core.seq.home_ned_m = warm.home_ned_m.map(Vector3::from);
         core.seq.airborne_once = true;
         core.seq.has_flown = true;
         core.seq.plan_abandoned = true;
-        core.restart = Restart::aligning_from(warm);
-        core.seq.phase = Phase::BlindDescent;
+        match warm.roll {
+            Some(roll) => core.restart_in_roll(warm, roll),
+            None => {
+                core.restart = Restart::aligning_from(warm);
+                core.seq.phase = Phase::BlindDescent;
+            }
+        }
         core
     }
 
@@ -428,6 +435,8 @@ impl FlightCore {
             home_ned_m: self.seq.home_ned_m.map(|h| [h.x, h.y, h.z]),
             airborne: self.seq.airborne_once,
             trim: self.restart.trim(),
+            references: self.nav.ground_references(),
+            roll: self.roll_record(&state.pos_ned_m),
         })
     }
 
@@ -435,6 +444,10 @@ impl FlightCore {
     /// starts again by an alignment as after a restart (the gyro biases, the origin and
     /// home kept), and is used again when it is done (`step`); on the ground it is not.
     fn resume_after_stall(&mut self) {
+        // Restarted in a roll: the alignment from the record once the roll is over.
+        if !self.seq.phase.rolling() && self.restart.align_after_roll() {
+            return;
+        }
         if self.main_loop.estimate_valid() || self.restart.aligning() || !self.seq.airborne_once {
             return;
         }
@@ -461,6 +474,8 @@ impl FlightCore {
                 self.stats.imu_samples = self.stats.imu_samples.saturating_add(1);
                 self.devices.heard(Device::Imu, now_us, out);
                 self.main_loop.imu(now_us);
+                self.carry_through_roll(&sample, now_us);
+                self.resume_unseen_roll(&sample, now_us, out);
                 self.resume_after_stall();
                 self.loop_iteration(sample, false, now_us, out);
             }
@@ -628,6 +643,8 @@ mod parts_tests;
 mod power_tests;
 #[cfg(test)]
 mod restart_tests;
+#[cfg(test)]
+mod resume_tests;
 #[cfg(test)]
 mod roll_tests;
 #[cfg(test)]

@@ -56,7 +56,43 @@ pub struct WarmStart {
     /// The servo commands that held it, averaged over the last seconds of autonomous flight:
     /// what a restarted process flies while it aligns.
     pub trim: Option<Controls>,
+    /// The earth's field and the altimeter's reference learned on the ground: a successor
+    /// keeps them rather than learning them again from a levelling in the air.
+    pub references: heli_nav::GroundReferences,
+    /// A roll under way when the record was made: a process started again within the servo
+    /// board's hold finishes it rather than aligning on a rolling helicopter.
+    pub roll: Option<RollRecord>,
 }
+
+/// A roll under way: what a process started again in it needs to go on with it (the board
+/// held the last command meanwhile, so the helicopter kept rolling unseen).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RollRecord {
+    /// When (µs) on the clock of the core that holds the record: its own, or for a record a
+    /// process before left, the new clock its runtime rebased it onto (negative: before the
+    /// new clock began).
+    pub at_us: i64,
+    /// The angle turned by then, in the commanded direction (rad).
+    pub angle_rad: f64,
+    /// The body rates then, less the gyro bias (rad/s).
+    pub rate_rps: [f64; 3],
+    /// The estimated attitude then (body to NED, quaternion `[w, x, y, z]`).
+    pub att: [f64; 4],
+    /// Time in the roll by then (s).
+    pub elapsed_s: f64,
+    /// Rolls finished before this one.
+    pub rolls_done: u32,
+    /// Where the helicopter was (m, NED in the flight's frame).
+    pub pos_ned_m: [f64; 3],
+    /// Its heading (rad).
+    pub yaw_rad: f64,
+}
+
+/// The longest a roll may go unseen and still be finished from its record (s): the servo
+/// board holds the computer's last command for a second (`heli_proto::scb`), so the
+/// helicopter rolls on that command for as long; after that it flies the pilot's sticks,
+/// and where it went is not known.
+pub const ROLL_UNSEEN_MAX_S: f64 = 1.0;
 
 /// Time constant of the average of the servo commands kept as the trim (s).
 pub const TRIM_AVERAGE_S: f64 = 2.0;
@@ -76,6 +112,11 @@ struct Alignment {
     accel_sum_mps2: Vector3<f64>,
     samples: u32,
     gps_seen: bool,
+    /// The attitude when the window opened, carried by the gyros from a record (a restart
+    /// in a roll): used instead of a levelling on the accelerometers, which after a roll
+    /// lean with the helicopter's acceleration and, through the compass's steep field, throw
+    /// the heading far out.
+    carried: Option<UnitQuaternion<f64>>,
 }
 
 /// The restart's side of the core.
@@ -83,6 +124,15 @@ struct Alignment {
 pub struct Restart {
     /// An in-air alignment after a restart, instead of the ground calibration.
     alignment: Option<Alignment>,
+    /// Restarted in a roll: the record to align from once the roll is finished (a rolling
+    /// helicopter's accelerometers say nothing of which way is up).
+    after_roll: Option<WarmStart>,
+    /// Restarted in a roll, before the first sample: the roll as recorded, to be carried on
+    /// over the time nobody saw it.
+    unseen_roll: Option<RollRecord>,
+    /// Restarted in a roll: the attitude carried from the record by the gyros, and the time
+    /// of the last sample that carried it.
+    carried: Option<(UnitQuaternion<f64>, u64)>,
     /// The average servo command of autonomous flight in the air (for a restart).
     pub(super) trim: Option<Controls>,
 }
@@ -100,9 +150,72 @@ impl Restart {
                 accel_sum_mps2: Vector3::zeros(),
                 samples: 0,
                 gps_seen: false,
+                carried: None,
             }),
-            trim: None,
+            ..Self::default()
         }
+    }
+
+    /// A restart in the roll `roll` recorded in `warm`: the roll is finished first (on the
+    /// gyros, [`super::roll::blind_step`]), then the process aligns from `warm`.
+    pub fn in_roll(warm: WarmStart, roll: RollRecord) -> Self {
+        Self {
+            after_roll: Some(warm),
+            unseen_roll: Some(roll),
+            ..Self::default()
+        }
+    }
+
+    /// The roll recorded before the restart, once: at the first real sample.
+    pub fn take_unseen_roll(&mut self) -> Option<RollRecord> {
+        self.unseen_roll.take()
+    }
+
+    /// The roll is finished (or was never to be resumed): the alignment from the record
+    /// begins, once, from the attitude carried through the roll if there is one.
+    pub fn align_after_roll(&mut self) -> bool {
+        let carried = self.carried.take().map(|(att, _)| att);
+        match self.after_roll.take() {
+            Some(warm) => {
+                let mut next = Self {
+                    trim: self.trim,
+                    ..Self::aligning_from(warm)
+                };
+                if let Some(a) = next.alignment.as_mut() {
+                    a.carried = carried;
+                }
+                *self = next;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Starts carrying the attitude `att` at `now_us` (reckoned over the unseen time).
+    pub fn carry_from(&mut self, att: UnitQuaternion<f64>, now_us: u64) {
+        self.carried = Some((att, now_us));
+    }
+
+    /// Carries the attitude on by one real sample's rates (less the record's gyro bias); a
+    /// gap longer than a few samples is not integrated.
+    pub fn carry(&mut self, sample: &ImuRepr, now_us: u64) {
+        let bias = Vector3::from(self.after_roll.map_or([0.0; 3], |w| w.gyro_bias_rps));
+        if let Some((att, last_us)) = self.carried.as_mut() {
+            let dt_s = seconds_between(*last_us, now_us).clamp(0.0, MAX_ALIGN_STEP_S);
+            let rate = Vector3::from(sample.rate_rps) - bias;
+            *att *= UnitQuaternion::from_scaled_axis(rate * dt_s);
+            *last_us = now_us;
+        }
+    }
+
+    /// True while a restart in a roll waits for the roll's end before it aligns.
+    pub fn waiting_for_roll(&self) -> bool {
+        self.after_roll.is_some()
+    }
+
+    /// The gyro biases of the record a restart in a roll waits to align from.
+    pub fn waiting_bias_rps(&self) -> Option<[f64; 3]> {
+        self.after_roll.map(|w| w.gyro_bias_rps)
     }
 
     /// The IMU is back after a stall long enough to declare the estimate invalid, in the
@@ -118,6 +231,7 @@ impl Restart {
             accel_sum_mps2: Vector3::zeros(),
             samples: 0,
             gps_seen: false,
+            carried: None,
         });
     }
 
@@ -228,11 +342,15 @@ impl Restart {
             samples: a.samples,
         };
         let gps = a.gps_seen;
+        let carried_now = a.carried.map(|start| start * a.to_start);
         self.alignment = None;
         let gps_vel = last_good_fix
             .filter(|_| gps)
             .map(|(_, fix)| Vector3::from(fix.vel_ned_mps));
         nav.initialise_in_air(now_us, &biases, gps_vel);
+        if let Some(att) = carried_now {
+            nav.set_attitude_in_air(att);
+        }
         out.push(Action::Event(Stamped::new(
             now_us,
             CoreEvent::AlignedInAir { gps },

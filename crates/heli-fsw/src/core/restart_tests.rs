@@ -15,6 +15,8 @@ fn warm(trim: Option<Controls>) -> WarmStart {
         home_ned_m: Some([1.0, 2.0, 3.0]),
         airborne: true,
         trim,
+        references: heli_nav::GroundReferences::default(),
+        roll: None,
     }
 }
 

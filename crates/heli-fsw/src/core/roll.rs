@@ -71,8 +71,9 @@ pub enum BlindRoll {
 /// (rad): nearer upright that way, where the rest of a roll flown open loop would tumble.
 pub const BLIND_STOP_BEFORE_RAD: f64 = core::f64::consts::FRAC_PI_2;
 
-/// One step of a roll the estimate is gone from (the IMU fell silent in it). Less than a
-/// quarter of the way round it is stopped at once; further round it is finished rather than
+/// One step of a roll the estimate is gone from (the IMU fell silent in it, or the process
+/// was restarted in it). Less than a quarter of the way round with the IMU silent it is
+/// stopped at once; further round, or on the gyros, it is finished rather than
 /// left on its side or inverted with no attitude to recover by. The angle turned goes on at
 /// the body roll rate the gyro measures (`roll_rate_rps`, a real sample less the known
 /// bias) or, while the IMU is silent, at the commanded rate that the roll's feedforward flies
@@ -91,7 +92,11 @@ pub fn blind_step(
     else {
         return BlindRoll::Stopped;
     };
-    if angle_rad < BLIND_STOP_BEFORE_RAD {
+    // Stopped only while the IMU is silent: with the gyros (a real sample — the IMU back,
+    // or a process restarted in the roll) the roll law has what it flies on, the rate and
+    // the angle turned, and finishing leaves the helicopter upright, where stopping would
+    // leave it on its side with nothing to right it.
+    if angle_rad < BLIND_STOP_BEFORE_RAD && roll_rate_rps.is_none() {
         return BlindRoll::Stopped;
     }
     let rate_rps = roll_rate_rps.unwrap_or(g.rate_cmd_rps);
@@ -102,6 +107,18 @@ pub fn blind_step(
             since_us,
         }),
     }
+}
+
+/// The angle turned, in the commanded direction, while a roll went unseen for `unseen_s`
+/// on the command the servo board held: the body rate went from `rate_then_rps` (the last
+/// one recorded) to `rate_now_rps` (the first sample after) as a first-order response with
+/// the time constant [`RollGains::rate_response_s`], so that it was near its new value for
+/// most of the time.
+pub fn turned_unseen(g: &RollGains, rate_then_rps: f64, rate_now_rps: f64, unseen_s: f64) -> f64 {
+    let sign = g.rate_cmd_rps.signum();
+    let (then, now) = (rate_then_rps * sign, rate_now_rps * sign);
+    let tau = g.rate_response_s.max(1e-3);
+    now * unseen_s - (now - then) * tau * (1.0 - (-unseen_s / tau).exp())
 }
 
 /// One step of the roll maneuver on the leg being flown (`leg`), from `stage` with

@@ -427,6 +427,8 @@ fn aligning_after_a_restart_the_pilot_flies_unless_the_switch_is_on() {
         home_ned_m: Some([0.0; 3]),
         airborne: true,
         trim: None,
+        references: heli_nav::GroundReferences::default(),
+        roll: None,
     };
     let mut core = FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm);
     let mut out = Vec::new();

@@ -338,6 +338,8 @@ fn a_roll_finished_blind_counts_the_gyro_less_its_bias() {
         home_ned_m: Some([0.0, 0.0, 0.0]),
         airborne: true,
         trim: None,
+        references: heli_nav::GroundReferences::default(),
+        roll: None,
     };
     let mut core = FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm);
     let mut out = Vec::new();

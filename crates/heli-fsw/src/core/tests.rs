@@ -677,6 +677,8 @@ fn a_process_restarted_in_the_air_aligns_on_the_trim_instead_of_calibrating() {
         home_ned_m: Some([0.0, 0.0, 0.0]),
         airborne: true,
         trim: Some(trim),
+        references: heli_nav::GroundReferences::default(),
+        roll: None,
     };
     let mut core = FlightCore::restarted(CoreConfig::default(), FlightParams::default(), warm);
     assert!(core.aligning());

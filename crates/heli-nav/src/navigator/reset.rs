@@ -121,6 +121,21 @@ impl Navigator {
     }
 }
 
+impl Navigator {
+    /// Sets the attitude of an estimate just started in the air to `att` (body to NED): one
+    /// carried by the gyros from a record, better than the levelling it replaces. Its
+    /// uncertainty stays that of [`Navigator::initialise_in_air`].
+    pub fn set_attitude_in_air(&mut self, att: UnitQuaternion<f64>) {
+        if let Some(state) = self.state.as_mut()
+            && att.coords.iter().all(|x| x.is_finite())
+        {
+            state.att = att;
+            // Nothing before this may be replayed over it.
+            self.history.clear();
+        }
+    }
+}
+
 /// How uncertain the attitude is after a levelling in the air (rad): 20 deg — the
 /// accelerometers of a helicopter that is speeding up or slowing down lean with it, and the
 /// heading, tilt-compensated with that levelling, errs with it.
@@ -132,3 +147,45 @@ pub const IN_AIR_VEL_SIGMA_MPS: f64 = 2.0;
 
 /// How uncertain the position is after a start in the air (m).
 pub const IN_AIR_POS_SIGMA_M: f64 = 5.0;
+
+/// What the estimate learned on the ground and keeps through a start in the air: a flight
+/// process started again hands them on ([`Navigator::ground_references`],
+/// [`Navigator::restore_ground_references`]), so that its levelling in the air does not
+/// teach it the earth's field or the altimeter's reference again.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GroundReferences {
+    /// The earth's magnetic field in NED (gauss), learned where the levelling was true.
+    pub earth_field_ned_gauss: Option<[f64; 3]>,
+    /// The altimeter's reference pressure (mbar) and the height it was set at (m, NED z).
+    pub baro_reference: Option<(f64, f64)>,
+}
+
+impl Navigator {
+    /// The references learned on the ground, to hand on to a successor.
+    pub fn ground_references(&self) -> GroundReferences {
+        GroundReferences {
+            earth_field_ned_gauss: self.earth_field_ned.map(|f| [f.x, f.y, f.z]),
+            baro_reference: self
+                .baro_reference_mbar
+                .map(|p| (p, self.baro_reference_z_m)),
+        }
+    }
+
+    /// Takes on the references a predecessor learned (before a start in the air: kept
+    /// through [`Navigator::initialise_in_air`]). Values that are not finite are ignored.
+    pub fn restore_ground_references(&mut self, r: GroundReferences) {
+        if let Some(f) = r
+            .earth_field_ned_gauss
+            .filter(|f| f.iter().all(|x| x.is_finite()))
+        {
+            self.earth_field_ned = Some(Vector3::from(f));
+        }
+        if let Some((p_mbar, z_m)) = r
+            .baro_reference
+            .filter(|(p, z)| p.is_finite() && *p > 0.0 && z.is_finite())
+        {
+            self.baro_reference_mbar = Some(p_mbar);
+            self.baro_reference_z_m = z_m;
+        }
+    }
+}
