@@ -530,3 +530,5 @@ mod tests;
 
 #[cfg(test)]
 mod algebra_tests;
+#[cfg(test)]
+mod references_tests;

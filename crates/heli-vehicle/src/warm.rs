@@ -228,7 +228,15 @@ impl WarmFile {
                         VehicleError::invalid(format!("line {n}: roll_rolls_done"), e)
                     })?);
                 }
-                "clock" if value == "unix" => unix_times = true,
+                "clock" => {
+                    if value != "unix" {
+                        return Err(VehicleError::invalid(
+                            format!("line {n}"),
+                            format!("clock '{value}' is not 'unix' (the wall clock)"),
+                        ));
+                    }
+                    unix_times = true;
+                }
                 _ => {
                     return Err(VehicleError::invalid(
                         format!("line {n}"),
@@ -521,6 +529,7 @@ mod tests {
                 "start = a manual\nroll_at_us = soon\n",
                 "line 2: roll_at_us",
             ),
+            ("start = a manual\nclock = local\n", "line 2: clock 'local'"),
         ] {
             let e = WarmFile::parse(text).unwrap_err().to_string();
             assert!(e.contains(expect), "{text:?}: {e}");

@@ -177,10 +177,9 @@ impl Restart {
         let carried = self.carried.take().map(|(att, _)| att);
         match self.after_roll.take() {
             Some(warm) => {
-                let mut next = Self {
-                    trim: self.trim,
-                    ..Self::aligning_from(warm)
-                };
+                // Nothing else to keep: a process restarted in a roll has averaged no trim
+                // of its own (the blind roll is not a hold).
+                let mut next = Self::aligning_from(warm);
                 if let Some(a) = next.alignment.as_mut() {
                     a.carried = carried;
                 }
@@ -206,11 +205,6 @@ impl Restart {
             *att *= UnitQuaternion::from_scaled_axis(rate * dt_s);
             *last_us = now_us;
         }
-    }
-
-    /// True while a restart in a roll waits for the roll's end before it aligns.
-    pub fn waiting_for_roll(&self) -> bool {
-        self.after_roll.is_some()
     }
 
     /// The gyro biases of the record a restart in a roll waits to align from.

@@ -109,12 +109,10 @@ impl FlightCore {
         )));
     }
 
-    /// A real sample while a restart in a roll waits for its end: the carried attitude
-    /// turns with it.
+    /// A real sample while a restart in a roll waits for its end: the carried attitude, if
+    /// there is one, turns with it.
     pub(super) fn carry_through_roll(&mut self, sample: &ImuRepr, now_us: u64) {
-        if self.restart.waiting_for_roll() {
-            self.restart.carry(sample, now_us);
-        }
+        self.restart.carry(sample, now_us);
     }
 
     /// The roll under way, as a successor would need it, if one is.

@@ -10,9 +10,12 @@ use nalgebra::UnitQuaternion;
 
 const S: u64 = 1_000_000;
 
+/// The record's gyro biases: large enough that using them the wrong way round would show.
+const BIAS: [f64; 3] = [0.05, -0.04, 0.03];
+
 fn in_roll(at_us: i64, angle_rad: f64, rate_rps: f64) -> WarmStart {
     WarmStart {
-        gyro_bias_rps: [0.01, -0.02, 0.005],
+        gyro_bias_rps: BIAS,
         origin: None,
         home_ned_m: Some([0.0, 0.0, 0.0]),
         airborne: true,
@@ -21,7 +24,7 @@ fn in_roll(at_us: i64, angle_rad: f64, rate_rps: f64) -> WarmStart {
         roll: Some(RollRecord {
             at_us,
             angle_rad,
-            rate_rps: [rate_rps, 0.0, 0.0],
+            rate_rps: [rate_rps, 0.1, -0.2],
             att: {
                 let q = UnitQuaternion::from_euler_angles(angle_rad, 0.1, 0.7);
                 [q.w, q.i, q.j, q.k]
@@ -34,15 +37,24 @@ fn in_roll(at_us: i64, angle_rad: f64, rate_rps: f64) -> WarmStart {
     }
 }
 
-/// A rolling helicopter's sample: the gyros at `rate_rps` about the body x axis (plus the
-/// record's bias), the accelerometers reading the rotor's thrust along the body's −z —
-/// upright by them, whatever the attitude.
-fn rolling_sample(rate_rps: f64) -> ImuRepr {
+/// A rolling helicopter's sample: the gyros at `rate_rps` (plus the record's bias), the
+/// accelerometers reading the rotor's thrust along the body's -z — upright by them, whatever
+/// the attitude.
+fn sample_at(rate_rps: Vector3<f64>) -> ImuRepr {
     ImuRepr {
-        rate_rps: [rate_rps + 0.01, -0.02, 0.005],
+        rate_rps: [
+            rate_rps.x + BIAS[0],
+            rate_rps.y + BIAS[1],
+            rate_rps.z + BIAS[2],
+        ],
         accel_mps2: [0.0, 0.0, -9.81],
         temp_c: 30.0,
     }
+}
+
+/// Rolling at `rate_rps` about the body x axis, pitching and yawing a little.
+fn rolling_sample(rate_rps: f64) -> ImuRepr {
+    sample_at(Vector3::new(rate_rps, 0.2, -0.3))
 }
 
 #[test]
@@ -119,7 +131,8 @@ fn restarted_in_a_roll_it_finishes_the_roll_on_the_gyros_then_aligns_from_the_ca
     core.handle(Input::Gps(gps_fix(8)), 0, &mut out);
     // The first sample, 0.5 s after the record, rolling at 3.2 rad/s.
     core.handle(Input::Imu(rolling_sample(3.2)), 0, &mut out);
-    let turned = roll::turned_unseen(&core.config.roll, 3.0, 3.2, 0.5);
+    let g = core.config.roll;
+    let turned = roll::turned_unseen(&g, 3.0, 3.2, 0.5);
     let event = out.iter().find_map(|a| match a {
         Action::Event(Stamped {
             value:
@@ -136,53 +149,94 @@ fn restarted_in_a_roll_it_finishes_the_roll_on_the_gyros_then_aligns_from_the_ca
     assert!((angle.unwrap() - (0.3 + turned)).abs() < 1e-9, "{angle:?}");
     // It flies the roll law on the gyros: full lateral cyclic, collective by the angle.
     let mut t = 0;
-    let mut servo = None;
+    let mut first_servo = None;
     while core.phase().rolling() && t < 3 * S {
         t += 10_000;
         out.clear();
         core.handle(Input::Imu(rolling_sample(3.2)), t, &mut out);
-        servo = out
-            .iter()
-            .find_map(|a| match a {
+        if first_servo.is_none() {
+            first_servo = out.iter().find_map(|a| match a {
                 Action::Servo(c) => Some(c.value),
                 _ => None,
-            })
-            .or(servo);
-        if servo.is_some() && t == 20_000 {
-            let u = servo.unwrap();
-            assert!(u.aileron > 0.8, "{u:?}");
+            });
         }
     }
+    let u = first_servo.expect("a command while rolling");
+    assert!(u.aileron > 0.8, "{u:?}");
     assert!(
         raised(&out, CoreEvent::RollEndedBlind { finished: true }),
         "finished, not stopped"
     );
     let rolled_s = t as f64 * 1e-6;
+    // It ended where the angle reckoned with the unseen turn reached a whole roll less the
+    // exit lead, counted at 3.2 rad/s a control step at a time.
+    let left_rad = 2.0 * std::f64::consts::PI - g.exit_lead_rad - (0.3 + turned);
+    assert!(
+        (rolled_s - left_rad / 3.2).abs() < 0.03,
+        "rolled {rolled_s} s for {left_rad} rad"
+    );
     // ... then aligns (the next sample) from the attitude carried through the roll, not from
-    // the accelerometers, which say "upright" whatever the helicopter does.
-    core.handle(Input::Imu(rolling_sample(0.0)), t + 10_000, &mut out);
+    // the accelerometers, which say "upright" whatever the helicopter does; it still turns a
+    // little while it aligns.
+    let settling = Vector3::new(0.4, 0.0, 0.1);
+    let roll_end_us = t;
+    core.handle(Input::Imu(sample_at(settling)), t + 10_000, &mut out);
     assert!(core.aligning());
     let mut t = t + 10_000;
     while core.aligning() && t < 10 * S {
         t += 10_000;
-        core.handle(Input::Imu(rolling_sample(0.0)), t, &mut out);
+        core.handle(Input::Imu(sample_at(settling)), t, &mut out);
     }
     assert!(
         core.estimate_valid(),
         "aligned: flying on the estimate again"
     );
+    let aligning_s = (t - roll_end_us) as f64 * 1e-6;
     let [w, i, j, k] = warm.roll.unwrap().att;
+    // The unseen turn: the roll reckoned, pitch and yaw at the mean of the rates recorded
+    // (0.1, -0.2) and measured (0.2, -0.3).
+    let unseen = Vector3::new(turned, 0.15 * 0.5, -0.25 * 0.5);
     let expect = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, i, j, k))
-        * UnitQuaternion::from_scaled_axis(Vector3::new(turned, 0.0, 0.0))
-        * UnitQuaternion::from_scaled_axis(Vector3::new(3.2 * rolled_s, 0.0, 0.0));
+        * UnitQuaternion::from_scaled_axis(unseen)
+        * UnitQuaternion::from_scaled_axis(Vector3::new(3.2, 0.2, -0.3) * rolled_s)
+        * UnitQuaternion::from_scaled_axis(settling * aligning_s);
     let att = core.navigator().state().unwrap().att;
     let err = (att.inverse() * expect).angle();
     assert!(
-        err < 0.05,
+        err < 0.01,
         "attitude {:?} against {:?}: {err} rad",
         att.euler_angles(),
         expect.euler_angles()
     );
+}
+
+#[test]
+fn the_roll_goes_on_counting_its_time_from_when_it_began() {
+    // Recorded 0.3 s into the roll at 2.0 s of the new clock (a clock started long before
+    // the record, as the lockstep's shared one): the roll began at 1.7 s, and a roll that
+    // takes twice its nominal time from then is given up.
+    let core = FlightCore::restarted(
+        CoreConfig::default(),
+        FlightParams::default(),
+        in_roll(2_000_000, 0.3, 3.0),
+    );
+    match core.phase() {
+        Phase::Maneuver {
+            stage:
+                RollStage::Rolling {
+                    since_us,
+                    angle_rad,
+                },
+            rolls_done,
+            target,
+        } => {
+            assert_eq!(since_us, 1_700_000);
+            assert_eq!((angle_rad, rolls_done), (0.3, 1));
+            assert_eq!(target.pos_ned_m, Vector3::new(70.0, 0.0, -31.0));
+            assert_eq!(target.yaw_rad, 0.7);
+        }
+        other => panic!("{other:?}"),
+    }
 }
 
 #[test]
