@@ -6,7 +6,8 @@
 
 use super::*;
 
-fn level_biases() -> ImuBiases {
+/// The calibration of an IMU sitting level and still: no gyro bias, gravity only.
+pub(super) fn level_biases() -> ImuBiases {
     ImuBiases {
         gyro_rps: Vector3::zeros(),
         mean_accel_mps2: Vector3::new(0.0, 0.0, -GRAVITY_MPS2),

@@ -2,15 +2,8 @@
 //! references handed on, refused when they are not physical, kept through the start, and an
 //! attitude carried from a record set over the levelling.
 
+use super::algebra_tests::level_biases;
 use super::*;
-
-fn level_biases() -> ImuBiases {
-    ImuBiases {
-        gyro_rps: Vector3::zeros(),
-        mean_accel_mps2: Vector3::new(0.0, 0.0, -GRAVITY_MPS2),
-        samples: 100,
-    }
-}
 
 /// A navigator calibrated on the skids with a compass and an altimeter: its references.
 fn on_the_ground() -> Navigator {
