@@ -98,20 +98,33 @@ try {
     say("manual-roll-right", rolled, { roll_change_deg: rolled.roll_deg - before.roll_deg,
       aileron_stick: rolled.sticks[0], aileron_servo: rolled.servos[0] });
     await page.screenshot({ path: join(out, "01-manual-roll-right.png") });
-    // Down again, as a pilot would: the collective a little below the hover's, the cyclic
-    // holding the helicopter level and taking its speed off.
-    await page.evaluate(() => { window.__pad.axes[1] = -0.5; });
+    // Down again, as a pilot would: first the speed taken off at the hover's collective,
+    // then the collective a little below the hover's, the cyclic holding the helicopter
+    // level and still all the way down (a skid that touches down moving sideways or
+    // forward can tip it over).
     const clampStick = (v) => Math.max(-0.4, Math.min(0.4, v));
-    let down = null;
-    for (const end = Date.now() + 25000; Date.now() < end;) {
+    const level = async () => {
       const f = await frame(page);
-      if (f.ground) { down = f; break; }
       const fwd = f.vel[0] * Math.cos(f.yaw) + f.vel[1] * Math.sin(f.yaw);
       const right = -f.vel[0] * Math.sin(f.yaw) + f.vel[1] * Math.cos(f.yaw);
       const ail = clampStick(-0.02 * f.roll_deg - 0.05 * right);
       const ele = clampStick(-0.02 * f.pitch_deg + 0.05 * fwd);
       await page.evaluate(([a, e]) => { window.__pad.axes[2] = a; window.__pad.axes[3] = e; }, [ail, ele]);
       await sleep(40);
+      return { f, speed: Math.hypot(fwd, right) };
+    };
+    let stillSince = null;
+    for (const end = Date.now() + 10000; Date.now() < end;) {
+      const { f, speed } = await level();
+      if (f.ground) break;
+      stillSince = speed < 0.3 ? (stillSince ?? Date.now()) : null;
+      if (stillSince !== null && Date.now() - stillSince > 800) break;
+    }
+    await page.evaluate(() => { window.__pad.axes[1] = -0.5; });
+    let down = null;
+    for (const end = Date.now() + 25000; Date.now() < end;) {
+      const { f } = await level();
+      if (f.ground) { down = f; break; }
     }
     if (!down) throw new Error("timed out waiting for: back on the ground");
     await page.evaluate(() => { window.__pad.axes = [0, 0.5, 0, 0]; });
