@@ -17,7 +17,7 @@ pub struct FieldDayArgs {
     #[arg(long, value_delimiter = ',')]
     pub phases: Vec<String>,
     /// Only CI's subset: each kind of recovery once (kill-flight in the hover, kill-bootstrap
-    /// in the rolls, disk-full in the hover, stall-3 in the rolls).
+    /// in the rolls, disk-full in the hover, stall-3 and brownout in the rolls).
     #[arg(long, conflicts_with_all = ["faults", "phases"])]
     pub ci: bool,
     /// Where each trial keeps its logs, snapshots and what was said.

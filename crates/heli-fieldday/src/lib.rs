@@ -69,13 +69,16 @@ pub struct Options {
     pub mount: bool,
 }
 
-/// The trials CI runs (`heli field-day --ci`): each kind of recovery once, in both phases.
+/// The trials CI runs (`heli field-day --ci`): each kind of recovery once, in both phases —
+/// the brown-out in the roll, where the restart must carry the roll through (the record's
+/// wall-clock time set against the new process's clock: only real processes exercise it).
 pub fn ci_trials() -> Vec<(Fault, Phase)> {
     vec![
         (Fault::KillFlight, Phase::Hover),
         (Fault::KillBootstrap, Phase::Rolls),
         (Fault::DiskFull, Phase::Hover),
         (Fault::Stall(3000), Phase::Rolls),
+        (Fault::Brownout, Phase::Rolls),
     ]
 }
 

@@ -31,10 +31,8 @@ impl FlightCore {
         self.restart = Restart::in_roll(warm, roll);
         // No estimate until the roll is over and the alignment done.
         self.main_loop.invalidate();
-        let began_us = roll
-            .at_us
-            .saturating_sub(seconds_to_us(roll.elapsed_s))
-            .max(0);
+        let elapsed_us = signed(heli_nav::calibration::seconds_to_us(roll.elapsed_s));
+        let began_us = roll.at_us.saturating_sub(elapsed_us).max(0);
         self.seq.phase = Phase::Maneuver {
             target: Target::hold(Vector3::from(roll.pos_ned_m), roll.yaw_rad),
             stage: RollStage::Rolling {
@@ -148,12 +146,4 @@ impl FlightCore {
             yaw_rad: target.yaw_rad,
         })
     }
-}
-
-#[expect(
-    clippy::cast_possible_truncation,
-    reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
-)]
-fn seconds_to_us(s: f64) -> i64 {
-    (s * 1e6) as i64
 }
