@@ -1,5 +1,5 @@
 //! The HILSim's 3D view of the truth (`heli hilsim --view`), opened in headless Chromium
-//! while the vehicle flies the rolls against the simulator in real time: screenshots before
+//! while the vehicle flies the rolls against the simulator at twice real time: screenshots before
 //! and during a roll, each checked to show the helicopter, the field and the trail in both
 //! cameras (`tests/ui/view.mjs`). Screenshots are saved under the test's target directory.
 
@@ -18,16 +18,22 @@ fn the_truth_view_shows_the_helicopter_the_field_and_the_trail_before_and_during
     let dir = tempfile::tempdir().unwrap();
     let dev = dir.path().join("dev");
     let dev_s = dev.display().to_string();
-    let (hil, url) = hilsim_with_view(&dev_s, "rolls", "90", &[]);
-    let vehicle = Vehicle::start(dir.path(), &dev);
+    // The first roll begins about 118 s into the flight (80 s of calibration, pre-flight
+    // checks, take-off, hold, run-up): the simulator runs to 125 s, at twice real time.
+    let (hil, url) = hilsim_with_view(&dev_s, "rolls", "125", &["--speed", "2"]);
+    let vehicle = Vehicle::start_with(dir.path(), &dev, 2.0);
     assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
     let reply = vehicle.ctl(&["start-logging", "view", "autonomous", "rolls"]);
     assert!(reply.starts_with("ok flying"), "{reply}");
     let (run, said, shots) = run_page_script(&ui, "view", "HELI_VIEW_URL", &url);
     vehicle.ctl(&["kill", "confirmed"]);
+    let story = vehicle.output();
     vehicle.quit();
     drop(hil);
-    assert!(run.success(), "the view test failed:\n{said}");
+    assert!(
+        run.success(),
+        "the view test failed:\n{said}\nthe vehicle said:\n{story}"
+    );
     for shot in ["01-before-roll", "02-during-roll"] {
         assert!(
             shots.join(format!("{shot}.png")).exists(),
