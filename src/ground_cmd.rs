@@ -66,6 +66,10 @@ pub enum GroundAction {
         mode: String,
         /// Flight plan the vehicle knows by name (hover, demo, rolls); its default if absent.
         plan: Option<String>,
+        /// Fly an augmented or autonomous flight although the vehicle's build or parameters
+        /// are not the lab-tested ones (heli certify); the vehicle logs the override.
+        #[arg(long)]
+        override_untested: bool,
     },
     /// Stop: ends the flight on the ground. In the air the vehicle lands first when it flies
     /// (this waits for the flight to end on the skids), or refuses while the pilot flies.
@@ -191,9 +195,15 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
     let mut s = open(args, timeout)?;
     match action {
         GroundAction::Connect => outcome("connect", s.command(&GroundCommand::Connect)?),
-        GroundAction::Start { suffix, mode, plan } => {
+        GroundAction::Start {
+            suffix,
+            mode,
+            plan,
+            override_untested,
+        } => {
             let mut p = StartParameters::new(suffix, mode).map_err(anyhow::Error::msg)?;
             p.plan = plan.clone();
+            p.override_untested = *override_untested;
             let c = GroundCommand::StartLogging(p);
             outcome("start logging", s.command(&c)?)
         }

@@ -223,7 +223,33 @@ impl Vehicle {
         Self::start_full(dir, dev, 1.0, &extra)
     }
 
+    /// Starts the bootstrap as a vehicle in the field: linked and keyed, judging its build
+    /// and parameters against the lab's attestation in its log directory, with no bench
+    /// override (`--fly-untested`): an augmented or autonomous flight on a configuration
+    /// that is not lab-tested needs the operator's override.
+    pub fn start_in_the_field(dir: &Path, dev: &Path, link: &str, key: &Path) -> Self {
+        let extra = [
+            "--link".to_string(),
+            link.to_string(),
+            "--key".to_string(),
+            key.display().to_string(),
+        ];
+        Self::start_args(dir, dev, 1.0, &extra, false)
+    }
+
+    /// The HIL tests fly the build under test: the bench's standing override of the
+    /// lab-tested check (`--fly-untested`).
     fn start_full(dir: &Path, dev: &Path, clock_speed: f64, extra: &[String]) -> Self {
+        Self::start_args(dir, dev, clock_speed, extra, true)
+    }
+
+    fn start_args(
+        dir: &Path,
+        dev: &Path,
+        clock_speed: f64,
+        extra: &[String],
+        bench: bool,
+    ) -> Self {
         let socket = dir.join("ctl.sock");
         let mut args: Vec<String> = [
             "--hilsim",
@@ -243,6 +269,9 @@ impl Vehicle {
         .map(|s| s.to_string())
         .collect();
         args.extend_from_slice(extra);
+        if bench {
+            args.push("--fly-untested".into());
+        }
         let proc = Lines::spawn_program(&vehicle_program(), &args);
         proc.wait_for("bootstrap: listening", Duration::from_secs(10));
         Self { proc, socket }

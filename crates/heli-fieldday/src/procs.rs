@@ -214,6 +214,8 @@ pub fn bootstrap(programs: &Programs, paths: &VehiclePaths) -> Result<Proc, Fiel
         "1",
         "--calibration-s",
         "5",
+        // A simulated field day flies the build under development: the bench's override.
+        "--fly-untested",
     ]
     .map(str::to_string);
     let proc = Proc::spawn(&programs.vehicle, &args)?;

@@ -31,6 +31,7 @@ pub mod client;
 pub mod command;
 pub mod display;
 pub mod facts;
+pub mod lab;
 pub mod messages;
 pub mod operators;
 pub mod pack_log;

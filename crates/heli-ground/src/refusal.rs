@@ -47,6 +47,9 @@ pub enum Refusal {
     SuffixUsed(String),
     /// Kill without the operator's confirmation.
     KillUnconfirmed,
+    /// An augmented or autonomous start on a configuration that is not lab-tested, without
+    /// the operator's override: the statement and what to do.
+    Untested(String),
 }
 
 /// Why Stop's final parameters (where to save the flight's log) cannot be used.
@@ -96,6 +99,7 @@ impl fmt::Display for Refusal {
             Refusal::KillUnconfirmed => f.write_str(
                 "kill not confirmed: it ends the flight process now, in the air too (the helicopter falls); Stop lands it first",
             ),
+            Refusal::Untested(why) => f.write_str(why),
             Refusal::SuffixUsed(s) => write!(
                 f,
                 "the vehicle has a log flight_{s}.mcap already (it never replaces one): choose another suffix"

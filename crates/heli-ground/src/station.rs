@@ -126,6 +126,10 @@ pub struct StartForm {
     /// The flight pack installed, as the packs file names it (absent: not said).
     #[serde(default)]
     pub pack: Option<String>,
+    /// The operator's override: fly an augmented or autonomous flight on a configuration
+    /// the vehicle says is not lab-tested (the page asks first).
+    #[serde(default)]
+    pub override_untested: bool,
 }
 
 /// A command on its way.
@@ -176,6 +180,8 @@ pub struct Station {
     pub(crate) flight_params: Option<FlightParams>,
     /// The vehicle's last refusals of the flight under way, in its words.
     pub(crate) refusals: Refusals,
+    /// The vehicle's last lab statement (`crate::lab`).
+    pub(crate) lab_statement: Option<String>,
     /// Suffixes the vehicle has a log of, as far as this station knows (the flights it
     /// started, and those the vehicle refused as existing).
     suffixes_used: std::collections::BTreeSet<String>,
@@ -242,6 +248,7 @@ impl Station {
             command: None,
             flight_params: None,
             refusals: Refusals::default(),
+            lab_statement: None,
             suffixes_used: Default::default(),
             landing_then_save: None,
         }
@@ -296,6 +303,9 @@ impl Station {
         let now_s = self.session_s();
         for (severity, text) in new {
             self.field_rule.see(&text);
+            if let Some(statement) = crate::lab::statement_of(&text) {
+                self.lab_statement = Some(statement.to_string());
+            }
             if let Some(i) = text.find("take-off refused") {
                 self.refusals.takeoff = text.get(i..).map(str::to_string);
             } else if let Some(i) = text.find(" flight refused: ") {
@@ -789,6 +799,7 @@ impl Station {
             controller,
             plan,
             pack,
+            override_untested,
         } = form;
         if let Some(why) = self.field_rule.blocks_start() {
             return Err(Refusal::FieldRule(why));
@@ -806,6 +817,22 @@ impl Station {
             return Err(Refusal::SuffixUsed(p.file_suffix));
         }
         p.plan = plan;
+        let tested = self
+            .link
+            .heartbeat
+            .as_ref()
+            .and_then(|(_, hb)| VehicleStatus::from_heartbeat(hb))
+            .map(|s| s.tested)
+            .unwrap_or_default();
+        if let Some(why) = crate::lab::needs_override(
+            tested,
+            self.lab_statement.as_deref(),
+            p.controller,
+            *override_untested,
+        ) {
+            return Err(Refusal::Untested(why));
+        }
+        p.override_untested = *override_untested;
         Ok(p)
     }
 

@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use heli_link::GroundCommand;
+use mavlink::dialects::common::MavSeverity;
 use heli_link::logs::MemoryStore;
 use heli_link::status::{BootstrapState, VehicleStatus};
 use heli_link::telemetry::{
@@ -37,6 +38,8 @@ pub(crate) struct Bench {
     /// The helicopter is in the air under the computer: a Stop lands first (the vehicle
     /// stays stopping until the test lands it).
     pub(crate) land_first: bool,
+    /// What the vehicle's heartbeat says of the lab attestation.
+    pub(crate) tested: heli_link::status::Tested,
 }
 
 pub(crate) fn flying_telemetry(phase: &str) -> Telemetry {
@@ -112,6 +115,7 @@ impl Bench {
             commands: Vec::new(),
             saved: Vec::new(),
             land_first: false,
+            tested: heli_link::status::Tested::Unknown,
         };
         b.run(1.5);
         b
@@ -183,6 +187,7 @@ impl Bench {
                 state: self.state,
                 mode: self.mode,
                 phase: 0,
+                tested: self.tested,
             };
             self.vehicle
                 .tick(self.t, status, self.telemetry.as_ref(), &self.store);
@@ -811,4 +816,46 @@ fn the_header_shows_the_phase_flown_not_only_the_mode_asked() {
     b.telemetry = None;
     b.run(2.0);
     assert_eq!(b.station.view(b.t).vehicle.phase, None);
+}
+
+#[test]
+fn an_untested_configuration_is_shown_and_an_autonomous_start_needs_the_override() {
+    use heli_link::status::Tested;
+    let mut b = Bench::new();
+    b.tested = Tested::NotTested;
+    let op = b.connected_operator();
+    b.vehicle.status_text(
+        MavSeverity::MAV_SEVERITY_WARNING,
+        "bootstrap: NOT lab-tested: parameters changed since the lab's tests: HOV_VEL_P 1.6 (tested 1.4)",
+        b.t,
+    );
+    b.run(1.0);
+    let lab = b.station.view(b.t).vehicle.lab;
+    assert_eq!(lab.tested, "NOT lab-tested");
+    assert_eq!(
+        lab.statement.as_deref(),
+        Some("NOT lab-tested: parameters changed since the lab's tests: HOV_VEL_P 1.6 (tested 1.4)")
+    );
+    // Autonomous without the override: refused on the ground with the statement, nothing sent.
+    let start = r#"{"seq":3,"op":"start","suffix":"u1","controller":"autonomous","plan":"hover"}"#;
+    let refused = b.ask(op, start).unwrap_err();
+    assert!(
+        refused.contains("HOV_VEL_P 1.6 (tested 1.4): autonomous flight needs your override"),
+        "{refused}"
+    );
+    assert!(!b.commands.iter().any(|c| matches!(c, GroundCommand::StartLogging(_))));
+    // With it: sent, and the vehicle hears the override.
+    let start = r#"{"seq":4,"op":"start","suffix":"u1","controller":"autonomous","plan":"hover","override_untested":true}"#;
+    b.ask(op, start).unwrap();
+    b.run(1.0);
+    let sent = b.commands.iter().find_map(|c| match c {
+        GroundCommand::StartLogging(p) => Some(p.clone()),
+        _ => None,
+    });
+    assert!(sent.is_some_and(|p| p.override_untested));
+    // Lab-tested: the statement of the other kind is not shown.
+    b.tested = Tested::LabTested;
+    b.run(1.5);
+    let lab = b.station.view(b.t).vehicle.lab;
+    assert_eq!((lab.tested, lab.statement), ("lab-tested", None));
 }

@@ -57,6 +57,8 @@ pub struct VehicleView {
     /// A refusal of the vehicle that stands until the pilot clears it (a refused take-off,
     /// a refused augmented mode): shown until the phase says it is over.
     pub standing: Option<String>,
+    /// Whether it flies what the lab tested, and its statement.
+    pub lab: crate::lab::LabView,
 }
 
 /// The battery meter.
@@ -280,6 +282,10 @@ impl Station {
                 phase: status.and_then(|s| s.phase_name()),
                 bad_frames: self.link.bad_frames,
                 standing: standing.as_ref().map(|s| s.text.clone()),
+                lab: crate::lab::view(
+                    status.map(|s| s.tested).unwrap_or_default(),
+                    self.lab_statement.as_deref(),
+                ),
             },
             uplink_labels: labels,
             rows,

@@ -191,6 +191,31 @@ function renderVehicle(view) {
   const st = $("standing");
   st.hidden = !v.standing;
   st.textContent = v.standing || "";
+  // Whether the vehicle flies what the lab tested; why not stays in sight.
+  const lab = $("lab");
+  const tested = v.heard ? v.lab.tested : "unknown";
+  lab.hidden = tested === "unknown";
+  lab.textContent = tested;
+  lab.className = "pill " + (tested === "lab-tested" ? "good" : "warn");
+  lab.title = v.lab.statement || "";
+  const why = $("lab-statement");
+  const untested = tested === "NOT lab-tested";
+  why.hidden = !untested;
+  why.textContent = untested ? v.lab.statement || "NOT lab-tested (the vehicle's reason not heard yet)" : "";
+}
+
+// Start Logging: an augmented or autonomous flight on a configuration the vehicle says is
+// not lab-tested is sent only after the operator confirms the override.
+function startLogging() {
+  const form = startForm();
+  const v = page.view && page.view.vehicle;
+  if (v && v.heard && v.lab.tested === "NOT lab-tested" && form.controller !== "manual") {
+    $("override-why").textContent = v.lab.statement || "NOT lab-tested";
+    $("override-dialog").returnValue = "";
+    $("override-dialog").showModal();
+    return;
+  }
+  send("start", form);
 }
 
 // The last command and what became of it: a refusal in red with the vehicle's reason.
@@ -422,7 +447,12 @@ function wire() {
   $("release-control").onclick = () => send("release");
   $("connect").onclick = () => send("connect");
   $("acknowledge").onclick = () => send("acknowledge");
-  $("start").onclick = () => send("start", startForm());
+  $("start").onclick = startLogging;
+  $("override-dialog").addEventListener("close", () => {
+    if ($("override-dialog").returnValue === "override") {
+      send("start", { ...startForm(), override_untested: true });
+    }
+  });
   for (const id of ["suffix", "controller", "plan", "pack"]) {
     $(id).addEventListener("input", checkStart);
     $(id).addEventListener("change", checkStart);

@@ -3,7 +3,7 @@
 //! | thesis | command | parameters |
 //! |---|---|---|
 //! | Connect | `MAV_CMD_USER_1` (31010) | — |
-//! | Start Logging | `MAV_CMD_USER_2` (31011) | 1: controller (0 manual, 1 autonomous, 2 rate, 3 attitude, 4 velocity); 2: plan (0 the vehicle's default, else the index in [`PLANS`] plus one); 3–7: the file suffix, 3 ASCII bytes per parameter |
+//! | Start Logging | `MAV_CMD_USER_2` (31011) | 1: controller (0 manual, 1 autonomous, 2 rate, 3 attitude, 4 velocity), plus [`OVERRIDE_UNTESTED`] for the operator's override of a configuration that is not lab-tested; 2: plan (0 the vehicle's default, else the index in [`PLANS`] plus one); 3–7: the file suffix, 3 ASCII bytes per parameter |
 //! | Stop | `MAV_CMD_USER_3` (31012) | — |
 //! | Kill (Stop in the air, confirmed) | `MAV_CMD_USER_3` (31012) | 1: [`KILL_CODE`] (21196, MAVLink's force code) |
 //!
@@ -28,6 +28,10 @@ pub const KILL_CODE: f32 = 21196.0;
 /// Longest file suffix a Start Logging command carries (the suffix's one limit, kept with
 /// the parameters it limits).
 pub use crate::messages::MAX_LINK_SUFFIX;
+
+/// Added to Start Logging's controller parameter: the operator overrides the lab-tested
+/// check (`StartParameters::override_untested`).
+pub const OVERRIDE_UNTESTED: usize = 16;
 
 /// The flight plans the vehicle knows by name, by their link index (plan parameter − 1).
 pub const PLANS: [&str; 3] = ["hover", "demo", "rolls"];
@@ -102,12 +106,15 @@ pub fn ground_command(cmd: &COMMAND_LONG_DATA) -> Result<GroundCommand, CommandE
             cmd.param1
         ))),
         CMD_START_LOGGING => {
-            let controller = whole(cmd.param1)
-                .and_then(|i| CONTROLLERS.get(i))
-                .copied()
+            let (controller, override_untested) = whole(cmd.param1)
+                .and_then(|code| {
+                    let overridden = code >= OVERRIDE_UNTESTED;
+                    let index = code.checked_sub(OVERRIDE_UNTESTED).unwrap_or(code);
+                    CONTROLLERS.get(index).map(|c| (*c, overridden))
+                })
                 .ok_or_else(|| {
                     CommandError::BadParameter(format!(
-                        "controller {} is not 0-4 (manual, autonomous, rate, attitude, velocity)",
+                        "controller {} is not 0-4 (manual, autonomous, rate, attitude, velocity), or 16-20 with the override of the lab-tested check",
                         cmd.param1
                     ))
                 })?;
@@ -141,6 +148,7 @@ pub fn ground_command(cmd: &COMMAND_LONG_DATA) -> Result<GroundCommand, CommandE
             let mut params = StartParameters::new(&suffix, controller.name())
                 .map_err(|e| CommandError::BadParameter(e.to_string()))?;
             params.plan = plan;
+            params.override_untested = override_untested;
             Ok(GroundCommand::StartLogging(params))
         }
         other => Err(CommandError::Unsupported(other)),
@@ -178,7 +186,14 @@ pub fn command_long(command: &GroundCommand, target: (u8, u8)) -> Option<COMMAND
             if p.file_suffix.len() > MAX_LINK_SUFFIX {
                 return None;
             }
-            let controller = CONTROLLERS.iter().position(|c| *c == p.controller)?;
+            let controller = CONTROLLERS
+                .iter()
+                .position(|c| *c == p.controller)?
+                .saturating_add(if p.override_untested {
+                    OVERRIDE_UNTESTED
+                } else {
+                    0
+                });
             let plan = match &p.plan {
                 None => 0,
                 Some(name) => PLANS.iter().position(|n| n == name)?.saturating_add(1),
@@ -222,7 +237,10 @@ mod tests {
     fn every_thesis_command_round_trips() {
         let mut start = StartParameters::new("hover1", "velocity").unwrap();
         start.plan = Some("demo".into());
+        let mut overridden = StartParameters::new("untested", "autonomous").unwrap();
+        overridden.override_untested = true;
         for c in [
+            GroundCommand::StartLogging(overridden),
             GroundCommand::Connect,
             GroundCommand::Stop,
             GroundCommand::Kill,
@@ -244,6 +262,17 @@ mod tests {
         long.param1 = 9.0;
         let err = ground_command(&long).unwrap_err().to_string();
         assert!(err.contains("controller 9"), "{err}");
+        for bad in [5.0, 15.0, 21.0, 32.0] {
+            long.param1 = bad;
+            let err = ground_command(&long).unwrap_err().to_string();
+            assert!(err.contains(&format!("controller {bad}")), "{err}");
+        }
+        long.param1 = 17.0;
+        let GroundCommand::StartLogging(p) = ground_command(&long).unwrap() else {
+            panic!("not a start")
+        };
+        assert!(p.override_untested);
+        assert_eq!(p.controller, FlightMode::Autonomous);
         long.param1 = 0.0;
         long.param2 = 7.0;
         assert!(

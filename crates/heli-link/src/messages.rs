@@ -14,6 +14,9 @@ pub struct StartParameters {
     /// The flight plan to fly with the auto switch on: a plan the vehicle knows by name, or
     /// the path of a plan file on the vehicle. `None`: the vehicle's default plan.
     pub plan: Option<String>,
+    /// The operator's override: fly an augmented or autonomous flight on a configuration
+    /// (build or parameters) that is not lab-tested (`heli certify`). Logged with the flight.
+    pub override_untested: bool,
 }
 
 /// Parameters the cleanup routine asks for after "Stop" (thesis §4.1.4).
@@ -99,6 +102,7 @@ impl StartParameters {
         Ok(Self {
             file_suffix: file_suffix.to_string(),
             plan: None,
+            override_untested: false,
             controller: FlightMode::from_name(controller)
                 .ok_or_else(|| LinkError::UnknownController(controller.to_string()))?,
         })

@@ -106,6 +106,31 @@ impl Key {
         )
     }
 
+    /// HMAC-SHA256 of `message` under this key (RFC 2104): what signs a lab's attestation
+    /// (`heli certify`), so that the key never leaves this type.
+    pub fn hmac_sha256(&self, message: &[u8]) -> [u8; 32] {
+        const BLOCK: usize = 64;
+        let mut inner_pad = [0x36u8; BLOCK];
+        let mut outer_pad = [0x5cu8; BLOCK];
+        for (i, k) in self.0.iter().enumerate() {
+            if let (Some(a), Some(b)) = (inner_pad.get_mut(i), outer_pad.get_mut(i)) {
+                *a ^= k;
+                *b ^= k;
+            }
+        }
+        let inner = Sha256::new()
+            .chain_update(inner_pad)
+            .chain_update(message)
+            .finalize();
+        let outer = Sha256::new()
+            .chain_update(outer_pad)
+            .chain_update(inner)
+            .finalize();
+        let mut out = [0u8; 32];
+        out.copy_from_slice(&outer);
+        out
+    }
+
     /// The 48-bit signature of `signed_part` (a frame up to and including its timestamp).
     fn signature(&self, signed_part: &[u8]) -> [u8; 6] {
         let mut hash = Sha256::new();

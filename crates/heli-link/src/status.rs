@@ -33,6 +33,47 @@ pub struct VehicleStatus {
     /// [`PHASES`] from 1; 0 not known): what the helicopter actually does, which a refusal
     /// or a failsafe can make differ from the mode asked.
     pub phase: u8,
+    /// Whether the vehicle's configuration is the one the lab tested (custom mode's fourth
+    /// byte; `heli certify`).
+    pub tested: Tested,
+}
+
+/// Whether the vehicle flies what the lab tested (`heli certify`): its build and parameters
+/// match a lab's signed attestation. Why not travels as a STATUSTEXT beginning with
+/// [`NOT_LAB_TESTED`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Tested {
+    /// Not said (an older vehicle).
+    #[default]
+    Unknown = 0,
+    /// The build and parameters match the lab's attestation.
+    LabTested = 1,
+    /// They do not, or no attestation can be checked.
+    NotTested = 2,
+}
+
+/// How the vehicle's statement begins when its configuration is not lab-tested.
+pub const NOT_LAB_TESTED: &str = "NOT lab-tested";
+/// How it begins when it is.
+pub const LAB_TESTED: &str = "lab-tested";
+
+impl Tested {
+    /// Its name on displays.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Tested::Unknown => "unknown",
+            Tested::LabTested => LAB_TESTED,
+            Tested::NotTested => NOT_LAB_TESTED,
+        }
+    }
+
+    fn from_code(code: u32) -> Self {
+        match code {
+            1 => Tested::LabTested,
+            2 => Tested::NotTested,
+            _ => Tested::Unknown,
+        }
+    }
 }
 
 /// The flight software's phases, by name (`heli_fsw::Phase::name`), in the heartbeat's
@@ -102,6 +143,7 @@ impl VehicleStatus {
             state,
             mode: u8::try_from((hb.custom_mode >> 8) & 0xFF).unwrap_or(0),
             phase: u8::try_from((hb.custom_mode >> 16) & 0xFF).unwrap_or(0),
+            tested: Tested::from_code((hb.custom_mode >> 24) & 0xFF),
         })
     }
 
@@ -130,15 +172,17 @@ pub fn mode_code(mode: heli_types::FlightMode) -> u8 {
 
 /// `text` in pieces of at most `max` bytes (a STATUSTEXT holds 50) that join back to it
 /// exactly: each piece but the last ends with a space of the text (cut after a word) or, where
-/// a word is longer than the room, is cut inside the word and full (`max` bytes). A ground
-/// joins a piece that ends with a space or is full to the next one (`GroundLink`), adding
-/// nothing. (Only a word of more than `max` bytes whose cut would fall inside a character of
+/// a word is longer than the room, is cut inside the word and full (`max` bytes); the last
+/// piece is never full and never ends with a space (a text of exactly `max` bytes is cut
+/// too, and one ending with a space gets an empty last piece), so that the ground, which joins
+/// a piece that ends with a space or is full to the next one (`GroundLink`), knows where a
+/// text ends, adding nothing. (Only a word of more than `max` bytes whose cut would fall inside a character of
 /// several bytes makes a piece that is neither: the line then arrives as two.)
 pub fn chunks(text: &str, max: usize) -> Vec<String> {
     let max = max.max(4);
     let mut out = Vec::new();
     let mut rest = text;
-    while rest.len() > max {
+    while rest.len() >= max || (rest.ends_with(' ') && !rest.is_empty()) {
         // The longest prefix of at most `max` bytes that ends at a character's boundary.
         let room = (0..=max)
             .rev()
@@ -180,7 +224,8 @@ pub fn heartbeat(status: VehicleStatus) -> MavMessage {
     MavMessage::HEARTBEAT(HEARTBEAT_DATA {
         custom_mode: u32::from(status.state as u8)
             | (u32::from(status.mode) << 8)
-            | (u32::from(status.phase) << 16),
+            | (u32::from(status.phase) << 16)
+            | ((status.tested as u32) << 24),
         mavtype: MavType::MAV_TYPE_HELICOPTER,
         autopilot: MavAutopilot::MAV_AUTOPILOT_GENERIC,
         base_mode,

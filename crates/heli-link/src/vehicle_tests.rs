@@ -276,7 +276,11 @@ fn bad_commands_are_denied_with_a_reason_and_unknown_ones_unsupported() {
         g.final_ack(MavCmd::MAV_CMD_NAV_TAKEOFF),
         Some(MavResult::MAV_RESULT_UNSUPPORTED)
     );
-    assert!(g.texts.iter().any(|(_, t)| t.contains("controller 42")));
+    assert!(
+        g.texts.iter().any(|(_, t)| t.contains("controller 42")),
+        "{:?}",
+        g.texts
+    );
 }
 
 proptest::proptest! {
@@ -300,6 +304,11 @@ fn status_texts_are_cut_into_pieces_that_join_back_exactly() {
         "flight: stopped {\"baro_readings\":215,\"compass_readings\":867,\"control_steps\":2166}".to_string(),
         "x".repeat(120),
         "météo: vent à 8 m/s, rafales à 12 m/s — décollage refusé".repeat(2),
+        // Whose last piece would be exactly full, or end with a space: the ground could not
+        // tell that the text ends there.
+        "command refused: controller 42 is not 0-4 (manual, autonomous, rate, attitude, velocity), or 16-20 with the override of the lab-tested check".to_string(),
+        "y".repeat(100),
+        "a text that ends with a space ".to_string(),
         String::new(),
     ];
     for text in &texts {
@@ -311,18 +320,20 @@ fn status_texts_are_cut_into_pieces_that_join_back_exactly() {
         for p in &parts[..last] {
             assert!(p.ends_with(' ') || p.len() == 50, "{p:?} in {parts:?}");
         }
+        // The last one says it ends.
+        assert!(parts[last].len() < 50 && !parts[last].ends_with(' '), "{parts:?}");
     }
     assert_eq!(chunks(&"x".repeat(120), 50).len(), 3);
     assert_eq!(chunks("", 50), vec![String::new()]);
     // Through the link, a long line with a long word arrives as it was sent.
     let mut v = VehicleLink::new(None, T0);
     let mut g = GroundLink::new(None);
-    for text in &texts[..5] {
+    for text in &texts[..8] {
         v.status_text(MavSeverity::MAV_SEVERITY_INFO, text, T0);
         for frame in v.take_outgoing() {
             g.receive(&frame, T0);
         }
-        g.flush_texts(T0 + 10_000_000);
+        // Whole at once: no wait for a continuation that is not coming.
         let (_, got) = g.texts.pop().unwrap();
         assert_eq!(&got, text);
     }
@@ -510,7 +521,7 @@ fn connect_over_the_link_is_refused_while_a_flight_is_under_way() {
     let flying = VehicleStatus {
         state: BootstrapState::Flying,
         mode: 2,
-        phase: 0,
+        ..VehicleStatus::default()
     };
     v.tick(T0, flying, None, &s);
     let connect = g.command_frame(command_long(&GroundCommand::Connect, (1, 1)).unwrap(), T0);
@@ -590,6 +601,7 @@ fn the_heartbeat_carries_the_phase_flown_beside_the_mode_asked() {
             state: BootstrapState::Flying,
             mode: 2,
             phase: crate::status::phase_code(name),
+            tested: crate::status::Tested::NotTested,
         };
         assert_eq!(usize::from(status.phase), k + 1);
         let MavMessage::HEARTBEAT(hb) = crate::status::heartbeat(status) else {
@@ -600,6 +612,21 @@ fn the_heartbeat_carries_the_phase_flown_beside_the_mode_asked() {
         assert_eq!(back.phase_name(), Some(*name));
     }
     assert_eq!(crate::status::phase_code("somersault"), 0);
+    for tested in [
+        crate::status::Tested::Unknown,
+        crate::status::Tested::LabTested,
+        crate::status::Tested::NotTested,
+    ] {
+        let status = VehicleStatus {
+            tested,
+            ..VehicleStatus::default()
+        };
+        let MavMessage::HEARTBEAT(hb) = crate::status::heartbeat(status) else {
+            panic!("not a heartbeat");
+        };
+        assert_eq!(hb.custom_mode >> 24, tested as u32);
+        assert_eq!(VehicleStatus::from_heartbeat(&hb).unwrap().tested, tested);
+    }
     assert_eq!(VehicleStatus::default().phase_name(), None);
 }
 

@@ -253,6 +253,9 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
                 &link,
                 "--key",
                 &key_s,
+                // The simulator is a lab bench: its build is not certified, and its
+                // flights fly on the bench's standing override (each says so).
+                "--fly-untested",
             ]),
             &keys,
         )?;

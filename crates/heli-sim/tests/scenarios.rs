@@ -318,3 +318,40 @@ fn the_hold_after_the_rolls_stops_ahead_and_does_not_fly_back() {
         "flew back {worst_back:.1} m after stopping"
     );
 }
+
+#[test]
+fn the_augmented_pilot_lifts_off_only_once_the_mode_is_engaged() {
+    // The satellites drop to three before the calibration ends (85 s) and come back at 92 s: the
+    // flight software refuses velocity flight on the skids and says so; the pilot, watching
+    // the mode, waits on the skids instead of lifting off with velocity sticks in manual
+    // (robustness suite, augmented-wind flight 80: that crashed at 6.6 m/s).
+    let mut s = scenario::augmented();
+    s.faults.gps_satellites = vec![heli_scenario::faults::ForcedSatellites {
+        start_s: 80.0,
+        end_s: 92.0,
+        satellites: 3,
+    }];
+    let summary = fly(&s, 1);
+    let at = |text: &str| {
+        summary
+            .events
+            .iter()
+            .find(|e| e.contains(text) && !e.starts_with("t=0."))
+            .unwrap_or_else(|| panic!("no event '{text}' in {:#?}", summary.events))
+            .clone()
+    };
+    let refused = at("velocity flight refused: ");
+    assert!(refused.contains("t=85."), "{refused}");
+    assert!(!refused.contains("calibrating"), "{refused}");
+    let engaged = at("phase augmented-velocity");
+    assert!(
+        !engaged.contains("t=85.") && !engaged.contains("t=86."),
+        "{engaged}"
+    );
+    assert!(summary.crash.is_none(), "{:?}", summary.crash);
+    assert!(value(&summary, "climb_m") >= 8.0, "{summary:#?}");
+    assert!(
+        value(&summary, "velocity_tracking_max_mps") <= 0.6,
+        "{summary:#?}"
+    );
+}

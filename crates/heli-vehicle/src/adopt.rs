@@ -311,8 +311,8 @@ mod tests {
             ("", "did not introduce itself"),
             ("ready 1\n", "protocol version 1"),
             ("hello\n", "said 'hello'"),
-            ("ready 3\nstarted (no log)\n", "said 'started (no log)'"),
-            ("ready 3\nadopted 9 t1 manual\nnote x\n", "said 'note x'"),
+            ("ready 4\nstarted (no log)\n", "said 'started (no log)'"),
+            ("ready 4\nadopted 9 t1 manual\nnote x\n", "said 'note x'"),
         ];
         for (lines, why) in cases {
             let t = talk(lines);

@@ -40,6 +40,9 @@ use crate::error::VehicleError;
 use crate::supervisor::{FromFlight, ProtocolError, ToFlight, VERSION};
 
 mod child;
+mod statement;
+
+pub use statement::LabStatement;
 
 /// How long Connect waits for the flight process's `ready`.
 pub const READY_TIMEOUT: Duration = Duration::from_secs(10);
@@ -171,6 +174,8 @@ pub trait LinkPort: Send + Sync {
     fn set_plan(&self, legs: &[Leg]);
     /// Whether a ground station has been heard in the last few seconds.
     fn ground_fresh(&self) -> bool;
+    /// Whether the configuration is lab-tested (the heartbeat's fourth byte).
+    fn set_tested(&self, tested: heli_link::status::Tested);
 }
 
 /// A human reading of an exit status: `exit code 0`, `signal 9 (SIGKILL)`.
@@ -266,6 +271,8 @@ pub struct Bootstrap {
     ready_timeout: Duration,
     /// How long Stop waits for the flight process to exit before killing it.
     stop_timeout: Duration,
+    /// The statement of the lab attestation, on a vehicle that checks one.
+    lab: Option<LabStatement>,
 }
 
 impl Bootstrap {
@@ -292,6 +299,7 @@ impl Bootstrap {
             link: None,
             ready_timeout: READY_TIMEOUT,
             stop_timeout: STOP_TIMEOUT,
+            lab: None,
         }
     }
 
@@ -409,6 +417,7 @@ impl Bootstrap {
     fn main_loop(&mut self) -> Result<(), VehicleError> {
         loop {
             self.tell_link_state();
+            self.state_lab();
             let msg = match self.rx.recv_timeout(Duration::from_millis(100)) {
                 Ok(m) => Some(m),
                 Err(RecvTimeoutError::Timeout) => None,
@@ -578,6 +587,7 @@ impl Bootstrap {
                     "last_exit": self.last_exit,
                     "log": self.log,
                     "telemetry": self.last_telemetry,
+                    "lab": self.lab_line(),
                 });
                 let _ = reply.send(Reply::Status(status));
             }

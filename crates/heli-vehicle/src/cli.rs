@@ -56,6 +56,20 @@ pub struct FlightArgs {
     /// `heli hilsim --speed` above 1. Never on a vehicle.
     #[arg(long, default_value_t = 1.0)]
     pub clock_speed: f64,
+    /// The signing key file (heli link keygen): signs the link's frames and checks the
+    /// lab's attestation; without one the link is unauthenticated and nothing is
+    /// lab-tested.
+    #[arg(long, env = "HELI_LINK_KEY")]
+    pub key: Option<PathBuf>,
+    /// The lab's attestation of the build and parameters (heli certify) [default:
+    /// LOG_DIR/attestation.json].
+    #[arg(long)]
+    pub attestation: Option<PathBuf>,
+    /// A lab bench's standing override: augmented and autonomous flights on a configuration
+    /// that is not lab-tested fly without the operator's per-flight override (each is still
+    /// said and logged as flown untested). Never on a vehicle in the field.
+    #[arg(long)]
+    pub fly_untested: bool,
 }
 
 impl FlightArgs {
@@ -152,6 +166,15 @@ impl FlightArgs {
         if let Some(d) = &self.plans_dir {
             args.extend(["--plans-dir".into(), d.clone().into_os_string()]);
         }
+        if let Some(k) = &self.key {
+            args.extend(["--key".into(), k.clone().into_os_string()]);
+        }
+        if let Some(a) = &self.attestation {
+            args.extend(["--attestation".into(), a.clone().into_os_string()]);
+        }
+        if self.fly_untested {
+            args.push("--fly-untested".into());
+        }
         args.extend([
             "--log-dir".into(),
             self.log_dir.clone().into_os_string(),
@@ -192,9 +215,6 @@ pub struct BootstrapArgs {
     /// Serve the MAVLink 2 link on this address (udp:HOST:PORT; e.g. udp:0.0.0.0:14550).
     #[arg(long)]
     pub link: Option<String>,
-    /// The signing key file (heli link keygen); without one the link is unauthenticated.
-    #[arg(long, env = "HELI_LINK_KEY")]
-    pub key: Option<PathBuf>,
 }
 
 /// The bootstrap's own subcommand: one command to a running bootstrap.
@@ -237,10 +257,11 @@ pub fn bootstrap(args: &BootstrapArgs) -> Result<ExitCode> {
         .as_deref()
         .map(heli_link::setup::parse_address)
         .transpose()?;
-    let key = heli_link::setup::load_key(args.key.as_deref())?;
+    let key = heli_link::setup::load_key(flight.key.as_deref())?;
     let exe =
         std::env::current_exe().context("finding this program, to start the flight process")?;
     let adopt_socket = crate::adopt::socket_for(&args.socket);
+    let exe_for_lab = exe.clone();
     let mut child = vec![exe.into_os_string(), "flight".into()];
     child.extend(flight.to_args());
     child.extend([
@@ -264,7 +285,10 @@ pub fn bootstrap(args: &BootstrapArgs) -> Result<ExitCode> {
             to_link.said(said);
         }
     });
-    let mut bootstrap = Bootstrap::new(config, report);
+    let lab = crate::lab::Lab::from_args(flight)?;
+    let mut bootstrap = Bootstrap::new(config, report).with_lab(
+        crate::bootstrap::LabStatement::new(lab, &exe_for_lab, flight.log_dir.clone()),
+    );
     let stop = Arc::new(AtomicBool::new(false));
     if let Some(addr) = link_addr {
         bootstrap = bootstrap.with_link(Arc::clone(&shared) as Arc<dyn crate::bootstrap::LinkPort>);

@@ -63,7 +63,7 @@ impl fmt::Display for RequestError {
                 f,
                 "unknown command '{word}' (expected connect, start-logging, stop, kill confirmed, status or quit)"
             ),
-            RequestError::Usage => write!(f, "usage: start-logging SUFFIX MODE [PLAN]"),
+            RequestError::Usage => write!(f, "usage: start-logging SUFFIX MODE [PLAN] [override-untested]"),
             RequestError::Parameters(e) => write!(f, "{e}"),
             RequestError::KillUnconfirmed => write!(
                 f,
@@ -87,10 +87,18 @@ impl Request {
             ["kill", ..] => Err(RequestError::KillUnconfirmed),
             ["status"] => Ok(Request::Ground(GroundCommand::TelemetryRequest)),
             ["quit"] => Ok(Request::Quit),
-            ["start-logging", suffix, mode, rest @ ..] if rest.len() <= 1 => {
+            ["start-logging", suffix, mode, rest @ ..] => {
+                let (override_untested, rest) = match rest {
+                    [plan @ .., last] if *last == crate::supervisor::OVERRIDE_WORD => (true, plan),
+                    _ => (false, rest),
+                };
+                if rest.len() > 1 {
+                    return Err(RequestError::Usage);
+                }
                 let mut params =
                     StartParameters::new(suffix, mode).map_err(RequestError::Parameters)?;
                 params.plan = rest.first().map(|p| (*p).to_string());
+                params.override_untested = override_untested;
                 Ok(Request::Ground(GroundCommand::StartLogging(params)))
             }
             ["start-logging", ..] => Err(RequestError::Usage),
@@ -356,9 +364,18 @@ mod tests {
             "quit",
             "start-logging f1 autonomous hover",
             "start-logging f2 manual",
+            "start-logging f3 autonomous rolls override-untested",
+            "start-logging f4 velocity override-untested",
         ] {
             assert_eq!(Request::parse(line).unwrap().to_line(), line);
         }
+        let Ok(Request::Ground(GroundCommand::StartLogging(p))) =
+            Request::parse("start-logging f3 autonomous rolls override-untested")
+        else {
+            panic!("not a start")
+        };
+        assert!(p.override_untested);
+        assert_eq!(p.plan.as_deref(), Some("rolls"));
         assert!(
             Request::parse("start-logging ../x manual")
                 .unwrap_err()
@@ -381,6 +398,7 @@ mod tests {
             "start-logging",
             "start-logging f1",
             "start-logging f1 autonomous hover x",
+            "start-logging f1 autonomous hover x override-untested",
         ] {
             assert!(
                 Request::parse(usage)

@@ -130,7 +130,11 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
     // A start this process cannot fly (a plan it does not know, a suffix already logged) is
     // refused before anything is opened, and the process waits for another: the operator
     // chooses again without connecting again.
-    let (restart, start, plan) = loop {
+    // The lab's attestation: judged at each start, on the program that runs this process and
+    // the parameter file the start flies (`crate::lab`).
+    let lab = crate::lab::Lab::from_args(args)?;
+    let program = std::env::current_exe().unwrap_or_default();
+    let (restart, start, plan, lab_line, lab_override) = loop {
         let (restart, start) = match next_message(&mut std::io::stdin().lock(), &say) {
             Some(ToFlight::Start(p)) => (false, p),
             Some(ToFlight::Restart(p)) => (true, p),
@@ -144,7 +148,30 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
             }
         };
         match startable(args, fallback.as_deref(), &start, restart) {
-            Ok(plan) => break (restart, start, plan),
+            Ok(plan) => {
+                let verdict = match crate::lab::identity(&program, &args.log_dir) {
+                    Ok(identity) => lab.check.judge(&identity),
+                    Err(why) => crate::attest::Verdict::NotTested { why: vec![why] },
+                };
+                // A flight resumed in the air flies whatever the lab said.
+                let allowed = match lab.start(&verdict, &start) {
+                    Err(_) if restart => Ok(None),
+                    other => other,
+                };
+                match allowed {
+                    Ok(said) => {
+                        let by = said.as_ref().and_then(|s| s.override_by).unwrap_or("none");
+                        if let Some(said) = said {
+                            say(FromFlight::Event {
+                                severity: said.severity,
+                                text: said.text,
+                            });
+                        }
+                        break (restart, start, plan, verdict.line(), by);
+                    }
+                    Err(why) => say(FromFlight::Refused(why)),
+                }
+            }
             Err(why) => {
                 say(FromFlight::Refused(why.clone()));
                 // A restart the process cannot fly has nobody to choose again: it ends.
@@ -233,6 +260,8 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
             params.as_ref().map(|t| t.to_text()).unwrap_or_default(),
         ),
         ("clock_speed".to_string(), args.clock_speed.to_string()),
+        ("lab_tested".to_string(), lab_line),
+        ("lab_override".to_string(), lab_override.to_string()),
         (
             "compass_bias_gauss".to_string(),
             format!("{:?}", compass.bias_gauss),

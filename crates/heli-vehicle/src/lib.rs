@@ -43,6 +43,7 @@
 
 pub mod adc;
 pub mod adopt;
+pub mod attest;
 pub mod bootstrap;
 pub mod cli;
 pub mod compass_file;
@@ -53,6 +54,7 @@ pub mod error;
 pub mod flight;
 pub mod flight_process;
 pub mod hotswap;
+pub mod lab;
 pub mod link;
 pub mod logger;
 pub mod params;

@@ -97,9 +97,11 @@ impl LinkPort for LinkShared {
         };
         let mode = flying.map_or(0, heli_link::status::mode_code);
         let mut shared = self.lock();
+        let tested = shared.status.tested;
         shared.status = VehicleStatus {
             state,
             mode,
+            tested,
             ..VehicleStatus::default()
         };
         // A flight process gone or not yet flying has no telemetry: the last one's values
@@ -109,6 +111,11 @@ impl LinkPort for LinkShared {
             shared.telemetry_unreadable = None;
             shared.mission = Some(Vec::new());
         }
+    }
+
+    /// Whether the configuration is lab-tested: in every heartbeat from now on.
+    fn set_tested(&self, tested: heli_link::status::Tested) {
+        self.lock().status.tested = tested;
     }
 
     /// Whether a ground station has been heard in the last few seconds.

@@ -6,7 +6,7 @@
 //!
 //! | direction | line | message |
 //! |---|---|---|
-//! | bootstrap → flight | `start SUFFIX MODE [PLAN]` | [`ToFlight::Start`] |
+//! | bootstrap → flight | `start SUFFIX MODE [PLAN] [override-untested]` | [`ToFlight::Start`] (the last word: the operator's override of the lab-tested check) |
 //! | | `restart SUFFIX MODE [PLAN]` | [`ToFlight::Restart`]: resume after a crash |
 //! | | `link fresh` / `link lost` | [`ToFlight::Link`]: whether a ground is heard |
 //! | | `stop` | [`ToFlight::Stop`]: end the flight on the ground (in the air: land first, or refused) |
@@ -41,7 +41,7 @@ use heli_types::Leg;
 use serde_json::Value;
 
 /// The protocol's version.
-pub const VERSION: u16 = 3;
+pub const VERSION: u16 = 4;
 
 /// The longest line either side sends or takes (a telemetry snapshot is about 2 kB).
 pub const MAX_LINE: usize = 64 * 1024;
@@ -161,9 +161,17 @@ fn malformed(word: &'static str, why: impl Into<String>) -> ProtocolError {
     }
 }
 
-/// `SUFFIX MODE [PLAN]`, checked as the link checks Start Logging.
+/// The word that ends a start's words when the operator overrides the lab-tested check
+/// (`crate::attest`): not a plan name.
+pub const OVERRIDE_WORD: &str = "override-untested";
+
+/// `SUFFIX MODE [PLAN] [override-untested]`, checked as the link checks Start Logging.
 fn start_parameters(word: &'static str, rest: &str) -> Result<StartParameters, ProtocolError> {
-    let words: Vec<&str> = rest.split(' ').collect();
+    let mut words: Vec<&str> = rest.split(' ').collect();
+    let override_untested = words.last() == Some(&OVERRIDE_WORD);
+    if override_untested {
+        words.pop();
+    }
     match words.as_slice() {
         [suffix, mode, plan @ ..] if plan.len() <= 1 => {
             let mut p =
@@ -173,19 +181,26 @@ fn start_parameters(word: &'static str, rest: &str) -> Result<StartParameters, P
                 Some(name) => p.plan = Some((*name).to_string()),
                 None => {}
             }
+            p.override_untested = override_untested;
             Ok(p)
         }
-        _ => Err(malformed(word, "expected SUFFIX MODE [PLAN]")),
+        _ => Err(malformed(word, "expected SUFFIX MODE [PLAN] [override-untested]")),
     }
 }
 
-/// The parameters of a start as the words `SUFFIX MODE [PLAN]` (also how the warm-start
-/// record keeps the flight it was flying).
+/// The parameters of a start as the words `SUFFIX MODE [PLAN] [override-untested]` (also how
+/// the warm-start record keeps the flight it was flying).
 pub fn start_words(p: &StartParameters) -> String {
-    match &p.plan {
-        Some(plan) => format!("{} {} {plan}", p.file_suffix, p.controller.name()),
-        None => format!("{} {}", p.file_suffix, p.controller.name()),
+    let mut words = format!("{} {}", p.file_suffix, p.controller.name());
+    if let Some(plan) = &p.plan {
+        words.push(' ');
+        words.push_str(plan);
     }
+    if p.override_untested {
+        words.push(' ');
+        words.push_str(OVERRIDE_WORD);
+    }
+    words
 }
 
 /// The parameters of the words `SUFFIX MODE [PLAN]` (see [`start_words`]).

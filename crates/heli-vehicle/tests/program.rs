@@ -46,6 +46,7 @@ impl Bootstrap {
                 "0.1",
                 "--baro-rate",
                 "4",
+                "--fly-untested",
             ])
             .args(extra)
             .stdin(Stdio::null())

@@ -96,6 +96,9 @@ pub struct ModeCheck {
     pub(super) refused_in_air: Option<ModeRefusal>,
     /// What was raised while the switch has been on (the failing conditions so far).
     pub(super) refusal_raised: Option<ModeRefusal>,
+    /// Whether that was raised during the calibration: the end of the calibration, where
+    /// the mode would be entered, raises the verdict again with what still fails.
+    pub(super) raised_calibrating: bool,
 }
 
 impl ModeCheck {
@@ -155,6 +158,7 @@ impl ModeCheck {
         if !verdict.allowed {
             let refusal = ModeRefusal { mode, verdict };
             self.raise(refusal, now_us, out);
+            self.raised_calibrating = true;
         }
     }
 
@@ -189,6 +193,11 @@ impl ModeCheck {
         if verdict.allowed {
             return false;
         }
+        // The calibration's verdict named what was missing then; the pilot about to lift
+        // off is told what is missing now.
+        if std::mem::take(&mut self.raised_calibrating) {
+            self.refusal_raised = None;
+        }
         let refusal = ModeRefusal { mode, verdict };
         self.raise(refusal, now_us, out);
         if !on_ground {
@@ -199,7 +208,6 @@ impl ModeCheck {
 
     /// The switch went off: nothing is refused, nothing raised stands.
     pub fn clear(&mut self) {
-        self.refused_in_air = None;
-        self.refusal_raised = None;
+        *self = Self::default();
     }
 }

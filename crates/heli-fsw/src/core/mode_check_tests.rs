@@ -75,8 +75,15 @@ fn augmented_flight_waits_on_the_ground_for_five_satellites() {
     let (mut core, mut out) = core_with_gps(RATE, Some(4), 3);
     assert_eq!(core.phase(), Phase::Manual, "refused: the pilot flies");
     let refused = refusals(&out);
+    // Raised during the calibration, and again at its end with what still fails.
+    assert_eq!(refused.len(), 2, "{refused:?}");
     let last = refused.last().copied().unwrap();
     assert!(last.verdict.wanted_true.contains(Condition::Satellites));
+    assert!(
+        !last.verdict.wanted_true.contains(Condition::Calibrated),
+        "{}",
+        last.text()
+    );
     assert!(
         last.text().contains("fewer than 5 satellites"),
         "{}",

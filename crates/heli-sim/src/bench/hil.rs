@@ -117,7 +117,7 @@ pub fn run(seconds: f64, flight: &[OsString]) -> Result<HilBench> {
         .arg(&dev)
         .arg("--log-dir")
         .arg(&dir)
-        .args(["--calibration-s", "5", "--warm-up-s", "1"])
+        .args(["--calibration-s", "5", "--warm-up-s", "1", "--fly-untested"])
         .stdin(Stdio::piped())
         .stdout(Stdio::null())
         .stderr(Stdio::inherit())

@@ -370,7 +370,9 @@ impl Simulation {
 
     /// Manual flight, sweeps and augmented tracking, judged on the truth.
     pub(super) fn measure_pilot(&mut self) {
-        let t_s = self.now_us as f64 * 1e-6;
+        // The scripted inputs' windows, on the script's clock (the pilot of an augmented
+        // flight may have waited for the mode to engage).
+        let t_s = self.script_t_s();
         let s = self.heli.state;
         let alt = -s.pos_ned_m.z;
         let start_alt = *self.metrics.start_alt_m.get_or_insert(alt);

@@ -177,6 +177,9 @@ pub struct Simulation {
     actuators: Actuators,
     hands: HoveringPilot,
     hand_sticks: Option<Controls>,
+    /// How long the scripted pilot of an augmented flight has held its script back,
+    /// waiting on the skids for the mode to engage (µs).
+    script_delay_us: u64,
     /// A live transmitter (a person at `heli hilsim --pilot`): replaces the scripted pilot.
     live_pilot: Option<PilotCommand>,
     core_setup: (CoreConfig, FlightParams),
@@ -276,6 +279,7 @@ impl Simulation {
             actuators,
             hands: HoveringPilot::default(),
             hand_sticks: None,
+            script_delay_us: 0,
             live_pilot: None,
             turbulence: Turbulence::new(scenario.turbulence_sigma_mps, Noise::new(seed, 6)),
             gust_ned_mps: Vector3::zeros(),

@@ -2,6 +2,12 @@
 //! transmitter-loss windows, and the hovering pilot's hands when the auto switch is off.
 
 use super::*;
+use heli_fsw::phase::Phase;
+use heli_types::FlightMode;
+
+/// Below this height of the centre of mass (m) a pilot sees the helicopter on its skids
+/// (it rests at 0.35 m).
+const PILOT_SEES_ON_SKIDS_M: f64 = 0.6;
 
 impl Simulation {
     pub(super) fn pilot(&self) -> PilotCommand {
@@ -19,7 +25,7 @@ impl Simulation {
             };
         }
         let p = &self.scenario.pilot;
-        let scripted = p.scripted(t_s);
+        let scripted = p.scripted(self.script_t_s());
         let sticks = match self.hand_sticks {
             // The pilot hovers by hand; the scripted inputs ride on top.
             Some(hands) => Controls {
@@ -69,8 +75,38 @@ impl Simulation {
         }
     }
 
+    /// Where the scripted pilot is in the script (s): the flight's time less what it has
+    /// waited for the mode to engage.
+    pub(super) fn script_t_s(&self) -> f64 {
+        self.now_us.saturating_sub(self.script_delay_us) as f64 * 1e-6
+    }
+
+    /// The scripted pilot of an augmented flight watches the mode annunciation as a pilot
+    /// does: with the auto switch on, it does not begin its script (lift off, in the flights
+    /// of the suite) while the flight software has not engaged the mode asked for and the
+    /// helicopter is still on its skids; it waits, and flies the script from where it was
+    /// once the mode engages. (Flying an augmented script's sticks in manual would be a
+    /// pilot ignoring the refusal on the display.)
+    fn wait_for_mode(&mut self) {
+        let FlightMode::Augmented(asked) = self.scenario.mode else {
+            return;
+        };
+        let p = &self.scenario.pilot;
+        let t_s = self.now_us as f64 * 1e-6;
+        let script_t_s = self.script_t_s();
+        let script_begun = p.inputs.iter().any(|i| i.start_s <= script_t_s);
+        let engaged = self.core().phase() == Phase::Augmented(asked);
+        let on_skids = -self.heli.state.pos_ned_m.z < PILOT_SEES_ON_SKIDS_M;
+        if p.auto_at(t_s) && script_begun && !engaged && on_skids {
+            self.script_delay_us += UPLINK_PERIOD_US;
+        }
+    }
+
     /// The hovering pilot's hands, at the uplink rate, while the auto switch is off.
     pub(super) fn move_hands(&mut self) {
+        if self.live_pilot.is_none() {
+            self.wait_for_mode();
+        }
         let t_s = self.now_us as f64 * 1e-6;
         let p = &self.scenario.pilot;
         if !p.hovers_in_manual || p.auto_at(t_s) {

@@ -25,6 +25,20 @@ fn every_message_to_the_flight_process_round_trips() {
             ToFlight::Restart(params("nov18", "velocity", Some("hover"))),
             "restart nov18 velocity hover",
         ),
+        (
+            ToFlight::Start(StartParameters {
+                override_untested: true,
+                ..params("u1", "autonomous", Some("rolls"))
+            }),
+            "start u1 autonomous rolls override-untested",
+        ),
+        (
+            ToFlight::Start(StartParameters {
+                override_untested: true,
+                ..params("u2", "velocity", None)
+            }),
+            "start u2 velocity override-untested",
+        ),
         (ToFlight::Link { fresh: true }, "link fresh"),
         (ToFlight::Link { fresh: false }, "link lost"),
         (ToFlight::Stop, "stop"),
@@ -43,6 +57,7 @@ fn every_message_to_the_flight_process_round_trips() {
             file_suffix: "a".into(),
             controller: FlightMode::Augmented(heli_types::AugmentedMode::Rate),
             plan: None,
+            override_untested: false,
         })
     );
 }
@@ -50,7 +65,7 @@ fn every_message_to_the_flight_process_round_trips() {
 #[test]
 fn every_message_from_the_flight_process_round_trips() {
     let cases = [
-        (FromFlight::Ready { version: VERSION }, "ready 3"),
+        (FromFlight::Ready { version: VERSION }, "ready 4"),
         (
             FromFlight::Landing("stop in the air: landing where it is first".into()),
             "landing stop in the air: landing where it is first",
@@ -131,10 +146,10 @@ fn what_is_not_the_protocol_is_refused_with_the_reason() {
         ("stop now", malformed("stop", "takes nothing")),
         ("kill now", malformed("kill", "takes nothing")),
         ("link maybe", malformed("link", "expected fresh or lost")),
-        ("start a", malformed("start", "expected SUFFIX MODE [PLAN]")),
+        ("start a", malformed("start", "expected SUFFIX MODE [PLAN] [override-untested]")),
         (
             "start a manual hover x",
-            malformed("start", "expected SUFFIX MODE [PLAN]"),
+            malformed("start", "expected SUFFIX MODE [PLAN] [override-untested]"),
         ),
         (
             "restart a manual ",
@@ -188,7 +203,7 @@ fn what_is_not_the_protocol_is_refused_with_the_reason() {
             "adopted x t1 manual",
             "'adopted': expected PID SUFFIX MODE [PLAN]",
         ),
-        ("adopted 12 t1", "'adopted': expected SUFFIX MODE [PLAN]"),
+        ("adopted 12 t1", "'adopted': expected SUFFIX MODE [PLAN] [override-untested]"),
     ];
     for (line, error) in from_flight {
         assert_eq!(

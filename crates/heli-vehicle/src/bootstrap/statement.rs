@@ -1,0 +1,124 @@
+//! The bootstrap's statement of the lab attestation ([`crate::lab`]): whether what the next
+//! flight would fly — the program that runs the flight process and the parameter file — is
+//! what the lab tested. Judged again every [`JUDGE_EVERY`] (a parameter set over the link
+//! changes the file), said when it changes and, while not lab-tested, every
+//! [`REPEAT_NOT_TESTED`] for a ground that joined since; the heartbeat carries it and
+//! `status` gives the line.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use heli_fsw::core::Severity;
+use heli_link::status::Tested;
+
+use super::Bootstrap;
+use crate::attest::{Identity, Verdict};
+use crate::lab::Lab;
+
+/// How often the statement is judged again.
+pub const JUDGE_EVERY: Duration = Duration::from_secs(1);
+/// How often a configuration that is not lab-tested is said again.
+pub const REPEAT_NOT_TESTED: Duration = Duration::from_secs(60);
+
+/// The statement and what it is judged on.
+pub struct LabStatement {
+    lab: Lab,
+    log_dir: PathBuf,
+    /// The program's hash, taken once (or why it could not be).
+    build: Result<String, String>,
+    line: Option<String>,
+    tested: Tested,
+    judged_at: Option<Instant>,
+    said_at: Option<Instant>,
+}
+
+impl LabStatement {
+    /// The statement on `program` (the flight process's) flying `log_dir`'s parameters.
+    pub fn new(lab: Lab, program: &std::path::Path, log_dir: PathBuf) -> Self {
+        let build = crate::attest::file_sha256(program)
+            .map_err(|e| format!("the flight software's program: {e}"));
+        Self {
+            lab,
+            log_dir,
+            build,
+            line: None,
+            tested: Tested::Unknown,
+            judged_at: None,
+            said_at: None,
+        }
+    }
+
+    /// The last statement, if judged.
+    pub fn line(&self) -> Option<&str> {
+        self.line.as_deref()
+    }
+
+    fn verdict(&self) -> Verdict {
+        let build = match &self.build {
+            Ok(build) => build.clone(),
+            Err(why) => return Verdict::NotTested { why: vec![why.clone()] },
+        };
+        let table = if crate::params::path_in(&self.log_dir).exists() {
+            match crate::params::load(&self.log_dir) {
+                Ok(table) => table,
+                Err(e) => return Verdict::NotTested { why: vec![e.to_string()] },
+            }
+        } else {
+            crate::params::defaults()
+        };
+        self.lab.check.judge(&Identity::new(build, &table))
+    }
+
+    /// Judges again when due; what to say (and the heartbeat's value) when the statement
+    /// changed, or is a not-tested one due to be repeated.
+    fn tick(&mut self, now: Instant) -> Option<(Severity, String, Tested)> {
+        let due = |at: Option<Instant>, every: Duration| {
+            at.is_none_or(|t| now.saturating_duration_since(t) >= every)
+        };
+        if !due(self.judged_at, JUDGE_EVERY) {
+            return None;
+        }
+        self.judged_at = Some(now);
+        let verdict = self.verdict();
+        let line = verdict.line();
+        let changed = self.line.as_deref() != Some(line.as_str());
+        let repeat =
+            verdict.tested() == Tested::NotTested && due(self.said_at, REPEAT_NOT_TESTED);
+        self.tested = verdict.tested();
+        self.line = Some(line.clone());
+        if !(changed || repeat) {
+            return None;
+        }
+        self.said_at = Some(now);
+        let severity = match verdict {
+            Verdict::LabTested { .. } => Severity::ActivityHi,
+            Verdict::NotTested { .. } => Severity::WarningLo,
+        };
+        Some((severity, line, self.tested))
+    }
+}
+
+impl Bootstrap {
+    /// States the lab attestation of what the flight process would fly.
+    pub fn with_lab(mut self, statement: LabStatement) -> Self {
+        self.lab = Some(statement);
+        self
+    }
+
+    /// The statement judged again when due, said and put in the heartbeat on a change.
+    pub(super) fn state_lab(&mut self) {
+        let Some(said) = self.lab.as_mut().and_then(|l| l.tick(Instant::now())) else {
+            return;
+        };
+        let (severity, line, tested) = said;
+        if let Some(link) = &self.link {
+            link.set_tested(tested);
+        }
+        self.say(severity, &line);
+    }
+
+    /// The statement for `status`.
+    pub(super) fn lab_line(&self) -> Option<String> {
+        self.lab.as_ref().and_then(|l| l.line().map(str::to_string))
+    }
+}
