@@ -28,6 +28,10 @@ pub(crate) struct RunArgs {
     /// $SLURM_ARRAY_TASK_ID and $JOB_COMPLETION_INDEX do; join the reports with `merge`.
     #[arg(long, value_name = "I/N")]
     shard: Option<String>,
+    /// Fly the flight software with a vehicle's parameter file (`<log-dir>/params`) instead
+    /// of its defaults.
+    #[arg(long, value_name = "FILE")]
+    params: Option<PathBuf>,
     /// Write report.json and the outcome plots (outcomes.svg, outcomes.png) into this
     /// directory.
     #[arg(long, value_name = "DIR")]
@@ -89,7 +93,8 @@ pub(crate) fn campaign(args: &RunArgs) -> Result<ExitCode> {
         Some(s) => s.parse::<Shard>()?,
         None => Shard::ALL,
     };
-    let report = fly_campaign(&campaign, shard, args.jobs)?;
+    let software = software_of(args.params.as_deref())?;
+    let report = fly_campaign(&campaign, shard, args.jobs, &software)?;
     finish(&report, args.out.as_deref(), args.json)
 }
 
@@ -99,6 +104,7 @@ pub(crate) fn fly_campaign(
     campaign: &Campaign,
     shard: Shard,
     jobs: Option<usize>,
+    software: &heli_fsw::CoreConfig,
 ) -> Result<Report> {
     let in_shard = (0..campaign.flights_total())
         .filter(|i| shard.contains(*i))
@@ -115,7 +121,7 @@ pub(crate) fn fly_campaign(
         bar
     });
     let not_passed = AtomicU64::new(0);
-    let report = campaign::run(campaign, RunConfig { jobs, shard }, |flight| {
+    let report = campaign::run_with_software(campaign, RunConfig { jobs, shard }, software, |flight| {
         if flight.outcome != FlightOutcome::Pass {
             not_passed.fetch_add(1, Ordering::Relaxed);
         }
@@ -231,6 +237,40 @@ pub(crate) struct SuiteArgs {
     /// Least share of all flights that must pass (percent).
     #[arg(long, default_value_t = 99.0, value_name = "PERCENT")]
     min_pass_rate: f64,
+    /// Fly the flight software with a vehicle's parameter file (`<log-dir>/params`, as the
+    /// link's parameter protocol writes it) instead of its defaults.
+    #[arg(long, value_name = "FILE")]
+    params: Option<PathBuf>,
+}
+
+/// The flight software configured with the parameter file `path` (its defaults without one).
+pub(crate) fn software_of(path: Option<&std::path::Path>) -> Result<heli_fsw::CoreConfig> {
+    let mut config = heli_fsw::CoreConfig::default();
+    if let Some(path) = path {
+        let table = heli_vehicle::params::load_file(path)?;
+        heli_vehicle::params::apply(&table, &mut config);
+    }
+    Ok(config)
+}
+
+/// Flies every campaign of the suite `dir` with the flight software `software`, saying each
+/// as it ends; the reports, with their files.
+pub(crate) fn fly_suite(
+    dir: &std::path::Path,
+    jobs: Option<usize>,
+    software: &heli_fsw::CoreConfig,
+) -> Result<Vec<(PathBuf, Report)>> {
+    let campaigns = heli_campaign::suite::load(dir)?;
+    let mut reports = Vec::new();
+    for (file, campaign) in &campaigns {
+        let report = fly_campaign(campaign, Shard::ALL, jobs, software)?;
+        eprintln!(
+            "{}: {} of {} passed",
+            campaign.name, report.totals.pass, report.totals.flights
+        );
+        reports.push((file.clone(), report));
+    }
+    Ok(reports)
 }
 
 /// Flies the suite and prints one row per campaign and the totals.
@@ -241,20 +281,15 @@ pub(crate) fn suite(args: &SuiteArgs) -> Result<ExitCode> {
             args.min_pass_rate
         );
     }
-    let campaigns = heli_campaign::suite::load(&args.dir)?;
+    let software = software_of(args.params.as_deref())?;
     let mut reports: Vec<Report> = Vec::new();
-    for (file, campaign) in &campaigns {
-        let report = fly_campaign(campaign, Shard::ALL, args.jobs)?;
+    for (file, report) in fly_suite(&args.dir, args.jobs, &software)? {
         // By file, not by campaign name: two files may share a name.
         let stem = file.file_stem().map(|s| s.to_string_lossy().into_owned());
         if let Some(dir) = &args.out {
-            let out = dir.join(stem.unwrap_or_else(|| campaign.name.clone()));
+            let out = dir.join(stem.unwrap_or_else(|| report.campaign.clone()));
             heli_campaign::files::write_report(&report, &out)?;
         }
-        eprintln!(
-            "{}: {} of {} passed",
-            campaign.name, report.totals.pass, report.totals.flights
-        );
         reports.push(report);
     }
     let verdict = heli_campaign::suite::judge(&reports, args.min_pass_rate);

@@ -54,7 +54,7 @@ mod tests;
 pub use file::Campaign;
 pub use merge::merge;
 pub use report::{FlightOutcome, FlightRecord, Report, Totals};
-pub use runner::{RunConfig, run};
+pub use runner::{RunConfig, run, run_with_software};
 pub use sample::Flight;
 pub use shard::Shard;
 pub use vary::{Draw, Vary};

@@ -20,6 +20,7 @@ use super::report::{FlightRecord, Report, Wall};
 pub use super::shard::Shard;
 use super::{Campaign, CampaignError};
 use crate::error::FlightError;
+use heli_fsw::CoreConfig;
 use heli_scenario::Scenario;
 use heli_sim::lockstep::{RunOptions, Simulation};
 use heli_sim::summary::Summary;
@@ -49,6 +50,17 @@ pub fn run(
     config: RunConfig,
     on_flight: impl Fn(&FlightRecord) + Sync,
 ) -> Result<Report, CampaignError> {
+    run_with_software(campaign, config, &CoreConfig::default(), on_flight)
+}
+
+/// As [`run`], with the flight software configured as `software` (a vehicle's parameter
+/// set applied to it: `heli campaign --params`, `heli certify`).
+pub fn run_with_software(
+    campaign: &Campaign,
+    config: RunConfig,
+    software: &CoreConfig,
+    on_flight: impl Fn(&FlightRecord) + Sync,
+) -> Result<Report, CampaignError> {
     if config.jobs == Some(0) {
         return Err(CampaignError::NoJobs);
     }
@@ -65,7 +77,7 @@ pub fn run(
             .par_iter()
             .map(|&i| {
                 let flight_start = Instant::now();
-                let record = fly(campaign, i);
+                let record = fly_with_software(campaign, i, software);
                 on_flight(&record);
                 (record, flight_start.elapsed().as_secs_f64())
             })
@@ -84,9 +96,14 @@ pub fn run(
 /// Flies flight `index` alone: its record, an error one when the flight cannot be built or
 /// panics.
 pub fn fly(campaign: &Campaign, index: u64) -> FlightRecord {
+    fly_with_software(campaign, index, &CoreConfig::default())
+}
+
+/// Flies flight `index` alone with the flight software configured as `software`.
+pub fn fly_with_software(campaign: &Campaign, index: u64, software: &CoreConfig) -> FlightRecord {
     fly_with(campaign, index, |scenario| {
-        let simulation =
-            Simulation::new(scenario).map_err(|error| FlightError::Simulation { index, error })?;
+        let simulation = Simulation::with_flight_software(scenario, software.clone())
+            .map_err(|error| FlightError::Simulation { index, error })?;
         Ok(simulation.run(RunOptions::default(), |_, _| {}))
     })
 }

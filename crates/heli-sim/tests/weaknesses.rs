@@ -127,6 +127,20 @@ fn a_process_restarted_in_the_air_never_calibrates_again() {
     assert_eq!(summary.outcome, Outcome::Pass, "{:?}", summary.criteria);
 }
 
+/// When the first roll of the `rolls` flight on `seed` begins (s): the faults below are
+/// placed from it, so that a change of the flight's timing does not move them off the roll.
+fn first_roll_start_s(seed: u64) -> f64 {
+    let mut s = scenario::rolls();
+    s.seed = seed;
+    let summary = run(s).unwrap_or_else(|e| panic!("{e}"));
+    summary
+        .events
+        .iter()
+        .find(|e| e.ends_with(" s phase rolling"))
+        .and_then(|e| e.strip_prefix("t=")?.split(' ').next()?.parse().ok())
+        .unwrap_or_else(|| panic!("no roll in {:#?}", summary.events))
+}
+
 /// The `rolls` flight with the IMU silent over `[start_s, start_s + seconds]`.
 fn rolls_blinded(start_s: f64, seconds: f64) -> heli_sim::Summary {
     let mut s = scenario::rolls();
@@ -144,8 +158,10 @@ fn an_imu_blinded_for_a_second_anywhere_in_a_roll_does_not_lose_the_helicopter()
     // 55 deg error the GPS was never allowed to correct, and it crashed. Now the roll is
     // stopped (before a quarter turn) or finished blind, the alignment waits for its end,
     // and the estimate starts uncertain enough, on the ground's field and altimeter
-    // reference, for the GPS to put it right. The first roll begins at 117.92 s.
-    for start_s in [117.95, 118.4, 118.7, 119.0, 119.3, 119.6] {
+    // reference, for the GPS to put it right.
+    let roll_s = first_roll_start_s(1);
+    for after_s in [0.03, 0.48, 0.78, 1.08, 1.38, 1.68] {
+        let start_s = roll_s + after_s;
         let summary = rolls_blinded(start_s, 1.0);
         assert!(summary.crash.is_none(), "{start_s}: {:?}", summary.crash);
         assert_eq!(summary.invariants.violations, 0, "{:?}", summary.invariants);
@@ -169,11 +185,12 @@ fn a_brownout_anywhere_in_a_roll_does_not_lose_the_helicopter() {
     // its estimate up to 170 deg out: it crashed. Now the process before leaves the roll in
     // its record (angle, rates, attitude), and the new one reckons the turn it did not see,
     // finishes the roll on the gyros and aligns from the attitude carried through it, with
-    // the ground's field and altimeter reference. Every 0.1 s over the first roll (it begins
-    // at 117.92 s and takes about 2 s), two seeds: none lost.
+    // the ground's field and altimeter reference. Every 0.1 s over the first roll (it takes
+    // about 2 s), two seeds: none lost.
     for seed in [1, 2] {
+        let roll_s = first_roll_start_s(seed);
         for i in 0..22 {
-            let start_s = 117.9 + 0.1 * f64::from(i);
+            let start_s = roll_s - 0.02 + 0.1 * f64::from(i);
             let mut s = scenario::rolls();
             s.seed = seed;
             s.faults.brownouts = vec![[start_s, start_s + 0.5]];
@@ -196,7 +213,8 @@ fn a_brownout_anywhere_in_a_roll_does_not_lose_the_helicopter() {
     }
     // One of them told its story: restarted in the roll, finished it, aligned.
     let mut s = scenario::rolls();
-    s.faults.brownouts = vec![[117.95, 118.45]];
+    let roll_s = first_roll_start_s(1);
+    s.faults.brownouts = vec![[roll_s + 0.03, roll_s + 0.53]];
     s.duration_s = 160.0;
     let summary = run(s).unwrap_or_else(|e| panic!("{e}"));
     let said = |text: &str| summary.events.iter().any(|e| e.contains(text));

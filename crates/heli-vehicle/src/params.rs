@@ -119,6 +119,17 @@ pub fn load(log_dir: &Path) -> Result<ParamTable, VehicleError> {
     Ok(table)
 }
 
+/// The table of the parameter file `path`: the defaults with its values. Unlike [`load`],
+/// a missing file is an error: it was named.
+pub fn load_file(path: &Path) -> Result<ParamTable, VehicleError> {
+    let text = std::fs::read_to_string(path).map_err(|e| VehicleError::file(path, e))?;
+    let mut table = defaults();
+    table
+        .load_text(&text)
+        .map_err(|e| VehicleError::invalid(path.display().to_string(), e))?;
+    Ok(table)
+}
+
 /// Writes the table's text to `log_dir`'s file, whole (a temporary file renamed over it).
 pub fn save(log_dir: &Path, text: &str) -> Result<(), VehicleError> {
     let path = path_in(log_dir);
