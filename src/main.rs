@@ -4,6 +4,7 @@
 //! `heli-sim`, `heli-fsw` and the others.
 
 mod campaign_cmd;
+mod certify_cmd;
 mod fieldday_cmd;
 mod ground_cmd;
 mod hilsim_cmd;
@@ -83,6 +84,11 @@ enum Command {
         #[command(subcommand)]
         merge: Option<campaign_cmd::MergeCommand>,
     },
+    /// The lab's tests of a build and a parameter set: the regression library of recorded
+    /// flights replayed to the onboard program and the robustness suite; when they pass, a
+    /// signed attestation the vehicle checks ("lab-tested"; docs/security.md). Exit status 0
+    /// only when certified.
+    Certify(certify_cmd::CertifyArgs),
     /// The field-day fault campaign: each single fault of a field day (kills, full or
     /// read-only storage, a port hung up, stalls, a silent servo board, a brown-out) injected
     /// into the real processes against the HILSim while hovering and rolling, judged by the
@@ -283,6 +289,7 @@ fn main() -> ExitCode {
         Command::Flight(args) => heli_vehicle::flight_process::run(&args),
         Command::Driver(args) => heli_vehicle::cli::driver(&args),
         Command::FieldDay(args) => fieldday_cmd::field_day(&args),
+        Command::Certify(args) => certify_cmd::certify(&args),
         Command::Campaign { run, merge } => match merge {
             Some(campaign_cmd::MergeCommand::Merge(args)) => campaign_cmd::merge(&args),
             Some(campaign_cmd::MergeCommand::Suite(args)) => campaign_cmd::suite(&args),

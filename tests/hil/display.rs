@@ -112,7 +112,7 @@ pub(crate) fn run_page_script_with(
     run_page_script_env(ui, name, "HELI_VIEW_URL", url, env)
 }
 
-fn run_page_script_env(
+pub(crate) fn run_page_script_env(
     ui: &Path,
     name: &str,
     url_var: &str,

@@ -5,6 +5,7 @@
 //! (`--warm-up-s 1 --calibration-s 5`) instead of 5 s and 80 s.
 
 mod display;
+mod lab;
 mod link;
 mod pilot;
 mod procs;
