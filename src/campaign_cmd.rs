@@ -121,19 +121,20 @@ pub(crate) fn fly_campaign(
         bar
     });
     let not_passed = AtomicU64::new(0);
-    let report = campaign::run_with_software(campaign, RunConfig { jobs, shard }, software, |flight| {
-        if flight.outcome != FlightOutcome::Pass {
-            not_passed.fetch_add(1, Ordering::Relaxed);
-        }
-        if let Some(bar) = &bar {
-            bar.inc(1);
-            bar.set_message(format!(
-                "campaign {}: {} not passed",
-                campaign.name,
-                not_passed.load(Ordering::Relaxed)
-            ));
-        }
-    })?;
+    let report =
+        campaign::run_with_software(campaign, RunConfig { jobs, shard }, software, |flight| {
+            if flight.outcome != FlightOutcome::Pass {
+                not_passed.fetch_add(1, Ordering::Relaxed);
+            }
+            if let Some(bar) = &bar {
+                bar.inc(1);
+                bar.set_message(format!(
+                    "campaign {}: {} not passed",
+                    campaign.name,
+                    not_passed.load(Ordering::Relaxed)
+                ));
+            }
+        })?;
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }

@@ -1,5 +1,5 @@
 //! `heli certify`: the lab's tests of a build and a parameter set, and the signed attestation
-//! the vehicle checks (thesis §4.3; `heli_vehicle::attest`).
+//! the vehicle checks (thesis §4.3; `heli_link::attest`).
 //!
 //! 1. The regression library: every recorded flight (`*.mcap`) is played back by the HILSim
 //!    (`hilsim --replay`) to the onboard program under test, started as the recording's
@@ -19,9 +19,9 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, anyhow, bail};
+use heli_link::attest::{self, Body, ReplayEvidence, SuiteEvidence};
 use heli_sim::replay::compare::Tolerance;
 use heli_sim::replay::hil::{self as hil_replay, Recording, ReplayOptions};
-use heli_vehicle::attest::{self, Body, ReplayEvidence, SuiteEvidence};
 
 /// The arguments of `heli certify`.
 #[derive(clap::Args)]
@@ -226,8 +226,7 @@ fn replay(flight: &Path, vehicle: &Path, params_text: &str, speed: f64) -> Resul
         start.push(' ');
         start.push_str(&plan);
     }
-    let bootstrap: Arc<Mutex<Option<(Child, Arc<Mutex<Vec<String>>>)>>> =
-        Arc::new(Mutex::new(None));
+    let bootstrap: Arc<Mutex<Option<Running>>> = Arc::new(Mutex::new(None));
     let started: Arc<Mutex<Option<Result<u64, String>>>> = Arc::new(Mutex::new(None));
     let stop = Arc::new(AtomicBool::new(false));
     let options = ReplayOptions {
@@ -274,10 +273,8 @@ fn replay(flight: &Path, vehicle: &Path, params_text: &str, speed: f64) -> Resul
         .map_err(|e| anyhow!(e))?;
     // Still the same flight process, still flying: never lost nor restarted.
     let status = run.ctl(&["status"]).unwrap_or_default();
-    let ran_through = serde_json::from_str::<serde_json::Value>(
-        status.trim_start_matches("ok "),
-    )
-    .is_ok_and(|v| v["pid"].as_u64() == Some(pid_at_start) && v["state"] == "flying");
+    let ran_through = serde_json::from_str::<serde_json::Value>(status.trim_start_matches("ok "))
+        .is_ok_and(|v| v["pid"].as_u64() == Some(pid_at_start) && v["state"] == "flying");
     if !ran_through
         && let Ok(b) = bootstrap.lock()
         && let Some((_, lines)) = b.as_ref()
@@ -310,10 +307,18 @@ fn replay(flight: &Path, vehicle: &Path, params_text: &str, speed: f64) -> Resul
         recorded: c.recorded as u64,
         paired: c.paired as u64,
         out_of_tolerance: c.out_of_tolerance as u64,
-        largest_difference_us: c.channels.iter().map(|ch| u64::from(ch.max_us)).max().unwrap_or(0),
+        largest_difference_us: c
+            .channels
+            .iter()
+            .map(|ch| u64::from(ch.max_us))
+            .max()
+            .unwrap_or(0),
         ran_through,
     })
 }
+
+/// A bootstrap running on the bench, and the lines it printed.
+type Running = (Child, Arc<Mutex<Vec<String>>>);
 
 /// The onboard program on the lab bench: its bootstrap and control socket.
 #[derive(Clone)]
@@ -352,7 +357,7 @@ impl Bench {
         &self,
         args: &[String],
         start: &str,
-        keep: &Mutex<Option<(Child, Arc<Mutex<Vec<String>>>)>>,
+        keep: &Mutex<Option<Running>>,
     ) -> Result<u64, String> {
         let mut child = Command::new(&self.program)
             .args(args)

@@ -22,7 +22,11 @@ fn a_certified_build_is_lab_tested_and_a_changed_gain_needs_the_override() {
     let _one = exclusive();
     let dir = tempfile::tempdir().unwrap();
     let key = dir.path().join("key");
-    assert!(heli(&["link", "keygen", "--out", &key.display().to_string()]).status.success());
+    assert!(
+        heli(&["link", "keygen", "--out", &key.display().to_string()])
+            .status
+            .success()
+    );
     let vehicle_dir = dir.path().join("vehicle");
     std::fs::create_dir_all(&vehicle_dir).unwrap();
     // A small suite: the test is of the attestation, not of the suite (docs/security.md).
@@ -48,7 +52,10 @@ fn a_certified_build_is_lab_tested_and_a_changed_gain_needs_the_override() {
     let said = String::from_utf8_lossy(&out.stdout).to_string();
     eprintln!("{said}{}", String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success(), "certify failed:\n{said}");
-    assert!(said.contains("accepted") && said.contains("outcome    certified"), "{said}");
+    assert!(
+        said.contains("accepted") && said.contains("outcome    certified"),
+        "{said}"
+    );
 
     let hil = Hilsim::start(dir.path(), "hover", 1.0, 120.0);
     let link = format!("udp:127.0.0.1:{}", free_udp_port());
@@ -66,24 +73,36 @@ fn a_certified_build_is_lab_tested_and_a_changed_gain_needs_the_override() {
         );
         said
     };
-    page(&[("HELI_LAB_EXPECT", "lab-tested"), ("HELI_LAB_TAG", "tested")]);
+    page(&[
+        ("HELI_LAB_EXPECT", "lab-tested"),
+        ("HELI_LAB_TAG", "tested"),
+    ]);
 
     // One gain changed over the link's parameter protocol.
     let (ok, said) = ground(&link, Some(&key), &["params", "set", "HOV_VEL_P", "1.6"]);
     assert!(ok, "{said}");
-    vehicle.wait_for_line("NOT lab-tested: parameters changed", Duration::from_secs(10));
+    vehicle.wait_for_line(
+        "NOT lab-tested: parameters changed",
+        Duration::from_secs(10),
+    );
     let said = page(&[
         ("HELI_LAB_EXPECT", "NOT lab-tested"),
         ("HELI_LAB_WHY", "HOV_VEL_P 1.6 (tested 1.4)"),
         ("HELI_LAB_START", "1"),
         ("HELI_LAB_TAG", "untested"),
     ]);
-    assert!(said.contains("\"dialog\":\"NOT lab-tested: parameters changed"), "{said}");
+    assert!(
+        said.contains("\"dialog\":\"NOT lab-tested: parameters changed"),
+        "{said}"
+    );
     vehicle.wait_for_line("by the operator's override", Duration::from_secs(10));
     vehicle.ctl(&["kill", "confirmed"]);
     // The flight's log records the statement and whose override it flew on.
     let info = log_info(&vehicle_dir.join("flight_untested1.mcap"));
-    assert!(info.contains("lab_override               operator"), "{info}");
+    assert!(
+        info.contains("lab_override               operator"),
+        "{info}"
+    );
     assert!(info.contains("HOV_VEL_P 1.6 (tested 1.4)"), "{info}");
     // Without the override the vehicle itself refuses, whatever the ground does.
     assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));

@@ -243,13 +243,7 @@ impl Vehicle {
         Self::start_args(dir, dev, clock_speed, extra, true)
     }
 
-    fn start_args(
-        dir: &Path,
-        dev: &Path,
-        clock_speed: f64,
-        extra: &[String],
-        bench: bool,
-    ) -> Self {
+    fn start_args(dir: &Path, dev: &Path, clock_speed: f64, extra: &[String], bench: bool) -> Self {
         let socket = dir.join("ctl.sock");
         let mut args: Vec<String> = [
             "--hilsim",

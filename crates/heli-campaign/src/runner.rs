@@ -102,7 +102,7 @@ pub fn fly(campaign: &Campaign, index: u64) -> FlightRecord {
 /// Flies flight `index` alone with the flight software configured as `software`.
 pub fn fly_with_software(campaign: &Campaign, index: u64, software: &CoreConfig) -> FlightRecord {
     fly_with(campaign, index, |scenario| {
-        let simulation = Simulation::with_flight_software(scenario, software.clone())
+        let simulation = Simulation::with_flight_software(scenario, *software)
             .map_err(|error| FlightError::Simulation { index, error })?;
         Ok(simulation.run(RunOptions::default(), |_, _| {}))
     })

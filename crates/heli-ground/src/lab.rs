@@ -11,8 +11,9 @@ use serde::Serialize;
 /// The statement in a status text of the vehicle's bootstrap, if it is one.
 pub fn statement_of(text: &str) -> Option<&str> {
     let said = text.strip_prefix("bootstrap: ")?;
-    (said.starts_with(&format!("{NOT_LAB_TESTED}: ")) || said.starts_with(&format!("{LAB_TESTED}: ")))
-        .then_some(said)
+    (said.starts_with(&format!("{NOT_LAB_TESTED}: "))
+        || said.starts_with(&format!("{LAB_TESTED}: ")))
+    .then_some(said)
 }
 
 /// What the display shows of it.
@@ -71,7 +72,10 @@ mod tests {
         // A flight's event that mentions it is not the statement.
         assert!(statement_of("flight: event WarningHi autonomous flight by the operator's override on a configuration that is NOT lab-tested: x").is_none());
         assert!(statement_of("NOT lab-tested: x").is_none());
-        assert_eq!(view(Tested::NotTested, Some(s)).statement.as_deref(), Some(s));
+        assert_eq!(
+            view(Tested::NotTested, Some(s)).statement.as_deref(),
+            Some(s)
+        );
         assert_eq!(view(Tested::LabTested, Some(s)).statement, None);
         assert_eq!(view(Tested::Unknown, Some(s)).tested, "unknown");
     }
@@ -89,6 +93,10 @@ mod tests {
         assert!(needs_override(Tested::LabTested, s, FlightMode::Autonomous, false).is_none());
         assert!(needs_override(Tested::Unknown, None, FlightMode::Autonomous, false).is_none());
         let velocity = FlightMode::from_name("velocity").unwrap();
-        assert!(needs_override(Tested::NotTested, None, velocity, false).unwrap().starts_with("NOT lab-tested: velocity"));
+        assert!(
+            needs_override(Tested::NotTested, None, velocity, false)
+                .unwrap()
+                .starts_with("NOT lab-tested: velocity")
+        );
     }
 }

@@ -4,13 +4,13 @@
 use std::path::PathBuf;
 
 use heli_link::GroundCommand;
-use mavlink::dialects::common::MavSeverity;
 use heli_link::logs::MemoryStore;
 use heli_link::status::{BootstrapState, VehicleStatus};
 use heli_link::telemetry::{
     CompassRow, DeviceHealth, GpsRow, ImuRow, StateRow, Telemetry, UplinkRow,
 };
 use heli_link::vehicle::{CommandOutcome, LinkEvent, VehicleLink};
+use mavlink::dialects::common::MavSeverity;
 
 use crate::checks::BatteryCurve;
 use crate::panel::PanelState;
@@ -834,7 +834,9 @@ fn an_untested_configuration_is_shown_and_an_autonomous_start_needs_the_override
     assert_eq!(lab.tested, "NOT lab-tested");
     assert_eq!(
         lab.statement.as_deref(),
-        Some("NOT lab-tested: parameters changed since the lab's tests: HOV_VEL_P 1.6 (tested 1.4)")
+        Some(
+            "NOT lab-tested: parameters changed since the lab's tests: HOV_VEL_P 1.6 (tested 1.4)"
+        )
     );
     // Autonomous without the override: refused on the ground with the statement, nothing sent.
     let start = r#"{"seq":3,"op":"start","suffix":"u1","controller":"autonomous","plan":"hover"}"#;
@@ -843,7 +845,11 @@ fn an_untested_configuration_is_shown_and_an_autonomous_start_needs_the_override
         refused.contains("HOV_VEL_P 1.6 (tested 1.4): autonomous flight needs your override"),
         "{refused}"
     );
-    assert!(!b.commands.iter().any(|c| matches!(c, GroundCommand::StartLogging(_))));
+    assert!(
+        !b.commands
+            .iter()
+            .any(|c| matches!(c, GroundCommand::StartLogging(_)))
+    );
     // With it: sent, and the vehicle hears the override.
     let start = r#"{"seq":4,"op":"start","suffix":"u1","controller":"autonomous","plan":"hover","override_untested":true}"#;
     b.ask(op, start).unwrap();

@@ -26,6 +26,7 @@
     )
 )]
 
+pub mod attest;
 pub mod command;
 pub mod frame;
 pub mod ground;

@@ -321,7 +321,10 @@ fn status_texts_are_cut_into_pieces_that_join_back_exactly() {
             assert!(p.ends_with(' ') || p.len() == 50, "{p:?} in {parts:?}");
         }
         // The last one says it ends.
-        assert!(parts[last].len() < 50 && !parts[last].ends_with(' '), "{parts:?}");
+        assert!(
+            parts[last].len() < 50 && !parts[last].ends_with(' '),
+            "{parts:?}"
+        );
     }
     assert_eq!(chunks(&"x".repeat(120), 50).len(), 3);
     assert_eq!(chunks("", 50), vec![String::new()]);

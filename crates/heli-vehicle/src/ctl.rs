@@ -63,7 +63,10 @@ impl fmt::Display for RequestError {
                 f,
                 "unknown command '{word}' (expected connect, start-logging, stop, kill confirmed, status or quit)"
             ),
-            RequestError::Usage => write!(f, "usage: start-logging SUFFIX MODE [PLAN] [override-untested]"),
+            RequestError::Usage => write!(
+                f,
+                "usage: start-logging SUFFIX MODE [PLAN] [override-untested]"
+            ),
             RequestError::Parameters(e) => write!(f, "{e}"),
             RequestError::KillUnconfirmed => write!(
                 f,

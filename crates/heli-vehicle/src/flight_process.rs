@@ -151,7 +151,7 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
             Ok(plan) => {
                 let verdict = match crate::lab::identity(&program, &args.log_dir) {
                     Ok(identity) => lab.check.judge(&identity),
-                    Err(why) => crate::attest::Verdict::NotTested { why: vec![why] },
+                    Err(why) => heli_link::attest::Verdict::NotTested { why: vec![why] },
                 };
                 // A flight resumed in the air flies whatever the lab said.
                 let allowed = match lab.start(&verdict, &start) {

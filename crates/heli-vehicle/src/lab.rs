@@ -1,4 +1,4 @@
-//! The vehicle's side of the lab attestation ([`crate::attest`]): what flies (the program
+//! The vehicle's side of the lab attestation ([`heli_link::attest`]): what flies (the program
 //! that runs the flight process and the parameter file), judged against the lab's signed
 //! attestation, and whether a start may fly it.
 //!
@@ -15,8 +15,8 @@ use heli_fsw::core::Severity;
 use heli_link::StartParameters;
 use heli_types::FlightMode;
 
-use crate::attest::{Identity, LabCheck, Verdict};
 use crate::cli::FlightArgs;
+use heli_link::attest::{Identity, LabCheck, Verdict};
 
 /// The vehicle's lab check: where the attestation is, the key, and the bench's override.
 #[derive(Clone, Debug)]
@@ -53,7 +53,11 @@ impl Lab {
 
     /// Whether `start` may fly on `verdict`: `Ok` with what to say of it (none for a
     /// lab-tested configuration), or `Err` with the refusal.
-    pub fn start(&self, verdict: &Verdict, start: &StartParameters) -> Result<Option<Said>, String> {
+    pub fn start(
+        &self,
+        verdict: &Verdict,
+        start: &StartParameters,
+    ) -> Result<Option<Said>, String> {
         let Verdict::NotTested { .. } = verdict else {
             return Ok(None);
         };
@@ -106,7 +110,7 @@ pub struct Said {
 pub fn attestation_path(args: &FlightArgs) -> PathBuf {
     args.attestation
         .clone()
-        .unwrap_or_else(|| args.log_dir.join(crate::attest::FILE_NAME))
+        .unwrap_or_else(|| args.log_dir.join(heli_link::attest::FILE_NAME))
 }
 
 /// The identity of `program` flying `log_dir`'s parameters.
@@ -122,7 +126,7 @@ pub fn identity(program: &Path, log_dir: &Path) -> Result<Identity, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::attest::{Body, SuiteEvidence, sign, to_text};
+    use heli_link::attest::{Body, SuiteEvidence, sign, to_text};
     use heli_link::signing::Key;
 
     fn key() -> Key {
@@ -145,7 +149,7 @@ mod tests {
 
     fn attest(dir: &Path, identity: Identity) {
         let body = Body {
-            format: crate::attest::FORMAT,
+            format: heli_link::attest::FORMAT,
             identity,
             certified_unix_s: 0,
             certified_by: "test".into(),
@@ -178,21 +182,44 @@ mod tests {
         attest(dir.path(), identity(&program, dir.path()).unwrap());
         let lab = lab(dir.path(), false);
         let verdict = lab.judge(&program, dir.path());
-        assert!(matches!(verdict, Verdict::LabTested { .. }), "{}", verdict.line());
+        assert!(
+            matches!(verdict, Verdict::LabTested { .. }),
+            "{}",
+            verdict.line()
+        );
         assert_eq!(lab.start(&verdict, &start("autonomous", false)), Ok(None));
         // One gain set over the link: the file the flight process reads changes.
         std::fs::write(dir.path().join("params"), "HOV_VEL_P = 1.6\n").unwrap();
         let verdict = lab.judge(&program, dir.path());
         let line = verdict.line();
         assert!(line.contains("HOV_VEL_P 1.6 (tested 1.4)"), "{line}");
-        let refused = lab.start(&verdict, &start("autonomous", false)).unwrap_err();
-        assert!(refused.contains("autonomous flight needs the operator's override"), "{refused}");
-        assert!(refused.starts_with("NOT lab-tested: parameters changed"), "{refused}");
-        let said = lab.start(&verdict, &start("velocity", true)).unwrap().unwrap();
+        let refused = lab
+            .start(&verdict, &start("autonomous", false))
+            .unwrap_err();
+        assert!(
+            refused.contains("autonomous flight needs the operator's override"),
+            "{refused}"
+        );
+        assert!(
+            refused.starts_with("NOT lab-tested: parameters changed"),
+            "{refused}"
+        );
+        let said = lab
+            .start(&verdict, &start("velocity", true))
+            .unwrap()
+            .unwrap();
         assert_eq!(said.override_by, Some("operator"));
         assert_eq!(said.severity, Severity::WarningHi);
-        assert!(said.text.starts_with("velocity flight by the operator's override"), "{}", said.text);
-        let manual = lab.start(&verdict, &start("manual", false)).unwrap().unwrap();
+        assert!(
+            said.text
+                .starts_with("velocity flight by the operator's override"),
+            "{}",
+            said.text
+        );
+        let manual = lab
+            .start(&verdict, &start("manual", false))
+            .unwrap()
+            .unwrap();
         assert_eq!(manual.override_by, None);
         // The program replaced: the build changed.
         std::fs::write(dir.path().join("params"), "").unwrap();
@@ -208,14 +235,25 @@ mod tests {
         std::fs::write(&program, b"x").unwrap();
         let lab = lab(dir.path(), true);
         let verdict = lab.judge(&program, dir.path());
-        assert!(verdict.line().contains("no lab attestation"), "{}", verdict.line());
-        let said = lab.start(&verdict, &start("autonomous", false)).unwrap().unwrap();
+        assert!(
+            verdict.line().contains("no lab attestation"),
+            "{}",
+            verdict.line()
+        );
+        let said = lab
+            .start(&verdict, &start("autonomous", false))
+            .unwrap()
+            .unwrap();
         assert_eq!(said.override_by, Some("bench"));
         assert!(said.text.contains("--fly-untested"), "{}", said.text);
         // A parameter file that cannot be read, or no program: not lab-tested, with why.
         std::fs::write(dir.path().join("params"), "NOPE = 1\n").unwrap();
         assert!(lab.judge(&program, dir.path()).line().contains("params"));
         let gone = lab.judge(&dir.path().join("gone"), Path::new("/nonexistent"));
-        assert!(gone.line().contains("the flight software's program"), "{}", gone.line());
+        assert!(
+            gone.line().contains("the flight software's program"),
+            "{}",
+            gone.line()
+        );
     }
 }

@@ -43,7 +43,6 @@
 
 pub mod adc;
 pub mod adopt;
-pub mod attest;
 pub mod bootstrap;
 pub mod cli;
 pub mod compass_file;

@@ -162,7 +162,7 @@ fn malformed(word: &'static str, why: impl Into<String>) -> ProtocolError {
 }
 
 /// The word that ends a start's words when the operator overrides the lab-tested check
-/// (`crate::attest`): not a plan name.
+/// (`heli_link::attest`): not a plan name.
 pub const OVERRIDE_WORD: &str = "override-untested";
 
 /// `SUFFIX MODE [PLAN] [override-untested]`, checked as the link checks Start Logging.
@@ -184,7 +184,10 @@ fn start_parameters(word: &'static str, rest: &str) -> Result<StartParameters, P
             p.override_untested = override_untested;
             Ok(p)
         }
-        _ => Err(malformed(word, "expected SUFFIX MODE [PLAN] [override-untested]")),
+        _ => Err(malformed(
+            word,
+            "expected SUFFIX MODE [PLAN] [override-untested]",
+        )),
     }
 }
 

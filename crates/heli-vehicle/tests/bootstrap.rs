@@ -44,7 +44,7 @@ fn a_process_crashing_in_flight_is_restarted_with_its_parameters_three_times_a_m
 fn a_crash_before_start_logging_is_not_restarted() {
     let dir = tempfile::tempdir().unwrap();
     let told = dir.path().join("told");
-    let script = "echo ready 3; sleep 0.2; exit 3".to_string();
+    let script = "echo ready 4; sleep 0.2; exit 3".to_string();
     let boot = Running::start(
         dir.path(),
         vec!["sh".into(), "-c".into(), script.into()],
@@ -90,7 +90,7 @@ fn power_on_with_a_fresh_record_of_a_flying_helicopter_resumes_the_flight() {
 /// answers `start` with a telemetry line and `started LOG`, and exits 0 on `stop`.
 fn polite_child(told: &Path) -> Vec<std::ffi::OsString> {
     let script = format!(
-        "echo ready 3; while read line; do echo \"$line\" >> {told}; case \"$line\" in \
+        "echo ready 4; while read line; do echo \"$line\" >> {told}; case \"$line\" in \
          start*) echo 'telemetry {{\"t_us\":1}}'; echo started /logs/flight_a.mcap ;; \
          stop) echo bye >> {told}; exit 0 ;; esac; done",
         told = told.display()
@@ -186,8 +186,8 @@ fn a_second_connect_kills_the_first_process_and_hears_only_the_new_one() {
     let dir = tempfile::tempdir().unwrap();
     let marker = dir.path().join("second");
     let script = format!(
-        "if [ -e {m} ]; then echo ready 3; echo 'telemetry {{\"from\":\"new\"}}'; exec sleep 30; fi; \
-         touch {m}; echo ready 3; (sleep 1.5; echo 'telemetry {{\"from\":\"old\"}}'; echo 'started /old') & \
+        "if [ -e {m} ]; then echo ready 4; echo 'telemetry {{\"from\":\"new\"}}'; exec sleep 30; fi; \
+         touch {m}; echo ready 4; (sleep 1.5; echo 'telemetry {{\"from\":\"old\"}}'; echo 'started /old') & \
          exec sleep 30",
         m = marker.display()
     );
@@ -224,8 +224,8 @@ fn a_second_connect_kills_the_first_process_and_hears_only_the_new_one() {
 fn lines_out_of_turn_move_nothing() {
     // A process that says 'started' before it was asked and 'ready' again in flight.
     let dir = tempfile::tempdir().unwrap();
-    let script = "echo ready 3; echo started /too/early; while read line; do \
-         case \"$line\" in start*) echo started /logs/b.mcap; echo ready 3 ;; stop) exit 0 ;; \
+    let script = "echo ready 4; echo started /too/early; while read line; do \
+         case \"$line\" in start*) echo started /logs/b.mcap; echo ready 4 ;; stop) exit 0 ;; \
          esac; done";
     let boot = Running::start(
         dir.path(),
@@ -277,7 +277,7 @@ fn a_start_the_flight_process_refuses_is_the_reply_and_is_not_restarted() {
     // As the real flight process does with a plan it does not know: 'error ...', exit 1.
     // That is a refused start, not a crash in flight: nothing is started again.
     let dir = tempfile::tempdir().unwrap();
-    let script = "echo ready 3; read line; echo error no such plan: nowhere; exit 1";
+    let script = "echo ready 4; read line; echo error no such plan: nowhere; exit 1";
     let boot = Running::start(
         dir.path(),
         vec!["sh".into(), "-c".into(), script.into()],
@@ -338,8 +338,8 @@ fn quitting_waits_for_the_current_process_not_an_old_one() {
     let marker = dir.path().join("second");
     let told = dir.path().join("told");
     let script = format!(
-        "if [ -e {m} ]; then echo ready 3; read line; echo \"$line\" >> {t}; sleep 2; \
-         echo bye >> {t}; exit 0; fi; touch {m}; echo ready 3; (sleep 1) & exec sleep 30",
+        "if [ -e {m} ]; then echo ready 4; read line; echo \"$line\" >> {t}; sleep 2; \
+         echo bye >> {t}; exit 0; fi; touch {m}; echo ready 4; (sleep 1) & exec sleep 30",
         m = marker.display(),
         t = told.display()
     );
@@ -408,7 +408,7 @@ fn a_restarted_process_that_dies_before_it_is_ready_is_not_restarted_again() {
     let dir = tempfile::tempdir().unwrap();
     let marker = dir.path().join("restarted");
     let script = format!(
-        "if [ -e {m} ]; then exit 4; fi; touch {m}; echo ready 3; read line; \
+        "if [ -e {m} ]; then exit 4; fi; touch {m}; echo ready 4; read line; \
          echo started /dev/null; sleep 0.3; exit 3",
         m = marker.display()
     );
@@ -432,7 +432,7 @@ fn a_restarted_process_that_dies_before_it_is_ready_is_not_restarted_again() {
 #[test]
 fn a_process_that_fails_while_stopping_is_reported_as_failed() {
     let dir = tempfile::tempdir().unwrap();
-    let script = "echo ready 3; read line; echo started /dev/null; read line; exit 1";
+    let script = "echo ready 4; read line; echo started /dev/null; read line; exit 1";
     let boot = Running::start(
         dir.path(),
         vec!["sh".into(), "-c".into(), script.into()],
@@ -456,7 +456,7 @@ fn a_process_that_fails_while_stopping_is_reported_as_failed() {
 /// refusal) and the process flies on; `kill` ends it.
 fn airborne_child(words: &str) -> Vec<std::ffi::OsString> {
     let script = format!(
-        "echo ready 3; while read line; do case \"$line\" in \
+        "echo ready 4; while read line; do case \"$line\" in \
          start*) echo started /logs/flight_air.mcap ;; \
          stop) echo '{words}' ;; \
          kill) exit 0 ;; esac; done"

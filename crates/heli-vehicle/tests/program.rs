@@ -546,7 +546,7 @@ fn a_flight_process_whose_bootstrap_is_gone_in_the_air_flies_on_and_is_taken_bac
     };
     let mut flight = flight_process(dir.path()).spawn().unwrap();
     let said = collect(flight.stdout.take().unwrap());
-    wait_in(&said, "ready 3", Duration::from_secs(5));
+    wait_in(&said, "ready 4", Duration::from_secs(5));
     let mut to_flight = flight.stdin.take().unwrap();
     writeln!(to_flight, "restart up manual").unwrap();
     wait_in(&said, "started ", Duration::from_secs(5));

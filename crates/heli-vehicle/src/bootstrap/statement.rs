@@ -12,8 +12,8 @@ use heli_fsw::core::Severity;
 use heli_link::status::Tested;
 
 use super::Bootstrap;
-use crate::attest::{Identity, Verdict};
 use crate::lab::Lab;
+use heli_link::attest::{Identity, Verdict};
 
 /// How often the statement is judged again.
 pub const JUDGE_EVERY: Duration = Duration::from_secs(1);
@@ -35,7 +35,7 @@ pub struct LabStatement {
 impl LabStatement {
     /// The statement on `program` (the flight process's) flying `log_dir`'s parameters.
     pub fn new(lab: Lab, program: &std::path::Path, log_dir: PathBuf) -> Self {
-        let build = crate::attest::file_sha256(program)
+        let build = heli_link::attest::file_sha256(program)
             .map_err(|e| format!("the flight software's program: {e}"));
         Self {
             lab,
@@ -56,12 +56,20 @@ impl LabStatement {
     fn verdict(&self) -> Verdict {
         let build = match &self.build {
             Ok(build) => build.clone(),
-            Err(why) => return Verdict::NotTested { why: vec![why.clone()] },
+            Err(why) => {
+                return Verdict::NotTested {
+                    why: vec![why.clone()],
+                };
+            }
         };
         let table = if crate::params::path_in(&self.log_dir).exists() {
             match crate::params::load(&self.log_dir) {
                 Ok(table) => table,
-                Err(e) => return Verdict::NotTested { why: vec![e.to_string()] },
+                Err(e) => {
+                    return Verdict::NotTested {
+                        why: vec![e.to_string()],
+                    };
+                }
             }
         } else {
             crate::params::defaults()
@@ -82,8 +90,7 @@ impl LabStatement {
         let verdict = self.verdict();
         let line = verdict.line();
         let changed = self.line.as_deref() != Some(line.as_str());
-        let repeat =
-            verdict.tested() == Tested::NotTested && due(self.said_at, REPEAT_NOT_TESTED);
+        let repeat = verdict.tested() == Tested::NotTested && due(self.said_at, REPEAT_NOT_TESTED);
         self.tested = verdict.tested();
         self.line = Some(line.clone());
         if !(changed || repeat) {

@@ -146,7 +146,10 @@ fn what_is_not_the_protocol_is_refused_with_the_reason() {
         ("stop now", malformed("stop", "takes nothing")),
         ("kill now", malformed("kill", "takes nothing")),
         ("link maybe", malformed("link", "expected fresh or lost")),
-        ("start a", malformed("start", "expected SUFFIX MODE [PLAN] [override-untested]")),
+        (
+            "start a",
+            malformed("start", "expected SUFFIX MODE [PLAN] [override-untested]"),
+        ),
         (
             "start a manual hover x",
             malformed("start", "expected SUFFIX MODE [PLAN] [override-untested]"),
@@ -203,7 +206,10 @@ fn what_is_not_the_protocol_is_refused_with_the_reason() {
             "adopted x t1 manual",
             "'adopted': expected PID SUFFIX MODE [PLAN]",
         ),
-        ("adopted 12 t1", "'adopted': expected SUFFIX MODE [PLAN] [override-untested]"),
+        (
+            "adopted 12 t1",
+            "'adopted': expected SUFFIX MODE [PLAN] [override-untested]",
+        ),
     ];
     for (line, error) in from_flight {
         assert_eq!(

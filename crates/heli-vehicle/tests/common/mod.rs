@@ -14,7 +14,7 @@ use heli_vehicle::ctl::{Request, send};
 /// was told in `told`, and crashes (exit 3) a moment later.
 pub fn crashing_child(told: &Path) -> Vec<std::ffi::OsString> {
     let script = format!(
-        "echo ready 3; read line; echo \"$line\" >> {}; echo started /dev/null; sleep 0.3; exit 3",
+        "echo ready 4; read line; echo \"$line\" >> {}; echo started /dev/null; sleep 0.3; exit 3",
         told.display()
     );
     vec!["sh".into(), "-c".into(), script.into()]

@@ -6,12 +6,14 @@
 //! against a build of the flight software and a parameter set, and when they pass writes an
 //! attestation: the build's SHA-256 (the program that runs the flight process), the
 //! parameters' SHA-256 and values, and what was run, signed with HMAC-SHA256 under the link
-//! key (`heli link keygen`), which the vehicle holds too. The vehicle judges its own
+//! key (`heli link keygen`), which the vehicle holds too (it lives here, beside the link's
+//! signing, for the vehicle and `heli certify` alike). The vehicle judges its own
 //! configuration against it ([`judge`]): lab-tested, or NOT lab-tested and what changed.
 //! Augmented and autonomous flight on a configuration that is not lab-tested needs the
 //! operator's explicit override, which the flight's log records.
 //!
-//! Runtime layer: reads the program file and the attestation file. The format is JSON
+//! Reads the program file and the attestation file ([`file_sha256`], [`LabCheck`]); the rest
+//! takes text and values. The format is JSON
 //! (docs/security.md); the signature covers the body as this module writes it, so the
 //! file's spacing may change but no value.
 
@@ -20,13 +22,12 @@ use std::fmt::Write as _;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use heli_link::params::ParamTable;
-use heli_link::signing::Key;
-use heli_link::status::{LAB_TESTED, NOT_LAB_TESTED, Tested};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use crate::error::VehicleError;
+use crate::params::ParamTable;
+use crate::signing::Key;
+use crate::status::{LAB_TESTED, NOT_LAB_TESTED, Tested};
 
 /// The attestation's file name in a vehicle's log directory (its default place).
 pub const FILE_NAME: &str = "attestation.json";
@@ -47,7 +48,7 @@ pub struct Identity {
 
 impl Identity {
     /// The identity of `program` flying `table`.
-    pub fn of(program: &Path, table: &ParamTable) -> Result<Self, VehicleError> {
+    pub fn of(program: &Path, table: &ParamTable) -> std::io::Result<Self> {
         Ok(Self::new(file_sha256(program)?, table))
     }
 
@@ -65,13 +66,15 @@ impl Identity {
     }
 }
 
-/// SHA-256 of a file, in hex.
-pub fn file_sha256(path: &Path) -> Result<String, VehicleError> {
-    let mut file = std::fs::File::open(path).map_err(|e| VehicleError::file(path, e))?;
+/// SHA-256 of a file, in hex (an error names the file).
+pub fn file_sha256(path: &Path) -> std::io::Result<String> {
+    let named =
+        |e: std::io::Error| std::io::Error::new(e.kind(), format!("{}: {e}", path.display()));
+    let mut file = std::fs::File::open(path).map_err(named)?;
     let mut hash = Sha256::new();
     let mut buf = vec![0u8; 1 << 16];
     loop {
-        let n = file.read(&mut buf).map_err(|e| VehicleError::file(path, e))?;
+        let n = file.read(&mut buf).map_err(named)?;
         let Some(read) = buf.get(..n).filter(|r| !r.is_empty()) else {
             break;
         };
@@ -288,11 +291,12 @@ impl Verdict {
     pub fn line(&self) -> String {
         match self {
             Verdict::LabTested { body } => format!(
-                "{LAB_TESTED}: build {}, parameters {}, certified {} ({} recorded flights replayed, robustness suite {} of {} passed)",
+                "{LAB_TESTED}: build {}, parameters {}, certified {} ({} recorded flight{} replayed, robustness suite {} of {} passed)",
                 short(&body.identity.build_sha256),
                 short(&body.identity.params_sha256),
                 utc_text(body.certified_unix_s),
                 body.replays.len(),
+                if body.replays.len() == 1 { "" } else { "s" },
                 body.suite.pass,
                 body.suite.flights
             ),
