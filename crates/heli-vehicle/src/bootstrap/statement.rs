@@ -129,3 +129,108 @@ impl Bootstrap {
         self.lab.as_ref().and_then(|l| l.line().map(str::to_string))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use heli_link::attest::{Body, LabCheck, SuiteEvidence, sign, to_text};
+    use heli_link::signing::Key;
+
+    fn key() -> Key {
+        let mut bytes = [0u8; 32];
+        for (i, b) in bytes.iter_mut().enumerate() {
+            *b = u8::try_from(i).unwrap().wrapping_mul(29).wrapping_add(3);
+        }
+        Key::new(bytes)
+    }
+
+    fn statement(dir: &std::path::Path) -> (LabStatement, PathBuf) {
+        let program = dir.join("heli-vehicle");
+        std::fs::write(&program, b"build one").unwrap();
+        let lab = Lab {
+            check: LabCheck {
+                attestation: dir.join("attestation.json"),
+                key: Some(key()),
+            },
+            fly_untested: false,
+        };
+        (LabStatement::new(lab, &program, dir.to_path_buf()), program)
+    }
+
+    fn attest(dir: &std::path::Path, program: &std::path::Path) {
+        let identity = crate::lab::identity(program, dir).unwrap();
+        let body = Body {
+            format: heli_link::attest::FORMAT,
+            identity,
+            certified_unix_s: 0,
+            certified_by: "test".into(),
+            replays: Vec::new(),
+            suite: SuiteEvidence {
+                dir: "s".into(),
+                flights: 1,
+                pass: 1,
+                crash: 0,
+                error: 0,
+                min_pass_permille: 990,
+            },
+        };
+        let text = to_text(&sign(body, &key()).unwrap()).unwrap();
+        std::fs::write(dir.join("attestation.json"), text).unwrap();
+    }
+
+    #[test]
+    fn said_at_first_on_a_change_and_again_each_minute_while_not_tested() {
+        let dir = tempfile::tempdir().unwrap();
+        let (mut s, program) = statement(dir.path());
+        let t0 = Instant::now();
+        let at = |secs: f64| t0 + Duration::from_secs_f64(secs);
+        assert_eq!(s.line(), None);
+        let (severity, line, tested) = s.tick(at(0.0)).unwrap();
+        assert_eq!((severity, tested), (Severity::WarningLo, Tested::NotTested));
+        assert!(
+            line.starts_with("NOT lab-tested: no lab attestation"),
+            "{line}"
+        );
+        assert_eq!(s.line(), Some(line.as_str()));
+        // Not judged again before a second, and not said again before a minute.
+        attest(dir.path(), &program);
+        assert_eq!(s.tick(at(0.5)), None);
+        assert_eq!(s.line(), Some(line.as_str()), "not judged yet");
+        // Judged again: lab-tested now, said at once.
+        let (severity, line, tested) = s.tick(at(1.0)).unwrap();
+        assert_eq!(
+            (severity, tested),
+            (Severity::ActivityHi, Tested::LabTested)
+        );
+        assert!(line.starts_with("lab-tested: build"), "{line}");
+        // A lab-tested statement is not repeated.
+        assert_eq!(s.tick(at(2.0)), None);
+        assert_eq!(s.tick(at(200.0)), None);
+        // A gain changed: said at the next judgement, then once a minute.
+        std::fs::write(dir.path().join("params"), "HOV_VEL_P = 1.6\n").unwrap();
+        let (_, line, tested) = s.tick(at(201.0)).unwrap();
+        assert_eq!(tested, Tested::NotTested);
+        assert!(line.contains("HOV_VEL_P 1.6 (tested 1.4)"), "{line}");
+        assert_eq!(s.tick(at(202.0)), None);
+        assert_eq!(s.tick(at(260.5)), None);
+        assert!(s.tick(at(261.5)).is_some(), "repeated after a minute");
+        assert_eq!(s.tick(at(262.5)), None);
+    }
+
+    #[test]
+    fn an_unreadable_parameter_file_or_program_is_not_tested_with_why() {
+        let dir = tempfile::tempdir().unwrap();
+        let (mut s, program) = statement(dir.path());
+        attest(dir.path(), &program);
+        std::fs::write(dir.path().join("params"), "NOPE = 1\n").unwrap();
+        let (_, line, _) = s.tick(Instant::now()).unwrap();
+        assert!(
+            line.starts_with("NOT lab-tested:") && line.contains("NOPE"),
+            "{line}"
+        );
+        let lab = s.lab.clone();
+        let mut gone = LabStatement::new(lab, &dir.path().join("none"), dir.path().to_path_buf());
+        let (_, line, _) = gone.tick(Instant::now()).unwrap();
+        assert!(line.contains("the flight software's program"), "{line}");
+    }
+}
