@@ -123,13 +123,16 @@ pub fn identity(program: &Path, log_dir: &Path) -> Result<Identity, String> {
     Identity::of(program, &table).map_err(|e| format!("the flight software's program: {e}"))
 }
 
+/// What the tests of the lab check share: a key, a lab on a directory, and an attestation
+/// of an identity signed with the key.
 #[cfg(test)]
-mod tests {
+pub(crate) mod testing {
     use super::*;
     use heli_link::attest::{Body, SuiteEvidence, sign, to_text};
     use heli_link::signing::Key;
 
-    fn key() -> Key {
+    /// A key (32 different bytes).
+    pub fn key() -> Key {
         let mut bytes = [0u8; 32];
         for (i, b) in bytes.iter_mut().enumerate() {
             *b = u8::try_from(i).unwrap().wrapping_mul(73).wrapping_add(5);
@@ -137,7 +140,8 @@ mod tests {
         Key::new(bytes)
     }
 
-    fn lab(dir: &Path, fly_untested: bool) -> Lab {
+    /// A lab whose attestation is `dir/attestation.json`, checked with [`key`].
+    pub fn lab(dir: &Path, fly_untested: bool) -> Lab {
         Lab {
             check: LabCheck {
                 attestation: dir.join("attestation.json"),
@@ -147,7 +151,8 @@ mod tests {
         }
     }
 
-    fn attest(dir: &Path, identity: Identity) {
+    /// Writes `dir/attestation.json` attesting `identity` (its tests passed).
+    pub fn attest(dir: &Path, identity: Identity) {
         let body = Body {
             format: heli_link::attest::FORMAT,
             identity,
@@ -165,6 +170,34 @@ mod tests {
         };
         let text = to_text(&sign(body, &key()).unwrap()).unwrap();
         std::fs::write(dir.join("attestation.json"), text).unwrap();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::testing::{attest, lab};
+    use super::*;
+
+    #[derive(clap::Parser)]
+    struct Args {
+        #[command(flatten)]
+        flight: FlightArgs,
+    }
+
+    #[test]
+    fn the_attestation_is_in_the_log_directory_unless_named() {
+        use clap::Parser;
+        let args = Args::parse_from(["t", "--log-dir", "/logs"]);
+        assert_eq!(
+            attestation_path(&args.flight),
+            Path::new("/logs/attestation.json")
+        );
+        let args = Args::parse_from(["t", "--log-dir", "/logs", "--attestation", "/lab/a.json"]);
+        assert_eq!(attestation_path(&args.flight), Path::new("/lab/a.json"));
+        assert!(!args.flight.fly_untested);
+        let lab = Lab::from_args(&args.flight).unwrap();
+        assert_eq!(lab.check.attestation, Path::new("/lab/a.json"));
+        assert!(lab.check.key.is_none());
     }
 
     fn start(mode: &str, override_untested: bool) -> StartParameters {

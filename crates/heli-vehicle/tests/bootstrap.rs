@@ -506,3 +506,39 @@ fn a_stop_in_the_air_is_answered_by_the_flight_and_the_bootstrap_does_not_quit_u
         assert_eq!(status(&boot)["state"], "idle");
     }
 }
+
+#[test]
+fn the_bootstrap_states_whether_its_flight_software_is_lab_tested() {
+    use heli_vehicle::bootstrap::LabStatement;
+    use heli_vehicle::lab::Lab;
+    let dir = tempfile::tempdir().unwrap();
+    let told = dir.path().join("told");
+    let program = dir.path().join("flight-software");
+    std::fs::write(&program, b"a build").unwrap();
+    let lab = Lab {
+        check: heli_link::attest::LabCheck {
+            attestation: dir.path().join("attestation.json"),
+            key: None,
+        },
+        fly_untested: false,
+    };
+    let log_dir = dir.path().to_path_buf();
+    let boot = Running::start_with(dir.path(), polite_child(&told), None, move |b| {
+        b.with_lab(LabStatement::new(lab, &program, log_dir))
+    });
+    boot.wait_count(
+        "bootstrap: NOT lab-tested: no key",
+        1,
+        Duration::from_secs(5),
+    );
+    let s = status(&boot);
+    assert!(
+        s["lab"]
+            .as_str()
+            .is_some_and(|l| l.starts_with("NOT lab-tested: no key to check")),
+        "{s}"
+    );
+    // Said once, not at every judgement.
+    std::thread::sleep(Duration::from_millis(2500));
+    assert_eq!(boot.count("NOT lab-tested"), 1);
+}

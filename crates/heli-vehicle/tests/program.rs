@@ -627,3 +627,62 @@ fn a_flight_process_whose_bootstrap_is_gone_in_the_air_flies_on_and_is_taken_bac
         "{notes:?}"
     );
 }
+
+#[test]
+fn on_an_untested_configuration_autonomous_needs_the_override_and_a_restart_flies_on() {
+    // No key, no attestation, no bench override: nothing is lab-tested.
+    let flight_process = |dir: &Path, devices: &Path| {
+        let mut child = Command::new(PROGRAM)
+            .arg("flight")
+            .arg("--devices")
+            .arg(devices)
+            .arg("--log-dir")
+            .arg(dir)
+            .args(["--fallback-dir", "none", "--warm-up-s", "0.1"])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .unwrap();
+        let said = collect(child.stdout.take().unwrap());
+        wait_in(&said, "ready 4", Duration::from_secs(5));
+        let to_flight = child.stdin.take().unwrap();
+        (child, said, to_flight)
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let devices = FakeDevices::new(dir.path());
+    let (mut child, said, mut to_flight) = flight_process(dir.path(), &devices.file);
+    writeln!(to_flight, "start a autonomous hover").unwrap();
+    let refused = wait_in(&said, "error ", Duration::from_secs(5));
+    assert!(
+        refused.contains("NOT lab-tested: no key")
+            && refused.contains("autonomous flight needs the operator's override"),
+        "{refused}"
+    );
+    // Refused before anything was opened: the process waits for another start.
+    writeln!(to_flight, "start a autonomous hover override-untested").unwrap();
+    wait_in(&said, "started ", Duration::from_secs(5));
+    let event = wait_in(&said, "by the operator's override", Duration::from_secs(5));
+    assert!(event.starts_with("event warning-hi"), "{event}");
+    writeln!(to_flight, "kill").unwrap();
+    assert!(child.wait().is_ok());
+
+    // Started again after a crash in the air: the flight flies on, whatever the lab said.
+    let dir = tempfile::tempdir().unwrap();
+    let devices = FakeDevices::new(dir.path());
+    std::fs::write(
+        dir.path().join("warm-start"),
+        "start = r autonomous hover\nairborne = true\ngyro_bias_rps = 0 0 0\n",
+    )
+    .unwrap();
+    let (mut child, said, mut to_flight) = flight_process(dir.path(), &devices.file);
+    writeln!(to_flight, "restart r autonomous hover").unwrap();
+    wait_in(&said, "started ", Duration::from_secs(5));
+    assert!(
+        !said.lock().unwrap().iter().any(|l| l.starts_with("error ")),
+        "{:?}",
+        said.lock().unwrap()
+    );
+    writeln!(to_flight, "kill").unwrap();
+    assert!(child.wait().is_ok());
+}

@@ -133,49 +133,15 @@ impl Bootstrap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use heli_link::attest::{Body, LabCheck, SuiteEvidence, sign, to_text};
-    use heli_link::signing::Key;
-
-    fn key() -> Key {
-        let mut bytes = [0u8; 32];
-        for (i, b) in bytes.iter_mut().enumerate() {
-            *b = u8::try_from(i).unwrap().wrapping_mul(29).wrapping_add(3);
-        }
-        Key::new(bytes)
-    }
+    use crate::lab::testing::{attest, lab};
 
     fn statement(dir: &std::path::Path) -> (LabStatement, PathBuf) {
         let program = dir.join("heli-vehicle");
         std::fs::write(&program, b"build one").unwrap();
-        let lab = Lab {
-            check: LabCheck {
-                attestation: dir.join("attestation.json"),
-                key: Some(key()),
-            },
-            fly_untested: false,
-        };
-        (LabStatement::new(lab, &program, dir.to_path_buf()), program)
-    }
-
-    fn attest(dir: &std::path::Path, program: &std::path::Path) {
-        let identity = crate::lab::identity(program, dir).unwrap();
-        let body = Body {
-            format: heli_link::attest::FORMAT,
-            identity,
-            certified_unix_s: 0,
-            certified_by: "test".into(),
-            replays: Vec::new(),
-            suite: SuiteEvidence {
-                dir: "s".into(),
-                flights: 1,
-                pass: 1,
-                crash: 0,
-                error: 0,
-                min_pass_permille: 990,
-            },
-        };
-        let text = to_text(&sign(body, &key()).unwrap()).unwrap();
-        std::fs::write(dir.join("attestation.json"), text).unwrap();
+        (
+            LabStatement::new(lab(dir, false), &program, dir.to_path_buf()),
+            program,
+        )
     }
 
     #[test]
@@ -193,7 +159,10 @@ mod tests {
         );
         assert_eq!(s.line(), Some(line.as_str()));
         // Not judged again before a second, and not said again before a minute.
-        attest(dir.path(), &program);
+        attest(
+            dir.path(),
+            crate::lab::identity(&program, dir.path()).unwrap(),
+        );
         assert_eq!(s.tick(at(0.5)), None);
         assert_eq!(s.line(), Some(line.as_str()), "not judged yet");
         // Judged again: lab-tested now, said at once.
@@ -221,7 +190,10 @@ mod tests {
     fn an_unreadable_parameter_file_or_program_is_not_tested_with_why() {
         let dir = tempfile::tempdir().unwrap();
         let (mut s, program) = statement(dir.path());
-        attest(dir.path(), &program);
+        attest(
+            dir.path(),
+            crate::lab::identity(&program, dir.path()).unwrap(),
+        );
         std::fs::write(dir.path().join("params"), "NOPE = 1\n").unwrap();
         let (_, line, _) = s.tick(Instant::now()).unwrap();
         assert!(
