@@ -30,7 +30,7 @@ pub fn view(tested: Tested, statement: Option<&str>) -> LabView {
     // A statement of the other kind is from before the change: not shown.
     let agrees = |s: &&str| match tested {
         Tested::LabTested => s.starts_with(LAB_TESTED),
-        Tested::NotTested => s.starts_with(NOT_LAB_TESTED),
+        Tested::NotTested | Tested::BenchOverride => s.starts_with(NOT_LAB_TESTED),
         Tested::Unknown => false,
     };
     LabView {
@@ -40,7 +40,8 @@ pub fn view(tested: Tested, statement: Option<&str>) -> LabView {
 }
 
 /// Why Start Logging of `controller` is not sent as it is: the configuration is not
-/// lab-tested and the operator has not overridden it (none: it may be sent).
+/// lab-tested and the operator has not overridden it (none: it may be sent). A bench
+/// vehicle's standing override (`Tested::BenchOverride`) asks none.
 pub fn needs_override(
     tested: Tested,
     statement: Option<&str>,
@@ -92,6 +93,12 @@ mod tests {
         assert!(needs_override(Tested::NotTested, s, FlightMode::Manual, false).is_none());
         assert!(needs_override(Tested::LabTested, s, FlightMode::Autonomous, false).is_none());
         assert!(needs_override(Tested::Unknown, None, FlightMode::Autonomous, false).is_none());
+        assert!(needs_override(Tested::BenchOverride, s, FlightMode::Autonomous, false).is_none());
+        assert_eq!(
+            view(Tested::BenchOverride, s).statement.as_deref(),
+            s,
+            "the bench's statement is shown"
+        );
         let velocity = FlightMode::from_name("velocity").unwrap();
         assert!(
             needs_override(Tested::NotTested, None, velocity, false)

@@ -199,7 +199,7 @@ function renderVehicle(view) {
   lab.className = "pill " + (tested === "lab-tested" ? "good" : "warn");
   lab.title = v.lab.statement || "";
   const why = $("lab-statement");
-  const untested = tested === "NOT lab-tested";
+  const untested = tested.startsWith("NOT lab-tested");
   why.hidden = !untested;
   why.textContent = untested ? v.lab.statement || "NOT lab-tested (the vehicle's reason not heard yet)" : "";
 }

@@ -50,12 +50,17 @@ pub enum Tested {
     LabTested = 1,
     /// They do not, or no attestation can be checked.
     NotTested = 2,
+    /// Not lab-tested, on a lab bench whose standing override flies it anyway
+    /// (`--fly-untested`): a ground asks no per-flight override.
+    BenchOverride = 3,
 }
 
 /// How the vehicle's statement begins when its configuration is not lab-tested.
 pub const NOT_LAB_TESTED: &str = "NOT lab-tested";
 /// How it begins when it is.
 pub const LAB_TESTED: &str = "lab-tested";
+/// The heartbeat's name of [`Tested::BenchOverride`].
+pub const NOT_LAB_TESTED_BENCH: &str = "NOT lab-tested (bench)";
 
 impl Tested {
     /// Its name on displays.
@@ -64,6 +69,7 @@ impl Tested {
             Tested::Unknown => "unknown",
             Tested::LabTested => LAB_TESTED,
             Tested::NotTested => NOT_LAB_TESTED,
+            Tested::BenchOverride => NOT_LAB_TESTED_BENCH,
         }
     }
 
@@ -71,6 +77,7 @@ impl Tested {
         match code {
             1 => Tested::LabTested,
             2 => Tested::NotTested,
+            3 => Tested::BenchOverride,
             _ => Tested::Unknown,
         }
     }

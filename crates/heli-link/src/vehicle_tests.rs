@@ -619,6 +619,7 @@ fn the_heartbeat_carries_the_phase_flown_beside_the_mode_asked() {
         crate::status::Tested::Unknown,
         crate::status::Tested::LabTested,
         crate::status::Tested::NotTested,
+        crate::status::Tested::BenchOverride,
     ] {
         let status = VehicleStatus {
             tested,

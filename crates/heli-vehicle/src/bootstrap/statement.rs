@@ -88,10 +88,20 @@ impl LabStatement {
         }
         self.judged_at = Some(now);
         let verdict = self.verdict();
-        let line = verdict.line();
+        // On a bench with the standing override the grounds ask no per-flight override.
+        let (line, tested) = match verdict.tested() {
+            Tested::NotTested if self.lab.fly_untested => (
+                format!(
+                    "{}; flown on the bench's standing override (--fly-untested)",
+                    verdict.line()
+                ),
+                Tested::BenchOverride,
+            ),
+            tested => (verdict.line(), tested),
+        };
         let changed = self.line.as_deref() != Some(line.as_str());
-        let repeat = verdict.tested() == Tested::NotTested && due(self.said_at, REPEAT_NOT_TESTED);
-        self.tested = verdict.tested();
+        let repeat = tested != Tested::LabTested && due(self.said_at, REPEAT_NOT_TESTED);
+        self.tested = tested;
         self.line = Some(line.clone());
         if !(changed || repeat) {
             return None;
@@ -184,6 +194,21 @@ mod tests {
         assert_eq!(s.tick(at(260.5)), None);
         assert!(s.tick(at(261.5)).is_some(), "repeated after a minute");
         assert_eq!(s.tick(at(262.5)), None);
+    }
+
+    #[test]
+    fn on_a_bench_with_the_standing_override_the_heartbeat_says_so() {
+        let dir = tempfile::tempdir().unwrap();
+        let program = dir.path().join("p");
+        std::fs::write(&program, b"x").unwrap();
+        let mut s = LabStatement::new(lab(dir.path(), true), &program, dir.path().to_path_buf());
+        let (_, line, tested) = s.tick(Instant::now()).unwrap();
+        assert_eq!(tested, Tested::BenchOverride);
+        assert!(
+            line.starts_with("NOT lab-tested: no lab attestation")
+                && line.ends_with("flown on the bench's standing override (--fly-untested)"),
+            "{line}"
+        );
     }
 
     #[test]
