@@ -73,6 +73,26 @@ pub struct FlightArgs {
 }
 
 impl FlightArgs {
+    /// The lab check of these settings (`crate::lab`): `--attestation` (default
+    /// `<log-dir>/attestation.json`), `--key`, `--fly-untested`.
+    pub fn lab(&self) -> Result<crate::lab::Lab> {
+        let key = heli_link::setup::load_key(self.key.as_deref())?;
+        Ok(crate::lab::Lab {
+            check: heli_link::attest::LabCheck {
+                attestation: self.attestation_path(),
+                key,
+            },
+            fly_untested: self.fly_untested,
+        })
+    }
+
+    /// The attestation file of these settings.
+    pub fn attestation_path(&self) -> PathBuf {
+        self.attestation
+            .clone()
+            .unwrap_or_else(|| self.log_dir.join(heli_link::attest::FILE_NAME))
+    }
+
     /// Where the devices are.
     pub fn devices(&self) -> Result<Devices> {
         match (&self.devices, &self.hilsim) {
@@ -285,7 +305,7 @@ pub fn bootstrap(args: &BootstrapArgs) -> Result<ExitCode> {
             to_link.said(said);
         }
     });
-    let lab = crate::lab::Lab::from_args(flight)?;
+    let lab = flight.lab()?;
     let mut bootstrap = Bootstrap::new(config, report).with_lab(
         crate::bootstrap::LabStatement::new(lab, &exe_for_lab, flight.log_dir.clone()),
     );
@@ -409,6 +429,29 @@ pub fn driver(args: &DriverArgs) -> Result<ExitCode> {
 
 #[cfg(test)]
 mod tests {
+    #[derive(clap::Parser)]
+    struct LabArgs {
+        #[command(flatten)]
+        flight: super::FlightArgs,
+    }
+
+    #[test]
+    fn the_attestation_is_in_the_log_directory_unless_named() {
+        use clap::Parser;
+        use std::path::Path;
+        let args = LabArgs::parse_from(["t", "--log-dir", "/logs"]);
+        assert_eq!(
+            args.flight.attestation_path(),
+            Path::new("/logs/attestation.json")
+        );
+        let args = LabArgs::parse_from(["t", "--log-dir", "/logs", "--attestation", "/lab/a.json"]);
+        assert_eq!(args.flight.attestation_path(), Path::new("/lab/a.json"));
+        assert!(!args.flight.fly_untested);
+        let lab = args.flight.lab().unwrap();
+        assert_eq!(lab.check.attestation, Path::new("/lab/a.json"));
+        assert!(lab.check.key.is_none());
+    }
+
     use super::*;
     use clap::Parser;
 

@@ -132,7 +132,7 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
     // chooses again without connecting again.
     // The lab's attestation: judged at each start, on the program that runs this process and
     // the parameter file the start flies (`crate::lab`).
-    let lab = crate::lab::Lab::from_args(args)?;
+    let lab = args.lab()?;
     let program = std::env::current_exe().unwrap_or_default();
     let (restart, start, plan, lab_line, lab_override) = loop {
         let (restart, start) = match next_message(&mut std::io::stdin().lock(), &say) {

@@ -9,13 +9,12 @@
 //! HILSim bench where every build is untested). Either is said as an event and recorded in
 //! the flight's log.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use heli_fsw::core::Severity;
 use heli_link::StartParameters;
 use heli_types::FlightMode;
 
-use crate::cli::FlightArgs;
 use heli_link::attest::{Identity, LabCheck, Verdict};
 
 /// The vehicle's lab check: where the attestation is, the key, and the bench's override.
@@ -28,19 +27,6 @@ pub struct Lab {
 }
 
 impl Lab {
-    /// The check of these flight settings: `--attestation` (default
-    /// `<log-dir>/attestation.json`), `--key`, `--fly-untested`.
-    pub fn from_args(args: &FlightArgs) -> anyhow::Result<Self> {
-        let key = heli_link::setup::load_key(args.key.as_deref())?;
-        Ok(Self {
-            check: LabCheck {
-                attestation: attestation_path(args),
-                key,
-            },
-            fly_untested: args.fly_untested,
-        })
-    }
-
     /// The verdict on `program` flying the parameters of `log_dir` (the defaults without a
     /// file). A program or a parameter file that cannot be read is not lab-tested, and
     /// says why.
@@ -104,13 +90,6 @@ pub struct Said {
     pub text: String,
     /// `operator` or `bench`; none for a manual flight.
     pub override_by: Option<&'static str>,
-}
-
-/// The attestation file of these flight settings.
-pub fn attestation_path(args: &FlightArgs) -> PathBuf {
-    args.attestation
-        .clone()
-        .unwrap_or_else(|| args.log_dir.join(heli_link::attest::FILE_NAME))
 }
 
 /// The identity of `program` flying `log_dir`'s parameters.
@@ -177,28 +156,6 @@ pub(crate) mod testing {
 mod tests {
     use super::testing::{attest, lab};
     use super::*;
-
-    #[derive(clap::Parser)]
-    struct Args {
-        #[command(flatten)]
-        flight: FlightArgs,
-    }
-
-    #[test]
-    fn the_attestation_is_in_the_log_directory_unless_named() {
-        use clap::Parser;
-        let args = Args::parse_from(["t", "--log-dir", "/logs"]);
-        assert_eq!(
-            attestation_path(&args.flight),
-            Path::new("/logs/attestation.json")
-        );
-        let args = Args::parse_from(["t", "--log-dir", "/logs", "--attestation", "/lab/a.json"]);
-        assert_eq!(attestation_path(&args.flight), Path::new("/lab/a.json"));
-        assert!(!args.flight.fly_untested);
-        let lab = Lab::from_args(&args.flight).unwrap();
-        assert_eq!(lab.check.attestation, Path::new("/lab/a.json"));
-        assert!(lab.check.key.is_none());
-    }
 
     fn start(mode: &str, override_untested: bool) -> StartParameters {
         StartParameters {
