@@ -144,6 +144,7 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
     let options = HilOptions {
         speed: args.speed,
         duration_s: args.duration,
+        stamps: false,
     };
     let dir = args.ptys.clone();
     let name = scenario.name.clone();

@@ -45,13 +45,17 @@ enum Command {
         json: bool,
         /// Instead: fly the hover scenario this many seconds in real time against the
         /// flight process on the HILSim's pseudo-terminals, and measure the IMU-to-servo
-        /// latency and the flight process's CPU share and memory.
+        /// latency stage by stage and the flight process's CPU share and memory.
         #[arg(long, value_name = "SECONDS")]
         hil: Option<f64>,
         /// With --hil: the program whose flight process is measured (default: the onboard
         /// program `heli-vehicle` beside this one; without it, this program's `heli flight`).
         #[arg(long, value_name = "PATH", requires = "hil")]
         flight_program: Option<std::path::PathBuf>,
+        /// With --hil: the flight process without its real-time settings (memory locking,
+        /// SCHED_FIFO, CPUs kept awake), as an unprivileged process would fly.
+        #[arg(long, requires = "hil")]
+        no_realtime: bool,
         /// Instead: the MAVLink link on loopback: log download throughput and command
         /// round-trip time.
         #[arg(long, conflicts_with = "hil")]
@@ -279,7 +283,8 @@ fn main() -> ExitCode {
             hil,
             link,
             flight_program,
-        } => bench(json, hil, link, flight_program),
+            no_realtime,
+        } => bench(json, hil, link, flight_program, !no_realtime),
         Command::Hilsim(args) => hilsim_cmd::hilsim(&args),
         Command::Vehicle { bootstrap, ctl } => heli_vehicle::cli::vehicle(&bootstrap, ctl.as_ref()),
         Command::Ground(args) => ground_cmd::ground(&args),
@@ -412,6 +417,7 @@ fn bench(
     hil: Option<f64>,
     link: bool,
     flight_program: Option<std::path::PathBuf>,
+    realtime: bool,
 ) -> Result<ExitCode> {
     if link {
         return report(
@@ -429,7 +435,11 @@ fn bench(
             None => exe,
         };
         eprintln!("measuring the flight process of {}", program.display());
-        let b = heli_sim::bench::hil::run(seconds, &[program.into_os_string(), "flight".into()])?;
+        let b = heli_sim::bench::hil::run(
+            seconds,
+            &[program.into_os_string(), "flight".into()],
+            realtime,
+        )?;
         return report(&b, json, heli_sim::bench::hil::print);
     }
     report(&heli_sim::bench::run(), json, heli_sim::bench::print)

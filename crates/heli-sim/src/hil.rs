@@ -23,7 +23,7 @@ use heli_types::Port;
 use serialport::{SerialPort, TTYPort};
 
 use crate::lockstep::{HilOut, Simulation};
-use crate::summary::{HilSummary, Percentiles, Summary};
+use crate::summary::{HilStamps, HilSummary, Percentiles, Summary};
 use heli_scenario::Scenario;
 
 /// Why the HILSim could not run, or stopped early.
@@ -75,27 +75,58 @@ pub(crate) fn device(what: impl std::fmt::Display) -> impl FnOnce(std::io::Error
 
 /// The flight computer's reaction time as the HILSim sees it: from the write of an IMU
 /// packet to the first whole servo packet read back after it.
-#[derive(Default)]
 struct Latency {
-    /// When IMU packets were written, newest last (a few kept).
+    /// When IMU packets were written (the write call began), newest last (a few kept).
     imu_writes: std::collections::VecDeque<Instant>,
     framer: heli_proto::scb::ServoFramer,
     samples_us: Vec<f64>,
     servo_packets: u64,
+    /// Every write and read on `CLOCK_MONOTONIC`, if asked for.
+    stamps: Option<HilStamps>,
+    /// An instant and the same moment on `CLOCK_MONOTONIC` (ns): `Instant` reads that clock
+    /// on Linux, so the difference from here converts exactly.
+    base: (Instant, u64),
 }
 
 impl Latency {
+    fn new(stamps: bool) -> Self {
+        Self {
+            imu_writes: std::collections::VecDeque::new(),
+            framer: heli_proto::scb::ServoFramer::default(),
+            samples_us: Vec::new(),
+            servo_packets: 0,
+            stamps: stamps.then(HilStamps::default),
+            base: (Instant::now(), heli_vehicle::latency::mono_ns()),
+        }
+    }
+
+    /// `at` on `CLOCK_MONOTONIC` (ns).
+    fn mono_ns(&self, at: Instant) -> u64 {
+        let since = at.saturating_duration_since(self.base.0).as_nanos();
+        self.base
+            .1
+            .saturating_add(u64::try_from(since).unwrap_or(u64::MAX))
+    }
+
     fn imu_written(&mut self, at: Instant) {
         if self.imu_writes.len() >= 16 {
             self.imu_writes.pop_front();
         }
         self.imu_writes.push_back(at);
+        let ns = self.mono_ns(at);
+        if let Some(s) = self.stamps.as_mut() {
+            s.imu_written_ns.push(ns);
+        }
     }
 
     fn servo_bytes(&mut self, bytes: &[u8], read_at: Instant) {
         for &b in bytes {
             if self.framer.push(b).is_some() {
                 self.servo_packets += 1;
+                let ns = self.mono_ns(read_at);
+                if let Some(s) = self.stamps.as_mut() {
+                    s.servo_read_ns.push(ns);
+                }
                 // The newest IMU packet written before the read is what the command answers.
                 if let Some(imu) = self.imu_writes.iter().rev().find(|t| **t <= read_at) {
                     self.samples_us
@@ -127,6 +158,9 @@ pub struct HilOptions {
     pub speed: f64,
     /// Stop after this many simulated seconds (default: the scenario's duration).
     pub duration_s: Option<f64>,
+    /// Keep every IMU write's and servo read's time ([`HilSummary::stamps`]) for a
+    /// stage-by-stage latency (`heli bench --hil`); 12 bytes per control period.
+    pub stamps: bool,
 }
 
 pub(crate) struct PtyPort {
@@ -218,6 +252,10 @@ pub(crate) fn spawn_readers(
         std::thread::Builder::new()
             .name(format!("hil-{}", port.name()))
             .spawn(move || {
+                // The reader answers at once, as the board's UART would: under SCHED_FIFO
+                // where the machine allows (a HILSim's own wake-up is not the flight
+                // computer's latency); the normal scheduler otherwise.
+                let _ = heli_vehicle::rt::realtime_thread(heli_vehicle::rt::DRIVER_PRIORITY);
                 let mut buf = [0u8; 256];
                 while !stop.load(Ordering::Acquire) {
                     match master.read(&mut buf) {
@@ -228,7 +266,15 @@ pub(crate) fn spawn_readers(
                             }
                         }
                         Ok(_) => {}
-                        // No one has the terminal open (EIO), or nothing came: wait.
+                        // Nothing came within the timeout: read again at once (a sleep
+                        // here would hold a packet arriving during it: it held 1 % of
+                        // the servo packets 5 ms).
+                        Err(e)
+                            if matches!(
+                                e.kind(),
+                                std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+                            ) => {}
+                        // The terminal failed (EIO while no one has it open): wait.
                         Err(_) => std::thread::sleep(Duration::from_millis(5)),
                     }
                 }
@@ -265,7 +311,7 @@ pub fn run(
     let end_us = (duration_s * 1e6) as u64;
     let wall_start = Instant::now();
     let mut dropped = 0u64;
-    let mut latency = Latency::default();
+    let mut latency = Latency::new(options.stamps);
     loop {
         if stop.load(Ordering::Acquire) {
             break;
@@ -290,10 +336,13 @@ pub fn run(
             match out {
                 HilOut::Bytes(port, bytes) => {
                     if let Some(pty) = ptys.iter_mut().find(|p| p.port == port) {
+                        // Stamped as the write begins: the flight computer's driver may
+                        // read the bytes before the write call has returned here.
+                        let begun = Instant::now();
                         if pty.master.write_all(bytes.as_slice()).is_err() {
                             dropped += 1;
                         } else if port == Port::Imu {
-                            latency.imu_written(Instant::now());
+                            latency.imu_written(begun);
                         }
                     }
                 }
@@ -314,6 +363,7 @@ pub fn run(
         servo_packets: latency.servo_packets,
         latency_us: Percentiles::of(&mut latency.samples_us),
         dropped_writes: dropped,
+        stamps: latency.stamps.take(),
     });
     if dropped > 0 {
         summary.events.push(format!(

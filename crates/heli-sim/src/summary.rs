@@ -258,6 +258,20 @@ pub struct HilSummary {
     pub latency_us: Percentiles,
     /// Device writes that found no reader (a terminal's buffer full).
     pub dropped_writes: u64,
+    /// Each IMU packet's write and each servo packet's read, when the run was asked to keep
+    /// them ([`crate::hil::HilOptions::stamps`]).
+    #[serde(skip)]
+    pub stamps: Option<HilStamps>,
+}
+
+/// The HILSim's own stamps on `CLOCK_MONOTONIC` (ns), the clock the flight process's
+/// latency trace uses (`heli_vehicle::latency`), in time order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HilStamps {
+    /// When each IMU packet's write to its terminal began.
+    pub imu_written_ns: Vec<u64>,
+    /// When the read that completed each servo packet returned.
+    pub servo_read_ns: Vec<u64>,
 }
 
 /// Percentiles of a sample.

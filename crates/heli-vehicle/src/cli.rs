@@ -70,6 +70,15 @@ pub struct FlightArgs {
     /// said and logged as flown untested). Never on a vehicle in the field.
     #[arg(long)]
     pub fly_untested: bool,
+    /// Fly without the real-time settings (memory locking, `SCHED_FIFO`, CPUs kept awake),
+    /// as an unprivileged process would: to measure what they buy, or to share a
+    /// workstation. A vehicle flies with them.
+    #[arg(long)]
+    pub no_realtime: bool,
+    /// Write each servo command's stage-by-stage latency (CSV, `CLOCK_MONOTONIC` ns) to this
+    /// file when the flight process ends: `heli bench --hil` reads it.
+    #[arg(long)]
+    pub latency_trace: Option<PathBuf>,
 }
 
 impl FlightArgs {
@@ -194,6 +203,12 @@ impl FlightArgs {
         }
         if self.fly_untested {
             args.push("--fly-untested".into());
+        }
+        if self.no_realtime {
+            args.push("--no-realtime".into());
+        }
+        if let Some(t) = &self.latency_trace {
+            args.extend(["--latency-trace".into(), t.clone().into_os_string()]);
         }
         args.extend([
             "--log-dir".into(),
@@ -546,6 +561,10 @@ mod tests {
             "2",
             "--clock-speed",
             "3",
+            "--no-realtime",
+            "--latency-trace",
+            "/tmp/trace.csv",
+            "--fly-untested",
         ]);
         let mut words = vec!["heli-vehicle".to_string()];
         words.extend(

@@ -63,6 +63,12 @@ pub struct FlightSetup {
     /// What the bootstrap says of its link: 0 nothing (no link), 1 a ground is heard, 2 no
     /// ground is heard. The control loop hands each change to the flight software.
     pub ground_link: Arc<std::sync::atomic::AtomicU8>,
+    /// Under the real-time settings ([`crate::rt`]: memory locked, `SCHED_FIFO`, CPUs kept
+    /// awake), each where the machine allows; false flies as an unprivileged process would.
+    pub realtime: bool,
+    /// Where to write the stage-by-stage latency of every servo command when the flight
+    /// process ends ([`crate::latency`]), if anywhere.
+    pub latency_trace: Option<PathBuf>,
 }
 
 pub use crate::supervision::Supervision;
@@ -159,7 +165,20 @@ pub fn run(
     report: Arc<dyn Fn(Report) + Send + Sync>,
 ) -> Result<FlightSummary, VehicleError> {
     let clock = setup.clock;
-    report(Report::Note(rt::lock_memory()));
+    let realtime = setup.realtime;
+    let _wake_latency = if realtime {
+        report(Report::Note(rt::lock_memory()));
+        let (request, note) = rt::hold_wake_latency();
+        report(Report::Note(note));
+        request
+    } else {
+        report(Report::Note(
+            "real-time settings off (--no-realtime): memory not locked, normal scheduler, \
+             CPUs may sleep"
+                .into(),
+        ));
+        None
+    };
     let (tx, rx) = channel::<LoopMsg>();
     let writers = Arc::new(Writers::default());
     let streams = Arc::new(LiveStreams::default());
@@ -178,6 +197,7 @@ pub fn run(
                 tx.clone(),
                 Arc::clone(&writers),
                 Arc::clone(&stop),
+                realtime,
             )
             .map_err(|e| spawn_error(port.name(), e))?,
         );
@@ -234,7 +254,9 @@ pub fn run(
         let log = log.clone();
         rt::thread("control", rt::CONTROL_STACK_BYTES)
             .spawn(move || {
-                report(Report::Note(rt::realtime_thread(rt::LOOP_PRIORITY)));
+                if realtime {
+                    report(Report::Note(rt::realtime_thread(rt::LOOP_PRIORITY)));
+                }
                 control_loop(
                     &setup,
                     clock,
@@ -289,8 +311,15 @@ fn control_loop(
     };
     let mut actions: Vec<Action> = Vec::with_capacity(64);
     let write_failures = std::cell::Cell::new(0u64);
+    let probe = crate::latency::Probe::new(setup.latency_trace.clone());
     let mut tx = |port: Port, bytes: &[u8]| {
-        if !writers.write(port, bytes) {
+        if port == Port::Scb {
+            // Stamped as the write begins: the reader at the other end may have the bytes
+            // before the call returns here.
+            probe.servo_written();
+        }
+        let written = writers.write(port, bytes);
+        if !written {
             // Counted, and the first one said: a command that found its port closed.
             if write_failures.get() == 0 {
                 report(Report::Note(format!(
@@ -315,6 +344,8 @@ fn control_loop(
             report(Report::Note(note.into()));
         }
         actions.clear();
+        let imu = matches!(input, RecordedInput::Bytes(Port::Imu, _));
+        probe.step_start();
         computer.receive(t_us, input.as_input(), &mut tx, &mut actions);
         inputs = inputs.saturating_add(1);
         for action in &actions {
@@ -362,6 +393,7 @@ fn control_loop(
         if let Some(k) = keeper.as_mut() {
             k.offer(t_us, warm);
         }
+        probe.step_end(imu);
     };
     let mut told_link = 0u8;
     let mut orphaned = false;
@@ -377,6 +409,7 @@ fn control_loop(
             Ok(LoopMsg::Input(t_us, input)) => {
                 // Threads stamp independently: keep the computer's time from going back.
                 last_t_us = last_t_us.max(t_us);
+                probe.woken(&clock, t_us);
                 feed(&mut computer, last_t_us, input);
             }
             Ok(LoopMsg::Note(text)) => {
@@ -430,6 +463,9 @@ fn control_loop(
     if let Some(k) = keeper.take() {
         // A clean end: nothing for a successor to resume.
         k.finish();
+    }
+    if let Some(note) = probe.finish() {
+        report(Report::Note(note));
     }
     if write_failures.get() > 0 {
         report(Report::Note(format!(

@@ -293,6 +293,8 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
         warm_file: Some((warm_paths, start.clone())),
         ground_link: Arc::clone(&ground_link),
         supervision: Arc::clone(&supervision),
+        realtime: !args.no_realtime,
+        latency_trace: args.latency_trace.clone(),
     };
     let stop = Arc::new(AtomicBool::new(false));
     let log_name = Arc::new(Mutex::new(None::<String>));

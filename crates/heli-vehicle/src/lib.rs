@@ -54,6 +54,7 @@ pub mod flight;
 pub mod flight_process;
 pub mod hotswap;
 pub mod lab;
+pub mod latency;
 pub mod link;
 pub mod logger;
 pub mod params;

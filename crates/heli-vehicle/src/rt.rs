@@ -1,6 +1,8 @@
 //! Real-time settings for the flight process: memory locked (`mlockall`), the control loop
-//! under `SCHED_FIFO`. Both need privileges (root or `CAP_SYS_NICE` / `CAP_IPC_LOCK`); when
-//! refused the flight goes on with a one-line note, as on a development machine.
+//! and the serial drivers under `SCHED_FIFO`, and idle CPUs kept awake enough to answer at
+//! once (a CPU wake-up latency of 0 held on `/dev/cpu_dma_latency`, as `cyclictest` does).
+//! All need privileges (root or `CAP_SYS_NICE` / `CAP_IPC_LOCK`); when refused the flight
+//! goes on with a one-line note, as on a development machine.
 
 use thread_priority::{
     RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue, ThreadSchedulePolicy,
@@ -43,6 +45,31 @@ pub fn lock_memory() -> String {
     match mlockall(MlockAllFlags::MCL_CURRENT | MlockAllFlags::MCL_FUTURE) {
         Ok(()) => "memory locked (mlockall)".to_string(),
         Err(e) => format!("memory not locked: mlockall refused ({e}); needs root or CAP_IPC_LOCK"),
+    }
+}
+
+/// Holds the machine's CPU wake-up latency at 0 µs for as long as the returned file is open
+/// (the kernel's PM QoS request through `/dev/cpu_dma_latency`): idle CPUs poll instead of
+/// entering sleep states, so a thread woken by a serial byte runs at once. On a virtual
+/// machine a halted virtual CPU waits for the host to schedule it again, which measured
+/// 5 ms in 1 % of the IMU-to-servo reactions here (docs/BENCHMARKS.md). The price is an
+/// idle CPU's power. Returns the request (to keep) and a note.
+pub fn hold_wake_latency() -> (Option<std::fs::File>, String) {
+    use std::io::Write;
+    let path = "/dev/cpu_dma_latency";
+    let request = std::fs::OpenOptions::new()
+        .write(true)
+        .open(path)
+        .and_then(|mut f| f.write_all(&0i32.to_ne_bytes()).map(|()| f));
+    match request {
+        Ok(f) => (
+            Some(f),
+            format!("CPU wake-up latency held at 0 us ({path}): idle CPUs poll"),
+        ),
+        Err(e) => (
+            None,
+            format!("CPU wake-up latency not held: {path}: {e}; needs root"),
+        ),
     }
 }
 

@@ -40,6 +40,9 @@ pub struct Clock {
     speed: f64,
     /// The wall-clock time of the start (µs since 1970), for records a successor reads.
     unix_start_us: i64,
+    /// The start on `CLOCK_MONOTONIC` (ns), for stamps another process compares
+    /// ([`crate::latency`]).
+    mono_start_ns: u64,
 }
 
 impl Clock {
@@ -56,6 +59,7 @@ impl Clock {
             .map_or(0, |d| i64::try_from(d.as_micros()).unwrap_or(i64::MAX));
         Self {
             start: Instant::now(),
+            mono_start_ns: crate::latency::mono_ns(),
             unix_start_us,
             speed: if speed.is_finite() && speed > 0.0 {
                 speed
@@ -93,6 +97,17 @@ impl Clock {
     )]
     pub fn flight_us_of_unix(&self, unix_us: i64) -> i64 {
         (unix_us.saturating_sub(self.unix_start_us) as f64 * self.speed) as i64
+    }
+
+    /// The time `flight_us` on this clock as `CLOCK_MONOTONIC` (ns), to the microsecond.
+    #[expect(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+    )]
+    pub fn mono_ns(&self, flight_us: u64) -> u64 {
+        self.mono_start_ns
+            .saturating_add((flight_us as f64 * 1e3 / self.speed) as u64)
     }
 
     /// The wall-clock time `flight_us` of this clock take.
@@ -173,6 +188,7 @@ pub fn spawn_port(
     tx: Sender<LoopMsg>,
     writers: Arc<Writers>,
     stop: Arc<AtomicBool>,
+    realtime: bool,
 ) -> std::io::Result<JoinHandle<()>> {
     let path = devices.port(port).to_path_buf();
     crate::rt::thread(
@@ -226,7 +242,9 @@ pub fn spawn_port(
                 )
                 .spawn(move || {
                     // Refused without privileges: the loop's note says so already.
-                    let _ = crate::rt::realtime_thread(crate::rt::DRIVER_PRIORITY);
+                    if realtime {
+                        let _ = crate::rt::realtime_thread(crate::rt::DRIVER_PRIORITY);
+                    }
                     read_port(port, opened, clock, &tx, &stop)
                 })
             };
@@ -400,6 +418,7 @@ mod tests {
             tx,
             Arc::new(Writers::default()),
             Arc::clone(&stop),
+            false,
         )
         .unwrap();
         std::thread::sleep(Duration::from_millis(200));
@@ -445,6 +464,7 @@ mod tests {
             tx,
             Arc::new(Writers::default()),
             Arc::clone(&stop),
+            false,
         )
         .unwrap();
         std::thread::sleep(Duration::from_millis(2_300));

@@ -186,6 +186,8 @@ fn fly_with(
         )),
         ground_link,
         supervision: Arc::default(),
+        realtime: true,
+        latency_trace: None,
     };
     change(&mut setup);
     let stop = Arc::new(AtomicBool::new(false));
@@ -398,7 +400,10 @@ fn a_flight_with_every_port_there_reports_no_lost_commands() {
     devices.gpio = Gpio::default();
     // The compass's channels are not there: said once, however many reads fail.
     devices.adc.compass = [7, 8, 9];
-    let flight = fly(devices, dir.path(), Arc::new(AtomicU8::new(0)));
+    let trace = dir.path().join("latency.csv");
+    let flight = fly_with(devices, dir.path(), Arc::new(AtomicU8::new(0)), |s| {
+        s.latency_trace = Some(trace.clone());
+    });
     flight.wait_for("started", Duration::from_secs(5), |r| {
         r.iter().any(|r| matches!(r, Report::Started { .. }))
     });
@@ -409,6 +414,30 @@ fn a_flight_with_every_port_there_reports_no_lost_commands() {
     let (summary, reports) = flight.land();
     drop(baro_slave);
     assert!(summary.stats.control_steps > 0);
+    // The latency trace: a record for each servo command that answered an IMU packet,
+    // its stages in order on the machine's monotonic clock.
+    let records = heli_vehicle::latency::read(&trace).unwrap();
+    assert!(
+        records.len() >= 5 && records.len() as u64 <= u64::from(summary.stats.control_steps),
+        "{} records, {} steps",
+        records.len(),
+        summary.stats.control_steps
+    );
+    for r in &records {
+        assert!(
+            r.imu_read_ns <= r.loop_woken_ns + 1_000
+                && r.loop_woken_ns <= r.step_start_ns
+                && r.step_start_ns <= r.servo_written_ns
+                && r.servo_written_ns <= r.step_end_ns,
+            "{r:?}"
+        );
+    }
+    assert!(
+        reports
+            .iter()
+            .any(|r| matches!(r, Report::Note(t) if t.starts_with("latency trace: "))),
+        "{reports:#?}"
+    );
     let writes: Vec<_> = reports
         .iter()
         .filter(|r| matches!(r, Report::Note(t) if t.contains("write")))

@@ -15,6 +15,7 @@ use crate::lockstep::{RunOptions, Simulation};
 use heli_scenario as scenario;
 
 pub mod hil;
+pub mod stages;
 
 /// Throughput of one device parser.
 #[derive(Clone, Debug, Serialize)]
