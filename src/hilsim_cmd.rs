@@ -68,6 +68,11 @@ pub struct HilsimArgs {
     /// Each is answered on standard error (`hilsim: failure: …` or `… refused: …`).
     #[arg(long, conflicts_with = "replay")]
     pub failures_stdin: bool,
+    /// Pin the HILSim's loop and device readers to this CPU (as `heli vehicle --rt-cpu`):
+    /// load on the other CPUs, a flood of the network's interrupts above all, then costs
+    /// the simulated world no time.
+    #[arg(long, value_name = "CPU", conflicts_with = "replay")]
+    pub cpu: Option<usize>,
 }
 
 /// Reads failure requests from standard input on a thread of their own.
@@ -145,6 +150,7 @@ pub fn hilsim(args: &HilsimArgs) -> Result<ExitCode> {
         speed: args.speed,
         duration_s: args.duration,
         stamps: false,
+        cpu: args.cpu,
     };
     let dir = args.ptys.clone();
     let name = scenario.name.clone();

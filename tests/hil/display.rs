@@ -9,7 +9,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use super::exclusive;
+use super::with_browser;
 use crate::procs::{Display, Hilsim, Vehicle, free_udp_port, heli};
 
 const CHROMIUM: &str = "/usr/bin/chromium";
@@ -45,7 +45,7 @@ fn the_operator_flies_a_hover_from_the_display_in_headless_chromium() {
     if !browser_ready(&ui) {
         return;
     }
-    let _one = exclusive();
+    let _one = with_browser();
     let dir = tempfile::tempdir().unwrap();
     let key = dir.path().join("link.key");
     let out = heli(&["link", "keygen", "--out", &key.display().to_string()]);
@@ -166,7 +166,7 @@ fn processes_mentioning(needle: &str) -> Vec<String> {
 #[test]
 fn heli_sim_ui_brings_up_the_whole_system_and_ctrl_c_stops_it() {
     use std::io::{BufRead, BufReader, Read, Write};
-    let _one = exclusive();
+    let _one = with_browser();
     let mut child = Command::new(env!("CARGO_BIN_EXE_heli"))
         .args([
             "sim",

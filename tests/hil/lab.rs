@@ -9,7 +9,7 @@
 use std::path::Path;
 use std::time::Duration;
 
-use super::exclusive;
+use super::with_browser;
 use crate::display::{browser_ready, run_page_script_env};
 use crate::procs::{Display, Hilsim, Vehicle, free_udp_port, ground, heli, log_info};
 
@@ -19,7 +19,7 @@ fn a_certified_build_is_lab_tested_and_a_changed_gain_needs_the_override() {
     if !browser_ready(&ui) {
         return;
     }
-    let _one = exclusive();
+    let _one = with_browser();
     let dir = tempfile::tempdir().unwrap();
     let key = dir.path().join("key");
     assert!(

@@ -6,7 +6,7 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
 
-use super::exclusive;
+use super::shared;
 use crate::procs::{Hilsim, Vehicle, free_udp_port, ground, heli};
 
 fn keygen(path: &Path) {
@@ -20,7 +20,7 @@ fn keygen(path: &Path) {
 
 #[test]
 fn the_ground_flies_a_signed_hover_over_the_link_and_saves_its_log_by_the_final_parameters() {
-    let _one = exclusive();
+    let _one = shared();
     let dir = tempfile::tempdir().unwrap();
     let key = dir.path().join("link.key");
     let wrong = dir.path().join("wrong.key");
@@ -227,7 +227,7 @@ fn pymavlink_talks_to_the_vehicle() {
         eprintln!("HELI_PYTHON not set: the pymavlink check needs .ci/run's venv; skipped here");
         return;
     };
-    let _one = exclusive();
+    let _one = shared();
     let dir = tempfile::tempdir().unwrap();
     let key = dir.path().join("link.key");
     keygen(&key);

@@ -5,6 +5,7 @@
 //! (`--warm-up-s 1 --calibration-s 5`) instead of 5 s and 80 s.
 
 mod display;
+mod flood;
 mod lab;
 mod link;
 mod pilot;
@@ -19,12 +20,33 @@ use std::time::{Duration, Instant};
 
 use procs::{Hilsim, Vehicle, heli, log_info};
 
-/// The real-time flights run one at a time: on a 2-core machine, two at once would judge the
-/// machine's load rather than the flight software.
-static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+/// The machine, as the HIL tests share it. A test whose subject is timing (a reaction, a
+/// restart, a stall, a flood) runs alone: on a 2-core machine another beside it would judge
+/// the machine's load rather than the flight software. The others (whose flights mostly
+/// sleep: a flight process takes a few per cent of a core) run two at once, each with its
+/// own HILSim, vehicle and ports.
+static MACHINE: std::sync::RwLock<()> = std::sync::RwLock::new(());
 
-fn exclusive() -> std::sync::MutexGuard<'static, ()> {
-    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+/// One browser at a time: headless Chromium's software renderer takes a core of its own.
+static BROWSER: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// For a test whose subject is timing: the machine to itself.
+fn exclusive() -> std::sync::RwLockWriteGuard<'static, ()> {
+    MACHINE.write().unwrap_or_else(|e| e.into_inner())
+}
+
+/// For a test whose subject is not timing: the machine shared with one other such test.
+fn shared() -> std::sync::RwLockReadGuard<'static, ()> {
+    MACHINE.read().unwrap_or_else(|e| e.into_inner())
+}
+
+/// For a test that drives a page in headless Chromium: shared, and the only browser.
+fn with_browser() -> (
+    std::sync::RwLockReadGuard<'static, ()>,
+    std::sync::MutexGuard<'static, ()>,
+) {
+    let browser = BROWSER.lock().unwrap_or_else(|e| e.into_inner());
+    (shared(), browser)
 }
 
 #[test]
@@ -75,7 +97,7 @@ fn the_vehicle_flies_the_hover_scenario_against_the_hilsim_in_real_time() {
 
 #[test]
 fn the_same_flight_faster_than_real_time_is_reported_not_asserted() {
-    let _one = exclusive();
+    let _one = shared();
     // The HILSim at 4x and the flight clock at 4x: whether this machine keeps up is reported.
     let dir = tempfile::tempdir().unwrap();
     let hil = Hilsim::start_with(dir.path(), "hover", 4.0, 60.0);
@@ -193,10 +215,12 @@ fn a_flight_process_that_crashes_in_the_air_is_restarted_and_holds_the_hover() {
 
 #[test]
 fn a_bootstrap_killed_in_the_air_leaves_the_flight_flying_and_a_new_one_takes_it_back() {
-    let _one = exclusive();
+    let _one = shared();
     let dir = tempfile::tempdir().unwrap();
-    let hil = Hilsim::start(dir.path(), "hover", 1.0, 40.0);
-    let vehicle = Vehicle::start(dir.path(), &hil.dev);
+    // At four times real time: the subject is who holds the flight, not its timing (the
+    // flight process flies on by itself meanwhile).
+    let hil = Hilsim::start_with(dir.path(), "hover", 4.0, 80.0);
+    let vehicle = Vehicle::start_with(dir.path(), &hil.dev, 4.0);
     assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
     let reply = vehicle.ctl(&["start-logging", "orphan", "autonomous", "hover"]);
     assert!(reply.starts_with("ok flying"), "{reply}");
@@ -212,7 +236,7 @@ fn a_bootstrap_killed_in_the_air_leaves_the_flight_flying_and_a_new_one_takes_it
         vehicle.output()
     );
     // The init system starts the bootstrap again: it takes the flight back, unbroken.
-    let again = Vehicle::start(dir.path(), &hil.dev);
+    let again = Vehicle::start_with(dir.path(), &hil.dev, 4.0);
     let took = again.wait_for_line("took back the flight process", Duration::from_secs(5));
     assert!(
         took.contains(&format!("(pid {flight}) flying orphan autonomous hover")),
@@ -303,7 +327,7 @@ fn a_three_second_stall_of_every_device_line_ends_in_an_alignment_and_the_hold()
 
 #[test]
 fn every_stand_alone_driver_runs_against_the_hilsim_and_logs() {
-    let _one = exclusive();
+    let _one = shared();
     let dir = tempfile::tempdir().unwrap();
     let hil = Hilsim::start(dir.path(), "hover", 1.0, 60.0);
     let dev = hil.dev.clone();

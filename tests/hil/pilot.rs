@@ -6,7 +6,7 @@
 //! flight), the bypass switch handing the servos to the sticks and back, the trainer's
 //! panel, the stick settings kept across a reload. Both flights are logged by the vehicle.
 
-use super::exclusive;
+use super::with_browser;
 use crate::display::{browser_ready, run_page_script_with};
 use crate::procs::Vehicle;
 use crate::view::hilsim_with_view;
@@ -31,7 +31,7 @@ fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and
     if !browser_ready(&ui) {
         return;
     }
-    let _one = exclusive();
+    let _one = with_browser();
     let _ =
         std::fs::remove_dir_all(Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/pilot"));
     let dir = tempfile::tempdir().unwrap();

@@ -144,11 +144,22 @@ impl Hilsim {
         )
     }
 
-    /// Starts `heli hilsim --replay FLIGHT` (its comparison printed as JSON at the end), and
-    /// waits until its devices exist.
-    pub fn replay(dir: &Path, flight: &Path) -> Self {
-        let flight = flight.display().to_string();
-        Self::spawn(dir, &["--replay", &flight, "--wait-s", "30"])
+    /// Starts the HILSim in real time with `extra` arguments.
+    pub fn start_args(dir: &Path, scenario: &str, duration_s: f64, extra: &[&str]) -> Self {
+        let duration = duration_s.to_string();
+        let mut args = vec!["--scenario", scenario, "--duration", &duration];
+        args.extend_from_slice(extra);
+        Self::spawn(dir, &args)
+    }
+
+    /// Starts `heli hilsim --replay FLIGHT --speed SPEED` (its comparison printed as JSON at
+    /// the end), and waits until its devices exist.
+    pub fn replay(dir: &Path, flight: &Path, speed: f64) -> Self {
+        let (flight, speed) = (flight.display().to_string(), speed.to_string());
+        Self::spawn(
+            dir,
+            &["--replay", &flight, "--wait-s", "30", "--speed", &speed],
+        )
     }
 
     /// `heli hilsim --ptys DIR/dev ARGS --json`, once its devices exist.
@@ -164,6 +175,11 @@ impl Hilsim {
         let proc = Lines::spawn(&args);
         proc.wait_for("hilsim: ready", Duration::from_secs(10));
         Self { proc, dev }
+    }
+
+    /// Everything the HILSim printed so far (standard output and error).
+    pub fn output(&self) -> String {
+        self.proc.all()
     }
 
     /// The HILSim's pid.
@@ -221,6 +237,24 @@ impl Vehicle {
             extra.extend(["--key".to_string(), key.display().to_string()]);
         }
         Self::start_full(dir, dev, 1.0, &extra)
+    }
+
+    /// Starts the bootstrap linked as [`Vehicle::start_linked`], with `extra` arguments.
+    pub fn start_linked_with(
+        dir: &Path,
+        dev: &Path,
+        link: &str,
+        key: &Path,
+        extra: &[&str],
+    ) -> Self {
+        let mut args = vec![
+            "--link".to_string(),
+            link.to_string(),
+            "--key".to_string(),
+            key.display().to_string(),
+        ];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        Self::start_full(dir, dev, 1.0, &args)
     }
 
     /// Starts the bootstrap as a vehicle in the field: linked and keyed, judging its build

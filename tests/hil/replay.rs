@@ -6,8 +6,12 @@
 use std::path::Path;
 use std::time::Duration;
 
-use crate::exclusive;
 use crate::procs::{Hilsim, Vehicle};
+use crate::shared;
+
+/// Recorded and replayed at four times real time: the subject is what the software
+/// commands, not when (the replay pairs commands in a window scaled by the speed).
+const FAST: f64 = 4.0;
 
 /// Replays `flight` to a vehicle whose log directory holds `params` (if any); returns the
 /// replay's JSON report.
@@ -16,8 +20,8 @@ fn replay_to(flight: &Path, params: Option<&str>) -> serde_json::Value {
     if let Some(text) = params {
         std::fs::write(dir.path().join("params"), text).unwrap();
     }
-    let hil = Hilsim::replay(dir.path(), flight);
-    let vehicle = Vehicle::start(dir.path(), &hil.dev);
+    let hil = Hilsim::replay(dir.path(), flight, FAST);
+    let vehicle = Vehicle::start_with(dir.path(), &hil.dev, FAST);
     assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
     let reply = vehicle.ctl(&["start-logging", "replayed", "autonomous", "hover"]);
     assert!(reply.starts_with("ok flying"), "{reply}");
@@ -29,11 +33,11 @@ fn replay_to(flight: &Path, params: Option<&str>) -> serde_json::Value {
 
 #[test]
 fn a_recorded_flight_replayed_to_the_vehicle_gives_its_commands_and_a_changed_gain_shows() {
-    let _one = exclusive();
+    let _one = shared();
     // Record: the HILSim's hover against the vehicle, 30 s (calibration, take-off, hold).
     let dir = tempfile::tempdir().unwrap();
-    let hil = Hilsim::start(dir.path(), "hover", 1.0, 30.0);
-    let vehicle = Vehicle::start(dir.path(), &hil.dev);
+    let hil = Hilsim::start_with(dir.path(), "hover", FAST, 30.0);
+    let vehicle = Vehicle::start_with(dir.path(), &hil.dev, FAST);
     assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
     let reply = vehicle.ctl(&["start-logging", "recorded", "autonomous", "hover"]);
     assert!(reply.starts_with("ok flying"), "{reply}");

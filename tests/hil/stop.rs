@@ -9,11 +9,11 @@ use crate::procs::{Hilsim, Vehicle, heli};
 
 #[test]
 fn a_stop_in_a_hover_lands_first_and_ends_the_flight_on_the_ground() {
-    let _one = crate::exclusive();
+    let _one = crate::shared();
     let dir = tempfile::tempdir().unwrap();
-    // At twice real time: the subject is what the vehicle does, not its timing.
-    let hil = Hilsim::start_with(dir.path(), "hover", 2.0, 80.0);
-    let vehicle = Vehicle::start_with(dir.path(), &hil.dev, 2.0);
+    // At four times real time: the subject is what the vehicle does, not its timing.
+    let hil = Hilsim::start_with(dir.path(), "hover", 4.0, 80.0);
+    let vehicle = Vehicle::start_with(dir.path(), &hil.dev, 4.0);
     assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));
     let reply = vehicle.ctl(&["start-logging", "stopair", "autonomous", "hover"]);
     assert!(reply.starts_with("ok flying"), "{reply}");

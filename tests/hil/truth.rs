@@ -16,9 +16,9 @@ use heli_control::safety::{AUTOMATIC, Condition, Facts};
 use serde_json::Value;
 
 use crate::display::{browser_ready, run_page_script_with};
-use crate::exclusive;
 use crate::procs::{Display, Vehicle, free_udp_port, heli, vehicle_program};
 use crate::view::hilsim_with_view;
+use crate::with_browser;
 
 /// The bootstrap's passing states, each with the state before it and the state after it.
 const TRANSIT: [(&str, &str, &str); 3] = [
@@ -161,7 +161,7 @@ fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults()
     if !browser_ready(&ui) {
         return;
     }
-    let _one = exclusive();
+    let _one = with_browser();
     let _ =
         std::fs::remove_dir_all(Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/truth"));
     let dir = tempfile::tempdir().unwrap();

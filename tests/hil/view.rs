@@ -3,7 +3,7 @@
 //! and during a roll, each checked to show the helicopter, the field and the trail in both
 //! cameras (`tests/ui/view.mjs`). Screenshots are saved under the test's target directory.
 
-use super::exclusive;
+use super::with_browser;
 use crate::display::{browser_ready, run_page_script};
 use crate::procs::{Lines, Vehicle, heli_process};
 use std::path::Path;
@@ -14,7 +14,7 @@ fn the_truth_view_shows_the_helicopter_the_field_and_the_trail_before_and_during
     if !browser_ready(&ui) {
         return;
     }
-    let _one = exclusive();
+    let _one = with_browser();
     let dir = tempfile::tempdir().unwrap();
     let dev = dir.path().join("dev");
     let dev_s = dev.display().to_string();

@@ -73,6 +73,25 @@ pub(crate) fn device(what: impl std::fmt::Display) -> impl FnOnce(std::io::Error
     }
 }
 
+/// `SCHED_FIFO` priority of the HILSim's own loop where the machine allows: above the
+/// flight computer's (`heli_vehicle::rt::LOOP_PRIORITY`), as the world it stands for runs on
+/// its own time and the thesis's HILSim on its own computer. A HILSim starved by other work
+/// on a shared machine would write its devices late, and the flight computer would be
+/// blamed for the world's delay.
+pub const HILSIM_PRIORITY: u8 = 85;
+
+/// A device write this late is said on standard error (`hilsim: behind: ...`), at most once
+/// every [`BEHIND_EVERY`]: the world, not the flight computer, was late.
+pub const BEHIND: Duration = Duration::from_millis(5);
+
+/// Least time between two `hilsim: behind` lines.
+pub const BEHIND_EVERY: Duration = Duration::from_secs(1);
+
+/// Fastest run whose loop takes `SCHED_FIFO`: at these speeds it sleeps most of the time;
+/// faster, it computes without pause, and under `SCHED_FIFO` would take a whole core from
+/// everything else.
+pub const REALTIME_UP_TO_SPEED: f64 = 10.0;
+
 /// The flight computer's reaction time as the HILSim sees it: from the write of an IMU
 /// packet to the first whole servo packet read back after it.
 struct Latency {
@@ -161,6 +180,9 @@ pub struct HilOptions {
     /// Keep every IMU write's and servo read's time ([`HilSummary::stamps`]) for a
     /// stage-by-stage latency (`heli bench --hil`); 12 bytes per control period.
     pub stamps: bool,
+    /// Pin the HILSim's loop and readers to this CPU (one the network's interrupts are kept
+    /// off), if any.
+    pub cpu: Option<usize>,
 }
 
 pub(crate) struct PtyPort {
@@ -231,6 +253,7 @@ pub(crate) fn write_adc(dir: &Path, channel: u8, counts: u16) -> std::io::Result
 pub(crate) fn spawn_readers(
     ptys: &[PtyPort],
     stop: &Arc<AtomicBool>,
+    cpu: Option<usize>,
 ) -> Result<Receiver<(Port, Vec<u8>, Instant)>, HilError> {
     let (tx, rx) = channel();
     for pty in ptys
@@ -256,6 +279,9 @@ pub(crate) fn spawn_readers(
                 // where the machine allows (a HILSim's own wake-up is not the flight
                 // computer's latency); the normal scheduler otherwise.
                 let _ = heli_vehicle::rt::realtime_thread(heli_vehicle::rt::DRIVER_PRIORITY);
+                if let Some(cpu) = cpu {
+                    let _ = heli_vehicle::rt::pin_to_cpu(cpu);
+                }
                 let mut buf = [0u8; 256];
                 while !stop.load(Ordering::Acquire) {
                     match master.read(&mut buf) {
@@ -301,8 +327,15 @@ pub fn run(
     }
     let duration_s = options.duration_s.unwrap_or(scenario.duration_s);
     let mut sim = Simulation::hil(scenario).map_err(HilError::Scenario)?;
+    if options.speed <= REALTIME_UP_TO_SPEED {
+        // The world does not wait: refused without privileges (the normal scheduler then).
+        let _ = heli_vehicle::rt::realtime_thread(HILSIM_PRIORITY);
+    }
+    if let Some(cpu) = options.cpu {
+        let _ = heli_vehicle::rt::pin_to_cpu(cpu);
+    }
     let (mut ptys, devices) = expose(dir)?;
-    let from_computer = spawn_readers(&ptys, stop)?;
+    let from_computer = spawn_readers(&ptys, stop, options.cpu)?;
     // The ADC files exist before anyone looks.
     for channel in 0..=crate::lockstep::HIL_BATTERY_CHANNEL {
         write_adc(&devices.adc, channel, 0).map_err(device("writing an ADC file"))?;
@@ -312,6 +345,8 @@ pub fn run(
     let wall_start = Instant::now();
     let mut dropped = 0u64;
     let mut latency = Latency::new(options.stamps);
+    let (mut write_late_max, mut writes_late) = (Duration::ZERO, 0u64);
+    let mut said_behind: Option<Instant> = None;
     loop {
         if stop.load(Ordering::Acquire) {
             break;
@@ -332,6 +367,19 @@ pub fn run(
         for (t_us, out) in sim.take_outbox() {
             if let Some(wait) = wall_of(t_us).checked_duration_since(Instant::now()) {
                 std::thread::sleep(wait);
+            }
+            let late = Instant::now().saturating_duration_since(wall_of(t_us));
+            write_late_max = write_late_max.max(late);
+            if late > Duration::from_millis(1) {
+                writes_late += 1;
+            }
+            if late > BEHIND && said_behind.is_none_or(|at: Instant| at.elapsed() >= BEHIND_EVERY) {
+                said_behind = Some(Instant::now());
+                eprintln!(
+                    "hilsim: behind: a device write left {:.1} ms late at t={:.2} s (the simulator was starved: the flight computer saw the world late)",
+                    late.as_secs_f64() * 1e3,
+                    t_us as f64 * 1e-6
+                );
             }
             match out {
                 HilOut::Bytes(port, bytes) => {
@@ -363,6 +411,8 @@ pub fn run(
         servo_packets: latency.servo_packets,
         latency_us: Percentiles::of(&mut latency.samples_us),
         dropped_writes: dropped,
+        write_late_max_us: write_late_max.as_secs_f64() * 1e6,
+        writes_late_over_1ms: writes_late,
         stamps: latency.stamps.take(),
     });
     if dropped > 0 {

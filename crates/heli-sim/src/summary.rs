@@ -258,6 +258,11 @@ pub struct HilSummary {
     pub latency_us: Percentiles,
     /// Device writes that found no reader (a terminal's buffer full).
     pub dropped_writes: u64,
+    /// The HILSim's own timing: the latest any device write left after its due time (µs),
+    /// a starved HILSim rather than a slow flight computer.
+    pub write_late_max_us: f64,
+    /// Device writes that left more than 1 ms after their due time.
+    pub writes_late_over_1ms: u64,
     /// Each IMU packet's write and each servo packet's read, when the run was asked to keep
     /// them ([`crate::hil::HilOptions::stamps`]).
     #[serde(skip)]
@@ -403,6 +408,12 @@ pub fn table(s: &Summary) -> String {
                 h.dropped_writes
             );
         }
+        let _ = writeln!(
+            out,
+            "hilsim     its own writes: latest {:.1} ms after due, {} more than 1 ms late",
+            h.write_late_max_us / 1e3,
+            h.writes_late_over_1ms
+        );
         let _ = writeln!(
             out,
             "battery    min {} V",

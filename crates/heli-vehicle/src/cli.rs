@@ -75,6 +75,11 @@ pub struct FlightArgs {
     /// workstation. A vehicle flies with them.
     #[arg(long)]
     pub no_realtime: bool,
+    /// Pin the real-time threads (the control loop and the device drivers) to this CPU, one
+    /// the network's interrupts are kept off (a flood of the link then costs the flight
+    /// nothing). Default: wherever the scheduler puts them.
+    #[arg(long, value_name = "CPU")]
+    pub rt_cpu: Option<usize>,
     /// Write each servo command's stage-by-stage latency (CSV, `CLOCK_MONOTONIC` ns) to this
     /// file when the flight process ends: `heli bench --hil` reads it.
     #[arg(long)]
@@ -206,6 +211,9 @@ impl FlightArgs {
         }
         if self.no_realtime {
             args.push("--no-realtime".into());
+        }
+        if let Some(cpu) = self.rt_cpu {
+            args.extend(["--rt-cpu".into(), cpu.to_string().into()]);
         }
         if let Some(t) = &self.latency_trace {
             args.extend(["--latency-trace".into(), t.clone().into_os_string()]);
@@ -562,6 +570,8 @@ mod tests {
             "--clock-speed",
             "3",
             "--no-realtime",
+            "--rt-cpu",
+            "1",
             "--latency-trace",
             "/tmp/trace.csv",
             "--fly-untested",

@@ -66,6 +66,8 @@ pub struct FlightSetup {
     /// Under the real-time settings ([`crate::rt`]: memory locked, `SCHED_FIFO`, CPUs kept
     /// awake), each where the machine allows; false flies as an unprivileged process would.
     pub realtime: bool,
+    /// The CPU the real-time threads (loop, drivers) are pinned to, if any.
+    pub rt_cpu: Option<usize>,
     /// Where to write the stage-by-stage latency of every servo command when the flight
     /// process ends ([`crate::latency`]), if anywhere.
     pub latency_trace: Option<PathBuf>,
@@ -166,6 +168,10 @@ pub fn run(
 ) -> Result<FlightSummary, VehicleError> {
     let clock = setup.clock;
     let realtime = setup.realtime;
+    let rt_threads = rt::RtThreads {
+        realtime,
+        cpu: setup.rt_cpu,
+    };
     let _wake_latency = if realtime {
         report(Report::Note(rt::lock_memory()));
         let (request, note) = rt::hold_wake_latency();
@@ -197,14 +203,20 @@ pub fn run(
                 tx.clone(),
                 Arc::clone(&writers),
                 Arc::clone(&stop),
-                realtime,
+                rt_threads,
             )
             .map_err(|e| spawn_error(port.name(), e))?,
         );
     }
     helpers.push(
-        threads::spawn_compass(&setup.devices, clock, tx.clone(), Arc::clone(&stop))
-            .map_err(|e| spawn_error("compass", e))?,
+        threads::spawn_compass(
+            &setup.devices,
+            clock,
+            tx.clone(),
+            Arc::clone(&stop),
+            rt_threads,
+        )
+        .map_err(|e| spawn_error("compass", e))?,
     );
     if let Some(line) = &setup.devices.gpio.hotswap {
         let line = crate::hotswap::HotSwapLine::parse(line)?;
@@ -256,6 +268,12 @@ pub fn run(
             .spawn(move || {
                 if realtime {
                     report(Report::Note(rt::realtime_thread(rt::LOOP_PRIORITY)));
+                }
+                if let Some(cpu) = rt_threads.cpu {
+                    report(Report::Note(format!(
+                        "control loop and drivers {}",
+                        rt::pin_to_cpu(cpu)
+                    )));
                 }
                 control_loop(
                     &setup,

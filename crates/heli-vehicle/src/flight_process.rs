@@ -294,6 +294,7 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
         ground_link: Arc::clone(&ground_link),
         supervision: Arc::clone(&supervision),
         realtime: !args.no_realtime,
+        rt_cpu: args.rt_cpu,
         latency_trace: args.latency_trace.clone(),
     };
     let stop = Arc::new(AtomicBool::new(false));

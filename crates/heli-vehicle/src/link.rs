@@ -35,6 +35,10 @@ pub const PEER_TIMEOUT: Duration = Duration::from_secs(10);
 pub const MAX_PEERS: usize = 8;
 /// The link thread's longest wait for a datagram.
 const TICK: Duration = Duration::from_millis(10);
+/// Most datagrams taken in one pass of the link's loop: a flood of them (garbage, frames
+/// signed with another key) cannot keep the loop from its heartbeats, telemetry and
+/// answers; what the kernel's buffer cannot hold meanwhile is dropped there.
+pub const MAX_DATAGRAMS_PER_PASS: usize = 64;
 /// Most status texts waiting to be sent (older ones are dropped first).
 const MAX_QUEUED_TEXTS: usize = 200;
 
@@ -330,6 +334,8 @@ pub fn spawn(
         ),
     ));
     std::thread::Builder::new().name("link".into()).spawn(move || {
+        // Below the flight's threads: a flooded link spends its own share, not theirs.
+        let _ = crate::rt::background_thread();
         let params = match crate::params::load(&log_dir) {
             Ok(t) => t,
             Err(e) => {
@@ -357,7 +363,11 @@ pub fn spawn(
             let sending = link.sending_log();
             let _ = socket.set_nonblocking(sending);
             let mut first = true;
-            while let Ok((n, from)) = socket.recv_from(&mut buf) {
+            let mut taken = 0;
+            while taken < MAX_DATAGRAMS_PER_PASS
+                && let Ok((n, from)) = socket.recv_from(&mut buf)
+            {
+                taken += 1;
                 let accepted_before = link.stats.frames_in;
                 events.extend(link.receive(buf.get(..n).unwrap_or(&[]), unix_us(), &store));
                 // A key holder refused for its timestamp is told why, peer or not.

@@ -5,8 +5,8 @@
 //! goes on with a one-line note, as on a development machine.
 
 use thread_priority::{
-    RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue, ThreadSchedulePolicy,
-    set_thread_priority_and_policy, thread_native_id,
+    NormalThreadSchedulePolicy, RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue,
+    ThreadSchedulePolicy, set_thread_priority_and_policy, thread_native_id,
 };
 
 /// `SCHED_FIFO` priority of the control loop (1..=99; PX4 runs its rate loops near the top).
@@ -91,6 +91,67 @@ pub fn realtime_thread(priority: u8) -> String {
     }
 }
 
+/// How the flight's real-time threads (control loop, drivers) are set up.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RtThreads {
+    /// Under `SCHED_FIFO` where the machine allows.
+    pub realtime: bool,
+    /// Pinned to this CPU, if any.
+    pub cpu: Option<usize>,
+}
+
+impl RtThreads {
+    /// Sets up the calling driver thread: `SCHED_FIFO` at [`DRIVER_PRIORITY`] and the CPU.
+    /// Refusals are said once by the control loop's own notes.
+    pub fn driver(&self) {
+        if self.realtime {
+            let _ = realtime_thread(DRIVER_PRIORITY);
+        }
+        if let Some(cpu) = self.cpu {
+            let _ = pin_to_cpu(cpu);
+        }
+    }
+}
+
+/// Pins the calling thread to CPU `cpu` (`sched_setaffinity`): the flight's real-time
+/// threads on a CPU of their own, away from the one that takes the network's interrupts
+/// (docs/architecture.md, "Timing"). Returns a note.
+pub fn pin_to_cpu(cpu: usize) -> String {
+    use nix::sched::{CpuSet, sched_setaffinity};
+    use nix::unistd::Pid;
+    let mut set = CpuSet::new();
+    if let Err(e) = set.set(cpu) {
+        return format!("CPU {cpu} refused: {e}");
+    }
+    match sched_setaffinity(Pid::from_raw(0), &set) {
+        Ok(()) => format!("pinned to CPU {cpu}"),
+        Err(e) => format!("not pinned to CPU {cpu}: {e}"),
+    }
+}
+
+/// Nice value of the threads that must never take the flight's time: the link, which a
+/// flood of datagrams can keep busy.
+pub const BACKGROUND_NICE: i32 = 9;
+
+/// Puts the calling thread under the normal scheduler at a lower weight (nice
+/// [`BACKGROUND_NICE`]): it still runs whenever a CPU is free, but a busy one gets about a
+/// tenth of what a normal thread gets beside it. Needs no privileges. Returns a note.
+pub fn background_thread() -> String {
+    // thread-priority maps 0..=99 onto nice 20..=-20; 25 is nice 9.
+    let value = match ThreadPriorityValue::try_from(25u8) {
+        Ok(v) => v,
+        Err(e) => return format!("background priority refused: {e}"),
+    };
+    match set_thread_priority_and_policy(
+        thread_native_id(),
+        ThreadPriority::Crossplatform(value),
+        ThreadSchedulePolicy::Normal(NormalThreadSchedulePolicy::Other),
+    ) {
+        Ok(()) => format!("nice {BACKGROUND_NICE}"),
+        Err(e) => format!("background priority refused: {e:?}"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -129,6 +190,49 @@ mod tests {
         note.contains("EPERM")
             || note.contains("ENOMEM")
             || note.starts_with("control loop under the normal scheduler")
+    }
+
+    /// The nice value of the calling thread, from `/proc/thread-self/stat` (field 19).
+    fn own_nice() -> i32 {
+        let stat = std::fs::read_to_string("/proc/thread-self/stat").unwrap();
+        let rest = stat.rsplit_once(')').unwrap().1;
+        rest.split_whitespace().nth(16).unwrap().parse().unwrap()
+    }
+
+    #[test]
+    fn a_pinned_thread_runs_on_its_cpu_only_and_a_cpu_not_there_is_refused() {
+        let (note, allowed) = std::thread::spawn(|| {
+            let note = pin_to_cpu(0);
+            let status = std::fs::read_to_string("/proc/thread-self/status").unwrap();
+            let allowed = status
+                .lines()
+                .find_map(|l| l.strip_prefix("Cpus_allowed_list:"))
+                .unwrap()
+                .trim()
+                .to_string();
+            (note, allowed)
+        })
+        .join()
+        .unwrap();
+        assert_eq!(note, "pinned to CPU 0");
+        assert_eq!(allowed, "0");
+        let far = std::thread::spawn(|| pin_to_cpu(100_000)).join().unwrap();
+        assert!(far.starts_with("CPU 100000 refused"), "{far}");
+    }
+
+    #[test]
+    fn a_background_thread_runs_at_its_nice_value() {
+        let before = own_nice();
+        let (note, nice) = std::thread::spawn(|| (background_thread(), own_nice()))
+            .join()
+            .unwrap();
+        // (Tests run under a higher nice than 9 may not lower it without privileges.)
+        if before <= BACKGROUND_NICE {
+            assert_eq!(note, format!("nice {BACKGROUND_NICE}"));
+            assert_eq!(nice, BACKGROUND_NICE);
+        }
+        // The thread that asked, only.
+        assert_eq!(own_nice(), before);
     }
 
     #[test]

@@ -188,7 +188,7 @@ pub fn spawn_port(
     tx: Sender<LoopMsg>,
     writers: Arc<Writers>,
     stop: Arc<AtomicBool>,
-    realtime: bool,
+    rt: crate::rt::RtThreads,
 ) -> std::io::Result<JoinHandle<()>> {
     let path = devices.port(port).to_path_buf();
     crate::rt::thread(
@@ -242,9 +242,7 @@ pub fn spawn_port(
                 )
                 .spawn(move || {
                     // Refused without privileges: the loop's note says so already.
-                    if realtime {
-                        let _ = crate::rt::realtime_thread(crate::rt::DRIVER_PRIORITY);
-                    }
+                    rt.driver();
                     read_port(port, opened, clock, &tx, &stop)
                 })
             };
@@ -309,10 +307,13 @@ pub fn spawn_compass(
     clock: Clock,
     tx: Sender<LoopMsg>,
     stop: Arc<AtomicBool>,
+    rt: crate::rt::RtThreads,
 ) -> std::io::Result<JoinHandle<()>> {
     let dir = devices.adc.dir.clone();
     let channels = devices.adc.compass;
     crate::rt::thread("drv-compass", crate::rt::HELPER_STACK_BYTES).spawn(move || {
+        // A driver like the serial ones: its reads are due on time under any other load.
+        rt.driver();
         let mut next = Instant::now();
         let mut failing = false;
         while !stop.load(Ordering::Acquire) {
@@ -418,7 +419,7 @@ mod tests {
             tx,
             Arc::new(Writers::default()),
             Arc::clone(&stop),
-            false,
+            crate::rt::RtThreads::default(),
         )
         .unwrap();
         std::thread::sleep(Duration::from_millis(200));
@@ -464,7 +465,7 @@ mod tests {
             tx,
             Arc::new(Writers::default()),
             Arc::clone(&stop),
-            false,
+            crate::rt::RtThreads::default(),
         )
         .unwrap();
         std::thread::sleep(Duration::from_millis(2_300));

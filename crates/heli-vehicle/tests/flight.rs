@@ -187,6 +187,7 @@ fn fly_with(
         ground_link,
         supervision: Arc::default(),
         realtime: true,
+        rt_cpu: None,
         latency_trace: None,
     };
     change(&mut setup);

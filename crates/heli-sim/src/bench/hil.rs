@@ -111,6 +111,7 @@ pub fn run(seconds: f64, flight: &[OsString], realtime: bool) -> Result<HilBench
                 speed: 1.0,
                 duration_s: Some(seconds),
                 stamps: true,
+                cpu: None,
             };
             hil::run(
                 scenario,

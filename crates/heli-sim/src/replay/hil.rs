@@ -151,7 +151,7 @@ pub fn run(
         return Err(HilError::Speed(options.speed));
     }
     let (mut ptys, devices) = expose(dir)?;
-    let from_computer = spawn_readers(&ptys, stop)?;
+    let from_computer = spawn_readers(&ptys, stop, None)?;
     for channel in 0..=crate::lockstep::HIL_BATTERY_CHANNEL {
         write_adc(&devices.adc, channel, 0).map_err(device("writing an ADC file"))?;
     }
