@@ -57,7 +57,7 @@ fn flood(port: u16, stop: Arc<AtomicBool>, sent: Arc<AtomicU64>) -> std::thread:
         while !stop.load(Ordering::Acquire) {
             for _ in 0..64 {
                 let n = sent.load(Ordering::Relaxed);
-                let datagram = if n % 2 == 0 {
+                let datagram = if n.is_multiple_of(2) {
                     for b in garbage.iter_mut() {
                         seed ^= seed << 13;
                         seed ^= seed >> 7;
@@ -65,7 +65,9 @@ fn flood(port: u16, stop: Arc<AtomicBool>, sent: Arc<AtomicU64>) -> std::thread:
                         *b = seed as u8;
                     }
                     // Now and then a MAVLink 2 start byte, so the parser works harder.
-                    garbage[0] = if n % 6 == 0 { 0xfd } else { garbage[0] };
+                    if n.is_multiple_of(6) {
+                        garbage[0] = 0xfd;
+                    }
                     garbage.to_vec()
                 } else {
                     wrong.heartbeat_frame(heli_vehicle::link::unix_us())

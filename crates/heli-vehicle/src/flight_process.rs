@@ -260,6 +260,12 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
             params.as_ref().map(|t| t.to_text()).unwrap_or_default(),
         ),
         ("clock_speed".to_string(), args.clock_speed.to_string()),
+        // Whether the flight flew under its real-time settings (`--no-realtime`), and pinned.
+        ("realtime".to_string(), (!args.no_realtime).to_string()),
+        (
+            "rt_cpu".to_string(),
+            args.rt_cpu.map(|c| c.to_string()).unwrap_or_default(),
+        ),
         ("lab_tested".to_string(), lab_line),
         ("lab_override".to_string(), lab_override.to_string()),
         (

@@ -253,6 +253,7 @@ mod tests {
         let path = dir.path().join("trace.csv");
         let probe = Probe::new(Some(path.clone()));
         let clock = Clock::start();
+        let began = mono_ns();
         // An IMU step that wrote the servo packet: kept, its stages in order.
         probe.woken(&clock, clock.now_us());
         probe.step_start();
@@ -271,6 +272,17 @@ mod tests {
         let records = read(&path).unwrap();
         assert_eq!(records.len(), 1);
         let r = records[0];
+        // Every stamp taken during the test, on the machine's clock.
+        let ended = mono_ns();
+        for t in [
+            r.imu_read_ns,
+            r.loop_woken_ns,
+            r.step_start_ns,
+            r.servo_written_ns,
+            r.step_end_ns,
+        ] {
+            assert!((began.saturating_sub(1_000)..=ended).contains(&t), "{r:?}");
+        }
         assert!(r.imu_read_ns <= r.loop_woken_ns, "{r:?}");
         assert!(r.loop_woken_ns <= r.step_start_ns, "{r:?}");
         assert!(r.step_start_ns <= r.servo_written_ns, "{r:?}");

@@ -297,6 +297,29 @@ pub fn unix_us() -> u64 {
         .map_or(0, |d| u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
 }
 
+/// One pass's datagrams: waits for the first up to the socket's read timeout (a tick) when
+/// `wait`, then takes what has arrived without waiting again, at most
+/// [`MAX_DATAGRAMS_PER_PASS`], handing each to `take`. Returns how many it took.
+fn receive_pass(
+    socket: &UdpSocket,
+    buf: &mut [u8],
+    wait: bool,
+    mut take: impl FnMut(&[u8], SocketAddr),
+) -> usize {
+    let _ = socket.set_nonblocking(!wait);
+    let mut taken = 0usize;
+    while taken < MAX_DATAGRAMS_PER_PASS
+        && let Ok((n, from)) = socket.recv_from(buf)
+    {
+        if taken == 0 {
+            let _ = socket.set_nonblocking(true);
+        }
+        taken = taken.saturating_add(1);
+        take(buf.get(..n).unwrap_or(&[]), from);
+    }
+    taken
+}
+
 /// Starts the link thread on `addr`. `say` prints a line of the link's own (it is also sent
 /// to the ground).
 pub fn spawn(
@@ -361,15 +384,9 @@ pub fn spawn(
             // sleep a millisecond below, so the log goes out at its pace. Then take all
             // that came without waiting again.
             let sending = link.sending_log();
-            let _ = socket.set_nonblocking(sending);
-            let mut first = true;
-            let mut taken = 0;
-            while taken < MAX_DATAGRAMS_PER_PASS
-                && let Ok((n, from)) = socket.recv_from(&mut buf)
-            {
-                taken += 1;
+            receive_pass(&socket, &mut buf, !sending, |datagram, from| {
                 let accepted_before = link.stats.frames_in;
-                events.extend(link.receive(buf.get(..n).unwrap_or(&[]), unix_us(), &store));
+                events.extend(link.receive(datagram, unix_us(), &store));
                 // A key holder refused for its timestamp is told why, peer or not.
                 for reply in link.take_replies() {
                     let _ = socket.send_to(&reply, from);
@@ -380,11 +397,7 @@ pub fn spawn(
                     // A ground just arrived is told at once, not at the next 30 s.
                     last_unsigned_warning = None;
                 }
-                if first {
-                    let _ = socket.set_nonblocking(true);
-                    first = false;
-                }
-            }
+            });
             let (status, telemetry, texts, mission) = {
                 let mut s = shared.lock();
                 (

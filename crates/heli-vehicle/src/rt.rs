@@ -221,6 +221,45 @@ mod tests {
     }
 
     #[test]
+    fn the_wake_latency_request_holds_zero_while_kept_or_says_why_not() {
+        let (request, note) = hold_wake_latency();
+        assert!(note.contains("/dev/cpu_dma_latency"), "{note}");
+        match request {
+            Some(_held) => {
+                assert!(
+                    note.starts_with("CPU wake-up latency held at 0 us"),
+                    "{note}"
+                );
+                // The machine's effective value, read back while the request is open.
+                let value = std::fs::read("/dev/cpu_dma_latency").unwrap();
+                assert_eq!(i32::from_ne_bytes(value[..4].try_into().unwrap()), 0);
+            }
+            None => assert!(note.starts_with("CPU wake-up latency not held"), "{note}"),
+        }
+    }
+
+    #[test]
+    fn a_driver_thread_takes_its_cpu() {
+        let allowed = std::thread::spawn(|| {
+            RtThreads {
+                realtime: false,
+                cpu: Some(0),
+            }
+            .driver();
+            std::fs::read_to_string("/proc/thread-self/status")
+                .unwrap()
+                .lines()
+                .find_map(|l| l.strip_prefix("Cpus_allowed_list:"))
+                .unwrap()
+                .trim()
+                .to_string()
+        })
+        .join()
+        .unwrap();
+        assert_eq!(allowed, "0");
+    }
+
+    #[test]
     fn a_background_thread_runs_at_its_nice_value() {
         let before = own_nice();
         let (note, nice) = std::thread::spawn(|| (background_thread(), own_nice()))

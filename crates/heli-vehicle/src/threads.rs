@@ -407,6 +407,23 @@ mod tests {
     }
 
     #[test]
+    fn the_clock_says_its_times_on_the_machines_monotonic_clock() {
+        let before = crate::latency::mono_ns();
+        let clock = Clock::start();
+        let after = crate::latency::mono_ns();
+        // Its start, and a time on it: to the microsecond, on the clock other processes read.
+        assert!((before..=after).contains(&clock.mono_ns(0)));
+        let now_us = clock.now_us();
+        let now_ns = crate::latency::mono_ns();
+        assert!(clock.mono_ns(now_us) <= now_ns + 1_000);
+        assert!(clock.mono_ns(now_us) + 5_000_000 > now_ns);
+        // At twice the wall clock's speed, two flight seconds are one on the wall.
+        let fast = Clock::with_speed(2.0);
+        assert_eq!(fast.mono_ns(2_000_000) - fast.mono_ns(0), 1_000_000_000);
+        assert_eq!(fast.mono_ns(3) - fast.mono_ns(0), 1_500);
+    }
+
+    #[test]
     fn a_driver_thread_that_dies_is_reported_and_replaced() {
         let (master, slave) = TTYPort::pair().unwrap();
         let path = PathBuf::from(slave.name().unwrap());

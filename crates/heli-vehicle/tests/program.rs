@@ -346,6 +346,9 @@ fn the_onboard_program_connects_flies_logs_and_stops_on_its_command_line() {
         ("suffix", "e2e"),
         ("compass_bias_gauss", "[0.01, -0.02, 0.03]"),
         ("compass_scale", "[1.0, 1.1, 0.9]"),
+        // Under the real-time settings unless --no-realtime, not pinned unless --rt-cpu.
+        ("realtime", "true"),
+        ("rt_cpu", ""),
     ] {
         assert_eq!(
             flight.get(key).map(String::as_str),

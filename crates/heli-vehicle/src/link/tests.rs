@@ -350,3 +350,34 @@ fn a_signed_link_starts_and_says_commands_must_be_signed() {
     let said = said.lock().unwrap();
     assert!(said[0].ends_with("commands must be signed"), "{said:?}");
 }
+
+#[test]
+fn a_pass_takes_at_most_its_bound_of_datagrams_and_the_rest_wait_for_the_next() {
+    let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+    socket
+        .set_read_timeout(Some(std::time::Duration::from_millis(200)))
+        .unwrap();
+    let to = socket.local_addr().unwrap();
+    let sender = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let sent = MAX_DATAGRAMS_PER_PASS + 36;
+    for i in 0..sent {
+        sender.send_to(&[(i % 251) as u8; 3], to).unwrap();
+    }
+    let mut buf = [0u8; 64];
+    let mut seen = Vec::new();
+    let first = receive_pass(&socket, &mut buf, true, |d, from| {
+        assert_eq!(from, sender.local_addr().unwrap());
+        seen.push(d.to_vec());
+    });
+    assert_eq!(first, MAX_DATAGRAMS_PER_PASS);
+    let second = receive_pass(&socket, &mut buf, false, |d, _| seen.push(d.to_vec()));
+    assert_eq!(second, 36);
+    // Nothing left: a pass that does not wait takes nothing and returns at once.
+    let third = receive_pass(&socket, &mut buf, false, |d, _| seen.push(d.to_vec()));
+    assert_eq!(third, 0);
+    // Every datagram once, in order, whole.
+    assert_eq!(seen.len(), sent);
+    for (i, d) in seen.iter().enumerate() {
+        assert_eq!(d, &vec![(i % 251) as u8; 3]);
+    }
+}
