@@ -9,9 +9,10 @@ use std::time::Duration;
 use crate::procs::{Hilsim, Vehicle};
 use crate::shared;
 
-/// Recorded and replayed at four times real time: the subject is what the software
-/// commands, not when (the replay pairs commands in a window scaled by the speed).
-const FAST: f64 = 4.0;
+/// Recorded and replayed at twice real time: the subject is what the software commands, not
+/// when (the replay pairs commands in a window scaled by the speed). At four times, beside
+/// another test, a few commands in 1490 fell outside the scaled window.
+const FAST: f64 = 2.0;
 
 /// Replays `flight` to a vehicle whose log directory holds `params` (if any); returns the
 /// replay's JSON report.

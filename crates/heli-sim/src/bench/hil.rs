@@ -42,6 +42,10 @@ pub struct HilBench {
     /// Each stage of the reaction (the HILSim's stamps joined with the flight process's
     /// latency trace).
     pub stages: super::stages::StageTable,
+    /// CPU time the machine's hypervisor took from this virtual machine during the flight
+    /// (`steal` in `/proc/stat`, ms over all CPUs): while a virtual CPU is not running,
+    /// every thread on it (the HILSim's and the flight's real-time ones too) waits.
+    pub steal_ms: f64,
     /// The flight process's CPU time over wall time (%, of one core).
     pub flight_cpu_percent: f64,
     /// Its resident memory at the end (MiB).
@@ -68,6 +72,18 @@ fn cpu_seconds(pid: u32) -> Result<f64> {
     };
     // utime and stime are fields 14 and 15 of stat, 11 and 12 after the name.
     Ok(tick(11)? + tick(12)?)
+}
+
+/// The machine's stolen CPU time so far (ms over all CPUs: `/proc/stat`'s `cpu` line, its
+/// eighth value, in clock ticks of 1/100 s); 0 where the kernel does not count it.
+fn steal_ms() -> f64 {
+    std::fs::read_to_string("/proc/stat")
+        .ok()
+        .and_then(|stat| {
+            let line = stat.lines().find(|l| l.starts_with("cpu "))?;
+            line.split_whitespace().nth(8)?.parse::<f64>().ok()
+        })
+        .map_or(0.0, |ticks| ticks * 10.0)
 }
 
 /// A `/proc/PID/status` memory line, in MiB.
@@ -170,12 +186,14 @@ pub fn run(seconds: f64, flight: &[OsString], realtime: bool) -> Result<HilBench
     writeln!(stdin, "{}", ToFlight::Start(start))?;
     let started = Instant::now();
     let cpu_start = cpu_seconds(pid)?;
+    let steal_start = steal_ms();
     let summary = sim
         .join()
         .map_err(|_| Error::other("the HILSim thread panicked"))?
         .map_err(Error::other)?;
     let wall = started.elapsed().as_secs_f64();
     let cpu = cpu_seconds(pid)? - cpu_start;
+    let steal = steal_ms() - steal_start;
     let rss = status_mib(pid, "VmRSS:")?;
     let peak = status_mib(pid, "VmHWM:")?;
     // The helicopter is in the air: a Stop would land it first. The bench kills the flight
@@ -205,6 +223,7 @@ pub fn run(seconds: f64, flight: &[OsString], realtime: bool) -> Result<HilBench
         servo_packets: hil.servo_packets,
         latency_us: hil.latency_us,
         stages,
+        steal_ms: steal,
         flight_cpu_percent: 100.0 * cpu / wall.max(1e-9),
         flight_rss_mib: rss,
         flight_peak_rss_mib: peak,
@@ -260,5 +279,9 @@ pub fn print(b: &HilBench) {
     println!(
         "flight process: {:.1} % of one core, RSS {:.1} MiB (peak {:.1} MiB)",
         b.flight_cpu_percent, b.flight_rss_mib, b.flight_peak_rss_mib
+    );
+    println!(
+        "the machine: {:.0} ms of CPU time stolen by the hypervisor during the flight (all threads on a stolen CPU wait, real-time ones too)",
+        b.steal_ms
     );
 }
