@@ -27,6 +27,16 @@ use procs::{Hilsim, Vehicle, heli, log_info};
 /// own HILSim, vehicle and ports. Tests that drive a browser run alone too.
 static MACHINE: std::sync::RwLock<()> = std::sync::RwLock::new(());
 
+/// For a test whose subject is timing: the machine to itself.
+fn exclusive() -> std::sync::RwLockWriteGuard<'static, ()> {
+    MACHINE.write().unwrap_or_else(|e| e.into_inner())
+}
+
+/// For a test whose subject is not timing: the machine shared with one other such test.
+fn shared() -> std::sync::RwLockReadGuard<'static, ()> {
+    MACHINE.read().unwrap_or_else(|e| e.into_inner())
+}
+
 /// For a test that drives a page in headless Chromium: the machine to itself. The browser's
 /// software renderer takes a core, and beside another test's processes its page and the
 /// HILSim's view server fell behind (a HILSim loop 333 ms late, measured).
