@@ -91,6 +91,16 @@ pub fn realtime_thread(priority: u8) -> String {
     }
 }
 
+/// Now on `CLOCK_MONOTONIC` (ns since an arbitrary moment shared by every process of the
+/// machine); 0 if the clock cannot be read.
+pub fn mono_ns() -> u64 {
+    nix::time::clock_gettime(nix::time::ClockId::CLOCK_MONOTONIC).map_or(0, |t| {
+        let s = u64::try_from(t.tv_sec()).unwrap_or(0);
+        let ns = u64::try_from(t.tv_nsec()).unwrap_or(0);
+        s.saturating_mul(1_000_000_000).saturating_add(ns)
+    })
+}
+
 /// How the flight's real-time threads (control loop, drivers) are set up.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RtThreads {
