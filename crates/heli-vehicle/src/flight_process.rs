@@ -182,6 +182,8 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
         }
     };
     let mode = start.controller;
+    // Under the real-time settings unless told otherwise; the log says which.
+    let realtime = !args.no_realtime;
     let suffix = start.file_suffix.clone();
     let plan_legs = plan.legs_json();
     // The plan's legs, for the bootstrap to serve over the link's mission protocol.
@@ -261,7 +263,7 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
         ),
         ("clock_speed".to_string(), args.clock_speed.to_string()),
         // Whether the flight flew under its real-time settings (`--no-realtime`), and pinned.
-        ("realtime".to_string(), (!args.no_realtime).to_string()),
+        ("realtime".to_string(), realtime.to_string()),
         (
             "rt_cpu".to_string(),
             args.rt_cpu.map(|c| c.to_string()).unwrap_or_default(),
@@ -299,7 +301,7 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
         warm_file: Some((warm_paths, start.clone())),
         ground_link: Arc::clone(&ground_link),
         supervision: Arc::clone(&supervision),
-        realtime: !args.no_realtime,
+        realtime,
         rt_cpu: args.rt_cpu,
         latency_trace: args.latency_trace.clone(),
     };

@@ -297,16 +297,17 @@ pub fn unix_us() -> u64 {
         .map_or(0, |d| u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
 }
 
-/// One pass's datagrams: waits for the first up to the socket's read timeout (a tick) when
-/// `wait`, then takes what has arrived without waiting again, at most
+/// One pass's datagrams: waits for the first up to the socket's read timeout (a tick),
+/// unless a log is going out (`sending_log`: then the loop must come round at the log's
+/// pace); then takes what has arrived without waiting again, at most
 /// [`MAX_DATAGRAMS_PER_PASS`], handing each to `take`. Returns how many it took.
 fn receive_pass(
     socket: &UdpSocket,
     buf: &mut [u8],
-    wait: bool,
+    sending_log: bool,
     mut take: impl FnMut(&[u8], SocketAddr),
 ) -> usize {
-    let _ = socket.set_nonblocking(!wait);
+    let _ = socket.set_nonblocking(sending_log);
     let mut taken = 0usize;
     while taken < MAX_DATAGRAMS_PER_PASS
         && let Ok((n, from)) = socket.recv_from(buf)
@@ -384,7 +385,7 @@ pub fn spawn(
             // sleep a millisecond below, so the log goes out at its pace. Then take all
             // that came without waiting again.
             let sending = link.sending_log();
-            receive_pass(&socket, &mut buf, !sending, |datagram, from| {
+            receive_pass(&socket, &mut buf, sending, |datagram, from| {
                 let accepted_before = link.stats.frames_in;
                 events.extend(link.receive(datagram, unix_us(), &store));
                 // A key holder refused for its timestamp is told why, peer or not.

@@ -101,7 +101,6 @@ impl Clock {
     /// ([`crate::latency`]).
     #[expect(
         clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
         reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
     )]
     pub fn mono_ns(&self, flight_us: u64) -> u64 {

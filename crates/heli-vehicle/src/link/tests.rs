@@ -365,19 +365,53 @@ fn a_pass_takes_at_most_its_bound_of_datagrams_and_the_rest_wait_for_the_next() 
     }
     let mut buf = [0u8; 64];
     let mut seen = Vec::new();
-    let first = receive_pass(&socket, &mut buf, true, |d, from| {
+    let first = receive_pass(&socket, &mut buf, false, |d, from| {
         assert_eq!(from, sender.local_addr().unwrap());
         seen.push(d.to_vec());
     });
     assert_eq!(first, MAX_DATAGRAMS_PER_PASS);
-    let second = receive_pass(&socket, &mut buf, false, |d, _| seen.push(d.to_vec()));
+    let second = receive_pass(&socket, &mut buf, true, |d, _| seen.push(d.to_vec()));
     assert_eq!(second, 36);
-    // Nothing left: a pass that does not wait takes nothing and returns at once.
-    let third = receive_pass(&socket, &mut buf, false, |d, _| seen.push(d.to_vec()));
+    // Nothing left: a pass while a log goes out takes nothing and returns at once.
+    let third = receive_pass(&socket, &mut buf, true, |d, _| seen.push(d.to_vec()));
     assert_eq!(third, 0);
     // Every datagram once, in order, whole.
     assert_eq!(seen.len(), sent);
     for (i, d) in seen.iter().enumerate() {
         assert_eq!(d, &vec![(i % 251) as u8; 3]);
     }
+}
+
+#[test]
+fn a_pass_waits_for_its_first_datagram_only_and_not_while_a_log_goes_out() {
+    let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
+    // A long read timeout: a pass that waited where it should not would show it.
+    socket
+        .set_read_timeout(Some(std::time::Duration::from_secs(3)))
+        .unwrap();
+    let to = socket.local_addr().unwrap();
+    let mut buf = [0u8; 16];
+    // A datagram that comes while the pass waits is taken; the pass does not wait again.
+    let late = std::thread::spawn(move || {
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        let sender = UdpSocket::bind("127.0.0.1:0").unwrap();
+        sender.send_to(b"one", to).unwrap();
+    });
+    let began = std::time::Instant::now();
+    let taken = receive_pass(&socket, &mut buf, false, |d, _| assert_eq!(d, b"one"));
+    late.join().unwrap();
+    assert_eq!(taken, 1);
+    assert!(
+        began.elapsed() < std::time::Duration::from_millis(1500),
+        "the pass waited {:?} after its datagram",
+        began.elapsed()
+    );
+    // While a log goes out, a pass with nothing to take returns at once.
+    let began = std::time::Instant::now();
+    assert_eq!(receive_pass(&socket, &mut buf, true, |_, _| {}), 0);
+    assert!(
+        began.elapsed() < std::time::Duration::from_millis(1500),
+        "a pass during a log download waited {:?}",
+        began.elapsed()
+    );
 }
