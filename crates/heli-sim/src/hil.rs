@@ -102,9 +102,6 @@ struct Latency {
     servo_packets: u64,
     /// Every write and read on `CLOCK_MONOTONIC`, if asked for.
     stamps: Option<HilStamps>,
-    /// An instant and the same moment on `CLOCK_MONOTONIC` (ns): `Instant` reads that clock
-    /// on Linux, so the difference from here converts exactly.
-    base: (Instant, u64),
 }
 
 impl Latency {
@@ -115,16 +112,7 @@ impl Latency {
             samples_us: Vec::new(),
             servo_packets: 0,
             stamps: stamps.then(HilStamps::default),
-            base: (Instant::now(), heli_vehicle::latency::mono_ns()),
         }
-    }
-
-    /// `at` on `CLOCK_MONOTONIC` (ns).
-    fn mono_ns(&self, at: Instant) -> u64 {
-        let since = at.saturating_duration_since(self.base.0).as_nanos();
-        self.base
-            .1
-            .saturating_add(u64::try_from(since).unwrap_or(u64::MAX))
     }
 
     fn imu_written(&mut self, at: Instant) {
@@ -132,9 +120,8 @@ impl Latency {
             self.imu_writes.pop_front();
         }
         self.imu_writes.push_back(at);
-        let ns = self.mono_ns(at);
         if let Some(s) = self.stamps.as_mut() {
-            s.imu_written_ns.push(ns);
+            s.imu_written_ns.push(heli_vehicle::rt::mono_ns_at(at));
         }
     }
 
@@ -142,9 +129,8 @@ impl Latency {
         for &b in bytes {
             if self.framer.push(b).is_some() {
                 self.servo_packets += 1;
-                let ns = self.mono_ns(read_at);
                 if let Some(s) = self.stamps.as_mut() {
-                    s.servo_read_ns.push(ns);
+                    s.servo_read_ns.push(heli_vehicle::rt::mono_ns_at(read_at));
                 }
                 // The newest IMU packet written before the read is what the command answers.
                 if let Some(imu) = self.imu_writes.iter().rev().find(|t| **t <= read_at) {

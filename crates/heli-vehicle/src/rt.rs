@@ -51,9 +51,10 @@ pub fn lock_memory() -> String {
 /// Holds the machine's CPU wake-up latency at 0 µs for as long as the returned file is open
 /// (the kernel's PM QoS request through `/dev/cpu_dma_latency`): idle CPUs poll instead of
 /// entering sleep states, so a thread woken by a serial byte runs at once. On a virtual
-/// machine a halted virtual CPU waits for the host to schedule it again, which measured
-/// 5 ms in 1 % of the IMU-to-servo reactions here (docs/BENCHMARKS.md). The price is an
-/// idle CPU's power. Returns the request (to keep) and a note.
+/// machine a halted virtual CPU waits for the host to schedule it again: with this request
+/// held, the bench's IMU-to-servo p99 went from 5.2 ms to 0.42 ms (docs/BENCHMARKS.md, with
+/// the HILSim's own 5 ms reader sleep still in place). The price is an idle CPU's power.
+/// Returns the request (to keep) and a note.
 pub fn hold_wake_latency() -> (Option<std::fs::File>, String) {
     use std::io::Write;
     let path = "/dev/cpu_dma_latency";
@@ -99,6 +100,18 @@ pub fn mono_ns() -> u64 {
         let ns = u64::try_from(t.tv_nsec()).unwrap_or(0);
         s.saturating_mul(1_000_000_000).saturating_add(ns)
     })
+}
+
+/// The instant `at` (past or future) on `CLOCK_MONOTONIC` (ns): both clocks read together now,
+/// so no skew between two clocks' starts enters (`Instant` reads the same clock on Linux).
+pub fn mono_ns_at(at: std::time::Instant) -> u64 {
+    let now = std::time::Instant::now();
+    let now_ns = mono_ns();
+    let ns = |d: std::time::Duration| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX);
+    match at.checked_duration_since(now) {
+        Some(ahead) => now_ns.saturating_add(ns(ahead)),
+        None => now_ns.saturating_sub(ns(now.saturating_duration_since(at))),
+    }
 }
 
 /// How the flight's real-time threads (control loop, drivers) are set up.
@@ -246,6 +259,17 @@ mod tests {
             }
             None => assert!(note.starts_with("CPU wake-up latency not held"), "{note}"),
         }
+    }
+
+    #[test]
+    fn an_instant_past_or_future_is_said_on_the_monotonic_clock() {
+        let now = std::time::Instant::now();
+        let ns = mono_ns();
+        let second = std::time::Duration::from_secs(1);
+        let near = |a: u64, b: u64| a.abs_diff(b) < 50_000;
+        assert!(near(mono_ns_at(now), ns));
+        assert!(near(mono_ns_at(now + second), ns + 1_000_000_000));
+        assert!(near(mono_ns_at(now - second), ns - 1_000_000_000));
     }
 
     #[test]

@@ -95,24 +95,12 @@ impl Clock {
         (unix_us.saturating_sub(self.unix_start_us) as f64 * self.speed) as i64
     }
 
-    /// The time `flight_us` on this clock as `CLOCK_MONOTONIC` (ns), to the microsecond: the
-    /// monotonic clock now, less the wall time since `flight_us` (both read together, so no
-    /// skew between two clocks' starts enters), for stamps another process compares
-    /// ([`crate::latency`]).
-    #[expect(
-        clippy::cast_possible_truncation,
-        reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
-    )]
+    /// The time `flight_us` on this clock as `CLOCK_MONOTONIC` (ns), to the microsecond, for
+    /// stamps another process compares ([`crate::latency`]).
     pub fn mono_ns(&self, flight_us: u64) -> u64 {
-        let since_start_ns = i128::try_from(self.start.elapsed().as_nanos()).unwrap_or(i128::MAX);
-        let now_ns = i128::from(crate::rt::mono_ns());
-        // Wall nanoseconds from the start to `flight_us` (a float saturates when cast).
-        let at_ns = (flight_us as f64 * 1e3 / self.speed) as i128;
-        let ns = now_ns
-            .saturating_add(at_ns)
-            .saturating_sub(since_start_ns)
-            .max(0);
-        u64::try_from(ns).unwrap_or(u64::MAX)
+        self.start
+            .checked_add(self.wall(flight_us))
+            .map_or(u64::MAX, crate::rt::mono_ns_at)
     }
 
     /// The wall-clock time `flight_us` of this clock take.
