@@ -87,6 +87,22 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
             m.tilt_rad.to_degrees(),
             m.turn_rad.to_degrees()
         ),
+        CoreEvent::CalibrationLeftOut(l) => format!(
+            "t={t:.2} s calibration: the helicopter moved ({:.2} deg/s, {:.2} deg tilted); the second is left out of the average ({} s so far, the window as much longer)",
+            l.motion.rate_rps.to_degrees(),
+            l.motion.tilt_rad.to_degrees(),
+            l.seconds
+        ),
+        CoreEvent::CalibrationHeldUp {
+            restarts,
+            left_out_s,
+        } => format!(
+            "t={t:.2} s calibration held up: the helicopter keeps moving on its skids ({restarts} restarts, {left_out_s} s left out of this window); hold it still or tie it down, turn its nose into the wind, or wait for the wind to drop"
+        ),
+        CoreEvent::CalibrationCompassMoved { moved_rad } => format!(
+            "t={t:.2} s calibration: the compass heading moved {:.1} deg while the gyros saw the helicopter still (a magnetic disturbance near it, or a creep too slow for the gyros); the calibration goes on",
+            moved_rad.to_degrees()
+        ),
         CoreEvent::PhaseChanged(p) => format!("t={t:.2} s phase {}", p.name()),
         CoreEvent::Stop(answer) => match answer {
             StopAnswer::Now => format!("t={t:.2} s stop: on the ground, the flight ends"),
@@ -304,6 +320,28 @@ pub fn parse_event_text(text: &str) -> Option<(u64, EventLevel)> {
                 turn_rad: 0.0,
             }),
         ),
+        (
+            "calibration: the helicopter moved",
+            CoreEvent::CalibrationLeftOut(heli_fsw::core::LeftOut {
+                motion: heli_fsw::core::Motion {
+                    rate_rps: 0.0,
+                    tilt_rad: 0.0,
+                    turn_rad: 0.0,
+                },
+                seconds: 0,
+            }),
+        ),
+        (
+            "calibration held up",
+            CoreEvent::CalibrationHeldUp {
+                restarts: 0,
+                left_out_s: 0,
+            },
+        ),
+        (
+            "calibration: the compass heading moved",
+            CoreEvent::CalibrationCompassMoved { moved_rad: 0.0 },
+        ),
         ("roll ", CoreEvent::RollCompleted(1)),
         ("engine failure", CoreEvent::EngineFailure { rotor_rpm: 0 }),
         (
@@ -397,6 +435,19 @@ mod tests {
             },
             CoreEvent::PhaseChanged(Phase::Manual),
             CoreEvent::PhaseChanged(Phase::Landed),
+            CoreEvent::CalibrationLeftOut(heli_fsw::core::LeftOut {
+                motion: heli_fsw::core::Motion {
+                    rate_rps: 0.12,
+                    tilt_rad: 0.01,
+                    turn_rad: 0.0,
+                },
+                seconds: 4,
+            }),
+            CoreEvent::CalibrationHeldUp {
+                restarts: 3,
+                left_out_s: 7,
+            },
+            CoreEvent::CalibrationCompassMoved { moved_rad: 0.1 },
             CoreEvent::RollCompleted(2),
             CoreEvent::EngineFailure { rotor_rpm: 1290 },
             CoreEvent::PowerSource {

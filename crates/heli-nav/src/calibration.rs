@@ -1,14 +1,30 @@
-//! The thesis's IMU bias calibration: after the IMU has warmed up, every sample of an
-//! eighty-second window is accumulated; when the window closes the mean gyro rates are the
-//! gyro biases, and the mean specific force tells which way is down.
+//! The thesis's IMU bias calibration: after the IMU has warmed up, an eighty-second window
+//! of samples is averaged; when the window closes the mean gyro rates are the gyro biases,
+//! and the mean specific force tells which way is down.
 //!
-//! The window must be still: a fuselage that turns on its skids or rocks in the wind while
-//! the rotor spins up would be averaged in as bias, and the whole flight flown with it. Each
-//! second of samples is compared with the mean so far; a second whose mean rate or
-//! direction of gravity differs by more than [`MOTION_RATE_RPS`] or [`MOTION_TILT_RAD`] is
-//! motion, and the window starts again ([`BiasCalibration::take_motion`] says so). A caller
-//! that sees motion by other means (the compass turning) restarts it with
-//! [`BiasCalibration::restart`].
+//! The average must be of a still helicopter: a fuselage that turns on its skids while the
+//! rotor spins up would be averaged in as bias, and the whole flight flown with it. Motion
+//! is judged by the sensors that can see it — the gyros and the accelerometers — second by
+//! second (blocks of [`BLOCK`] samples):
+//!
+//! - a second whose mean rate is more than [`MOTION_RATE_RPS`] from the window's (the
+//!   median of its seconds: a turn cannot drag it) **moved**: it is left out of the average
+//!   and the window is that much longer ([`BiasCalibration::take_left_out`] says so). A gust
+//!   that turns or rocks the helicopter for a few seconds is calibrated through;
+//! - the seconds kept may not add up to a turn: their rates' net rotation from the median
+//!   beyond [`MOTION_TURN_RAD`] (a creep too slow for the one-second check, or the edges of
+//!   turns) starts the window again;
+//! - gravity's direction more than [`MOTION_TILT_RAD`] from the window's for
+//!   [`TILTED_SECONDS`] seconds in a row (the helicopter now stands differently) starts it
+//!   again, as does a window whose seconds moved more than they were still (and more than
+//!   [`NEVER_STILL_SECONDS`]).
+//!
+//! The second before a motion and the one after it are left out with it: they hold the
+//! turn's start and end, too little in a second's mean to be judged but enough, over many
+//! gusts, to add up to a bias.
+//!
+//! A restart is said once by [`BiasCalibration::take_motion`]; nothing else starts the
+//! window again.
 
 use heli_proto::imu::ImuRepr;
 use nalgebra::Vector3;
@@ -37,64 +53,218 @@ pub enum CalibrationPhase {
     },
     /// Accumulating samples until this time (µs).
     Accumulating {
-        /// End of the window (µs).
+        /// End of the window (µs), later by each second left out.
         until_us: u64,
     },
     /// Finished.
     Done(ImuBiases),
 }
 
-/// A second's mean rate that differs this much from the window's mean is motion (rad/s):
-/// 3 deg/s — handling, a push, a turn on the skids; far above what the IMU's noise and the
-/// rotor's vibration leave in a second's mean, and above a gust's rocking, which averages
-/// out.
+/// A second's mean rate this far from the window's median is motion, left out of the
+/// average (rad/s): 3 deg/s — handling, a push, a turn on the skids; far above what the
+/// IMU's noise and the rotor's vibration leave in a second's mean.
 pub const MOTION_RATE_RPS: f64 = 0.05;
 
-/// A second's mean direction of gravity that differs this much from the window's is motion
-/// (rad): 2 deg of tilt.
+/// A second's mean direction of gravity this far from the window's is tilted (rad): 2 deg.
 pub const MOTION_TILT_RAD: f64 = 0.035;
 
-/// Samples in one block of the motion check (a second at 100 Hz).
-const BLOCK: u32 = 100;
+/// Seconds tilted in a row that mean the helicopter stands differently now: the window
+/// starts again. Fewer are rocking, left out.
+pub const TILTED_SECONDS: u32 = 3;
 
-/// Motion seen during the calibration window: it was started again.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The net rotation of the seconds kept, from the window's median rate, that starts the
+/// window again (rad): 5 deg, which averaged over the 80 s window would put 0.06 deg/s into
+/// a gyro bias.
+pub const MOTION_TURN_RAD: f64 = 0.087;
+
+/// Seconds of a window that moved which, once more of them moved than were still, mean it
+/// is never still (the median of its seconds is no longer a still one): the window starts
+/// again.
+pub const NEVER_STILL_SECONDS: usize = 10;
+
+/// Samples in one block of the motion check (a second at 100 Hz).
+pub const BLOCK: u32 = 100;
+
+/// Motion seen during the calibration window, by the gyros and accelerometers.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Motion {
     /// How far a second's mean rate was from the window's (rad/s).
     pub rate_rps: f64,
     /// How far a second's direction of gravity was from the window's (rad).
     pub tilt_rad: f64,
-    /// How far the heading turned, as the compass saw it (rad; 0 when the IMU saw it).
+    /// The net rotation of the seconds kept, from the window's median rate (rad).
     pub turn_rad: f64,
 }
 
-/// The whole seconds of the window so far, which each new second is compared with.
-#[derive(Clone, Copy, Debug, Default)]
-struct Reference {
-    /// Sum of the seconds' mean rates (rad/s).
-    gyro_sum: Vector3<f64>,
-    /// Sum of the seconds' specific forces (its direction is the mean direction of gravity).
-    accel_sum: Vector3<f64>,
-    seconds: u32,
+/// A second that moved, left out of the average.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeftOut {
+    /// How the second moved.
+    pub motion: Motion,
+    /// Seconds left out of this window so far.
+    pub seconds: u32,
 }
 
-impl Reference {
-    fn add(&mut self, gyro: &Vector3<f64>, accel: &Vector3<f64>) {
-        self.gyro_sum += gyro;
-        self.accel_sum += accel;
-        self.seconds = self.seconds.saturating_add(1);
+/// One judged second of the window.
+#[derive(Clone, Copy, Debug)]
+struct Second {
+    /// Its mean rate (rad/s).
+    gyro: Vector3<f64>,
+    /// Its samples' sums and count, and how long it lasted (µs).
+    gyro_sum: Vector3<f64>,
+    accel_sum: Vector3<f64>,
+    count: u32,
+    lasted_us: u64,
+    kept: bool,
+}
+
+/// What became of a second.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Verdict {
+    /// Kept in the average.
+    Kept,
+    /// Left out, with the second before it if that was kept (a turn's edge): the motion, if
+    /// the second moved (none for the still edge after a turn), and how much longer the
+    /// window is (µs).
+    LeftOut(Option<Motion>, u64),
+    /// The window starts again.
+    Restart(Motion),
+}
+
+/// The seconds of the window and the sums of those kept.
+#[derive(Clone, Debug, Default)]
+struct Window {
+    seconds: Vec<Second>,
+    gyro_sum: Vector3<f64>,
+    accel_sum: Vector3<f64>,
+    count: u32,
+    left_out: u32,
+    /// Seconds that moved (left out, not counting the edges left out with them).
+    moved: u32,
+    tilted_run: u32,
+    /// The last second moved: the next, still or not, is left out too (a turn's edge).
+    after_motion: bool,
+    /// How the last second that moved moved.
+    last_motion: Motion,
+}
+
+impl Window {
+    fn kept(&self) -> impl Iterator<Item = &Second> {
+        self.seconds.iter().filter(|s| s.kept)
     }
 
-    /// The motion of a second of mean rate `gyro` and specific force along `accel`, if it
-    /// moved.
-    fn motion(&self, gyro: &Vector3<f64>, accel: &Vector3<f64>) -> Option<Motion> {
-        let rate_rps = (gyro - self.gyro_sum / f64::from(self.seconds)).norm();
-        let tilt_rad = accel.angle(&self.accel_sum);
-        (beyond(rate_rps, MOTION_RATE_RPS) || beyond(tilt_rad, MOTION_TILT_RAD)).then_some(Motion {
+    /// The median of every second's mean rate, axis by axis.
+    fn median_rate(&self) -> Vector3<f64> {
+        let mut axis = Vec::with_capacity(self.seconds.len());
+        Vector3::from_fn(|i, _| {
+            axis.clear();
+            axis.extend(self.seconds.iter().filter_map(|s| s.gyro.get(i).copied()));
+            median(&mut axis)
+        })
+    }
+
+    /// Judges a finished second: kept (added to the sums), left out, or the window must start
+    /// again.
+    fn judge(&mut self, second: Second) -> Verdict {
+        self.seconds.push(second);
+        let median = self.median_rate();
+        // The window's first second has nothing to be compared with; gravity's direction
+        // is compared with the seconds kept, if any.
+        let first = self.seconds.len() == 1;
+        let rate_rps = (second.gyro - median).norm();
+        let tilt_rad = if self.count == 0 {
+            0.0
+        } else {
+            second.accel_sum.angle(&self.accel_sum)
+        };
+        let motion = Motion {
             rate_rps,
             tilt_rad,
             turn_rad: 0.0,
-        })
+        };
+        if beyond(tilt_rad, MOTION_TILT_RAD) {
+            self.tilted_run = self.tilted_run.saturating_add(1);
+            if self.tilted_run >= TILTED_SECONDS {
+                return Verdict::Restart(motion);
+            }
+            return self.leave_out(Some(motion));
+        }
+        self.tilted_run = 0;
+        if !first && beyond(rate_rps, MOTION_RATE_RPS) {
+            return self.leave_out(Some(motion));
+        }
+        if self.after_motion {
+            self.after_motion = false;
+            return self.leave_out(None);
+        }
+        if let Some(last) = self.seconds.last_mut() {
+            last.kept = true;
+        }
+        self.add(&second, 1.0);
+        let turn_rad = self
+            .kept()
+            .fold(Vector3::zeros(), |net: Vector3<f64>, s| {
+                net + (s.gyro - median)
+            })
+            .norm();
+        if beyond(turn_rad, MOTION_TURN_RAD) {
+            return Verdict::Restart(Motion { turn_rad, ..motion });
+        }
+        Verdict::Kept
+    }
+
+    /// Adds a second's sums to the average (`sign` 1) or takes them out of it (-1).
+    fn add(&mut self, second: &Second, sign: f64) {
+        self.gyro_sum += second.gyro_sum * sign;
+        self.accel_sum += second.accel_sum * sign;
+        self.count = if sign > 0.0 {
+            self.count.saturating_add(second.count)
+        } else {
+            self.count.saturating_sub(second.count)
+        };
+    }
+
+    /// The last second left out (moved, or the still edge after a motion), with the kept
+    /// second before a motion (its edge); the window starts again once more of its seconds
+    /// moved than were still (and more than [`NEVER_STILL_SECONDS`]).
+    fn leave_out(&mut self, motion: Option<Motion>) -> Verdict {
+        let n = self.seconds.len();
+        let mut longer_us = self.seconds.last().map_or(0, |s| s.lasted_us);
+        self.left_out = self.left_out.saturating_add(1);
+        if let Some(motion) = motion {
+            self.moved = self.moved.saturating_add(1);
+            self.last_motion = motion;
+            self.after_motion = true;
+            let before = n.checked_sub(2).and_then(|i| self.seconds.get(i));
+            if let Some(edge) = before.filter(|s| s.kept).copied() {
+                if let Some(s) = self.seconds.get_mut(n.saturating_sub(2)) {
+                    s.kept = false;
+                }
+                self.add(&edge, -1.0);
+                self.left_out = self.left_out.saturating_add(1);
+                longer_us = longer_us.saturating_add(edge.lasted_us);
+            }
+        }
+        // The median's breakdown: more seconds moved than were still.
+        let still = self.seconds.len().saturating_sub(self.moved as usize);
+        if self.moved as usize > still.max(NEVER_STILL_SECONDS) {
+            return Verdict::Restart(self.last_motion);
+        }
+        Verdict::LeftOut(motion, longer_us)
+    }
+}
+
+/// The median of `values` (sorted in place; 0 for none).
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    let upper = values.get(n / 2).copied().unwrap_or(0.0);
+    if n.is_multiple_of(2) {
+        values
+            .get((n / 2).saturating_sub(1))
+            .map_or(upper, |lower| (lower + upper) / 2.0)
+    } else {
+        upper
     }
 }
 
@@ -110,14 +280,16 @@ pub struct BiasCalibration {
     warm_up_us: u64,
     window_us: u64,
     phase: CalibrationPhase,
-    gyro_sum: Vector3<f64>,
-    accel_sum: Vector3<f64>,
-    count: u32,
+    window: Window,
     block_gyro: Vector3<f64>,
     block_accel: Vector3<f64>,
     block_count: u32,
-    reference: Option<Reference>,
+    /// When the last block ended (or the window opened) (µs).
+    block_from_us: u64,
     motion: Option<Motion>,
+    left_out: Option<LeftOut>,
+    /// The last second judged moved: a run of them is said once.
+    moving: bool,
     restarts: u32,
 }
 
@@ -128,14 +300,14 @@ impl BiasCalibration {
             warm_up_us: seconds_to_us(warm_up_s),
             window_us: seconds_to_us(window_s),
             phase: CalibrationPhase::Waiting,
-            gyro_sum: Vector3::zeros(),
-            accel_sum: Vector3::zeros(),
-            count: 0,
+            window: Window::default(),
             block_gyro: Vector3::zeros(),
             block_accel: Vector3::zeros(),
             block_count: 0,
-            reference: None,
+            block_from_us: 0,
             motion: None,
+            left_out: None,
+            moving: false,
             restarts: 0,
         }
     }
@@ -145,28 +317,47 @@ impl BiasCalibration {
         self.motion.take()
     }
 
+    /// A second that moved and was left out, since the last call: the first of a run of
+    /// them (once).
+    pub fn take_left_out(&mut self) -> Option<LeftOut> {
+        self.left_out.take()
+    }
+
     /// Times the window was started again.
     pub fn restarts(&self) -> u32 {
         self.restarts
     }
 
-    /// Starts the window again at `t_us`, throwing away what it had (motion seen by other
-    /// means). Nothing happens before the window has opened or after it has closed.
+    /// Seconds left out of the window now open.
+    pub fn left_out_s(&self) -> u32 {
+        self.window.left_out
+    }
+
+    /// Seconds of the window now open judged so far (kept or left out).
+    pub fn seconds_judged(&self) -> usize {
+        self.window.seconds.len()
+    }
+
+    /// Starts the window again at `t_us`, throwing away what it had. Nothing happens before
+    /// the window has opened or after it has closed.
     pub fn restart(&mut self, t_us: u64, motion: Motion) {
         if let CalibrationPhase::Accumulating { .. } = self.phase {
-            self.phase = CalibrationPhase::Accumulating {
-                until_us: t_us.saturating_add(self.window_us),
-            };
-            self.gyro_sum = Vector3::zeros();
-            self.accel_sum = Vector3::zeros();
-            self.count = 0;
-            self.block_gyro = Vector3::zeros();
-            self.block_accel = Vector3::zeros();
-            self.block_count = 0;
-            self.reference = None;
+            self.open(t_us);
             self.motion = Some(motion);
             self.restarts = self.restarts.saturating_add(1);
         }
+    }
+
+    fn open(&mut self, t_us: u64) {
+        self.phase = CalibrationPhase::Accumulating {
+            until_us: t_us.saturating_add(self.window_us),
+        };
+        self.window = Window::default();
+        self.block_gyro = Vector3::zeros();
+        self.block_accel = Vector3::zeros();
+        self.block_count = 0;
+        self.block_from_us = t_us;
+        self.moving = false;
     }
 
     /// Current phase.
@@ -194,27 +385,25 @@ impl BiasCalibration {
             }
             CalibrationPhase::WarmingUp { until_us } => {
                 if t_us >= until_us {
-                    self.phase = CalibrationPhase::Accumulating {
-                        until_us: t_us.saturating_add(self.window_us),
-                    };
-                    self.accumulate(imu);
+                    self.open(t_us);
+                    self.block(t_us, imu);
                 }
                 None
             }
             CalibrationPhase::Accumulating { until_us } => {
                 if t_us < until_us {
-                    if let Some(motion) = self.block(imu) {
-                        self.restart(t_us, motion);
-                        return None;
-                    }
-                    self.accumulate(imu);
+                    self.block(t_us, imu);
                     return None;
                 }
-                let n = f64::from(self.count.max(1));
+                // A part-second left at the close is judged as a second.
+                if self.block_count > 0 && !self.end_block(t_us) {
+                    return None;
+                }
+                let n = f64::from(self.window.count.max(1));
                 let biases = ImuBiases {
-                    gyro_rps: self.gyro_sum / n,
-                    mean_accel_mps2: self.accel_sum / n,
-                    samples: self.count,
+                    gyro_rps: self.window.gyro_sum / n,
+                    mean_accel_mps2: self.window.accel_sum / n,
+                    samples: self.window.count,
                 };
                 self.phase = CalibrationPhase::Done(biases);
                 Some(biases)
@@ -223,38 +412,57 @@ impl BiasCalibration {
         }
     }
 
-    /// Adds a sample to the current second's block; at the block's end, compares its mean
-    /// with the mean of the window's whole seconds before it (the first second is only the
-    /// reference of the ones after it). Returns the motion if the block moved.
-    fn block(&mut self, imu: &ImuRepr) -> Option<Motion> {
+    /// Adds a sample to the current second's block, judging the block when it is full.
+    fn block(&mut self, t_us: u64, imu: &ImuRepr) {
         self.block_gyro += Vector3::from(imu.rate_rps);
         self.block_accel += Vector3::from(imu.accel_mps2);
         self.block_count = self.block_count.saturating_add(1);
-        if self.block_count < BLOCK {
-            return None;
+        if self.block_count >= BLOCK {
+            self.end_block(t_us);
         }
-        let gyro = self.block_gyro / f64::from(self.block_count);
-        // Only the direction of gravity is compared: the sum points where the mean does.
-        let accel = self.block_accel;
+    }
+
+    /// Judges the block ending with the sample at `t_us`: kept, left out (the window made
+    /// as much longer), or the window started again. False if it started again.
+    fn end_block(&mut self, t_us: u64) -> bool {
+        let count = self.block_count;
+        let second = Second {
+            gyro: self.block_gyro / f64::from(count.max(1)),
+            gyro_sum: self.block_gyro,
+            accel_sum: self.block_accel,
+            count,
+            lasted_us: t_us.saturating_sub(self.block_from_us),
+            kept: false,
+        };
         self.block_gyro = Vector3::zeros();
         self.block_accel = Vector3::zeros();
         self.block_count = 0;
-        let motion = self
-            .reference
-            .as_ref()
-            .and_then(|r| r.motion(&gyro, &accel));
-        self.reference
-            .get_or_insert_with(Reference::default)
-            .add(&gyro, &accel);
-        motion
-    }
-
-    fn accumulate(&mut self, imu: &ImuRepr) {
-        let [p, q, r] = imu.rate_rps;
-        let [x, y, z] = imu.accel_mps2;
-        self.gyro_sum += Vector3::new(p, q, r);
-        self.accel_sum += Vector3::new(x, y, z);
-        self.count = self.count.saturating_add(1);
+        self.block_from_us = t_us;
+        match self.window.judge(second) {
+            Verdict::Kept => {
+                self.moving = false;
+                true
+            }
+            Verdict::LeftOut(motion, longer_us) => {
+                if let CalibrationPhase::Accumulating { until_us } = &mut self.phase {
+                    *until_us = until_us.saturating_add(longer_us);
+                }
+                if let Some(motion) = motion {
+                    if !self.moving {
+                        self.left_out = Some(LeftOut {
+                            motion,
+                            seconds: self.window.left_out,
+                        });
+                    }
+                    self.moving = true;
+                }
+                true
+            }
+            Verdict::Restart(motion) => {
+                self.restart(t_us, motion);
+                false
+            }
+        }
     }
 }
 
@@ -269,167 +477,4 @@ pub fn seconds_to_us(s: f64) -> u64 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn sample(bias: f64) -> ImuRepr {
-        ImuRepr {
-            rate_rps: [bias, -bias, 2.0 * bias],
-            accel_mps2: [0.0, 0.0, -9.81],
-            temp_c: 25.0,
-        }
-    }
-
-    #[test]
-    fn eighty_second_window_after_warm_up_yields_mean_gyro() {
-        let mut cal = BiasCalibration::new(5.0, 80.0);
-        let mut done = None;
-        let mut t = 0u64;
-        // Samples during warm-up carry a different (transient) bias that must be ignored.
-        while t < 5_000_000 {
-            assert!(cal.push(t, &sample(0.5)).is_none());
-            t += 10_000;
-        }
-        while done.is_none() {
-            done = cal.push(t, &sample(0.01));
-            t += 10_000;
-            assert!(t < 100_000_000, "calibration never finished");
-        }
-        let b = done.unwrap_or_else(|| unreachable!());
-        assert!((b.gyro_rps.x - 0.01).abs() < 1e-9);
-        assert!((b.gyro_rps.z - 0.02).abs() < 1e-9);
-        assert!((b.mean_accel_mps2.z + 9.81).abs() < 1e-9);
-        assert_eq!(b.samples, 8000);
-        // It closes 85 s after the first sample (5 s warm-up + 80 s).
-        assert_eq!(t - 10_000, 85_000_000);
-        assert!(
-            cal.push(t, &sample(0.01)).is_none(),
-            "biases are delivered once"
-        );
-    }
-
-    #[test]
-    fn a_fuselage_turning_on_its_skids_restarts_the_window() {
-        let mut cal = BiasCalibration::new(1.0, 20.0);
-        let mut t = 0u64;
-        let mut push = |cal: &mut BiasCalibration, rate_z: f64, tilt: f64| {
-            let s = ImuRepr {
-                rate_rps: [0.01, -0.01, 0.02 + rate_z],
-                accel_mps2: [9.81 * tilt.sin(), 0.0, -9.81 * tilt.cos()],
-                temp_c: 25.0,
-            };
-            t += 10_000;
-            cal.push(t, &s)
-        };
-        // Still for ten seconds, a gust's rocking that averages out, then turning at
-        // 5 deg/s for two.
-        for k in 0..1100 {
-            let rock = if k > 500 && k < 700 {
-                0.2 * (f64::from(k) * 0.6).sin()
-            } else {
-                0.0
-            };
-            assert!(push(&mut cal, rock, 0.0).is_none());
-        }
-        assert_eq!(cal.take_motion(), None);
-        for _ in 0..200 {
-            assert!(push(&mut cal, 0.09, 0.0).is_none());
-        }
-        let motion = cal.take_motion().unwrap_or_else(|| panic!("motion seen"));
-        assert!(motion.rate_rps > 0.06, "{motion:?}");
-        assert_eq!(cal.take_motion(), None, "said once");
-        // Still again: a whole new window of 20 s before the biases, and they are the
-        // still ones.
-        let mut done = None;
-        let mut seconds = 0.0;
-        while done.is_none() {
-            done = push(&mut cal, 0.0, 0.0);
-            seconds += 0.01;
-            assert!(seconds < 30.0, "never finished");
-        }
-        let b = done.unwrap_or_else(|| unreachable!());
-        // What was left of the turn in the new window's first second is a twentieth of
-        // its rate (the rest is the compass's to catch, as net turn).
-        assert!((b.gyro_rps.z - 0.02).abs() < 0.005, "{b:?}");
-        assert!(seconds >= 19.0, "the window started again ({seconds} s)");
-        // Tilted 4 deg: also motion.
-        let mut cal = BiasCalibration::new(1.0, 20.0);
-        for _ in 0..500 {
-            push(&mut cal, 0.0, 0.0);
-        }
-        for _ in 0..200 {
-            push(&mut cal, 0.0, 0.07);
-        }
-        let m = cal.take_motion();
-        assert!(m.is_some_and(|m| m.tilt_rad > 0.05), "{m:?}");
-        assert_eq!(cal.restarts(), 1);
-    }
-    /// A calibration whose window opened with one still sample at 1 s (no warm-up beyond
-    /// the first sample's second), and the time of the next sample.
-    fn opened() -> (BiasCalibration, u64) {
-        let mut cal = BiasCalibration::new(1.0, 60.0);
-        assert!(cal.push(0, &sample(0.0)).is_none());
-        assert!(cal.push(1_000_000, &sample(0.0)).is_none());
-        assert!(matches!(cal.phase(), CalibrationPhase::Accumulating { .. }));
-        (cal, 1_010_000)
-    }
-
-    #[test]
-    fn motion_is_judged_on_whole_seconds_after_the_first() {
-        // The first second after the window opens is the reference; a turn over the whole
-        // second second is found on its last sample and not before.
-        let (mut cal, mut t) = opened();
-        for k in 1..=200u32 {
-            let turning = if k > 100 { 0.2 } else { 0.0 };
-            let s = ImuRepr {
-                rate_rps: [0.0, 0.0, turning],
-                ..sample(0.0)
-            };
-            cal.push(t, &s);
-            t += 10_000;
-            let motion = cal.take_motion();
-            assert_eq!(motion.is_some(), k == 200, "sample {k}: {motion:?}");
-        }
-        assert_eq!(cal.restarts(), 1);
-        // A one-sample jolt of 3 rad/s in a still second averages out (0.03 rad/s).
-        let (mut cal, mut t) = opened();
-        for k in 1..=300u32 {
-            let rate = if k == 150 { 3.0 } else { 0.0 };
-            let s = ImuRepr {
-                rate_rps: [rate, 0.0, 0.0],
-                ..sample(0.0)
-            };
-            cal.push(t, &s);
-            t += 10_000;
-        }
-        assert_eq!(cal.take_motion(), None);
-    }
-
-    #[test]
-    fn a_second_exactly_at_the_rate_limit_is_still_and_one_beyond_it_is_motion() {
-        // Five samples of 1 rad/s in a second of 100: a mean of exactly 0.05 rad/s.
-        let second = |cal: &mut BiasCalibration, t: &mut u64, fast: f64| {
-            for k in 0..100 {
-                let rate = if k < 5 { fast } else { 0.0 };
-                let s = ImuRepr {
-                    rate_rps: [0.0, rate, 0.0],
-                    ..sample(0.0)
-                };
-                cal.push(*t, &s);
-                *t += 10_000;
-            }
-        };
-        let (mut cal, mut t) = opened();
-        second(&mut cal, &mut t, 0.0);
-        second(&mut cal, &mut t, 1.0);
-        assert_eq!(cal.take_motion(), None, "at the limit");
-        let (mut cal, mut t) = opened();
-        second(&mut cal, &mut t, 0.0);
-        second(&mut cal, &mut t, 1.001);
-        let m = cal.take_motion();
-        assert!(
-            m.is_some_and(|m| (m.rate_rps - 0.05005).abs() < 1e-12),
-            "{m:?}"
-        );
-    }
-}
+mod tests;

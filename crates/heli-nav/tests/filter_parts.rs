@@ -225,11 +225,10 @@ mod calibration {
     }
 
     #[test]
-    fn a_second_turning_or_tilting_restarts_the_window() {
-        // The window opens at the 11th sample (0.1 s of warm-up after the first); its seconds
-        // are blocks of 100 samples from the 12th. 211 still samples end the second block,
-        // so the third is all turning. It is compared with the window's mean so far, which
-        // its own samples move by a third.
+    fn a_second_turning_or_tilting_is_left_out_of_the_window() {
+        // The window opens at the 11th sample (0.1 s of warm-up after the first), which begins
+        // its first second; 211 still samples fill two and begin the third, which ends on the
+        // 99th turning sample. It is compared with the median of the window's seconds.
         for (rate, moved) in [
             (MOTION_RATE_RPS * 0.5, false),
             (MOTION_RATE_RPS * 2.0, true),
@@ -237,8 +236,10 @@ mod calibration {
             let mut cal = BiasCalibration::new(0.1, 10.0);
             let t = feed(&mut cal, 0, 211, sample(0.0, 0.0));
             feed(&mut cal, t, 100, sample(rate, 0.0));
-            assert_eq!(cal.take_motion().is_some(), moved, "{rate}");
-            assert_eq!(cal.restarts(), u32::from(moved));
+            assert_eq!(cal.take_left_out().is_some(), moved, "{rate}");
+            // With the second before it, the turn's edge.
+            assert_eq!(cal.left_out_s(), 2 * u32::from(moved));
+            assert_eq!(cal.restarts(), 0, "a second is left out, not a restart");
         }
         // Tilted: gravity's direction moved.
         for (tilt, moved) in [
@@ -248,7 +249,7 @@ mod calibration {
             let mut cal = BiasCalibration::new(0.1, 10.0);
             let t = feed(&mut cal, 0, 211, sample(0.0, 0.0));
             feed(&mut cal, t, 100, sample(0.0, 9.81 * tilt.tan()));
-            assert_eq!(cal.take_motion().is_some(), moved, "{tilt}");
+            assert_eq!(cal.take_left_out().is_some(), moved, "{tilt}");
         }
     }
 

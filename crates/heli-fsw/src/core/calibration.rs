@@ -1,29 +1,47 @@
-//! The 80 s ground calibration of the IMU biases (thesis §2.3.2), with what starts it
-//! again: motion the IMU sees in its window (`heli_nav::calibration`), or a turn of the
-//! fuselage the compass sees (a slow creep the IMU's one-second check cannot see).
+//! The 80 s ground calibration of the IMU biases (thesis §2.3.2), with what it tells the
+//! operator: seconds the helicopter moved (left out of the average, seen by the gyros and
+//! accelerometers in `heli_nav::calibration`), restarts, a calibration held up by a
+//! helicopter that keeps moving (why, and what to do), and a compass heading that moved
+//! while the gyros saw no turn (a notice: the compass never starts the window again).
 //!
 //! A component: it owns the bias calibration and the compass's heading watch; the core hands
 //! it the real IMU samples and the compass's headings, and it returns the biases when the
-//! window closes and the events it raises.
+//! window closes and raises its events.
 
-use heli_nav::calibration::Motion;
 use heli_nav::navigator::wrap_pi;
 use heli_nav::{BiasCalibration, CalibrationPhase, ImuBiases};
 use heli_proto::imu::ImuRepr;
 
 use super::event::CoreEvent;
 
-/// A turn of the fuselage during the calibration window that starts it again (rad): 5 deg,
-/// which over the 80 s window would put 0.06 deg/s into the yaw bias.
+/// A compass heading that moved this far from where it stood when the gyros last saw the
+/// helicopter still (rad) is said once a window: 5 deg.
 pub const CALIBRATION_TURN_RAD: f64 = 0.087;
+
+/// Restarts of the window, counted from the first, at every multiple of which the
+/// calibration is said to be held up.
+pub const HELD_UP_RESTARTS: u32 = 3;
+
+/// Seconds left out of one window at every multiple of which the calibration is said to be
+/// held up.
+pub const HELD_UP_LEFT_OUT_S: u32 = 20;
 
 /// The ground calibration.
 #[derive(Clone, Debug)]
 pub struct GroundCalibration {
     bias: BiasCalibration,
-    /// During the calibration window: the compass heading when it opened, and the readings'
-    /// running average (rad).
+    /// During the calibration window: the compass heading since the gyros last saw the
+    /// helicopter move, and the readings' running average (rad).
     pub(super) heading: Option<(f64, f64)>,
+    /// The compass's notice was given in this window.
+    compass_said: bool,
+    /// A compass move waiting for the gyros' judgement: how far it moved (rad) and the
+    /// seconds judged when it did. Said once two more seconds are judged with none left out.
+    compass_pending: Option<(f64, usize)>,
+    /// The seconds left out when the calibration was last said to be held up by them.
+    said_left_out: u32,
+    /// The seconds left out of this window the compass's watch has seen.
+    left_out_seen: u32,
 }
 
 impl GroundCalibration {
@@ -32,32 +50,86 @@ impl GroundCalibration {
         Self {
             bias: BiasCalibration::new(warm_up_s, window_s),
             heading: None,
+            compass_said: false,
+            compass_pending: None,
+            said_left_out: 0,
+            left_out_seen: 0,
         }
     }
 
-    /// One real IMU sample: the biases when the window closes, and the restart the IMU's
-    /// check saw, if any.
+    /// One real IMU sample: the biases when the window closes; what the calibration saw is
+    /// handed to `raise`.
     pub fn push(
         &mut self,
         now_us: u64,
         sample: &ImuRepr,
-    ) -> (Option<ImuBiases>, Option<CoreEvent>) {
+        raise: &mut dyn FnMut(CoreEvent),
+    ) -> Option<ImuBiases> {
         let biases = self.bias.push(now_us, sample);
-        let restarted = self.bias.take_motion().map(|motion| {
+        if let Some(motion) = self.bias.take_motion() {
             self.heading = None;
-            CoreEvent::CalibrationRestarted(motion)
-        });
-        (biases, restarted)
+            self.compass_pending = None;
+            self.compass_said = false;
+            self.said_left_out = 0;
+            raise(CoreEvent::CalibrationRestarted(motion));
+            let restarts = self.bias.restarts();
+            if restarts.is_multiple_of(HELD_UP_RESTARTS) {
+                raise(CoreEvent::CalibrationHeldUp {
+                    restarts,
+                    left_out_s: 0,
+                });
+            }
+        }
+        if let Some(left) = self.bias.take_left_out() {
+            raise(CoreEvent::CalibrationLeftOut(left));
+        }
+        let left_out_s = self.bias.left_out_s();
+        if left_out_s != self.left_out_seen {
+            // The gyros saw it move (every second of a run): the compass's watch starts from
+            // where it stands once it is still.
+            self.left_out_seen = left_out_s;
+            self.heading = None;
+            self.compass_pending = None;
+        }
+        if let Some((moved_rad, judged)) = self.compass_pending
+            && self.bias.seconds_judged() >= judged.saturating_add(2)
+        {
+            self.compass_pending = None;
+            self.compass_said = true;
+            raise(CoreEvent::CalibrationCompassMoved { moved_rad });
+        }
+        if self.bias_left_out_crossed(left_out_s) {
+            raise(CoreEvent::CalibrationHeldUp {
+                restarts: self.bias.restarts(),
+                left_out_s,
+            });
+        }
+        biases
     }
 
-    /// A compass heading: a fuselage that turned more than [`CALIBRATION_TURN_RAD`] during
-    /// the window starts it again, and says so.
-    pub fn heading(&mut self, now_us: u64, heading_rad: f64) -> Option<CoreEvent> {
+    /// Whether the seconds left out of this window just reached a multiple of
+    /// [`HELD_UP_LEFT_OUT_S`] (judged on the sample after a second was left out: once).
+    fn bias_left_out_crossed(&mut self, left_out_s: u32) -> bool {
+        let crossed = left_out_s > 0
+            && left_out_s.is_multiple_of(HELD_UP_LEFT_OUT_S)
+            && self.said_left_out != left_out_s;
+        if crossed {
+            self.said_left_out = left_out_s;
+        }
+        crossed
+    }
+
+    /// A compass heading: one that moved more than [`CALIBRATION_TURN_RAD`] while the gyros
+    /// saw the helicopter still — the second it moved in and the one after judged, none left
+    /// out — is said once a window by [`Self::push`] ([`CoreEvent::CalibrationCompassMoved`]):
+    /// a magnetic disturbance, or a creep too slow for the gyros. It never restarts the
+    /// window: only the gyros and accelerometers judge motion.
+    pub fn heading(&mut self, heading_rad: f64) {
         if !matches!(self.bias.phase(), CalibrationPhase::Accumulating { .. })
             || !heading_rad.is_finite()
         {
             self.heading = None;
-            return None;
+            return;
         }
         let (reference, smoothed) = match self.heading {
             None => (heading_rad, heading_rad),
@@ -67,20 +139,12 @@ impl GroundCalibration {
                 (reference, wrap_pi(smoothed + step / 20.0))
             }
         };
-        let turned = wrap_pi(smoothed - reference).abs();
-        if turned > CALIBRATION_TURN_RAD {
-            let motion = Motion {
-                rate_rps: 0.0,
-                tilt_rad: 0.0,
-                turn_rad: turned,
-            };
-            self.bias.restart(now_us, motion);
-            self.bias.take_motion();
-            self.heading = None;
-            return Some(CoreEvent::CalibrationRestarted(motion));
-        }
         self.heading = Some((reference, smoothed));
-        None
+        let moved_rad = wrap_pi(smoothed - reference).abs();
+        if moved_rad > CALIBRATION_TURN_RAD && !self.compass_said && self.compass_pending.is_none()
+        {
+            self.compass_pending = Some((moved_rad, self.bias.seconds_judged()));
+        }
     }
 
     /// Where the calibration is.
@@ -92,6 +156,7 @@ impl GroundCalibration {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use heli_nav::calibration::LeftOut;
 
     fn level() -> ImuRepr {
         ImuRepr {
@@ -101,19 +166,21 @@ mod tests {
         }
     }
 
-    /// The calibration fed `seconds` of level samples at 100 Hz from `from_s`; what it gave.
+    /// The calibration fed `seconds` of samples made by `f` (of the time, s) at 100 Hz from
+    /// `from_s`; what it gave.
     fn feed(
         c: &mut GroundCalibration,
         from_s: f64,
         seconds: f64,
+        f: impl Fn(f64) -> ImuRepr,
     ) -> (Option<ImuBiases>, Vec<CoreEvent>) {
         let mut events = Vec::new();
         let mut done = None;
         let n = (seconds * 100.0).round() as u64;
         let start = (from_s * 1e6) as u64;
         for k in 0..n {
-            let (biases, event) = c.push(start + k * 10_000, &level());
-            events.extend(event);
+            let t_us = start + k * 10_000;
+            let biases = c.push(t_us, &f(t_us as f64 * 1e-6), &mut |e| events.push(e));
             done = done.or(biases);
         }
         (done, events)
@@ -122,42 +189,44 @@ mod tests {
     #[test]
     fn the_window_closes_with_the_biases_after_warm_up_and_window() {
         let mut c = GroundCalibration::new(1.0, 2.0);
-        let (biases, events) = feed(&mut c, 0.0, 3.2);
+        let (biases, events) = feed(&mut c, 0.0, 3.2, |_| level());
         let b = biases.expect("the window closed");
         assert!((b.gyro_rps.x - 0.001).abs() < 1e-9);
         assert!(events.is_empty());
     }
 
     #[test]
-    fn a_turn_the_compass_sees_in_the_window_starts_it_again_and_says_so() {
-        let mut c = GroundCalibration::new(0.0, 10.0);
-        feed(&mut c, 0.0, 1.0);
-        assert!(matches!(c.phase(), CalibrationPhase::Accumulating { .. }));
-        assert_eq!(c.heading(1_000_000, 0.5), None);
-        assert_eq!(c.heading, Some((0.5, 0.5)));
-        // A steady heading 0.2 rad away: the running average reaches the turn limit.
-        let mut raised = Vec::new();
-        for k in 0..100u64 {
-            raised.extend(c.heading(1_050_000 + k * 50_000, 0.7));
-        }
-        assert_eq!(raised.len(), 1, "{raised:?}");
-        let CoreEvent::CalibrationRestarted(m) = raised[0] else {
-            panic!("{raised:?}")
+    fn a_turn_seen_by_the_gyros_is_left_out_and_restarts_the_compass_watch() {
+        let mut c = GroundCalibration::new(0.0, 30.0);
+        feed(&mut c, 0.0, 5.0, |_| level());
+        c.heading(0.5);
+        // The compass turns with the gyros: 10 deg/s for two seconds.
+        let turning = ImuRepr {
+            rate_rps: [0.001, -0.002, 0.175],
+            ..level()
         };
-        assert!(m.turn_rad > CALIBRATION_TURN_RAD && m.rate_rps == 0.0);
-        // The window started again, and so did the watch, from where the fuselage stands.
-        assert_eq!(c.heading.map(|(reference, _)| reference), Some(0.7));
+        let (_, events) = feed(&mut c, 5.0, 2.0, |_| turning);
+        assert!(
+            matches!(
+                events.as_slice(),
+                [CoreEvent::CalibrationLeftOut(LeftOut { seconds: 2, .. })]
+            ),
+            "{events:?}"
+        );
+        assert_eq!(c.heading, None, "watched again from where it stands");
+        c.heading(0.85);
+        assert_eq!(c.heading, Some((0.85, 0.85)));
     }
 
     #[test]
     fn headings_outside_the_window_or_not_numbers_are_not_watched() {
         let mut c = GroundCalibration::new(5.0, 10.0);
-        assert_eq!(c.heading(0, 0.5), None, "still warming up");
-        assert_eq!(c.heading, None);
-        feed(&mut c, 0.0, 6.0);
-        c.heading(6_000_000, 0.5);
+        c.heading(0.5);
+        assert_eq!(c.heading, None, "still warming up");
+        feed(&mut c, 0.0, 6.0, |_| level());
+        c.heading(0.5);
         assert!(c.heading.is_some());
-        assert_eq!(c.heading(6_050_000, f64::NAN), None);
+        c.heading(f64::NAN);
         assert_eq!(
             c.heading, None,
             "a heading that is no number forgets the watch"

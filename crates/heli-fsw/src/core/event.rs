@@ -129,6 +129,26 @@ pub enum CoreEvent {
     /// The calibration window saw the helicopter move and started again (a turn of the
     /// fuselage or a rocking that would have been averaged in as bias).
     CalibrationRestarted(heli_nav::calibration::Motion),
+    /// A second of the calibration window in which the gyros or accelerometers saw the
+    /// helicopter move was left out of the average, and the window made as much longer (the
+    /// first second of a run of them).
+    CalibrationLeftOut(heli_nav::calibration::LeftOut),
+    /// The calibration is held up: the helicopter keeps moving on its skids (every
+    /// [`super::calibration::HELD_UP_RESTARTS`] restarts, or
+    /// [`super::calibration::HELD_UP_LEFT_OUT_S`] seconds left out of one window). The
+    /// operator is told why and what to do.
+    CalibrationHeldUp {
+        /// Restarts of the window so far.
+        restarts: u32,
+        /// Seconds left out of the window now open.
+        left_out_s: u32,
+    },
+    /// The compass heading moved while the gyros saw the helicopter still (a magnetic
+    /// disturbance, or a creep too slow for them): said, never a restart.
+    CalibrationCompassMoved {
+        /// How far the heading moved (rad).
+        moved_rad: f64,
+    },
     /// The phase changed.
     PhaseChanged(Phase),
     /// No GPS fix fused for too long in autonomous flight: the estimate is degraded and
@@ -267,7 +287,9 @@ impl CoreEvent {
             CoreEvent::WatchdogFired
             | CoreEvent::RollAbandoned
             | CoreEvent::GpsImplausible(_)
-            | CoreEvent::CalibrationRestarted(_) => Severity::WarningLo,
+            | CoreEvent::CalibrationRestarted(_)
+            | CoreEvent::CalibrationLeftOut(_)
+            | CoreEvent::CalibrationCompassMoved { .. } => Severity::WarningLo,
             CoreEvent::PilotSignalLost
             | CoreEvent::GpsLost
             | CoreEvent::UplinkLost
@@ -279,6 +301,7 @@ impl CoreEvent {
             | CoreEvent::EstimateDegraded { .. }
             | CoreEvent::AidRefused { .. }
             | CoreEvent::TakeoffRefused(_)
+            | CoreEvent::CalibrationHeldUp { .. }
             | CoreEvent::ModeRefused(_)
             | CoreEvent::BatteryDrainingAbnormally { .. } => Severity::WarningHi,
             CoreEvent::DeviceHealth { device, state } => match (device, state) {

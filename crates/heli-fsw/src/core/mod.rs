@@ -51,7 +51,7 @@ mod weathervane;
 pub use aids::Aid;
 pub use event::{CoreEvent, Severity};
 pub use gps::Implausible;
-pub use heli_nav::calibration::Motion;
+pub use heli_nav::calibration::{LeftOut, Motion};
 pub use mode_check::ModeRefusal;
 pub use preflight::Refusal;
 pub use restart::{RollRecord, WarmStart};
@@ -554,7 +554,7 @@ impl FlightCore {
                 });
                 let heading = heading_rad(&field, roll, pitch);
                 if let Some(h) = heading {
-                    self.watch_calibration_heading(now_us, h, out);
+                    self.watch_calibration_heading(h);
                 }
                 out.push(Action::Publish(Record::Compass(Stamped::new(
                     now_us,
@@ -591,16 +591,10 @@ impl FlightCore {
         out.push(Action::Event(Stamped::new(now_us, CoreEvent::Stop(answer))));
     }
 
-    /// A compass heading, for the calibration's watch of a turning fuselage.
-    pub(super) fn watch_calibration_heading(
-        &mut self,
-        now_us: u64,
-        heading_rad: f64,
-        out: &mut Vec<Action>,
-    ) {
-        if let Some(event) = self.calibration.heading(now_us, heading_rad) {
-            out.push(Action::Event(Stamped::new(now_us, event)));
-        }
+    /// A compass heading, for the calibration's watch of a heading that moves while the
+    /// gyros see the helicopter still.
+    pub(super) fn watch_calibration_heading(&mut self, heading_rad: f64) {
+        self.calibration.heading(heading_rad);
     }
 }
 

@@ -385,7 +385,7 @@ fn the_pre_flight_refusals_say_what_is_missing() {
 }
 
 #[test]
-fn motion_in_the_calibration_window_starts_it_again_and_says_so() {
+fn motion_in_the_calibration_window_is_left_out_and_said() {
     let mut core = FlightCore::new(
         CoreConfig {
             imu_warm_up_s: 0.1,
@@ -396,23 +396,85 @@ fn motion_in_the_calibration_window_starts_it_again_and_says_so() {
     );
     let mut out = Vec::new();
     let still = super::tests::still();
-    // Still for two seconds, then turning for one and a half (each second of the window is
-    // compared with the mean so far).
-    for k in 0..200u64 {
+    // Still for three seconds, then turning for one and a half (each second of the window is
+    // compared with the median of its seconds).
+    for k in 0..300u64 {
         core.handle(Input::Imu(still), k * 10_000, &mut out);
     }
     let shaken = ImuRepr {
         rate_rps: [0.5, 0.0, 0.0],
         ..still
     };
-    for k in 200..350u64 {
+    for k in 300..450u64 {
         core.handle(Input::Imu(shaken), k * 10_000, &mut out);
     }
-    assert!(out.iter().any(|a| matches!(
-        a,
-        Action::Event(e) if matches!(e.value, CoreEvent::CalibrationRestarted(_))
-    )));
+    let left: Vec<_> = out
+        .iter()
+        .filter_map(|a| match a {
+            Action::Event(e) => match e.value {
+                CoreEvent::CalibrationLeftOut(l) => Some(l),
+                _ => None,
+            },
+            _ => None,
+        })
+        .collect();
+    assert_eq!(left.len(), 1, "{out:?}");
+    assert!(left[0].motion.rate_rps > 0.4, "{left:?}");
+    assert!(!restarted(&out));
     assert!(core.navigator().state().is_none());
+}
+
+#[test]
+fn a_calibration_held_up_tells_the_operator_why_and_what_to_do() {
+    let mut c = super::calibration::GroundCalibration::new(0.0, 60.0);
+    let mut raised = Vec::new();
+    let still = super::tests::still();
+    let turning = |rate: f64| ImuRepr {
+        rate_rps: [0.0, 0.0, rate],
+        ..still
+    };
+    // Three seconds still, then swinging one way and back two seconds in three: seconds left
+    // out until more moved than were still, then restarts.
+    let mut t = 0u64;
+    for k in 0..20_000u64 {
+        let s = match (k / 100) % 3 {
+            _ if k <= 300 => still,
+            0 => still,
+            1 => turning(0.3),
+            _ => turning(-0.3),
+        };
+        c.push(t, &s, &mut |e| raised.push(e));
+        t += 10_000;
+    }
+    let held: Vec<(u32, u32)> = raised
+        .iter()
+        .filter_map(|e| match e {
+            CoreEvent::CalibrationHeldUp {
+                restarts,
+                left_out_s,
+            } => Some((*restarts, *left_out_s)),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        held.iter()
+            .any(|(r, _)| *r == super::calibration::HELD_UP_RESTARTS),
+        "{held:?} from {raised:?}"
+    );
+    assert!(
+        held.iter()
+            .all(|(r, s)| *r % super::calibration::HELD_UP_RESTARTS == 0
+                || *s % super::calibration::HELD_UP_LEFT_OUT_S == 0),
+        "{held:?}"
+    );
+    assert_eq!(
+        CoreEvent::CalibrationHeldUp {
+            restarts: 3,
+            left_out_s: 0
+        }
+        .severity(),
+        Severity::WarningHi
+    );
 }
 
 #[test]
@@ -423,7 +485,7 @@ fn the_gauges_can_be_told_the_temperature() {
     assert_eq!(config.servo.temperature_c, -5.0);
 }
 
-/// A core in its calibration window (warm-up over), for the compass's creep watch.
+/// A core in its calibration window (warm-up over), for the compass's watch.
 fn accumulating() -> FlightCore {
     let mut core = FlightCore::new(
         CoreConfig {
@@ -450,42 +512,72 @@ fn restarted(out: &[Action]) -> bool {
     )
 }
 
+fn compass_said(out: &[Action]) -> usize {
+    out.iter()
+        .filter(|a| {
+            matches!(a, Action::Event(e) if matches!(e.value, CoreEvent::CalibrationCompassMoved { .. }))
+        })
+        .count()
+}
+
+/// Two seconds of still IMU samples from `from_us` through `core`: the gyros' judgement.
+fn still_seconds(core: &mut FlightCore, from_us: u64, out: &mut Vec<Action>) -> u64 {
+    let mut t = from_us;
+    for _ in 0..200 {
+        t += 10_000;
+        core.handle(Input::Imu(super::tests::still()), t, out);
+    }
+    t
+}
+
 #[test]
-fn a_compass_heading_creeping_five_degrees_restarts_the_window() {
+fn a_compass_heading_moving_five_degrees_is_said_once_and_restarts_nothing() {
     let mut core = accumulating();
     let mut out = Vec::new();
     for _ in 0..50 {
-        core.watch_calibration_heading(S, 1.0, &mut out);
+        core.watch_calibration_heading(1.0);
     }
-    assert!(!restarted(&out), "a steady heading");
+    let t = still_seconds(&mut core, 200_000, &mut out);
+    assert_eq!(compass_said(&out), 0, "a steady heading");
     assert_eq!(core.calibration.heading, Some((1.0, 1.0)));
-    // Jumped to 1.3 rad: the average moves a twentieth of the way each reading, and the turn
-    // passes 0.087 rad on the seventh (0.3 × (1 − 0.95⁷) = 0.090).
+    // Jumped to 1.3 rad: the average moves a twentieth of the way each reading, and passes
+    // 0.087 rad from the reference on the seventh (0.3 × (1 − 0.95⁷) = 0.090).
     for _ in 0..6 {
-        core.watch_calibration_heading(S, 1.3, &mut out);
+        core.watch_calibration_heading(1.3);
     }
-    assert!(!restarted(&out));
+    let t = still_seconds(&mut core, t, &mut out);
+    assert_eq!(compass_said(&out), 0);
     let (_, smoothed) = core.calibration.heading.unwrap();
     assert!(
         (smoothed - (1.3 - 0.3 * 0.95f64.powi(6))).abs() < 1e-9,
         "{smoothed}"
     );
-    core.watch_calibration_heading(S, 1.3, &mut out);
-    assert!(restarted(&out));
-    assert_eq!(core.calibration.heading, None);
-    // Across north the turn is measured the short way.
+    for _ in 0..20 {
+        core.watch_calibration_heading(1.3);
+    }
+    assert_eq!(compass_said(&out), 0, "not before the gyros have judged");
+    let t = still_seconds(&mut core, t, &mut out);
+    assert_eq!(compass_said(&out), 1, "the gyros saw it still");
+    for _ in 0..20 {
+        core.watch_calibration_heading(1.6);
+    }
+    still_seconds(&mut core, t, &mut out);
+    assert_eq!(compass_said(&out), 1, "once a window");
+    assert!(!restarted(&out), "the compass never restarts the window");
+    // Across north the move is measured the short way.
     let mut core = accumulating();
     let mut out = Vec::new();
-    core.watch_calibration_heading(S, 3.1, &mut out);
+    core.watch_calibration_heading(3.1);
     for _ in 0..6 {
-        core.watch_calibration_heading(S, -3.1, &mut out);
+        core.watch_calibration_heading(-3.1);
     }
-    assert!(!restarted(&out), "0.08 rad the short way round");
+    still_seconds(&mut core, 200_000, &mut out);
+    assert_eq!(compass_said(&out), 0, "0.08 rad the short way round");
     // A reading that is not a number, or outside the window, forgets the reference.
-    core.watch_calibration_heading(S, f64::NAN, &mut out);
+    core.watch_calibration_heading(f64::NAN);
     assert_eq!(core.calibration.heading, None);
     let mut idle = FlightCore::new(CoreConfig::default(), FlightParams::default());
-    idle.watch_calibration_heading(S, 1.0, &mut out);
+    idle.watch_calibration_heading(1.0);
     assert_eq!(idle.calibration.heading, None);
 }
 

@@ -45,10 +45,9 @@ impl FlightCore {
                 self.main_loop.revalidate();
             }
         } else if !repeated && self.nav.state().is_none() {
-            let (biases, restarted) = self.calibration.push(now_us, &sample);
-            if let Some(event) = restarted {
+            let biases = self.calibration.push(now_us, &sample, &mut |event| {
                 out.push(Action::Event(Stamped::new(now_us, event)));
-            }
+            });
             if let Some(biases) = biases {
                 self.nav.initialise(now_us, &biases);
                 self.seq.home_ned_m = self.nav.state().map(|s| s.pos_ned_m);
