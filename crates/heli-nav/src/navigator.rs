@@ -105,6 +105,10 @@ pub struct NavConfig {
     pub gps_reset_rejections: u32,
     /// No GPS fused for this long is an outage (s).
     pub gps_outage_after_s: f64,
+    /// The velocity of a helicopter standing on its skids, as a zero-velocity update
+    /// ([`Navigator::fuse_still`]) sees it: the rocking and the rotor's shaking at the IMU
+    /// (σ, m/s).
+    pub still_sigma_mps: f64,
 }
 
 impl Default for NavConfig {
@@ -132,6 +136,7 @@ impl Default for NavConfig {
             gps_outage_after_s: 3.0,
             gps_reset_after_s: 5.0,
             gps_reset_rejections: 3,
+            still_sigma_mps: 0.05,
         }
     }
 }
@@ -190,6 +195,10 @@ pub struct NavSensorStats {
     pub last_baro_fused_us: u64,
     /// Time of the estimate when a compass reading was last fused (µs), 0 if never.
     pub last_compass_fused_us: u64,
+    /// Zero-velocity updates fused (standing on the skids).
+    pub still_fused: u32,
+    /// Zero-velocity updates refused by the gate (it was moving after all).
+    pub still_rejected: u32,
 }
 
 /// One thing the filter did, kept for replay after a delayed fix.
@@ -211,7 +220,14 @@ enum Op {
     Baro(f64),
     /// A compass update.
     Mag(MagField),
+    /// A zero-velocity update.
+    Still,
 }
+
+/// What the filter records in a second, for the history a delayed fix is replayed from:
+/// propagations at 50 Hz, altimeter at 5 Hz, compass at 20 Hz, zero-velocity updates on the
+/// skids at up to 10 Hz.
+const OPS_PER_S: f64 = 85.0;
 
 /// The navigation filter.
 #[derive(Clone, Debug)]
@@ -245,6 +261,7 @@ mod covariance;
 mod fusion;
 mod health;
 mod reset;
+mod still;
 pub use reset::GroundReferences;
 
 use covariance::Transition;
@@ -289,13 +306,12 @@ impl Navigator {
             history_s: history_s.clamp(latency_s + 0.5, latency_s + 10.0),
             ..config
         };
-        // Propagations at 50 Hz, altimeter at 5 Hz, compass at 20 Hz.
         #[expect(
             clippy::cast_possible_truncation,
             clippy::cast_sign_loss,
             reason = "history_s is clamped to a few seconds above"
         )]
-        let history_len = (config.history_s * 75.0).ceil() as usize;
+        let history_len = (config.history_s * OPS_PER_S).ceil() as usize;
         Self {
             config,
             state: None,

@@ -20,30 +20,42 @@ fn a_hover_in_15_mps_of_wind_stays_on_its_point() {
     // used up the 3 m/s² acceleration limit and the heading weathervaned across the wind:
     // 218 m off the point. Now the trim is limited apart, the tilt limit is 30 deg and the
     // hold turns its nose into the wind.
-    // The wind comes up in the take-off's climb: on its skids, idling through the
-    // 80 s calibration in 10 m/s of gusts, it rocks enough to restart the calibration again
-    // and again (the thesis's rule: calibrate only at rest), and 15 m/s with gusts can roll
-    // it over there (docs/robustness.md) — neither is what this flight is about.
-    let mut s = scenario::hover();
-    s.turbulence_sigma_mps = 1.5;
-    s.wind_changes = vec![
-        WindChange {
-            shape: WindShape::Ramp,
-            start_s: 87.0,
-            end_s: 92.0,
-            wind_ned_mps: [10.0, 0.0, 0.0],
-        },
-        WindChange {
-            shape: WindShape::Step,
-            start_s: 110.0,
-            end_s: 0.0,
-            wind_ned_mps: [5.0, 0.0, 0.0],
-        },
-    ];
-    let summary = run(s).unwrap_or_else(|e| panic!("{e}"));
-    assert!(summary.crash.is_none(), "{:?}", summary.crash);
-    let off = criterion(&summary, "hold_true_max_m");
-    assert!(off < 6.0, "{off} m off the point");
+    // The wind comes up in the take-off's climb: 15 m/s with gusts can roll it over on its
+    // skids (docs/robustness.md), which is not what this flight is about.
+    // Over ten seeds, not one: a flight this gusty is chaotic, and any change of the flight
+    // software's arithmetic moves one seed's excursion by metres. Measured 2026-11-27:
+    // 3.7 10.4 2.8 2.6 2.5 5.3 7.3 4.5 19.7 4.5 m. The tail is the hold's turn of its nose
+    // into the wind: a helicopter that took off nose downwind turns through the crosswind,
+    // the lateral cyclic at its 28 deg, and is blown up to 18 m downwind before it faces
+    // the wind (a known limit, docs/robustness.md).
+    let mut offs = Vec::new();
+    for seed in 0..10 {
+        let mut s = scenario::hover();
+        s.seed = seed;
+        s.turbulence_sigma_mps = 1.5;
+        s.wind_changes = vec![
+            WindChange {
+                shape: WindShape::Ramp,
+                start_s: 87.0,
+                end_s: 92.0,
+                wind_ned_mps: [10.0, 0.0, 0.0],
+            },
+            WindChange {
+                shape: WindShape::Step,
+                start_s: 110.0,
+                end_s: 0.0,
+                wind_ned_mps: [5.0, 0.0, 0.0],
+            },
+        ];
+        let summary = run(s).unwrap_or_else(|e| panic!("{e}"));
+        assert!(summary.crash.is_none(), "seed {seed}: {:?}", summary.crash);
+        offs.push(criterion(&summary, "hold_true_max_m"));
+    }
+    let mut sorted = offs.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = (sorted[4] + sorted[5]) / 2.0;
+    assert!(median < 6.0, "median {median} m off the point: {offs:?}");
+    assert!(sorted[9] < 25.0, "worst {} m off: {offs:?}", sorted[9]);
 }
 
 #[test]
@@ -146,6 +158,21 @@ fn a_gusty_wind_on_the_skids_is_calibrated_through_not_restarted_for_minutes() {
     );
     let att = summary.estimator.att_err_max_deg.unwrap_or(f64::NAN);
     assert!(att < 3.0, "attitude estimate {att} deg off");
+    assert_eq!(summary.outcome, Outcome::Pass, "{:?}", summary.criteria);
+}
+
+#[test]
+fn on_its_skids_without_gps_the_estimate_stays_where_the_helicopter_is() {
+    // Five minutes on the skids with no GPS, the take-off refused. Before: the inertial
+    // solution wandered 480 m RMS (the display and the log showed a helicopter "moving" on
+    // the ground). Now the flight core tells the estimator it stands (zero-velocity updates).
+    let mut s = heli_scenario::device_faults::no_gps_takeoff();
+    s.duration_s = 300.0;
+    let summary = run(s).unwrap_or_else(|e| panic!("{e}"));
+    let off = summary.estimator.pos_err_rms_m.unwrap_or(f64::NAN);
+    assert!(off < 0.5, "{off} m RMS off on the skids");
+    let vel = summary.estimator.vel_err_rms_mps.unwrap_or(f64::NAN);
+    assert!(vel < 0.05, "{vel} m/s RMS");
     assert_eq!(summary.outcome, Outcome::Pass, "{:?}", summary.criteria);
 }
 

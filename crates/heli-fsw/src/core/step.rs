@@ -16,6 +16,13 @@ use super::{Action, BLIND_DESCENT_COLLECTIVE_MARGIN, CoreEvent, FlightCore};
 use crate::phase::{Phase, RollStage};
 use crate::streams::{ImuRecord, Record, ServoRecord, Stamped, StateRecord};
 
+/// Control steps between zero-velocity updates on the skids: 10 Hz at the 50 Hz step.
+pub const STILL_EVERY_STEPS: u32 = 5;
+
+/// A rotor below this fraction of its governed speed lifts nothing: with the pilot's sticks,
+/// before the first lift-off, the helicopter stands.
+pub const ROTOR_IDLE_FRACTION: f64 = 0.5;
+
 impl FlightCore {
     /// One iteration of the main loop on an IMU sample (real, or repeated by the watchdog).
     pub(super) fn loop_iteration(
@@ -82,6 +89,9 @@ impl FlightCore {
         self.gyro_rps = (!repeated).then(|| Vector3::from(current.rate_rps) - bias);
         let dt_s = self.main_loop.step_dt(now_us);
         self.nav.propagate(now_us, &previous, &current);
+        if self.on_skids() && self.stats.control_steps.is_multiple_of(STILL_EVERY_STEPS) {
+            self.nav.fuse_still();
+        }
 
         // An estimate declared invalid (the IMU went silent) is never flown on again.
         let estimate = self
@@ -280,6 +290,27 @@ impl FlightCore {
                 self.seq.phase,
                 Phase::Holding { .. } | Phase::Flying { .. } | Phase::TakingOff { .. }
             )
+    }
+
+    /// Standing on its skids, as the flight software knows it: never yet off the ground
+    /// and no lift asked for — an autonomous phase on the ground (the pre-flight check, a
+    /// refused take-off, the ground failsafe), or the pilot's or the augmented mode with the
+    /// rotor below half its governed speed — or landed. The estimator is then told it is not
+    /// moving (`Navigator::fuse_still`).
+    pub(super) fn on_skids(&self) -> bool {
+        match self.seq.phase {
+            Phase::Landed => true,
+            Phase::PreflightCheck { .. } | Phase::TakeoffRefused | Phase::GroundFailsafe => {
+                !self.seq.airborne_once
+            }
+            Phase::Manual | Phase::Augmented(_) => {
+                !self.seq.airborne_once
+                    && self.devices.rotor_rpm().is_some_and(|rpm| {
+                        rpm < self.config.engine.governed_rpm * ROTOR_IDLE_FRACTION
+                    })
+            }
+            _ => false,
+        }
     }
 
     pub(super) fn height_above_home(&self, est: &NavState) -> f64 {

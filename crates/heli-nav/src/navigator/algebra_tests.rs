@@ -202,7 +202,7 @@ fn a_fix_up_to_30_ms_older_than_the_log_is_fused_on_its_oldest_state() {
 fn the_log_of_the_past_holds_exactly_its_length() {
     let mut nav = at_rest(0);
     let len = nav.history_len;
-    assert_eq!(len, (NavConfig::default().history_s * 75.0).ceil() as usize);
+    assert_eq!(len, (NavConfig::default().history_s * 85.0).ceil() as usize);
     for k in 1..=(len as u64 + 40) {
         nav.propagate(k * 20_000, &level_imu(), &level_imu());
         assert_eq!(nav.history.len(), (k as usize).min(len));

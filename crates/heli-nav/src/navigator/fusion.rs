@@ -154,6 +154,10 @@ impl Navigator {
                     self.apply_mag(&field);
                     self.record(op);
                 }
+                Op::Still => {
+                    self.apply_still();
+                    self.record(op);
+                }
             }
         }
         self.replay = replay;
