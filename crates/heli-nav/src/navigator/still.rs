@@ -30,8 +30,8 @@ impl Navigator {
         };
         let y = -state.vel_ned_mps;
         let mut h = SMatrix::<f64, 3, N_ERR>::zeros();
-        for axis in 0..3 {
-            if let Some(x) = h.get_mut((axis, ix::VEL + axis)) {
+        for (row, col) in [(0, ix::VEL), (1, ix::VEL + 1), (2, ix::VEL + 2)] {
+            if let Some(x) = h.get_mut((row, col)) {
                 *x = 1.0;
             }
         }
