@@ -200,12 +200,11 @@ impl Window {
         if let Some(last) = self.seconds.last_mut() {
             last.kept = true;
         }
-        self.add(&second, 1.0);
+        self.add(&second);
         let turn_rad = self
             .kept()
-            .fold(Vector3::zeros(), |net: Vector3<f64>, s| {
-                net + (s.gyro - median)
-            })
+            .map(|s| s.gyro - median)
+            .sum::<Vector3<f64>>()
             .norm();
         if beyond(turn_rad, MOTION_TURN_RAD) {
             return Verdict::Restart(Motion { turn_rad, ..motion });
@@ -213,15 +212,18 @@ impl Window {
         Verdict::Kept
     }
 
-    /// Adds a second's sums to the average (`sign` 1) or takes them out of it (-1).
-    fn add(&mut self, second: &Second, sign: f64) {
-        self.gyro_sum += second.gyro_sum * sign;
-        self.accel_sum += second.accel_sum * sign;
-        self.count = if sign > 0.0 {
-            self.count.saturating_add(second.count)
-        } else {
-            self.count.saturating_sub(second.count)
-        };
+    /// Adds a second's sums to the average.
+    fn add(&mut self, second: &Second) {
+        self.gyro_sum += second.gyro_sum;
+        self.accel_sum += second.accel_sum;
+        self.count = self.count.saturating_add(second.count);
+    }
+
+    /// Takes a second's sums out of the average.
+    fn take_out(&mut self, second: &Second) {
+        self.gyro_sum -= second.gyro_sum;
+        self.accel_sum -= second.accel_sum;
+        self.count = self.count.saturating_sub(second.count);
     }
 
     /// The last second left out (moved, or the still edge after a motion), with the kept
@@ -240,7 +242,7 @@ impl Window {
                 if let Some(s) = self.seconds.get_mut(n.saturating_sub(2)) {
                     s.kept = false;
                 }
-                self.add(&edge, -1.0);
+                self.take_out(&edge);
                 self.left_out = self.left_out.saturating_add(1);
                 longer_us = longer_us.saturating_add(edge.lasted_us);
             }
@@ -395,9 +397,14 @@ impl BiasCalibration {
                     self.block(t_us, imu);
                     return None;
                 }
-                // A part-second left at the close is judged as a second.
-                if self.block_count > 0 && !self.end_block(t_us) {
-                    return None;
+                // A part-second left at the close is judged as a second: left out, the
+                // window is that much longer; a restart opens a new one.
+                if self.block_count > 0 {
+                    self.end_block(t_us);
+                    if !matches!(self.phase, CalibrationPhase::Accumulating { until_us } if t_us >= until_us)
+                    {
+                        return None;
+                    }
                 }
                 let n = f64::from(self.window.count.max(1));
                 let biases = ImuBiases {

@@ -107,12 +107,11 @@ impl GroundCalibration {
         biases
     }
 
-    /// Whether the seconds left out of this window just reached a multiple of
-    /// [`HELD_UP_LEFT_OUT_S`] (judged on the sample after a second was left out: once).
+    /// Whether the seconds left out of this window just reached another multiple of
+    /// [`HELD_UP_LEFT_OUT_S`] (they grow by one or two at a time: crossing it counts).
     fn bias_left_out_crossed(&mut self, left_out_s: u32) -> bool {
-        let crossed = left_out_s > 0
-            && left_out_s.is_multiple_of(HELD_UP_LEFT_OUT_S)
-            && self.said_left_out != left_out_s;
+        let multiples = |s: u32| s.checked_div(HELD_UP_LEFT_OUT_S).unwrap_or(0);
+        let crossed = multiples(left_out_s) > multiples(self.said_left_out);
         if crossed {
             self.said_left_out = left_out_s;
         }
@@ -216,6 +215,90 @@ mod tests {
         assert_eq!(c.heading, None, "watched again from where it stands");
         c.heading(0.85);
         assert_eq!(c.heading, Some((0.85, 0.85)));
+    }
+
+    #[test]
+    fn the_compass_is_said_once_two_seconds_are_judged_and_not_at_its_limit() {
+        let turning = ImuRepr {
+            rate_rps: [0.001, -0.002, 0.3],
+            ..level()
+        };
+        // Exactly at the limit: nothing.
+        let h = CALIBRATION_TURN_RAD * 20.0;
+        assert_eq!(h / 20.0, CALIBRATION_TURN_RAD, "an exact limit");
+        let mut c = GroundCalibration::new(0.0, 60.0);
+        feed(&mut c, 0.0, 3.0, |_| level());
+        c.heading(0.0);
+        c.heading(h);
+        assert_eq!(c.heading, Some((0.0, CALIBRATION_TURN_RAD)));
+        let (_, events) = feed(&mut c, 3.0, 3.0, |_| level());
+        assert!(events.is_empty(), "{events:?}");
+        // Beyond it: said when the second it moved in and the next are judged still.
+        let mut c = GroundCalibration::new(0.0, 60.0);
+        feed(&mut c, 0.0, 3.0, |_| level());
+        c.heading(0.0);
+        c.heading(2.0);
+        let (_, events) = feed(&mut c, 3.0, 1.0, |_| level());
+        assert!(events.is_empty(), "one second judged: {events:?}");
+        let (_, events) = feed(&mut c, 4.0, 1.0, |_| level());
+        assert!(
+            matches!(events.as_slice(), [CoreEvent::CalibrationCompassMoved { moved_rad }] if *moved_rad > CALIBRATION_TURN_RAD),
+            "{events:?}"
+        );
+        // A move the gyros saw as a turn is not the compass's to tell.
+        let mut c = GroundCalibration::new(0.0, 60.0);
+        feed(&mut c, 0.0, 3.0, |_| level());
+        c.heading(0.0);
+        c.heading(2.0);
+        let (_, events) = feed(
+            &mut c,
+            3.0,
+            4.0,
+            |t| if t < 4.0 { turning } else { level() },
+        );
+        assert!(
+            events
+                .iter()
+                .all(|e| matches!(e, CoreEvent::CalibrationLeftOut(_))),
+            "{events:?}"
+        );
+    }
+
+    #[test]
+    fn a_helicopter_rocked_again_and_again_is_said_held_up_every_twenty_seconds_left_out() {
+        // A turn one second in four: each costs three seconds (its edges with it), one in
+        // four kept; the seconds left out pass 20 at 27 s and 40 at 54 s — said once each.
+        let turning = ImuRepr {
+            rate_rps: [0.001, -0.002, 0.3],
+            ..level()
+        };
+        let mut c = GroundCalibration::new(0.0, 200.0);
+        let (_, events) = feed(&mut c, 0.0, 60.0, |t| {
+            if t >= 4.0 && (t as u64) % 4 == 0 {
+                turning
+            } else {
+                level()
+            }
+        });
+        let held: Vec<(u32, u32)> = events
+            .iter()
+            .filter_map(|e| match e {
+                CoreEvent::CalibrationHeldUp {
+                    restarts,
+                    left_out_s,
+                } => Some((*restarts, *left_out_s)),
+                _ => None,
+            })
+            .collect();
+        assert!(
+            !events
+                .iter()
+                .any(|e| matches!(e, CoreEvent::CalibrationRestarted(_))),
+            "{events:?}"
+        );
+        assert_eq!(held.len(), 2, "{held:?}");
+        assert!(held[0].0 == 0 && (20..23).contains(&held[0].1), "{held:?}");
+        assert!(held[1].0 == 0 && (40..43).contains(&held[1].1), "{held:?}");
     }
 
     #[test]

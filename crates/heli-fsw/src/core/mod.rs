@@ -644,6 +644,8 @@ mod roll_tests;
 #[cfg(test)]
 mod sequencer_tests;
 #[cfg(test)]
+mod skids_tests;
+#[cfg(test)]
 mod stall_tests;
 #[cfg(test)]
 mod stop_tests;

@@ -225,6 +225,75 @@ fn a_second_exactly_at_the_rate_limit_is_still_and_one_beyond_it_is_motion() {
     );
 }
 
+#[test]
+fn the_seconds_judged_are_counted_and_a_restart_forgets_them() {
+    let (mut cal, mut t) = opened_for(60.0);
+    assert_eq!(cal.seconds_judged(), 0);
+    feed(&mut cal, &mut t, 3.0, |_| moving(0.0, 0.0));
+    assert_eq!(cal.seconds_judged(), 3);
+    feed(&mut cal, &mut t, 3.0, |_| moving(0.0, 0.07));
+    assert!(cal.take_motion().is_some(), "tilted three seconds");
+    assert_eq!(cal.seconds_judged(), 0);
+}
+
+#[test]
+fn more_seconds_moved_than_still_is_judged_on_the_eleventh() {
+    // One still second, then seconds swinging one way and back, every one moved.
+    let (mut cal, mut t) = opened_for(60.0);
+    feed(&mut cal, &mut t, 0.99, |_| moving(0.0, 0.0));
+    let swing = |k: u32| moving(if (k / 100) % 2 == 0 { 0.2 } else { -0.2 }, 0.0);
+    feed(&mut cal, &mut t, 10.0, swing);
+    assert_eq!(cal.take_motion(), None, "ten moved, not beyond ten");
+    assert_eq!(cal.restarts(), 0);
+    feed(&mut cal, &mut t, 1.0, |k| swing(k + 1000));
+    assert!(cal.take_motion().is_some(), "eleven moved");
+}
+
+#[test]
+fn a_part_second_at_the_close_is_judged_like_a_second() {
+    // Samples 15 ms apart: a second's block of 100 lasts 1.5 s, and the 2 s window closes
+    // with a part of one (34 samples).
+    let run = |rate_z: f64| {
+        let mut cal = BiasCalibration::new(0.0, 2.0);
+        let mut done = None;
+        let mut t = 0u64;
+        let mut closed_s = None;
+        for k in 0..1000u32 {
+            let s = if (102..136).contains(&k) {
+                moving(rate_z, 0.0)
+            } else {
+                moving(0.0, 0.0)
+            };
+            if let Some(b) = cal.push(t, &s) {
+                done = Some(b);
+                closed_s = Some(t as f64 * 1e-6);
+                break;
+            }
+            t += 15_000;
+        }
+        (done, closed_s, cal)
+    };
+    let (done, closed_s, _) = run(0.0);
+    let b = done.unwrap_or_else(|| panic!("closed"));
+    assert_eq!(b.samples, 134, "the part-second kept");
+    assert!(
+        (closed_s.unwrap_or(0.0) - 2.025).abs() < 0.01,
+        "{closed_s:?}"
+    );
+    // The part-second turning: left out with the second before it, the window as much
+    // longer, and closed on still seconds.
+    let (done, closed_s, cal) = run(0.2);
+    assert_eq!(
+        cal.left_out_s(),
+        3,
+        "the edge before, the part-second, the edge after"
+    );
+    let b = done.unwrap_or_else(|| panic!("closed"));
+    let at = closed_s.unwrap_or(0.0);
+    assert!(at > 4.0, "closed at {at} s");
+    assert!((b.gyro_rps.z - 0.02).abs() < 1e-9, "{b:?}");
+}
+
 proptest::proptest! {
     #![proptest_config(proptest::test_runner::Config::with_cases(64))]
 

@@ -96,6 +96,24 @@ mod tests {
     }
 
     #[test]
+    fn every_axis_of_the_velocity_is_told_it_is_zero() {
+        let (mut nav, sample) = standing();
+        if let Some(s) = nav.state.as_mut() {
+            s.vel_ned_mps = Vector3::new(0.2, -0.3, 0.25);
+        }
+        for k in 1..=250u64 {
+            nav.propagate(k * 20_000, &sample, &sample);
+            if k % 5 == 0 {
+                nav.fuse_still();
+            }
+        }
+        let v = nav
+            .state()
+            .map_or(Vector3::repeat(f64::NAN), |s| s.vel_ned_mps);
+        assert!(v.iter().all(|x| x.abs() < 0.03), "{v:?}");
+    }
+
+    #[test]
     fn a_helicopter_moving_after_all_is_refused_and_counted() {
         let (mut nav, _) = standing();
         if let Some(s) = nav.state.as_mut() {
