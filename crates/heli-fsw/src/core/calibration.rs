@@ -274,7 +274,7 @@ mod tests {
         };
         let mut c = GroundCalibration::new(0.0, 200.0);
         let (_, events) = feed(&mut c, 0.0, 60.0, |t| {
-            if t >= 4.0 && (t as u64) % 4 == 0 {
+            if t >= 4.0 && (t as u64).is_multiple_of(4) {
                 turning
             } else {
                 level()

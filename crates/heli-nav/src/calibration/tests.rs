@@ -241,7 +241,16 @@ fn more_seconds_moved_than_still_is_judged_on_the_eleventh() {
     // One still second, then seconds swinging one way and back, every one moved.
     let (mut cal, mut t) = opened_for(60.0);
     feed(&mut cal, &mut t, 0.99, |_| moving(0.0, 0.0));
-    let swing = |k: u32| moving(if (k / 100) % 2 == 0 { 0.2 } else { -0.2 }, 0.0);
+    let swing = |k: u32| {
+        moving(
+            if (k / 100).is_multiple_of(2) {
+                0.2
+            } else {
+                -0.2
+            },
+            0.0,
+        )
+    };
     feed(&mut cal, &mut t, 10.0, swing);
     assert_eq!(cal.take_motion(), None, "ten moved, not beyond ten");
     assert_eq!(cal.restarts(), 0);
