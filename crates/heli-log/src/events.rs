@@ -12,7 +12,7 @@
 //! late device, an abandoned roll) is `warning`; something that changes what it does
 //! (transmitter lost, GPS outage, a silent device) is `error`; an invalid estimate is `fatal`.
 
-use heli_fsw::core::{CoreEvent, Severity, StopAnswer, StopRefusal};
+use heli_fsw::core::{CoreEvent, ReadingFault, Severity, StopAnswer, StopRefusal};
 use heli_fsw::health::HealthState;
 use heli_types::Device;
 use serde_json::{Value, json};
@@ -103,6 +103,23 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
             "t={t:.2} s calibration: the compass heading moved {:.1} deg while the gyros saw the helicopter still (a magnetic disturbance near it, or a creep too slow for the gyros); the calibration goes on",
             moved_rad.to_degrees()
         ),
+        CoreEvent::BatteryReading { battery, fault } => match fault {
+            ReadingFault::Stuck { volts } => format!(
+                "t={t:.2} s {} reading stuck at {volts:.2} V ({} readings the same): its charge is unknown, end the flight test",
+                battery.name(),
+                heli_fsw::core::battery_channel::STUCK_READINGS
+            ),
+            ReadingFault::Garbled { volts, refused } => format!(
+                "t={t:.2} s {} reading refused: {volts:.2} V, more than {:.1} V from the readings before it ({refused} refused so far: an ADC or wiring fault?)",
+                battery.name(),
+                heli_fsw::core::battery_channel::JUMP_V
+            ),
+            ReadingFault::Late { age_s } => format!(
+                "t={t:.2} s {} reading late: none for {age_s:.1} s",
+                battery.name()
+            ),
+            ReadingFault::Back => format!("t={t:.2} s {} reading good again", battery.name()),
+        },
         CoreEvent::PhaseChanged(p) => format!("t={t:.2} s phase {}", p.name()),
         CoreEvent::Stop(answer) => match answer {
             StopAnswer::Now => format!("t={t:.2} s stop: on the ground, the flight ends"),
@@ -342,6 +359,37 @@ pub fn parse_event_text(text: &str) -> Option<(u64, EventLevel)> {
             "calibration: the compass heading moved",
             CoreEvent::CalibrationCompassMoved { moved_rad: 0.0 },
         ),
+        (
+            "flight battery reading stuck",
+            CoreEvent::BatteryReading {
+                battery: heli_fsw::core::power::Battery::Flight,
+                fault: ReadingFault::Stuck { volts: 0.0 },
+            },
+        ),
+        (
+            "flight battery reading refused",
+            CoreEvent::BatteryReading {
+                battery: heli_fsw::core::power::Battery::Flight,
+                fault: ReadingFault::Garbled {
+                    volts: 0.0,
+                    refused: 0,
+                },
+            },
+        ),
+        (
+            "flight battery reading late",
+            CoreEvent::BatteryReading {
+                battery: heli_fsw::core::power::Battery::Flight,
+                fault: ReadingFault::Late { age_s: 0.0 },
+            },
+        ),
+        (
+            "flight battery reading good again",
+            CoreEvent::BatteryReading {
+                battery: heli_fsw::core::power::Battery::Flight,
+                fault: ReadingFault::Back,
+            },
+        ),
         ("roll ", CoreEvent::RollCompleted(1)),
         ("engine failure", CoreEvent::EngineFailure { rotor_rpm: 0 }),
         (
@@ -448,6 +496,25 @@ mod tests {
                 left_out_s: 7,
             },
             CoreEvent::CalibrationCompassMoved { moved_rad: 0.1 },
+            CoreEvent::BatteryReading {
+                battery: heli_fsw::core::power::Battery::Flight,
+                fault: ReadingFault::Stuck { volts: 12.3 },
+            },
+            CoreEvent::BatteryReading {
+                battery: heli_fsw::core::power::Battery::Flight,
+                fault: ReadingFault::Garbled {
+                    volts: 3.1,
+                    refused: 2,
+                },
+            },
+            CoreEvent::BatteryReading {
+                battery: heli_fsw::core::power::Battery::Flight,
+                fault: ReadingFault::Late { age_s: 3.2 },
+            },
+            CoreEvent::BatteryReading {
+                battery: heli_fsw::core::power::Battery::Flight,
+                fault: ReadingFault::Back,
+            },
             CoreEvent::RollCompleted(2),
             CoreEvent::EngineFailure { rotor_rpm: 1290 },
             CoreEvent::PowerSource {

@@ -3,6 +3,7 @@
 //! flight software's gauge against the simulator's truth.
 
 use heli_scenario::Scenario;
+use heli_scenario::faults::{Device, DeviceFault, DeviceFaultKind};
 use heli_scenario::power_scenarios::{battery_drain, battery_swap, weak_battery};
 use heli_sim::{Outcome, Summary, run};
 
@@ -154,4 +155,83 @@ fn at_the_critical_level_it_lands_where_it_is() {
             .unwrap_or(0.0);
         t > critical
     }));
+}
+
+/// The hover with the flight battery's ADC channel `kind` from 95 s to the end (`value` and
+/// `rate` as the fault's).
+fn channel_fault(kind: DeviceFaultKind, value: f64, rate: f64) -> Scenario {
+    let mut s = heli_scenario::hover();
+    s.faults.devices = vec![DeviceFault {
+        device: Device::Battery,
+        kind,
+        start_s: 95.0,
+        end_s: 200.0,
+        period_s: 0.0,
+        duty: 1.0,
+        value,
+        rate,
+    }];
+    s
+}
+
+#[test]
+fn a_frozen_battery_channel_is_said_and_its_readings_refused() {
+    // Before: the gauge believed the frozen reading, nothing was raised.
+    let s = fly(channel_fault(DeviceFaultKind::Stuck, 0.0, 0.0), 1);
+    let stuck_s = event_time_s(&s, "flight battery reading stuck at");
+    assert!((stuck_s - (95.0 + 59.0)).abs() < 3.0, "{stuck_s}");
+    assert!(
+        !s.events.iter().any(|e| e.contains("draining abnormally")),
+        "{:#?}",
+        s.events
+    );
+}
+
+#[test]
+fn garbled_battery_readings_are_refused_and_raise_no_false_drain() {
+    // A random reading one time in five, then every time. Before: "draining abnormally: end
+    // the flight test" at 120 s (97 s when every reading was garbage) and a gauge at 52 %
+    // of a 95 % pack.
+    for rate in [0.2, 1.0] {
+        let s = fly(channel_fault(DeviceFaultKind::Garbage, 0.0, rate), 1);
+        event_time_s(&s, "flight battery reading refused");
+        assert!(
+            !s.events.iter().any(|e| e.contains("draining abnormally")),
+            "rate {rate}: {:#?}",
+            s.events
+        );
+        let gauge = s.power.gauge_soc_end.unwrap_or(f64::NAN);
+        let truth = s.power.flight_soc_end;
+        assert!(
+            (gauge - truth).abs() < 0.02,
+            "rate {rate}: {gauge} against {truth}"
+        );
+    }
+}
+
+#[test]
+fn a_battery_channel_read_one_time_in_ten_is_said_to_be_late_once() {
+    let s = fly(channel_fault(DeviceFaultKind::Slow, 10.0, 0.0), 1);
+    let late: Vec<&String> = s
+        .events
+        .iter()
+        .filter(|e| e.contains("flight battery reading late"))
+        .collect();
+    assert_eq!(late.len(), 1, "{:#?}", s.events);
+    // The gauge still follows the pack on the readings that come.
+    let gauge = s.power.gauge_soc_end.unwrap_or(f64::NAN);
+    let truth = s.power.flight_soc_end;
+    assert!((gauge - truth).abs() < 0.02, "{gauge} against {truth}");
+}
+
+#[test]
+fn a_healthy_channel_is_never_judged_faulty() {
+    for seed in 1..=3 {
+        let s = fly(heli_scenario::hover(), seed);
+        assert!(
+            !s.events.iter().any(|e| e.contains("battery reading")),
+            "{:#?}",
+            s.events
+        );
+    }
 }

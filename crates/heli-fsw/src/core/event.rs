@@ -118,6 +118,31 @@ impl Battery {
     }
 }
 
+/// What is wrong with a battery's reading (its channel, not the pack:
+/// [`super::battery_channel`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ReadingFault {
+    /// The same reading again and again: refused from then on, the charge unknown.
+    Stuck {
+        /// The reading it is stuck at (V).
+        volts: f64,
+    },
+    /// A reading far from the last good one, refused.
+    Garbled {
+        /// The reading refused (V).
+        volts: f64,
+        /// Readings refused so far in the flight.
+        refused: u32,
+    },
+    /// No reading for a while.
+    Late {
+        /// Since the last reading (s).
+        age_s: f64,
+    },
+    /// Good again: readings on time and used.
+    Back,
+}
+
 /// Notable things that happened, for the ground's message area.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum CoreEvent {
@@ -148,6 +173,13 @@ pub enum CoreEvent {
     CalibrationCompassMoved {
         /// How far the heading moved (rad).
         moved_rad: f64,
+    },
+    /// A battery's reading is wrong: stuck, garbled, late, or good again.
+    BatteryReading {
+        /// Which battery.
+        battery: Battery,
+        /// What is wrong.
+        fault: ReadingFault,
     },
     /// The phase changed.
     PhaseChanged(Phase),
@@ -309,6 +341,11 @@ impl CoreEvent {
                 (_, HealthState::Late) => Severity::WarningLo,
                 (Device::Imu, HealthState::Silent | HealthState::Failed) => Severity::Fatal,
                 (_, HealthState::Silent | HealthState::Failed) => Severity::WarningHi,
+            },
+            CoreEvent::BatteryReading { fault, .. } => match fault {
+                ReadingFault::Stuck { .. } | ReadingFault::Garbled { .. } => Severity::WarningHi,
+                ReadingFault::Late { .. } => Severity::WarningLo,
+                ReadingFault::Back => Severity::ActivityLo,
             },
             CoreEvent::EstimateInvalid | CoreEvent::EngineFailure { .. } => Severity::Fatal,
             CoreEvent::Stop(answer) => match answer {

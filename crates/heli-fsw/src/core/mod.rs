@@ -27,6 +27,7 @@
 //! | [`restart::Restart`] | the in-air alignment, the trim | samples while aligning, commands | the estimate started in the air, the trim |
 
 pub mod aids;
+pub mod battery_channel;
 mod brake;
 pub mod calibration;
 mod degraded;
@@ -49,7 +50,7 @@ pub mod watchdog;
 mod weathervane;
 
 pub use aids::Aid;
-pub use event::{CoreEvent, Severity};
+pub use event::{CoreEvent, ReadingFault, Severity};
 pub use gps::Implausible;
 pub use heli_nav::calibration::{LeftOut, Motion};
 pub use mode_check::ModeRefusal;

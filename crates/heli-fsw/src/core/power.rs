@@ -21,6 +21,7 @@
 
 use heli_power::{FuelGauge, GaugeConfig, GaugeState, Level, PowerSource, Reading, SwapLog};
 
+use super::battery_channel::BatteryChannel;
 use super::event::CoreEvent;
 use super::{Action, Stamped};
 use crate::phase::Phase;
@@ -72,6 +73,8 @@ pub struct Power {
     /// The failsafe already taken (the worst level acted on).
     acted: Level,
     swap: SwapLog,
+    /// The flight battery's ADC channel, watched before its gauge believes it.
+    channel: BatteryChannel,
 }
 
 impl Power {
@@ -87,7 +90,20 @@ impl Power {
             drain_raised: [false; 3],
             acted: Level::Good,
             swap: SwapLog::default(),
+            channel: BatteryChannel::default(),
         }
+    }
+
+    /// The flight battery's channel at a control step: a reading overdue is raised.
+    pub fn watch_channel(&mut self, now_us: u64, out: &mut Vec<Action>) {
+        self.channel.watch(now_us, &mut |e| {
+            out.push(Action::Event(Stamped::new(now_us, e)));
+        });
+    }
+
+    /// The flight battery's channel watch.
+    pub fn channel(&self) -> &BatteryChannel {
+        &self.channel
     }
 
     /// A battery's gauge state (`None` before its first reading).
@@ -165,6 +181,17 @@ impl Power {
         if battery == Battery::Flight && self.source() == Some(PowerSource::Ground) {
             return;
         }
+        // The flight battery's channel is judged before its gauge: a frozen or garbled
+        // reading is not the pack's.
+        let volts = if battery == Battery::Flight {
+            let raised = &mut |e| out.push(Action::Event(Stamped::new(now_us, e)));
+            match self.channel.reading(volts, now_us, raised) {
+                Some(v) => v,
+                None => return,
+            }
+        } else {
+            volts
+        };
         let i = battery.index();
         let Some(gauge) = self.gauges.get_mut(i) else {
             return;

@@ -13,10 +13,22 @@ fn core() -> FlightCore {
     FlightCore::new(CoreConfig::default(), FlightParams::default())
 }
 
-/// Feeds the flight battery at `volts` once a second from `from_s` for `seconds`.
+/// Feeds the flight battery at `volts` once a second from `from_s` for `seconds`, with a
+/// channel's count of noise.
 fn battery(core: &mut FlightCore, out: &mut Vec<Action>, from_s: u64, seconds: u64, volts: f64) {
     for k in 0..seconds {
-        core.handle(Input::Battery { volts }, (from_s + k) * S, out);
+        let noise_v = if (from_s + k).is_multiple_of(2) {
+            0.0
+        } else {
+            0.004
+        };
+        core.handle(
+            Input::Battery {
+                volts: volts + noise_v,
+            },
+            (from_s + k) * S,
+            out,
+        );
     }
 }
 

@@ -92,6 +92,7 @@ impl FlightCore {
         if self.on_skids() && self.stats.control_steps.is_multiple_of(STILL_EVERY_STEPS) {
             self.nav.fuse_still();
         }
+        self.power.watch_channel(now_us, out);
 
         // An estimate declared invalid (the IMU went silent) is never flown on again.
         let estimate = self

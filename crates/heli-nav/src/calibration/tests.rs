@@ -226,6 +226,25 @@ fn a_second_exactly_at_the_rate_limit_is_still_and_one_beyond_it_is_motion() {
 }
 
 #[test]
+fn a_turns_edge_leaves_the_average_whole() {
+    // A second leaning 1 deg (under the tilt limit: kept), then a turn: the leaning second
+    // is the turn's edge and leaves the average, its specific force with it.
+    let (mut cal, mut t) = opened_for(10.0);
+    feed(&mut cal, &mut t, 2.99, |_| moving(0.0, 0.0));
+    feed(&mut cal, &mut t, 1.0, |_| moving(0.0, 0.0175));
+    feed(&mut cal, &mut t, 1.0, |_| moving(0.2, 0.0));
+    assert_eq!(cal.left_out_s(), 2);
+    let mut done = None;
+    while done.is_none() {
+        done = feed(&mut cal, &mut t, 0.01, |_| moving(0.0, 0.0));
+        assert!(t < 30_000_000, "never closed");
+    }
+    let b = done.unwrap_or_else(|| unreachable!());
+    assert!(b.mean_accel_mps2.y.abs() < 1e-12, "{b:?}");
+    assert!((b.gyro_rps.z - 0.02).abs() < 1e-12, "{b:?}");
+}
+
+#[test]
 fn the_seconds_judged_are_counted_and_a_restart_forgets_them() {
     let (mut cal, mut t) = opened_for(60.0);
     assert_eq!(cal.seconds_judged(), 0);
