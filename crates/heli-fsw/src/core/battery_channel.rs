@@ -91,9 +91,7 @@ impl BatteryChannel {
         };
         self.last_v = Some(volts);
         if self.same >= STUCK_READINGS {
-            if self.same == STUCK_READINGS {
-                self.episode(ReadingFault::Stuck { volts }, raise);
-            }
+            self.episode(ReadingFault::Stuck { volts }, raise);
             return None;
         }
         let near_used = self.last_used_v.is_none_or(|u| (volts - u).abs() <= JUMP_V);
@@ -139,16 +137,15 @@ impl BatteryChannel {
             return;
         };
         let age_s = now_us.saturating_sub(last_us) as f64 * 1e-6;
-        if age_s > LATE_S && !self.late {
+        if age_s > LATE_S {
+            if !self.late {
+                raise(CoreEvent::BatteryReading {
+                    battery: Battery::Flight,
+                    fault: ReadingFault::Late { age_s },
+                });
+            }
             self.late = true;
-            self.good_run = 0;
             self.raised = true;
-            raise(CoreEvent::BatteryReading {
-                battery: Battery::Flight,
-                fault: ReadingFault::Late { age_s },
-            });
-        }
-        if self.late && age_s > LATE_S {
             self.good_run = 0;
         }
     }
@@ -262,6 +259,8 @@ mod tests {
         c.watch(10_000_000, &mut |e| raised.push(e));
         assert!(raised.is_empty(), "nothing before the first reading");
         read(&mut c, 0, 3, noisy);
+        c.watch(2_000_000 + 3_000_000, &mut |e| raised.push(e));
+        assert!(raised.is_empty(), "exactly {LATE_S} s is not late");
         // Read every ten seconds for a minute.
         for k in 1..=6u64 {
             let now_us = (2 + 10 * k) * 1_000_000;

@@ -306,3 +306,39 @@ fn a_pack_draining_abnormally_is_raised_once() {
             .is_some_and(|s| s.draining_abnormally)
     );
 }
+
+#[test]
+fn the_flight_batterys_channel_is_judged_and_watched_by_the_core() {
+    let mut core = core();
+    let mut out = Vec::new();
+    battery(&mut core, &mut out, 0, 5, 12.4);
+    // A garbled reading of the flight battery is refused, not the pack's.
+    core.handle(Input::Battery { volts: 3.0 }, 5 * S, &mut out);
+    assert_eq!(core.power().channel().refused(), 1);
+    let raised = |out: &[Action], fault: fn(&ReadingFault) -> bool| {
+        out.iter().any(|a| {
+            matches!(a, Action::Event(e) if matches!(&e.value, CoreEvent::BatteryReading { battery: Battery::Flight, fault: f } if fault(f)))
+        })
+    };
+    assert!(raised(&out, |f| matches!(f, ReadingFault::Garbled { .. })));
+    // The receiver's readings (the uplink's) are not the channel's.
+    let mut pilot = super::tests::uplink(false, false);
+    for k in 0..5u64 {
+        pilot.receiver_batt_v = if k % 2 == 0 { 5.1 } else { 3.0 };
+        core.handle(Input::Uplink(pilot), (6 + k) * S, &mut out);
+    }
+    assert_eq!(core.power().channel().refused(), 1);
+    // No reading for more than 3 s, at the control steps: late.
+    let mut out = Vec::new();
+    for k in 0..500u64 {
+        core.handle(
+            Input::Imu(super::tests::still()),
+            11 * S + k * 10_000,
+            &mut out,
+        );
+    }
+    assert!(
+        raised(&out, |f| matches!(f, ReadingFault::Late { .. })),
+        "{out:?}"
+    );
+}
