@@ -14,11 +14,6 @@ const JUDGE_AFTER_S: f64 = 120.0;
 /// error is a large fraction of nothing.
 const JUDGE_ABOVE_S: f64 = 300.0;
 
-/// The battery channel's noise (σ, in battery volts): the divider's resistors and the
-/// supply's ripple at the ADC, about two counts (3.66 mV each). A real channel never gives
-/// the same count for long; the flight software's watch of a frozen channel counts on it.
-const ADC_NOISE_V: f64 = 0.008;
-
 /// The three packs and the hot-swap.
 #[derive(Clone, Debug)]
 pub(super) struct SimPower {
@@ -27,8 +22,6 @@ pub(super) struct SimPower {
     pub(super) servo: BatteryDevice,
     /// The hot-swap's line as last sent to the computer.
     line_sent: Option<bool>,
-    /// The battery channel's noise.
-    adc_noise: Noise,
 }
 
 /// What was measured of the batteries.
@@ -49,7 +42,6 @@ impl SimPower {
             receiver: BatteryDevice::of_scenario(&s.power.receiver, PackType::RECEIVER),
             servo: BatteryDevice::of_scenario(&s.power.servo, PackType::SERVO),
             line_sent: None,
-            adc_noise: Noise::new(s.seed, 10),
         }
     }
 }
@@ -109,7 +101,6 @@ impl Simulation {
             // The ground battery: a big pack, full, lightly loaded.
             PackType::FLIGHT.terminal_v(0.9, self.scenario.battery.load_a, 20.0)
         };
-        let volts = volts + self.power.adc_noise.gaussian(ADC_NOISE_V);
         if let Some(battery) = self.faulted_battery(volts) {
             self.read_battery(battery);
         }
