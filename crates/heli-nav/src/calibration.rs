@@ -82,6 +82,10 @@ pub const MOTION_TURN_RAD: f64 = 0.087;
 /// again.
 pub const NEVER_STILL_SECONDS: usize = 10;
 
+/// The most seconds a window's buffers are sized for at start-up (a window configured
+/// longer grows them as it goes).
+const MAX_ROOM_SECONDS: usize = 2000;
+
 /// Samples in one block of the motion check (a second at 100 Hz).
 pub const BLOCK: u32 = 100;
 
@@ -131,10 +135,13 @@ enum Verdict {
     Restart(Motion),
 }
 
-/// The seconds of the window and the sums of those kept.
+/// The seconds of the window and the sums of those kept. Its buffers are taken once, at
+/// start-up, and reused by every window ([`Window::clear`]).
 #[derive(Clone, Debug, Default)]
 struct Window {
     seconds: Vec<Second>,
+    /// Scratch for the median, one axis at a time.
+    axis: Vec<f64>,
     gyro_sum: Vector3<f64>,
     accel_sum: Vector3<f64>,
     count: u32,
@@ -149,17 +156,39 @@ struct Window {
 }
 
 impl Window {
+    /// A window with room for `seconds` seconds before its buffers grow.
+    fn with_capacity(seconds: usize) -> Self {
+        Self {
+            seconds: Vec::with_capacity(seconds),
+            axis: Vec::with_capacity(seconds),
+            ..Self::default()
+        }
+    }
+
+    /// Empty again, keeping its buffers.
+    fn clear(&mut self) {
+        let mut seconds = std::mem::take(&mut self.seconds);
+        let mut axis = std::mem::take(&mut self.axis);
+        seconds.clear();
+        axis.clear();
+        *self = Self {
+            seconds,
+            axis,
+            ..Self::default()
+        };
+    }
+
     fn kept(&self) -> impl Iterator<Item = &Second> {
         self.seconds.iter().filter(|s| s.kept)
     }
 
     /// The median of every second's mean rate, axis by axis.
-    fn median_rate(&self) -> Vector3<f64> {
-        let mut axis = Vec::with_capacity(self.seconds.len());
+    fn median_rate(&mut self) -> Vector3<f64> {
+        let (seconds, axis) = (&self.seconds, &mut self.axis);
         Vector3::from_fn(|i, _| {
             axis.clear();
-            axis.extend(self.seconds.iter().filter_map(|s| s.gyro.get(i).copied()));
-            median(&mut axis)
+            axis.extend(seconds.iter().filter_map(|s| s.gyro.get(i).copied()));
+            median(axis)
         })
     }
 
@@ -302,7 +331,14 @@ impl BiasCalibration {
             warm_up_us: seconds_to_us(warm_up_s),
             window_us: seconds_to_us(window_s),
             phase: CalibrationPhase::Waiting,
-            window: Window::default(),
+            // A window's seconds and those left out before it starts again: each second
+            // that moved takes its two edges with it, and no more moved than were still.
+            window: Window::with_capacity(
+                usize::try_from(seconds_to_us(window_s) / 1_000_000)
+                    .unwrap_or(0)
+                    .saturating_mul(4)
+                    .min(MAX_ROOM_SECONDS),
+            ),
             block_gyro: Vector3::zeros(),
             block_accel: Vector3::zeros(),
             block_count: 0,
@@ -354,7 +390,7 @@ impl BiasCalibration {
         self.phase = CalibrationPhase::Accumulating {
             until_us: t_us.saturating_add(self.window_us),
         };
-        self.window = Window::default();
+        self.window.clear();
         self.block_gyro = Vector3::zeros();
         self.block_accel = Vector3::zeros();
         self.block_count = 0;
@@ -430,8 +466,8 @@ impl BiasCalibration {
     }
 
     /// Judges the block ending with the sample at `t_us`: kept, left out (the window made
-    /// as much longer), or the window started again. False if it started again.
-    fn end_block(&mut self, t_us: u64) -> bool {
+    /// as much longer), or the window started again.
+    fn end_block(&mut self, t_us: u64) {
         let count = self.block_count;
         let second = Second {
             gyro: self.block_gyro / f64::from(count.max(1)),
@@ -446,10 +482,7 @@ impl BiasCalibration {
         self.block_count = 0;
         self.block_from_us = t_us;
         match self.window.judge(second) {
-            Verdict::Kept => {
-                self.moving = false;
-                true
-            }
+            Verdict::Kept => self.moving = false,
             Verdict::LeftOut(motion, longer_us) => {
                 if let CalibrationPhase::Accumulating { until_us } = &mut self.phase {
                     *until_us = until_us.saturating_add(longer_us);
@@ -463,12 +496,8 @@ impl BiasCalibration {
                     }
                     self.moving = true;
                 }
-                true
             }
-            Verdict::Restart(motion) => {
-                self.restart(t_us, motion);
-                false
-            }
+            Verdict::Restart(motion) => self.restart(t_us, motion),
         }
     }
 }

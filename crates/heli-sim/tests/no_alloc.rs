@@ -51,3 +51,42 @@ fn the_flying_control_process_does_not_allocate() {
     assert!(stats.gps_fixes - start.gps_fixes > 25, "{stats:?}");
     assert_eq!(counted.count_total, 0, "{counted:?}");
 }
+
+#[test]
+fn the_calibration_window_does_not_allocate_once_it_is_open() {
+    // Judging each second against the window's median and keeping its seconds is done in
+    // buffers taken when the flight computer is made, not once a second on the skids.
+    let mut sim = Simulation::new(scenario::hover()).unwrap_or_else(|e| panic!("{e}"));
+    sim.record_flight_software();
+    while sim.advance(80_000_000) {}
+    let recording = sim.recording().cloned().unwrap_or_default();
+    let (config, params) = sim.flight_software_setup();
+
+    let mut computer = FlightComputer::new(config, params, heli_proto::baro::DEFAULT_RATE_HZ);
+    computer.start(0, &mut |_, _| {});
+    let mut out: Vec<Action> = Vec::with_capacity(64);
+    let split = recording
+        .inputs
+        .iter()
+        .position(|(t_us, _)| *t_us >= 10_000_000)
+        .unwrap_or(recording.inputs.len());
+    let (before, after) = recording.inputs.split_at(split);
+    for (t_us, input) in before {
+        computer.receive(*t_us, input.as_input(), &mut |_, _| {}, &mut out);
+        out.clear();
+    }
+    assert_eq!(computer.core().phase(), Phase::Calibrating);
+    let counted = allocation_counter::measure(|| {
+        for (t_us, input) in after {
+            computer.receive(*t_us, input.as_input(), &mut |_, _| {}, &mut out);
+            out.clear();
+        }
+    });
+    assert_eq!(
+        computer.core().phase(),
+        Phase::Calibrating,
+        "still in the window"
+    );
+    assert!(computer.core().stats().imu_samples > 7000);
+    assert_eq!(counted.count_total, 0, "{counted:?}");
+}

@@ -69,6 +69,12 @@ impl BatteryChannel {
         self.refused
     }
 
+    /// A reading came at `now_us` that is not judged (the pack it measures is off the bus):
+    /// the channel is on time.
+    pub fn heard(&mut self, now_us: u64) {
+        self.last_read_us = Some(now_us);
+    }
+
     /// A reading of `volts` at `now_us`: the volts the gauge may use, or `None` (refused:
     /// frozen or garbled). What it sees is handed to `raise`.
     pub fn reading(
@@ -77,7 +83,7 @@ impl BatteryChannel {
         now_us: u64,
         raise: &mut dyn FnMut(CoreEvent),
     ) -> Option<f64> {
-        self.last_read_us = Some(now_us);
+        self.heard(now_us);
         let first = self.last_v.is_none();
         let consistent = self.last_v.is_some_and(|p| (volts - p).abs() <= JUMP_V);
         self.consistent_run = if consistent {

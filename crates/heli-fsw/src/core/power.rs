@@ -179,6 +179,8 @@ impl Power {
     ) {
         // On the ground battery the flight pack is off the bus: nothing to judge.
         if battery == Battery::Flight && self.source() == Some(PowerSource::Ground) {
+            // Its channel is read, though: on time, not late.
+            self.channel.heard(now_us);
             return;
         }
         // The flight battery's channel is judged before its gauge: a frozen or garbled

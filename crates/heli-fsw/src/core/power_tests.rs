@@ -342,3 +342,28 @@ fn the_flight_batterys_channel_is_judged_and_watched_by_the_core() {
         "{out:?}"
     );
 }
+
+#[test]
+fn on_the_ground_battery_the_channel_is_read_on_time_not_late() {
+    // The flight pack's readings, then the ground battery plugged in: its readings are not
+    // judged, but they come once a second, and the channel is not said to be late.
+    let mut core = core();
+    let mut out = Vec::new();
+    battery(&mut core, &mut out, 0, 5, 12.4);
+    core.handle(Input::PowerSource(PowerSource::Ground), 5 * S, &mut out);
+    let mut out = Vec::new();
+    for k in 0..1000u64 {
+        let now_us = 6 * S + k * 10_000;
+        core.handle(Input::Imu(super::tests::still()), now_us, &mut out);
+        if k % 100 == 0 {
+            core.handle(Input::Battery { volts: 12.9 }, now_us, &mut out);
+        }
+    }
+    assert!(
+        !out.iter().any(|a| matches!(
+            a,
+            Action::Event(e) if matches!(e.value, CoreEvent::BatteryReading { .. })
+        )),
+        "{out:?}"
+    );
+}
