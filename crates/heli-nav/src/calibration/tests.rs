@@ -369,3 +369,19 @@ proptest::proptest! {
         proptest::prop_assert!((b.gyro_rps.z - bias[2]).abs() < 1e-3);
     }
 }
+
+#[test]
+fn the_windows_buffers_are_taken_once_and_kept_through_restarts() {
+    // Room for the window's seconds and those left out with them: nothing is allocated
+    // while it is judged, in this window or the next (the flight computer's no-alloc test
+    // counts it).
+    let (mut cal, mut t) = opened_for(80.0);
+    let room = |cal: &BiasCalibration| (cal.window.seconds.capacity(), cal.window.axis.capacity());
+    let (seconds, axis) = room(&cal);
+    assert!(seconds >= 320 && axis >= 320, "{seconds} {axis}");
+    feed(&mut cal, &mut t, 5.0, |_| moving(0.0, 0.0));
+    feed(&mut cal, &mut t, 3.0, |_| moving(0.0, 0.07));
+    assert_eq!(cal.restarts(), 1, "started again");
+    assert_eq!(cal.seconds_judged(), 0);
+    assert_eq!(room(&cal), (seconds, axis), "the same buffers");
+}
