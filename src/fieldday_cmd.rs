@@ -80,13 +80,16 @@ pub fn field_day(args: &FieldDayArgs) -> Result<ExitCode> {
         options.out.display()
     );
     let options_out = options.out.clone();
-    let outcomes = heli_fieldday::run(&options, |o| {
+    let outcomes = heli_fieldday::run(&options, |o, verdict| {
+        let said = match (verdict, o.pass) {
+            (false, _) => format!("VOID, trying again ({})", o.starved.join("; ")),
+            (true, true) if o.void_tries.is_empty() => "pass".into(),
+            (true, true) => format!("pass (after {} void tries)", o.void_tries.len()),
+            (true, false) => "FAIL".into(),
+        };
         eprintln!(
-            "field day: {} while {}: {} ({:.0} s)",
-            o.fault,
-            o.phase,
-            if o.pass { "pass" } else { "FAIL" },
-            o.seconds
+            "field day: {} while {}: {said} ({:.0} s)",
+            o.fault, o.phase, o.seconds
         );
         if !o.pass {
             eprint!(

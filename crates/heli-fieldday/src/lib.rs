@@ -90,11 +90,16 @@ pub fn all_trials() -> Vec<(Fault, Phase)> {
         .collect()
 }
 
+/// Tries of one trial at most: a failed try in which the machine starved the HILSim
+/// ([`Outcome::starved`]) is void and run again, up to this many in all; a trial void every
+/// time fails, saying so.
+pub const TRIES: usize = 3;
+
 /// Runs the trials one after the other (real time: never two at once), telling `progress`
-/// of each as it ends.
+/// of each try as it ends (`true`: the trial's verdict; `false`: a void try, run again).
 pub fn run(
     options: &Options,
-    mut progress: impl FnMut(&Outcome),
+    mut progress: impl FnMut(&Outcome, bool),
 ) -> Result<Vec<Outcome>, FieldDayError> {
     if !judge::python_has_mcap(&options.python) {
         return Err(FieldDayError::Setup(format!(
@@ -112,16 +117,37 @@ pub fn run(
     }
     let mut outcomes = Vec::new();
     for &(fault, phase) in &options.trials {
-        let outcome = trial::run(
-            &options.programs,
-            &options.python,
-            &options.out,
-            fault,
-            phase,
-            options.seed,
-            options.mount,
-        )?;
-        progress(&outcome);
+        let mut void_tries = Vec::new();
+        let outcome = loop {
+            let mut outcome = trial::run(
+                &options.programs,
+                &options.python,
+                &options.out,
+                fault,
+                phase,
+                options.seed,
+                options.mount,
+            )?;
+            let void = !outcome.pass && !outcome.starved.is_empty();
+            if void && void_tries.len() + 1 < TRIES {
+                void_tries.push(format!(
+                    "try {} void: {}",
+                    void_tries.len() + 1,
+                    outcome.starved.join("; ")
+                ));
+                progress(&outcome, false);
+                continue;
+            }
+            if void {
+                outcome.problems.push(format!(
+                    "void in each of {TRIES} tries: the machine could not keep the HILSim in real time ({})",
+                    outcome.starved.join("; ")
+                ));
+            }
+            outcome.void_tries = std::mem::take(&mut void_tries);
+            break outcome;
+        };
+        progress(&outcome, true);
         outcomes.push(outcome);
     }
     Ok(outcomes)

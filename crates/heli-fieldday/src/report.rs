@@ -51,7 +51,8 @@ fn told(o: &Outcome) -> String {
 fn verdict(o: &Outcome) -> String {
     match (&o.skipped, o.pass) {
         (Some(why), _) => format!("not run: {why}"),
-        (None, true) => "pass".into(),
+        (None, true) if o.void_tries.is_empty() => "pass".into(),
+        (None, true) => format!("pass ({})", o.void_tries.join("; ")),
         (None, false) if o.problems.is_empty() => "**fail**".into(),
         (None, false) => format!("**fail**: {}", o.problems.join("; ")),
     }

@@ -43,6 +43,12 @@ pub struct Outcome {
     pub untold: Vec<String>,
     /// Anything else that went wrong.
     pub problems: Vec<String>,
+    /// Where the HILSim was starved by the machine (its device writes left past the IMU's
+    /// silence limit), beyond a stall injected on purpose: a failed trial with any is void,
+    /// as the machine stopped the world, and is run again ([`crate::run`]).
+    pub starved: Vec<String>,
+    /// Earlier tries of this trial that were void, and why.
+    pub void_tries: Vec<String>,
     /// Not run on this machine, and why.
     pub skipped: Option<String>,
     /// The helicopter flew on or landed softly, every log opened, nothing lost beyond the
@@ -107,6 +113,37 @@ fn resident_mib(pid: u32) -> Option<f64> {
         .parse()
         .ok()?;
     Some(kib / 1024.0)
+}
+
+/// The starved stretches of a HILSim summary (`hil.starved`) in words, less the one a
+/// stall injected on purpose made (the longest, when it is as long as the stall).
+fn starved(stretches: &serde_json::Value, fault: Fault) -> Vec<String> {
+    let mut list: Vec<(f64, f64, f64)> = stretches
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|s| {
+            let get = |k: &str| s[k].as_f64().unwrap_or(0.0);
+            (get("from_s"), get("to_s"), get("late_ms"))
+        })
+        .collect();
+    if let Fault::Stall(ms) = fault {
+        let longest = list
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.2.total_cmp(&b.1.2))
+            .map(|(k, s)| (k, s.2));
+        if let Some((k, late_ms)) = longest
+            && late_ms >= 0.9 * f64::from(ms)
+        {
+            list.remove(k);
+        }
+    }
+    list.iter()
+        .map(|(from_s, to_s, late_ms)| {
+            format!("the machine starved the HILSim {late_ms:.0} ms at t={from_s:.1}..{to_s:.1} s")
+        })
+        .collect()
 }
 
 /// A trial under way.
@@ -208,6 +245,8 @@ pub fn run(
         memory_mib: None,
         untold: Vec::new(),
         problems: Vec::new(),
+        starved: Vec::new(),
+        void_tries: Vec::new(),
         skipped: None,
         pass: false,
     };
@@ -392,6 +431,7 @@ pub fn run(
             Ok(summary) => {
                 outcome.truth_read = true;
                 outcome.crash = summary["crash"].clone();
+                outcome.starved = starved(&summary["hil"]["starved"], fault);
             }
             Err(e) => run.problems.push(format!("the HILSim's summary: {e}")),
         }
@@ -458,4 +498,26 @@ pub fn run(
         && outcome.logs.iter().all(LogCheck::readable)
         && outcome.untold.is_empty();
     Ok(outcome)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stall_injected_on_purpose_is_not_starvation_but_the_machine_s_is() {
+        let stretches = serde_json::json!([
+            {"from_s": 2.0, "to_s": 2.4, "late_ms": 420.0},
+            {"from_s": 30.0, "to_s": 30.0, "late_ms": 3001.0},
+        ]);
+        assert_eq!(
+            starved(&stretches, Fault::Stall(3000)),
+            ["the machine starved the HILSim 420 ms at t=2.0..2.4 s"]
+        );
+        assert_eq!(starved(&stretches, Fault::KillFlight).len(), 2);
+        // A stall shorter than the machine's starvation leaves the starvation said.
+        let short = serde_json::json!([{"from_s": 2.0, "to_s": 2.4, "late_ms": 150.0}]);
+        assert_eq!(starved(&short, Fault::Stall(3000)).len(), 1);
+        assert!(starved(&serde_json::Value::Null, Fault::Brownout).is_empty());
+    }
 }

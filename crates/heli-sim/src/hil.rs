@@ -23,7 +23,7 @@ use heli_types::Port;
 use serialport::{SerialPort, TTYPort};
 
 use crate::lockstep::{HilOut, Simulation};
-use crate::summary::{HilStamps, HilSummary, Percentiles, Summary};
+use crate::summary::{HilStamps, HilSummary, Percentiles, Starved, Summary};
 use heli_scenario::Scenario;
 
 /// Why the HILSim could not run, or stopped early.
@@ -83,6 +83,38 @@ pub const HILSIM_PRIORITY: u8 = 85;
 /// A device write this late is said on standard error (`hilsim: behind: ...`), at most once
 /// every [`BEHIND_EVERY`]: the world, not the flight computer, was late.
 pub const BEHIND: Duration = Duration::from_millis(5);
+
+/// A device write this late is a starved stretch of the run ([`Starved`]): the IMU's
+/// silence limit on the flight computer (`heli_fsw::health::timing_us`), past which the
+/// vehicle sees its IMU stop.
+pub const STARVED: Duration = Duration::from_millis(100);
+
+/// Most starved stretches a summary keeps (a machine starved more often than this is said
+/// by the first ones).
+pub const STARVED_KEPT: usize = 50;
+
+/// Writes starved within this much simulated time of the last are one stretch.
+const STARVED_JOIN_S: f64 = 1.0;
+
+/// Adds a write that left `late` after its due time `t_s` to the starved stretches.
+fn note_starved(starved: &mut Vec<Starved>, t_s: f64, late: Duration) {
+    if late <= STARVED {
+        return;
+    }
+    let late_ms = late.as_secs_f64() * 1e3;
+    if let Some(last) = starved.last_mut()
+        && t_s - last.to_s <= STARVED_JOIN_S
+    {
+        last.to_s = t_s;
+        last.late_ms = last.late_ms.max(late_ms);
+    } else if starved.len() < STARVED_KEPT {
+        starved.push(Starved {
+            from_s: t_s,
+            to_s: t_s,
+            late_ms,
+        });
+    }
+}
 
 /// Least time between two `hilsim: behind` lines.
 pub const BEHIND_EVERY: Duration = Duration::from_secs(1);
@@ -333,6 +365,7 @@ pub fn run(
     let mut latency = Latency::new(options.stamps);
     let (mut write_late_max, mut writes_late) = (Duration::ZERO, 0u64);
     let mut said_behind: Option<Instant> = None;
+    let mut starved = Vec::new();
     loop {
         if stop.load(Ordering::Acquire) {
             break;
@@ -359,6 +392,7 @@ pub fn run(
             if late > Duration::from_millis(1) {
                 writes_late += 1;
             }
+            note_starved(&mut starved, t_us as f64 * 1e-6, late);
             if late > BEHIND && said_behind.is_none_or(|at: Instant| at.elapsed() >= BEHIND_EVERY) {
                 said_behind = Some(Instant::now());
                 eprintln!(
@@ -399,6 +433,7 @@ pub fn run(
         dropped_writes: dropped,
         write_late_max_us: write_late_max.as_secs_f64() * 1e6,
         writes_late_over_1ms: writes_late,
+        starved,
         stamps: latency.stamps.take(),
     });
     if dropped > 0 {
@@ -407,4 +442,39 @@ pub fn run(
         ));
     }
     Ok(summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_starved_past_the_imu_silence_limit_make_stretches() {
+        let mut starved = Vec::new();
+        note_starved(&mut starved, 1.0, Duration::from_millis(100));
+        assert!(starved.is_empty(), "at the limit is not starved");
+        note_starved(&mut starved, 2.0, Duration::from_millis(250));
+        note_starved(&mut starved, 2.5, Duration::from_millis(500));
+        note_starved(&mut starved, 2.6, Duration::from_millis(101));
+        note_starved(&mut starved, 4.0, Duration::from_millis(125));
+        assert_eq!(
+            starved,
+            [
+                Starved {
+                    from_s: 2.0,
+                    to_s: 2.6,
+                    late_ms: 500.0
+                },
+                Starved {
+                    from_s: 4.0,
+                    to_s: 4.0,
+                    late_ms: 125.0
+                }
+            ]
+        );
+        for k in 0..2 * STARVED_KEPT {
+            note_starved(&mut starved, 10.0 + 2.0 * k as f64, STARVED * 2);
+        }
+        assert_eq!(starved.len(), STARVED_KEPT, "kept to a bound");
+    }
 }

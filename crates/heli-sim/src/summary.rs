@@ -263,10 +263,26 @@ pub struct HilSummary {
     pub write_late_max_us: f64,
     /// Device writes that left more than 1 ms after their due time.
     pub writes_late_over_1ms: u64,
+    /// The stretches in which the HILSim's writes left more than
+    /// [`crate::hil::STARVED`] late: the world stood still for the flight computer long
+    /// enough for its IMU watchdog to call the IMU silent. A run with any (beyond a stall
+    /// injected on purpose) measured the machine, not the flight computer.
+    pub starved: Vec<Starved>,
     /// Each IMU packet's write and each servo packet's read, when the run was asked to keep
     /// them ([`crate::hil::HilOptions::stamps`]).
     #[serde(skip)]
     pub stamps: Option<HilStamps>,
+}
+
+/// A stretch of the run in which the HILSim was starved (its device writes left late).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Starved {
+    /// Simulated time of the first write that left too late (s).
+    pub from_s: f64,
+    /// Simulated time of the last write in the stretch that left too late (s).
+    pub to_s: f64,
+    /// The latest any write of the stretch left (ms).
+    pub late_ms: f64,
 }
 
 /// The HILSim's own stamps on `CLOCK_MONOTONIC` (ns), the clock the flight process's
@@ -414,6 +430,13 @@ pub fn table(s: &Summary) -> String {
             h.write_late_max_us / 1e3,
             h.writes_late_over_1ms
         );
+        for st in &h.starved {
+            let _ = writeln!(
+                out,
+                "hilsim     STARVED t={:.2}..{:.2} s: writes up to {:.0} ms late (the flight computer saw the world stop)",
+                st.from_s, st.to_s, st.late_ms
+            );
+        }
         let _ = writeln!(
             out,
             "battery    min {} V",
