@@ -68,6 +68,10 @@ let failed = null;
 try {
   const ctx = await browser.newContext({ viewport: { width: 1366, height: 900 } });
   const page = await ctx.newPage();
+  page.on("pageerror", (e) => log(`page error: ${e.message}`));
+  page.on("console", (m) => {
+    if ((m.type() === "error" || m.type() === "warning") && !m.text().includes("GL Driver Message")) log(`page ${m.type()}: ${m.text()}`);
+  });
   page.on("pageerror", (e) => { failed = failed || new Error(`page error: ${e.message}`); });
   await page.goto(url);
   await waitFor("the page's WebSocket", async () =>
@@ -155,6 +159,13 @@ try {
   // The flight's plan came from the vehicle (mission protocol) and is drawn on the track.
   const plan = await page.evaluate(() => window.heli.view().plan.map((p) => p.kind).join(","));
   if (plan !== "takeoff,hold") throw new Error(`the hover's plan: '${plan}'`);
+  // The estimate's 3D view is the simulator's renderer (WebGL), not the flat fallback, and
+  // it shows the helicopter.
+  await waitFor("the estimate's 3D view", async () => page.evaluate(() =>
+    Boolean(window.heliEstimateView && window.heliEstimateDrawn && window.heliEstimateDrawn.heliOnScreen)));
+  const solid = await page.evaluate(() => window.heliEstimateView.measure(0));
+  log(`estimate's 3D view: the helicopter ${solid.heli.across_px} px across, horizon ${solid.horizon}`);
+  if (!(solid.heli.across_px >= 20 && solid.horizon)) throw new Error(`the estimate's 3D view: ${JSON.stringify(solid)}`);
   await shot(page, "05-flying");
 
   // A second operator sees the same state and cannot command.

@@ -9,7 +9,8 @@
 //!   with the vehicle clock, each channel with a real JSON Schema ([`schema`]) and its own
 //!   sequence numbers; `foxglove/tf`, `foxglove/fix` and `foxglove/log` repeat the pose, the
 //!   GPS fix and the events in Foxglove's well-known schemas so its 3D, map and log panels
-//!   show a flight with no configuration. Metadata records hold the flight's parameters.
+//!   show a flight with no configuration, and `foxglove/scene` ([`scene`]) puts the X-Cell's
+//!   own shape on the body frame for the 3D panel. Metadata records hold the flight's parameters.
 //! - Crash safety: the writer keeps the chunk it is filling in memory and, at least every
 //!   100 ms of log time ([`FLUSH_EVERY_US`]) or of wall-clock time ([`FLUSH_EVERY_WALL`]),
 //!   appends it to the file as complete records in one write, followed by a 50-byte
@@ -34,6 +35,7 @@ pub mod inputs;
 pub mod metadata;
 pub mod reader;
 pub mod records;
+pub mod scene;
 pub mod schema;
 pub mod stats;
 pub mod writer;

@@ -154,10 +154,19 @@ impl<F: LogFile> FlightLog<F> {
     }
 
     fn write_views(&mut self, record: &Record) -> Result<(), LogError> {
-        match foxglove_views(record) {
-            Some((topic, value)) => self.write(topic, record_time(record), &value),
-            None => Ok(()),
+        let t_us = record_time(record);
+        if let Some((topic, value)) = foxglove_views(record) {
+            self.write(topic, t_us, &value)?;
         }
+        // The helicopter's shape with its first pose, and again now and then.
+        if matches!(record, Record::State(_)) && self.scene_due(t_us) {
+            self.write(
+                crate::scene::SCENE_TOPIC,
+                t_us,
+                &crate::scene::scene_update(t_us),
+            )?;
+        }
+        Ok(())
     }
 
     /// Appends a flight-core event to `events`, and to `foxglove/log` for Foxglove's log

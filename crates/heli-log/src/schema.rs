@@ -285,6 +285,10 @@ pub fn for_topic(topic: &str) -> ChannelSchema {
             name: "foxglove.LocationFix".into(),
             json: foxglove::location_fix_schema(),
         },
+        crate::scene::SCENE_TOPIC => ChannelSchema {
+            name: "foxglove.SceneUpdate".into(),
+            json: crate::scene::scene_update_schema(),
+        },
         foxglove::LOG_TOPIC => ChannelSchema {
             name: "foxglove.Log".into(),
             json: foxglove::log_schema(),

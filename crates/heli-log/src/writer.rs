@@ -222,6 +222,8 @@ pub struct FlightLog<F: LogFile> {
     last_sync_wall: Option<Instant>,
     unsynced: bool,
     stats: WriterStats,
+    /// Log time the helicopter's scene was last written (`crate::scene`).
+    scene_at_us: Option<u64>,
 }
 
 impl FlightLog<File> {
@@ -285,6 +287,7 @@ impl<F: LogFile> FlightLog<F> {
             last_sync_wall: None,
             unsynced: false,
             stats: WriterStats::default(),
+            scene_at_us: None,
         };
         log.write_out(&PROVISIONAL_END)?;
         log.sync_if_due(true)?;
@@ -485,6 +488,18 @@ impl<F: LogFile> FlightLog<F> {
     /// Messages written so far.
     pub fn messages(&self) -> u64 {
         self.stats.messages
+    }
+
+    /// True when the helicopter's scene is to be written with a message at `t_us` (the
+    /// first time, and [`crate::scene::SCENE_EVERY_US`] after the last), and notes it so.
+    pub(crate) fn scene_due(&mut self, t_us: u64) -> bool {
+        let due = self
+            .scene_at_us
+            .is_none_or(|at| t_us < at || t_us.saturating_sub(at) >= crate::scene::SCENE_EVERY_US);
+        if due {
+            self.scene_at_us = Some(t_us);
+        }
+        due
     }
 
     /// Counts of what the writer has done.

@@ -297,4 +297,20 @@ mod tests {
         };
         assert_eq!(constant.density_at(1000.0), 1.225);
     }
+
+    #[test]
+    fn the_drawn_x_cell_has_the_model_s_dimensions() {
+        use heli_types::shape;
+        let a = Airframe::default();
+        assert_eq!(shape::MAIN_ROTOR_RADIUS_M, a.mr_radius_m);
+        assert_eq!(shape::MAIN_ROTOR_HUB_HEIGHT_M, a.mr_hub_height_m);
+        assert_eq!(shape::TAIL_ROTOR_RADIUS_M, a.tr_radius_m);
+        assert_eq!(shape::TAIL_ROTOR_ARM_M, a.tr_arm_m);
+        assert_eq!(shape::TAIL_ROTOR_HEIGHT_M, a.tr_height_m);
+        for [x, y, z] in a.skid_points_m {
+            assert_eq!(z, shape::SKID_DEPTH_M);
+            assert_eq!(y.abs(), shape::SKID_HALF_TRACK_M);
+            assert!(x.abs() < 0.5 * shape::SKID_LENGTH_M);
+        }
+    }
 }

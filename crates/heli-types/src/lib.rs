@@ -4,7 +4,8 @@
 //! the flight mode the operator picks ([`mode`]), the autonomous flight plan and its legs
 //! ([`plan`]) and the lab's library of named plans ([`library`]), the devices the flight
 //! software watches and the serial ports they speak on ([`device`]), the pilot's
-//! transmitter ([`transmitter`]). The vehicle, the
+//! transmitter ([`transmitter`]), and the airframe's outward shape that every picture of it
+//! draws ([`shape`]). The vehicle, the
 //! simulator, the link and the ground station all speak of these with these types, so none
 //! of them has to link another to agree on a word.
 //!
@@ -25,6 +26,7 @@ pub mod device;
 pub mod library;
 pub mod mode;
 pub mod plan;
+pub mod shape;
 pub mod transmitter;
 
 pub use device::{Device, Port};

@@ -240,7 +240,7 @@ impl Gate {
             return match self.role_of(key) {
                 Some(_) => Decision::Login {
                     key: key.to_string(),
-                    location: uri.path().to_string(),
+                    location: without_key(uri),
                 },
                 None => Decision::Refuse(StatusCode::UNAUTHORIZED, not_the_key()),
             };
@@ -270,6 +270,22 @@ fn base_url(addr: SocketAddr) -> String {
         IpAddr::V4(ip) => ip.to_string(),
     };
     format!("http://{ip}:{}/", addr.port())
+}
+
+/// Where a page's address points once its key is a cookie: the same path and query, less
+/// the key (the page's own settings, `?camera=chase`, stay).
+fn without_key(uri: &Uri) -> String {
+    let rest: Vec<&str> = uri
+        .query()
+        .into_iter()
+        .flat_map(|q| q.split('&'))
+        .filter(|pair| !pair.is_empty() && !pair.starts_with("key="))
+        .collect();
+    if rest.is_empty() {
+        uri.path().to_string()
+    } else {
+        format!("{}?{}", uri.path(), rest.join("&"))
+    }
 }
 
 /// The `key` parameter of the query, if any.

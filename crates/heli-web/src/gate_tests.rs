@@ -174,6 +174,17 @@ fn the_key_in_the_address_becomes_a_strict_http_only_cookie_and_a_wrong_one_is_r
             location: "/".into()
         }
     );
+    // The page's own settings stay in the address; only the key leaves it.
+    let with_settings: Uri = format!("/?camera=chase&key={OP}&pilot=-20,5")
+        .parse()
+        .unwrap();
+    assert_eq!(
+        g.decide(&with_settings, &host),
+        Decision::Login {
+            key: OP.into(),
+            location: "/?camera=chase&pilot=-20,5".into()
+        }
+    );
     assert_eq!(
         g.set_cookie(OP),
         format!("heli_ground_8080={OP}; HttpOnly; SameSite=Strict; Path=/")

@@ -15,8 +15,11 @@ use axum::http::{StatusCode, Uri, header};
 use axum::response::{IntoResponse, Response};
 use include_dir::{Dir, include_dir};
 
-/// The files every page may load: `instruments.js` (the 3D view, the attitude and the
-/// compass) and `style.css`.
+/// The files every page may load: `view3d.js` (the 3D view of the helicopter, a module on
+/// three.js: `three.module.min.js`, vendored with its licence `three.LICENSE.txt`),
+/// `instruments.js` (the attitude, the track, the plots, and the flat 3D drawing used where
+/// WebGL is not to be had) and `style.css`; and `xcell60.json`, the helicopter's shape
+/// ([`heli_types::shape::XCELL_60`], as the flight log carries it).
 pub static SHARED: Dir<'_> = include_dir!("$CARGO_MANIFEST_DIR/web");
 
 /// A page's files: its own directory, then [`SHARED`].
@@ -34,6 +37,16 @@ impl Site {
     pub fn file(&self, uri: &Uri) -> Response {
         let path = uri.path().trim_start_matches('/');
         let path = if path.is_empty() { "index.html" } else { path };
+        if path == SHAPE_FILE {
+            return (
+                [
+                    (header::CONTENT_TYPE, "application/json"),
+                    (header::CACHE_CONTROL, "no-cache"),
+                ],
+                shape_json(),
+            )
+                .into_response();
+        }
         let Some(file) = self.own.get_file(path).or_else(|| SHARED.get_file(path)) else {
             return (
                 StatusCode::NOT_FOUND,
@@ -50,6 +63,14 @@ impl Site {
         )
             .into_response()
     }
+}
+
+/// The path under which every page finds the helicopter's shape.
+pub const SHAPE_FILE: &str = "xcell60.json";
+
+/// The X-Cell 60's parts as JSON (`[{name, solid: {kind, ...}, center_frd_m, rgba, group}]`).
+pub fn shape_json() -> String {
+    serde_json::to_string(heli_types::shape::XCELL_60).unwrap_or_else(|_| "[]".into())
 }
 
 /// The content type of a file by its name.
@@ -107,6 +128,18 @@ mod tests {
         assert_eq!(status, StatusCode::NOT_FOUND);
         assert_eq!(text, "no index.html on this test page");
         assert_eq!(content_type("a.css"), "text/css; charset=utf-8");
+        let (status, kind, text) = body(site.file(&Uri::from_static("/xcell60.json")));
+        assert_eq!(
+            (status, kind.as_str()),
+            (StatusCode::OK, "application/json")
+        );
+        let parts: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(
+            parts.as_array().map(Vec::len),
+            Some(heli_types::shape::XCELL_60.len())
+        );
+        assert_eq!(parts[0]["solid"]["kind"], "ellipsoid");
+        assert_eq!(parts[2]["solid"]["axis"], "forward");
         assert_eq!(content_type("a.html"), "text/html; charset=utf-8");
     }
 }

@@ -1,6 +1,8 @@
 // The instruments of the display, drawn from telemetry (the estimate, never the simulator's
-// truth): attitude indicator, top-down track, a 3D view of the helicopter, and plots.
-// Plain 2D canvas; no library.
+// truth): attitude indicator, top-down track, the 3D view of the helicopter, and plots.
+// Plain 2D canvas; no library. The 3D view is view3d.js's (WebGL) where the page set one up
+// (window.heliEstimateView), else, once the page has found no WebGL (window.heliEstimateFlat),
+// the flat drawing here, which the simulator's page also falls back on.
 "use strict";
 
 (function () {
@@ -293,7 +295,16 @@
     draw(inst, history, plan) {
       attitude(inst);
       track(inst, history, plan || []);
-      view3d(inst, history, plan || []);
+      // The 3D view of the estimate (view3d.js, set up by the page) where WebGL is; the
+      // flat drawing where it is not.
+      // (Nothing until the page has tried WebGL: a canvas drawn flat first can never be
+      // WebGL's.)
+      const solid = window.heliEstimateView;
+      if (solid && inst && inst.pos_ned_m) {
+        window.heliEstimateDrawn = solid.render(inst, history, plan || [], [0, 0, 0], null)[0];
+      } else if (window.heliEstimateFlat) {
+        view3d(inst, history, plan || []);
+      }
       plot("plot-rates", history, [
         ["p", "#ff6b6b", (s) => s.rate_rps[0] * DEG],
         ["q", "#6bd36b", (s) => s.rate_rps[1] * DEG],

@@ -232,3 +232,72 @@ fn records_go_to_their_channels_with_their_foxglove_views() {
     assert_eq!(logs[1].value["level"], EventLevel::Warning.foxglove());
     assert_eq!(logs[1].value["message"], "t=3.00 s watchdog fired");
 }
+
+/// A flight of `seconds` of state records at 50 Hz, as a finished log.
+fn states_log(seconds: u64) -> Vec<u8> {
+    let mut log = FlightLog::new(Cursor::new(Vec::new())).unwrap_or_else(|e| panic!("{e}"));
+    for k in 0..seconds * 50 {
+        let record = Record::State(stamped(
+            1_000_000 + k * 20_000,
+            StateRecord {
+                nav: nav(),
+                phase: Phase::Manual,
+                target: None,
+            },
+        ));
+        log.write_record(&record).unwrap_or_else(|e| panic!("{e}"));
+    }
+    log.finish().unwrap_or_else(|e| panic!("{e}")).into_inner()
+}
+
+#[test]
+fn the_helicopter_s_scene_comes_with_the_first_pose_and_every_ten_seconds() {
+    let contents = read(&states_log(25));
+    let scenes: Vec<u64> = contents
+        .messages
+        .iter()
+        .filter(|m| m.topic == crate::scene::SCENE_TOPIC)
+        .map(|m| m.t_us)
+        .collect();
+    assert_eq!(scenes, [1_000_000, 11_000_000, 21_000_000]);
+    assert_eq!(
+        contents
+            .schemas
+            .get(crate::scene::SCENE_TOPIC)
+            .map(String::as_str),
+        Some("foxglove.SceneUpdate")
+    );
+}
+
+/// Foxglove's published schema, checked by Python's `jsonschema` (which knows nothing of
+/// heli) on the scene messages the official MCAP reader reads from a log: runs where
+/// `HELI_MCAP_PYTHON` names a Python with `mcap` and `jsonschema` (CI's), else says so.
+#[test]
+fn the_scene_validates_against_foxglove_s_published_schema_in_the_official_validator() {
+    let Some(python) = std::env::var_os("HELI_MCAP_PYTHON") else {
+        println!("HELI_MCAP_PYTHON is not set: the official validator was not run");
+        return;
+    };
+    let dir = std::env::temp_dir().join(format!("heli-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let log = dir.join("scene.mcap");
+    std::fs::write(&log, states_log(12)).unwrap_or_else(|e| panic!("{e}"));
+    let schema = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/schemas/foxglove/SceneUpdate.json"
+    );
+    const SCRIPT: &str = "import json, sys, jsonschema\nfrom mcap.reader import make_reader\nschema = json.load(open(sys.argv[2]))\nn = 0\nwith open(sys.argv[1], 'rb') as f:\n    for s, c, m in make_reader(f).iter_messages(topics=['foxglove/scene']):\n        assert json.loads(s.data) == schema, 'the channel schema is not the published one'\n        jsonschema.validate(json.loads(m.data), schema)\n        n += 1\nprint(n)\n";
+    let out = std::process::Command::new(&python)
+        .args(["-c", SCRIPT])
+        .arg(&log)
+        .arg(schema)
+        .output()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), "2");
+}

@@ -65,6 +65,12 @@ pub fn publish(feed: &TruthFeed, sim: &Simulation, cockpit: Option<&Cockpit>) {
     if let Ok(mut value) = serde_json::to_value(frame) {
         if let Some(map) = value.as_object_mut() {
             map.insert("type".into(), "truth".into());
+            // When this state was taken (the workstation's clock, ms since 1970): the page
+            // shows the latency from the simulator's state to its frame on screen.
+            let taken_ms = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0.0, |d| d.as_secs_f64() * 1e3);
+            map.insert("taken_unix_ms".into(), taken_ms.into());
             if let Some(c) = cockpit {
                 let log: Vec<serde_json::Value> = c
                     .log

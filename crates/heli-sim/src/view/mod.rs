@@ -1,8 +1,10 @@
 //! The HILSim's view of the flying helicopter (`heli hilsim --view ADDR`): a web page that
-//! draws the simulator's truth in 3D — the X-Cell with its rotor disk tilting with the
-//! flapping, the field's grid and the take-off point, the flight plan, a trail, a chase
-//! camera and a fixed field camera, the wind. It is the truth, labelled so; the ground
-//! display (`heli ground --http`) draws the vehicle's estimate and says so.
+//! draws the simulator's truth in real 3D (WebGL, three.js vendored in `heli-web`) — the
+//! X-Cell 60 as solids at its true size with its rotor disk tilting with the flapping, its
+//! shadow on a mown field with the take-off pad and distance rings, sky and horizon, the
+//! flight plan, a trail, a wind sock — seen from where the pilot stands (auto-zoom), from a
+//! chase camera or from above. It is the truth, labelled so; the ground display (`heli ground
+//! --http`) draws the vehicle's estimate and says so.
 //!
 //! The simulator publishes a frame (JSON) whenever it likes ([`TruthFeed::publish`]); each
 //! page gets the setup (the plan, the scenario's name) once and then the newest frame at most

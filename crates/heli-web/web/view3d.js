@@ -1,0 +1,683 @@
+// The 3D view of the X-Cell 60, drawn with three.js (vendored: three.module.min.js, MIT,
+// three.LICENSE.txt): the helicopter as solids at its true dimensions (xcell60.json, the shape
+// the flight log also carries), its main rotor disk tilted by the flapping with spinning
+// blades, its shadow on a mown field with the take-off pad and distance rings, sky and
+// horizon, the plan and the trail, a wind sock. Cameras: the pilot's (standing where an RC
+// pilot stands, turning to keep the helicopter centred and zooming to keep it a flyable
+// size), chase and top.
+//
+// Frames (the same as the flight software's): world NED (north, east, down) from the
+// take-off point, body FRD (forward, right, down). three.js draws in x east, y up, z south.
+//
+//   const view = await HeliView.create(canvas, { camera: "pilot", inset: { camera: "chase",
+//                                                x: 860, y: 12, w: 400, h: 250 } });
+//   view.render({ pos_ned_m, euler_rad, flap_rad, rotor_rpm, wind_ned_mps }, history, plan,
+//               home, { produced_ms })   // once per animation frame
+//
+// Every render returns, for each camera, what it shows (the helicopter's size on screen,
+// whether its shadow and the horizon are in view, frames per second, the state-to-frame
+// latency); `measure(k)` counts camera k's rendered pixels of the helicopter, its shadow, the
+// sky and the ground.
+import * as THREE from "./three.module.min.js";
+
+const DEG = Math.PI / 180;
+// Where the sun is (three.js axes, toward the light): high in the south-west.
+const SUN = new THREE.Vector3(-0.25, 1.0, 0.2).normalize();
+const SKY_ZENITH = new THREE.Color(0x3f7fc8);
+const SKY_HORIZON = new THREE.Color(0xcfe0ee);
+// The pilot's eye above the ground (m), and where the pilot stands from the take-off point
+// (m north, m east) unless placed elsewhere: 15 m behind the pad, as at a flying field's
+// pilot station.
+const PILOT_EYE_M = 1.7;
+const PILOT_DEFAULT_NE = [-15, 0];
+// The framing: the helicopter's rotor this many px across on screen when nothing else is
+// framed (auto-zoom), never smaller than MIN_HELI_PX when the view widens for the ground
+// cues, never more than MAX_SHARE of the view; a margin round what is framed; the zoom's
+// limits (vertical field of view, degrees), the chase camera's wider.
+const TARGET_HELI_PX = 80;
+const MIN_HELI_PX = 48;
+const MAX_SHARE = 0.3;
+const MARGIN_DEG = 0.5;
+const FOV_MIN_DEG = 3;
+const FOV_MAX_DEG = 60;
+const CHASE_FOV_MAX_DEG = 80;
+// The chase camera: behind the helicopter and above it (m).
+const CHASE_BACK_M = 5;
+const CHASE_UP_M = 1.5;
+// Layers, for counting rendered pixels.
+const LAYER = { heli: 1, shadow: 2, sky: 3, ground: 4 };
+
+// NED → three.js.
+const ned3 = (n, e, d) => new THREE.Vector3(e, -d, -n);
+// Body FRD → the helicopter's own three.js axes (x right, y up, z back).
+const frd3 = ([f, r, d]) => new THREE.Vector3(r, -d, -f);
+const AXIS3 = { forward: new THREE.Vector3(0, 0, -1), right: new THREE.Vector3(1, 0, 0), down: new THREE.Vector3(0, -1, 0) };
+
+// The attitude (roll, pitch, yaw; body to NED, ZYX) as a three.js quaternion of the
+// helicopter's group: P R Pᵀ, P the NED-to-three.js axes (also FRD to the group's axes).
+function attitude([phi, theta, psi]) {
+  const cf = Math.cos(phi), sf = Math.sin(phi), ct = Math.cos(theta), st = Math.sin(theta);
+  const cp = Math.cos(psi), sp = Math.sin(psi);
+  const R = [
+    [ct * cp, sf * st * cp - cf * sp, cf * st * cp + sf * sp],
+    [ct * sp, sf * st * sp + cf * cp, cf * st * sp - sf * cp],
+    [-st, sf * ct, cf * ct],
+  ];
+  const P = [[0, 1, 0], [0, 0, -1], [-1, 0, 0]];
+  const M = [[0, 0, 0], [0, 0, 0], [0, 0, 0]];
+  for (let i = 0; i < 3; i++) for (let j = 0; j < 3; j++) {
+    let s = 0;
+    for (let k = 0; k < 3; k++) for (let l = 0; l < 3; l++) s += P[i][k] * R[k][l] * P[j][l];
+    M[i][j] = s;
+  }
+  const m4 = new THREE.Matrix4().set(
+    M[0][0], M[0][1], M[0][2], 0, M[1][0], M[1][1], M[1][2], 0, M[2][0], M[2][1], M[2][2], 0, 0, 0, 0, 1);
+  return new THREE.Quaternion().setFromRotationMatrix(m4);
+}
+
+// A texture drawn on a canvas by `paint(g, size)`.
+function canvasTexture(size, paint) {
+  const c = document.createElement("canvas");
+  c.width = c.height = size;
+  paint(c.getContext("2d"), size);
+  const t = new THREE.CanvasTexture(c);
+  t.colorSpace = THREE.SRGBColorSpace;
+  return t;
+}
+
+// Mown grass: a 10 m tile, two 5 m stripes, speckled.
+function grassTexture() {
+  const t = canvasTexture(128, (g, n) => {
+    g.fillStyle = "#4f7d36"; g.fillRect(0, 0, n, n / 2);
+    g.fillStyle = "#5b8b3e"; g.fillRect(0, n / 2, n, n / 2);
+    let seed = 7;
+    const rnd = () => ((seed = (seed * 16807) % 2147483647) / 2147483647);
+    for (let k = 0; k < 2500; k++) {
+      const v = Math.floor(rnd() * 40) - 20;
+      g.fillStyle = `rgba(${90 + v},${130 + v},${60 + v},0.55)`;
+      g.fillRect(rnd() * n, rnd() * n, 1.5, 1.5);
+    }
+  });
+  t.wrapS = t.wrapT = THREE.RepeatWrapping;
+  return t;
+}
+
+// A label (text on a sprite), `width_m` wide.
+function label(text, width_m) {
+  const t = canvasTexture(128, (g, n) => {
+    g.font = "bold 44px system-ui, sans-serif";
+    g.textAlign = "center";
+    g.textBaseline = "middle";
+    g.lineWidth = 8;
+    g.strokeStyle = "rgba(0,0,0,0.6)";
+    g.strokeText(text, n / 2, n / 2);
+    g.fillStyle = "#ffffff";
+    g.fillText(text, n / 2, n / 2);
+  });
+  const s = new THREE.Sprite(new THREE.SpriteMaterial({ map: t, depthWrite: false }));
+  s.scale.set(width_m, width_m, 1);
+  return s;
+}
+
+// The mesh of one part of the shape (heli_types::shape), in the helicopter's axes.
+function partMesh(part) {
+  const s = part.solid;
+  let geometry;
+  const q = new THREE.Quaternion();
+  if (s.kind === "box") {
+    geometry = new THREE.BoxGeometry(s.size_m[1], s.size_m[2], s.size_m[0]);
+  } else if (s.kind === "ellipsoid") {
+    geometry = new THREE.SphereGeometry(0.5, 20, 12);
+    geometry.scale(s.size_m[1], s.size_m[2], s.size_m[0]);
+  } else {
+    // Along three.js's y, its top the axis's positive end.
+    const round = Math.max(s.start_radius_m, s.end_radius_m) > 0.1 ? 40 : 10;
+    geometry = new THREE.CylinderGeometry(s.end_radius_m, s.start_radius_m, s.length_m, round);
+    q.setFromUnitVectors(new THREE.Vector3(0, 1, 0), AXIS3[s.axis]);
+  }
+  const [r, g, b, a] = part.rgba;
+  const material = new THREE.MeshLambertMaterial({
+    color: new THREE.Color().setRGB(r, g, b, THREE.SRGBColorSpace),
+    transparent: a < 1,
+    opacity: a,
+    depthWrite: a >= 1,
+    side: a < 1 ? THREE.DoubleSide : THREE.FrontSide,
+  });
+  const mesh = new THREE.Mesh(geometry, material);
+  mesh.quaternion.copy(q);
+  mesh.userData.part = part;
+  return mesh;
+}
+
+// The plane-projection matrix onto y = `y` along `light` (toward the light).
+function shadowMatrix(light, y) {
+  const [lx, ly, lz] = [light.x, light.y, light.z];
+  return new THREE.Matrix4().set(
+    ly, -lx, 0, lx * y,
+    0, 0, 0, ly * y,
+    0, -lz, ly, lz * y,
+    0, 0, 0, ly);
+}
+
+export class HeliView {
+  // A view on `canvas`, or null where WebGL is not to be had. Options: camera ("pilot",
+  // "chase", "top": the whole canvas), inset ({camera, x, y, w, h}: a second camera in a
+  // rectangle of the canvas, px from its top left — one WebGL context draws both, as two
+  // contexts cost a software renderer half its frame rate), pilotNE ([m north, m east] of the
+  // take-off point where the pilot stands), flapScale (the disk's tilt drawn this many times
+  // its size).
+  static async create(canvas, opts) {
+    let renderer;
+    try {
+      renderer = new THREE.WebGLRenderer({ canvas, antialias: false, powerPreference: "high-performance" });
+    } catch (e) {
+      console.warn("no WebGL: the flat view stays", e);
+      return null;
+    }
+    const shape = await (await fetch("xcell60.json")).json();
+    return new HeliView(canvas, renderer, shape, opts || {});
+  }
+
+  constructor(canvas, renderer, shape, opts) {
+    this.canvas = canvas;
+    this.renderer = renderer;
+    this.opts = opts;
+    this.pilotNE = opts.pilotNE || PILOT_DEFAULT_NE;
+    // Drawn at `resolution` of the canvas's size and scaled up (a software renderer's time
+    // goes with the pixels it fills); sizes and rectangles here are the canvas's own.
+    const size = { w: canvas.width, h: canvas.height };
+    this.size = size;
+    this.ratio = opts.resolution || 1;
+    renderer.setPixelRatio(this.ratio);
+    renderer.setSize(size.w, size.h, true);
+    this.scene = new THREE.Scene();
+    this.scene.fog = new THREE.Fog(SKY_HORIZON, 200, 3000);
+    const shot = (camera, rect) => {
+      const cam = new THREE.PerspectiveCamera(45, rect.w / rect.h, 0.1, 4000);
+      cam.layers.enableAll();
+      return { camera, rect, cam };
+    };
+    // The shots: the whole canvas, and the inset if any.
+    this.shots = [shot(opts.camera || "pilot", { x: 0, y: 0, w: size.w, h: size.h })];
+    if (opts.inset) {
+      const { x, y, w, h } = opts.inset;
+      this.shots.push(shot(opts.inset.camera || "chase", { x, y, w, h }));
+    }
+    this.frameTimes = [];
+    this.latencies = [];
+    this.spin = 0;
+    this.lastRenderMs = null;
+    this.buildWorld();
+    this.buildHeli(shape);
+  }
+
+  buildWorld() {
+    const s = this.scene;
+    s.add(new THREE.HemisphereLight(0xdfeaff, 0x4a5a30, 1.6));
+    const sun = new THREE.DirectionalLight(0xffffff, 2.2);
+    sun.position.copy(SUN).multiplyScalar(100);
+    s.add(sun);
+    // Sky: a dome that follows the eye, pale at the horizon, blue above.
+    const dome = new THREE.SphereGeometry(1800, 32, 16);
+    const colors = [];
+    const p = dome.attributes.position;
+    for (let i = 0; i < p.count; i++) {
+      const up = Math.max(0, p.getY(i) / 1800);
+      const c = SKY_HORIZON.clone().lerp(SKY_ZENITH, Math.pow(up, 0.6));
+      colors.push(c.r, c.g, c.b);
+    }
+    dome.setAttribute("color", new THREE.Float32BufferAttribute(colors, 3));
+    this.sky = new THREE.Mesh(dome, new THREE.MeshBasicMaterial({
+      vertexColors: true, side: THREE.BackSide, fog: false, depthWrite: false }));
+    this.sky.renderOrder = -1;
+    this.sky.layers.set(LAYER.sky);
+    s.add(this.sky);
+    // The field: mown grass to the horizon (fog blends it into the sky).
+    const grass = grassTexture();
+    grass.repeat.set(400, 400);
+    grass.anisotropy = 1;
+    grass.minFilter = THREE.NearestMipmapNearestFilter;
+    this.ground = new THREE.Mesh(new THREE.PlaneGeometry(4000, 4000),
+      new THREE.MeshBasicMaterial({ map: grass }));
+    this.ground.rotation.x = -Math.PI / 2;
+    this.ground.layers.set(LAYER.ground);
+    s.add(this.ground);
+    // The take-off pad, the distance rings and their labels, the pilot's stand.
+    this.field = new THREE.Group();
+    const pad = new THREE.Mesh(new THREE.CircleGeometry(1.2, 32), new THREE.MeshLambertMaterial({
+      map: canvasTexture(128, (g, n) => {
+        g.fillStyle = "#9a9a94"; g.fillRect(0, 0, n, n);
+        g.fillStyle = "#f4f4f0"; g.font = "bold 90px system-ui, sans-serif";
+        g.textAlign = "center"; g.textBaseline = "middle"; g.fillText("H", n / 2, n / 2 + 4);
+      }),
+      polygonOffset: true, polygonOffsetFactor: -2 }));
+    pad.rotation.x = -Math.PI / 2;
+    pad.rotation.z = Math.PI;
+    pad.position.y = 0.01;
+    this.field.add(pad);
+    for (const r of [10, 20, 30, 50]) {
+      const ring = new THREE.Mesh(new THREE.RingGeometry(r - 0.15, r + 0.15, 96),
+        new THREE.MeshBasicMaterial({ color: 0xf0f0e8, transparent: true, opacity: 0.7, depthWrite: false }));
+      ring.rotation.x = -Math.PI / 2;
+      ring.position.y = 0.02;
+      this.field.add(ring);
+      // Labelled ahead and to the sides (not under the pilot's feet).
+      for (const [n, e] of [[r, 0], [0, r], [0, -r]]) {
+        const tag = label(`${r} m`, 1.6);
+        tag.position.copy(ned3(n, e, -0.6));
+        this.field.add(tag);
+      }
+    }
+    this.stand = new THREE.Mesh(new THREE.CircleGeometry(0.4, 20),
+      new THREE.MeshBasicMaterial({ color: 0xff8a1c }));
+    this.stand.rotation.x = -Math.PI / 2;
+    this.field.add(this.stand);
+    // The wind sock: a 3 m pole 8 m east of the pad, its sock downwind, drooping in a calm.
+    this.sock = new THREE.Group();
+    const pole = new THREE.Mesh(new THREE.CylinderGeometry(0.03, 0.04, 3, 8),
+      new THREE.MeshLambertMaterial({ color: 0xdddddd }));
+    pole.position.y = 1.5;
+    this.sock.add(pole);
+    this.sockPivot = new THREE.Group();
+    this.sockPivot.position.y = 3;
+    const cone = new THREE.ConeGeometry(0.22, 1.3, 12, 1, true);
+    cone.rotateX(Math.PI / 2); // along +z, the narrow end at +z
+    cone.translate(0, 0, 0.65);
+    const sockMesh = new THREE.Mesh(cone, new THREE.MeshLambertMaterial({ color: 0xff5a1c, side: THREE.DoubleSide }));
+    this.sockPivot.add(sockMesh);
+    this.sock.add(this.sockPivot);
+    this.sock.position.copy(ned3(0, 8, 0));
+    this.field.add(this.sock);
+    s.add(this.field);
+    // The plan (dashed) and the trail.
+    this.plan = new THREE.Line(new THREE.BufferGeometry(),
+      new THREE.LineDashedMaterial({ color: 0xc792ea, dashSize: 1.2, gapSize: 0.8 }));
+    this.planKey = "";
+    s.add(this.plan);
+    this.trailPositions = new Float32Array(3 * 2000);
+    const trail = new THREE.BufferGeometry();
+    trail.setAttribute("position", new THREE.BufferAttribute(this.trailPositions, 3));
+    this.trail = new THREE.Line(trail, new THREE.LineBasicMaterial({ color: 0x2f6fb8 }));
+    this.trail.frustumCulled = false;
+    s.add(this.trail);
+  }
+
+  buildHeli(shape) {
+    this.heli = new THREE.Group();
+    this.mainRotor = new THREE.Group();
+    this.tailRotor = new THREE.Group();
+    this.spinners = [];
+    const hub = (group) => {
+      const parts = shape.filter((p) => p.group === group);
+      return parts.length ? parts[0].center_frd_m : [0, 0, 0];
+    };
+    const mainHub = hub("main_rotor"), tailHub = hub("tail_rotor");
+    this.mainRotor.position.copy(frd3(mainHub));
+    this.tailRotor.position.copy(frd3(tailHub));
+    this.heli.add(this.mainRotor, this.tailRotor);
+    const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+    for (const part of shape) {
+      const mesh = partMesh(part);
+      mesh.layers.set(LAYER.heli);
+      let parent = this.heli, origin = [0, 0, 0];
+      if (part.group === "main_rotor") { parent = this.mainRotor; origin = mainHub; }
+      if (part.group === "tail_rotor") { parent = this.tailRotor; origin = tailHub; }
+      mesh.position.copy(frd3(part.center_frd_m.map((c, k) => c - origin[k])));
+      if (part.name.endsWith("blades") || part.name === "flybar") {
+        // Spun about the mast, or the tail rotor's shaft.
+        const spinner = new THREE.Group();
+        spinner.position.copy(mesh.position);
+        mesh.position.set(0, 0, 0);
+        spinner.add(mesh);
+        spinner.userData.axis = part.group === "tail_rotor" ? "x" : "y";
+        parent.add(spinner);
+        this.spinners.push(spinner);
+      } else {
+        parent.add(mesh);
+      }
+      const size = part.solid.size_m || [part.solid.length_m, part.solid.length_m, part.solid.length_m];
+      const reach = part.solid.kind === "cylinder"
+        ? Math.max(part.solid.length_m / 2, part.solid.start_radius_m, part.solid.end_radius_m)
+        : null;
+      for (let k = 0; k < 3; k++) {
+        const half = reach !== null ? reach : size[k] / 2;
+        lo[k] = Math.min(lo[k], part.center_frd_m[k] - half);
+        hi[k] = Math.max(hi[k], part.center_frd_m[k] + half);
+      }
+    }
+    // The corners of the box that holds the helicopter, to measure it on screen.
+    this.corners = [];
+    for (const f of [lo[0], hi[0]]) for (const r of [lo[1], hi[1]]) for (const d of [lo[2], hi[2]]) {
+      this.corners.push(frd3([f, r, d]));
+    }
+    this.rotor_m = hi[1] - lo[1];
+    this.scene.add(this.heli);
+    // The shadow: every part again, flattened onto the ground along the sun (the spinning
+    // rotor's disk a faint one, as on a sunny field).
+    this.shadows = [];
+    const dark = new THREE.MeshBasicMaterial({ color: 0x000000, transparent: true, opacity: 0.38, depthWrite: false });
+    const faint = new THREE.MeshBasicMaterial({ color: 0x000000, transparent: true, opacity: 0.12, depthWrite: false, side: THREE.DoubleSide });
+    this.heli.traverse((o) => {
+      if (!o.isMesh) return;
+      const s = new THREE.Mesh(o.geometry, o.material.opacity < 1 ? faint : dark);
+      s.matrixAutoUpdate = false;
+      s.layers.set(LAYER.shadow);
+      s.userData.of = o;
+      this.scene.add(s);
+      this.shadows.push(s);
+    });
+  }
+
+  // Places the pilot `ne` ([m north, m east]) from the take-off point.
+  placePilot(ne) { this.pilotNE = ne; }
+
+  // Sets the camera of shot `index` (0: the whole canvas, 1: the inset).
+  setCamera(kind, index) { const s = this.shots[index || 0]; if (s) s.camera = kind; }
+
+  // Draws `state` (NED, from the simulator or the estimate). `home` is the take-off point
+  // ([n, e, d]; the ground is at its d). `timing.produced_ms`: when the state shown was
+  // produced (Date.now() clock), for the latency.
+  render(state, history, plan, home, timing) {
+    const now = performance.now();
+    this.frameTimes.push(now);
+    while (this.frameTimes.length && now - this.frameTimes[0] > 1000) this.frameTimes.shift();
+    const dt = this.lastRenderMs === null ? 0 : Math.min(0.1, (now - this.lastRenderMs) / 1000);
+    this.lastRenderMs = now;
+    home = home || [0, 0, 0];
+    const ground = home[2];
+    const pos = ned3(state.pos_ned_m[0], state.pos_ned_m[1], state.pos_ned_m[2]);
+    // Heights are drawn from the ground at the take-off point.
+    const origin = ned3(home[0], home[1], ground);
+    this.field.position.copy(origin);
+    this.ground.position.set(origin.x, origin.y, origin.z);
+    this.stand.position.copy(ned3(this.pilotNE[0], this.pilotNE[1], -0.02));
+    this.heli.position.copy(pos);
+    this.heli.quaternion.copy(state.quaternion || attitude(state.euler_rad));
+    const k = this.opts.flapScale || 1;
+    const [a1, b1] = state.flap_rad ? [state.flap_rad[0] * k, state.flap_rad[1] * k] : [0, 0];
+    this.mainRotor.rotation.set(a1, 0, -b1);
+    // The blades turn at the rotor's speed as a blur would show it (no frame rate can follow
+    // 1600 rpm: a slow turn that stops with the rotor).
+    const turning = state.rotor_rpm === undefined ? 1 : Math.min(1, state.rotor_rpm / 1000);
+    this.spin += dt * 2 * Math.PI * 3.3 * turning;
+    for (const s of this.spinners) {
+      const angle = (s.userData.axis === "x" ? 3 : 1) * this.spin;
+      if (s.userData.axis === "x") s.rotation.set(angle, 0, 0); else s.rotation.set(0, angle, 0);
+    }
+    // The wind sock: downwind, up with the wind.
+    const w = state.wind_ned_mps || [0, 0, 0];
+    const speed = Math.hypot(w[0], w[1]);
+    const droop = 80 * DEG * Math.max(0, 1 - speed / 8);
+    // three.js +z is south; the sock (along +z) turned to point where the air goes.
+    const heading = speed > 0.05 ? Math.atan2(w[1], -w[0]) : 0;
+    this.sockPivot.rotation.order = "YXZ";
+    this.sockPivot.rotation.set(droop, heading, 0);
+    this.updatePlan(plan || [], home);
+    this.updateTrail(history || []);
+    this.heli.updateMatrixWorld(true);
+    const flatten = shadowMatrix(SUN, origin.y + 0.015);
+    for (const s of this.shadows) s.matrix.multiplyMatrices(flatten, s.userData.of.matrixWorld);
+    const H = this.size.h;
+    this.renderer.setScissorTest(true);
+    for (const [k, shot] of this.shots.entries()) {
+      const { x, y, w, h } = shot.rect;
+      if (k > 0) {
+        // The inset's frame.
+        this.renderer.setViewport(x - 2, H - y - h - 2, w + 4, h + 4);
+        this.renderer.setScissor(x - 2, H - y - h - 2, w + 4, h + 4);
+        this.renderer.setClearColor(0x0b0e12, 1);
+        this.renderer.clear();
+      }
+      this.renderer.setViewport(x, H - y - h, w, h);
+      this.renderer.setScissor(x, H - y - h, w, h);
+      this.place(shot, pos, origin, state);
+      this.sky.position.copy(shot.cam.position);
+      this.renderer.render(this.scene, shot.cam);
+    }
+    this.renderer.setScissorTest(false);
+    if (timing && timing.produced_ms) {
+      this.latencies.push([now, Date.now() - timing.produced_ms]);
+      while (this.latencies.length && now - this.latencies[0][0] > 1000) this.latencies.shift();
+    }
+    return this.shots.map((shot) => this.stats(shot, pos, origin));
+  }
+
+  updatePlan(plan, home) {
+    const key = JSON.stringify(plan) + home.join(",");
+    if (key === this.planKey) return;
+    this.planKey = key;
+    const points = plan.map((q) => ned3(home[0] + q.point[0], home[1] + q.point[1], home[2] - q.point[2]));
+    this.plan.geometry.dispose();
+    this.plan.geometry = new THREE.BufferGeometry().setFromPoints(points);
+    this.plan.computeLineDistances();
+  }
+
+  updateTrail(history) {
+    const pts = history.filter((s) => s.pos_ned_m);
+    const n = Math.min(pts.length, this.trailPositions.length / 3);
+    const first = pts.length - n;
+    for (let i = 0; i < n; i++) {
+      const p = pts[first + i].pos_ned_m;
+      this.trailPositions[3 * i] = p[1];
+      this.trailPositions[3 * i + 1] = -p[2];
+      this.trailPositions[3 * i + 2] = -p[0];
+    }
+    this.trail.geometry.setDrawRange(0, n);
+    this.trail.geometry.attributes.position.needsUpdate = true;
+  }
+
+  // The camera for this frame. Each camera turns to the helicopter and frames it with the
+  // ground cues a pilot flies by — its shadow and the horizon — where they fit: the view
+  // widens to take them in, but never so far that the helicopter is smaller than
+  // MIN_HELI_PX on screen (nor narrower than makes it larger than MAX_SHARE of the view).
+  // Where they do not fit (high and far: from 1.7 m, a rotor 30 m up needs some 40 times its
+  // own angle between it and the horizon), the view zooms on the helicopter alone, centred,
+  // TARGET_HELI_PX across.
+  place(shot, pos, origin, state) {
+    const cam = shot.cam;
+    let eye, fovMax = FOV_MAX_DEG;
+    if (shot.camera === "chase") {
+      // Behind along the heading (the yaw only: a roll does not whip the camera round).
+      const yaw = state.euler_rad[2];
+      eye = pos.clone().add(new THREE.Vector3(-Math.sin(yaw), 0, Math.cos(yaw)).multiplyScalar(CHASE_BACK_M));
+      eye.y = Math.max(eye.y + CHASE_UP_M, origin.y + 0.6);
+      fovMax = CHASE_FOV_MAX_DEG;
+    } else if (shot.camera === "top") {
+      cam.position.set(pos.x, Math.max(pos.y, origin.y) + 30, pos.z);
+      cam.up.set(0, 0, -1); // north up
+      cam.lookAt(pos.x, pos.y, pos.z);
+      this.setFov(cam, 40);
+      return;
+    } else {
+      // The pilot: eyes 1.7 m up where the pilot stands.
+      eye = origin.clone().add(ned3(this.pilotNE[0], this.pilotNE[1], -PILOT_EYE_M));
+    }
+    cam.position.copy(eye);
+    cam.up.set(0, 1, 0);
+    const to = pos.clone().sub(eye);
+    const flat = Math.max(0.01, Math.hypot(to.x, to.z));
+    const range = Math.max(0.3, to.length());
+    const elev = (dy, d) => Math.atan2(dy, Math.max(0.01, d)) / DEG;
+    // The helicopter's size for the framing: its rotor, the span seen from any side.
+    const rho = Math.atan(this.rotor_m / 2 / range) / DEG;
+    const eHeli = elev(to.y, flat);
+    // The shadow's tilt in the vertical plane of the view (it may lie to one side of the
+    // helicopter), with its own size as a margin.
+    const azimuth = Math.atan2(to.x, -to.z);
+    const shadow = this.shadowPoint(pos, origin).sub(eye);
+    const ahead = Math.max(0.01, shadow.x * Math.sin(azimuth) - shadow.z * Math.cos(azimuth));
+    const eShadow = elev(shadow.y, ahead);
+    const shadowRho = Math.atan(this.rotor_m / 2 / Math.max(0.3, shadow.length())) / DEG;
+    const eHorizon = elev(origin.y - eye.y, 2000);
+    const h = shot.rect.h;
+    // The widest view that keeps the helicopter MIN_HELI_PX tall, the narrowest that keeps
+    // it within MAX_SHARE of the view.
+    const widest = Math.min(fovMax, (2 * rho * h) / MIN_HELI_PX);
+    const narrowest = Math.max(FOV_MIN_DEG, (2 * rho) / MAX_SHARE);
+    let lo = eHeli - rho - MARGIN_DEG, hi = eHeli + rho + MARGIN_DEG;
+    const fits = (a, b) => Math.max(hi, b) - Math.min(lo, a) <= widest;
+    let cues = 0;
+    for (const [e, m] of [[eShadow, shadowRho + MARGIN_DEG], [eHorizon, MARGIN_DEG]]) {
+      if (fits(e - m, e + m)) {
+        lo = Math.min(lo, e - m);
+        hi = Math.max(hi, e + m);
+        cues++;
+      }
+    }
+    const zoomed = (2 * rho * h) / TARGET_HELI_PX;
+    const fov = cues
+      ? Math.min(Math.max(hi - lo, narrowest), Math.max(widest, FOV_MIN_DEG))
+      : Math.min(fovMax, Math.max(zoomed, narrowest, FOV_MIN_DEG));
+    const centre = cues ? (lo + hi) / 2 : eHeli;
+    const c = centre * DEG;
+    cam.lookAt(eye.x + Math.sin(azimuth) * Math.cos(c), eye.y + Math.sin(c), eye.z - Math.cos(azimuth) * Math.cos(c));
+    this.setFov(cam, fov);
+  }
+
+  setFov(cam, fov) {
+    if (cam.fov !== fov) {
+      cam.fov = fov;
+      cam.updateProjectionMatrix();
+    }
+    cam.updateMatrixWorld(true);
+  }
+
+  // Where the helicopter's shadow falls (three.js axes).
+  shadowPoint(pos, origin) {
+    const up = pos.y - origin.y;
+    return new THREE.Vector3(pos.x - SUN.x * up / SUN.y, origin.y, pos.z - SUN.z * up / SUN.y);
+  }
+
+  // What is on the canvas: the helicopter's size (px, its box's extent), its shadow and
+  // the horizon in view, frames a second, the state-to-frame latency (ms, the last second's
+  // mean).
+  stats(shot, pos, origin) {
+    const cam = shot.cam;
+    const { w, h } = shot.rect;
+    const toScreen = (v) => {
+      const p = v.clone().project(cam);
+      return [(p.x + 1) * w / 2, (1 - p.y) * h / 2, p.z];
+    };
+    let [x0, y0, x1, y1] = [Infinity, Infinity, -Infinity, -Infinity];
+    for (const c of this.corners) {
+      const [x, y] = toScreen(c.clone().applyMatrix4(this.heli.matrixWorld));
+      x0 = Math.min(x0, x); x1 = Math.max(x1, x); y0 = Math.min(y0, y); y1 = Math.max(y1, y);
+    }
+    const [hx, hy, hz] = toScreen(pos);
+    const heliOnScreen = hz < 1 && hx >= 0 && hx <= w && hy >= 0 && hy <= h;
+    const [sx, sy, sz] = toScreen(this.shadowPoint(pos, origin));
+    const shadowOnScreen = sz < 1 && sx >= 0 && sx <= w && sy >= 0 && sy <= h;
+    // The horizon straight ahead: a point on the ground far away under the view's centre.
+    const ahead = new THREE.Vector3();
+    cam.getWorldDirection(ahead);
+    ahead.y = 0;
+    let horizonInView = false;
+    if (ahead.lengthSq() > 1e-6) {
+      ahead.normalize().multiplyScalar(1500).add(cam.position);
+      ahead.y = origin.y;
+      const [, ay, az] = toScreen(ahead);
+      horizonInView = az < 1 && ay >= 0 && ay <= h;
+    }
+    const latency = this.latencies.length
+      ? this.latencies.reduce((s, [, l]) => s + l, 0) / this.latencies.length : null;
+    return {
+      camera: shot.camera,
+      heliOnScreen,
+      heliPx: heliOnScreen ? Math.max(x1 - x0, y1 - y0) : 0,
+      heliXY: [hx, hy],
+      shadowOnScreen,
+      horizonInView,
+      fov_deg: cam.fov,
+      range_m: cam.position.distanceTo(pos),
+      fps: this.frameTimes.length,
+      latency_ms: latency,
+    };
+  }
+
+  // Counts the rendered pixels of each thing on the canvas's view (the last frame's
+  // camera): the helicopter (its pixels' bounding box: px across), its shadow, the sky and
+  // the ground. Rendered off screen, one layer at a time.
+  measure(index) {
+    const shot = this.shots[index || 0];
+    const cam = shot.cam;
+    const w = Math.round(shot.rect.w * this.ratio), h = Math.round(shot.rect.h * this.ratio);
+    const target = new THREE.WebGLRenderTarget(w, h);
+    const pixels = new Uint8Array(4 * w * h);
+    const clear = new THREE.Color();
+    this.renderer.getClearColor(clear);
+    const alpha = this.renderer.getClearAlpha();
+    this.renderer.setClearColor(0x000000, 0);
+    const count = (layer) => {
+      cam.layers.set(layer);
+      this.renderer.setRenderTarget(target);
+      this.renderer.setViewport(0, 0, shot.rect.w, shot.rect.h);
+      this.renderer.clear();
+      this.sky.position.copy(cam.position);
+      this.renderer.render(this.scene, cam);
+      this.renderer.readRenderTargetPixels(target, 0, 0, w, h, pixels);
+      let n = 0, x0 = w, y0 = h, x1 = -1, y1 = -1;
+      for (let y = 0; y < h; y++) for (let x = 0; x < w; x++) {
+        if (pixels[4 * (y * w + x) + 3] === 0) continue;
+        n++;
+        if (x < x0) x0 = x; if (x > x1) x1 = x; if (y < y0) y0 = y; if (y > y1) y1 = y;
+      }
+      // In the canvas's pixels (as on screen), not the drawing's.
+      const across = n ? Math.max(x1 - x0 + 1, y1 - y0 + 1) / this.ratio : 0;
+      return { pixels: Math.round(n / this.ratio / this.ratio), across_px: Math.round(across) };
+    };
+    const out = {
+      heli: count(LAYER.heli),
+      shadow: count(LAYER.shadow),
+      sky: count(LAYER.sky),
+      ground: count(LAYER.ground),
+    };
+    this.renderer.setRenderTarget(null);
+    this.renderer.setClearColor(clear, alpha);
+    cam.layers.enableAll();
+    target.dispose();
+    // The ground's edge in view: ground, and at least a row of sky above it.
+    out.horizon = out.ground.pixels > 0 && out.ground.pixels <= shot.rect.w * (shot.rect.h - 1);
+    return out;
+  }
+}
+
+// States as they arrive, shown a little later and interpolated, so that the view moves
+// smoothly at the display's rate between the simulator's frames (30 a second).
+export class StateBuffer {
+  constructor() { this.frames = []; this.lag = []; }
+
+  // A state produced at `produced_ms` (Date.now() clock).
+  push(state, produced_ms) {
+    const arrived = Date.now();
+    const last = this.frames[this.frames.length - 1];
+    if (last && produced_ms <= last.produced) {
+      if (produced_ms < last.produced - 1000) this.frames = []; // a new run
+      else return;
+    }
+    this.frames.push({ state, produced: produced_ms, q: attitude(state.euler_rad) });
+    while (this.frames.length > 30) this.frames.shift();
+    this.lag.push(Math.max(0, arrived - produced_ms));
+    while (this.lag.length > 30) this.lag.shift();
+  }
+
+  // The state to draw now, and when it was produced: a frame period and the recent arrival
+  // lag behind the newest, interpolated (position linearly, attitude along the great circle).
+  now() {
+    const f = this.frames;
+    if (!f.length) return null;
+    const sorted = [...this.lag].sort((a, b) => a - b);
+    const lag = sorted[Math.floor(0.9 * (sorted.length - 1))] || 0;
+    const at = Date.now() - lag - 40;
+    let i = f.length - 1;
+    while (i > 0 && f[i - 1].produced > at) i--;
+    const b = f[i], a = f[i - 1];
+    if (!a || at >= b.produced) return { state: { ...b.state, quaternion: b.q }, produced_ms: b.produced };
+    if (at <= a.produced) return { state: { ...a.state, quaternion: a.q }, produced_ms: a.produced };
+    const u = (at - a.produced) / (b.produced - a.produced);
+    const mix = (p, q) => (p && q ? p.map((v, k) => v + (q[k] - v) * u) : q);
+    const state = { ...b.state };
+    for (const key of ["pos_ned_m", "vel_ned_mps", "flap_rad", "wind_ned_mps"]) state[key] = mix(a.state[key], b.state[key]);
+    state.quaternion = a.q.clone().slerp(b.q, u);
+    return { state, produced_ms: a.produced + u * (b.produced - a.produced) };
+  }
+}
