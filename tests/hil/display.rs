@@ -125,7 +125,9 @@ pub(crate) fn run_page_script_env(
         .envs(env.iter().copied())
         .env(url_var, url)
         .env("HELI_UI_OUT", &shots)
-        .env("HELI_CHROMIUM", CHROMIUM)
+        // Debian's chromium, niced: the flight's processes come first (the script says why).
+        .env("HELI_CHROMIUM", ui.join("chromium-yielding"))
+        .env("HELI_CHROMIUM_BINARY", CHROMIUM)
         .output()
         .expect("node");
     let said =

@@ -356,6 +356,38 @@ impl Vehicle {
     }
 }
 
+impl Drop for Vehicle {
+    /// The flight process outlives its bootstrap by design (the init system's new bootstrap
+    /// takes it back), so a test that ends — passed, failed, or panicking with the
+    /// helicopter in the air — ends every process of its vehicle: otherwise the flight process
+    /// flies on at real-time priority beside the next tests and starves them.
+    fn drop(&mut self) {
+        kill_mentioning(&self.socket.display().to_string());
+    }
+}
+
+/// `SIGKILL` to every process (but this one) whose command line mentions `needle`.
+fn kill_mentioning(needle: &str) {
+    let me = std::process::id();
+    let Ok(entries) = std::fs::read_dir("/proc") else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let Ok(pid) = entry.file_name().to_string_lossy().parse::<i32>() else {
+            continue;
+        };
+        if pid as u32 == me {
+            continue;
+        }
+        let Ok(cmdline) = std::fs::read(entry.path().join("cmdline")) else {
+            continue;
+        };
+        if String::from_utf8_lossy(&cmdline).contains(needle) {
+            let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
+        }
+    }
+}
+
 /// Stops process `pid` (`SIGSTOP`) for `pause`, then lets it go on (`SIGCONT`): every device
 /// line of a HILSim falls silent at once, and comes back.
 pub fn stall(pid: u32, pause: Duration) {

@@ -39,7 +39,7 @@ try {
   page.on("pageerror", (e) => { failed = failed || new Error(`page error: ${e.message}`); });
   const trainer = await (await browser.newContext()).newPage();
   // The trainer's page draws a few frames a second: the cores are the flight's.
-  await trainer.goto(`${viewUrl}&max_fps=5`);
+  await trainer.goto(`${viewUrl}&max_fps=1&resolution=0.25`);
   await trainer.waitForFunction(() => window.heliViewSend && window.heliPilot && window.heliPilot.frames > 0,
     null, { timeout: 20000 });
   const fault = async (f) => {
