@@ -20,6 +20,10 @@ pub const STALE_AFTER_US: u64 = 1_500_000;
 /// ground, knowing the fix's time, says it first.
 pub const GPS_FIX_STALE_US: u64 = 1_250_000;
 
+/// How far a fix's time may lead the vehicle's clock as the ground reckons it (µs), the
+/// attitude and the fix being sent apart: further ahead, it is from before a restart.
+pub const FIX_AHEAD_GRACE_US: u64 = 500_000;
+
 /// One field of a row.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Cell {
@@ -277,9 +281,19 @@ pub fn rows(latest: &Latest, batteries: &Batteries, now_us: u64, uplink_labels: 
         if let Some((at_att, MavMessage::ATTITUDE(a))) = m.get(ATTITUDE_DATA::ID) {
             let vehicle_now_us =
                 (u64::from(a.time_boot_ms) * 1000).saturating_add(now_us.saturating_sub(at_att));
-            let fix_age_us = vehicle_now_us.saturating_sub(g.time_usec);
-            row.age_s = fix_age_us as f64 * 1e-6;
-            row.stale = row.stale || fix_age_us > GPS_FIX_STALE_US;
+            match vehicle_now_us.checked_sub(g.time_usec) {
+                Some(fix_age_us) => {
+                    row.age_s = fix_age_us as f64 * 1e-6;
+                    row.stale = row.stale || fix_age_us > GPS_FIX_STALE_US;
+                }
+                // A fix stamped later than the vehicle's now (beyond the two messages'
+                // jitter) was taken before its clock began again: the previous flight
+                // process's, not this one's (the new process has no fix yet).
+                None => {
+                    row.stale = row.stale
+                        || g.time_usec.saturating_sub(vehicle_now_us) > FIX_AHEAD_GRACE_US;
+                }
+            }
         }
         out.gps = Some(row);
     }
@@ -305,4 +319,52 @@ pub fn board_battery_v(batteries: &Batteries, id: u8) -> Option<f64> {
         .and_then(|(_, b)| b.voltages.first().copied())
         .filter(|mv| *mv != u16::MAX)
         .map(|mv| f64::from(mv) / 1000.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn latest(fix_time_us: u64, attitude_boot_ms: u32) -> Latest {
+        let mut m = Latest::new();
+        let gps = GPS_RAW_INT_DATA {
+            time_usec: fix_time_us,
+            fix_type: GpsFixType::GPS_FIX_TYPE_3D_FIX,
+            satellites_visible: 8,
+            ..Default::default()
+        };
+        let att = ATTITUDE_DATA {
+            time_boot_ms: attitude_boot_ms,
+            ..Default::default()
+        };
+        m.insert(
+            GPS_RAW_INT_DATA::ID,
+            (10_000_000, MavMessage::GPS_RAW_INT(gps)),
+        );
+        m.insert(ATTITUDE_DATA::ID, (10_000_000, MavMessage::ATTITUDE(att)));
+        m
+    }
+
+    fn gps_stale(fix_time_us: u64, attitude_boot_ms: u32) -> bool {
+        let rows = rows(
+            &latest(fix_time_us, attitude_boot_ms),
+            &Batteries::new(),
+            10_100_000,
+            ["a", "e", "r", "c", "t"],
+        );
+        rows.gps.is_some_and(|g| g.stale)
+    }
+
+    #[test]
+    fn a_fix_from_before_the_vehicle_s_clock_began_again_is_stale_at_once() {
+        // A fresh fix: 0.3 s old on the vehicle's clock.
+        assert!(!gps_stale(100_000_000, 100_200));
+        // An old one: 2 s.
+        assert!(gps_stale(100_000_000, 101_900));
+        // Within the messages' jitter ahead of the clock: fresh.
+        assert!(!gps_stale(100_400_000, 100_000));
+        // The flight process restarted: its clock at 1.5 s, the last fix the previous
+        // process's at 100 s. Before, its age was taken as zero and the lamp stayed green.
+        assert!(gps_stale(100_000_000, 1_500));
+    }
 }
