@@ -41,50 +41,52 @@ pub(crate) fn browser_ready(ui: &Path) -> bool {
 
 #[test]
 fn the_operator_flies_a_hover_from_the_display_in_headless_chromium() {
-    let ui = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ui");
-    if !browser_ready(&ui) {
-        return;
-    }
-    let _one = with_browser();
-    let dir = tempfile::tempdir().unwrap();
-    let key = dir.path().join("link.key");
-    let out = heli(&["link", "keygen", "--out", &key.display().to_string()]);
-    assert!(out.status.success());
-    let link = format!("udp:127.0.0.1:{}", free_udp_port());
-    let scenario = ui.join("display-flight.toml");
-    let hil = Hilsim::start(dir.path(), &scenario.display().to_string(), 1.0, 150.0);
-    let logs = dir.path().join("logs");
-    std::fs::create_dir_all(&logs).unwrap();
-    let vehicle = Vehicle::start_linked(&logs, &hil.dev, &link, Some(&key));
-    let saved = dir.path().join("saved");
-    let display = Display::start(&link, Some(&key), &saved);
-    let (run, said, shots) = run_page_script(&ui, "display", "HELI_UI_URL", &display.url);
-    let stopped = display.stop();
-    let vehicle_said = vehicle.output();
-    vehicle.quit();
-    drop(hil);
-    assert!(
-        run.success(),
-        "the browser test failed:\n{said}\nthe vehicle said:\n{vehicle_said}"
-    );
-    assert!(stopped, "heli ground did not stop cleanly on SIGTERM");
-    for step in [
-        "01-idle",
-        "02-connected",
-        "05-flying",
-        "07-gps-stale",
-        "08-battery-red",
-        "09-stopped-log-saved",
-    ] {
+    crate::procs::void_if_starved(|| {
+        let ui = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ui");
+        if !browser_ready(&ui) {
+            return;
+        }
+        let _one = with_browser();
+        let dir = tempfile::tempdir().unwrap();
+        let key = dir.path().join("link.key");
+        let out = heli(&["link", "keygen", "--out", &key.display().to_string()]);
+        assert!(out.status.success());
+        let link = format!("udp:127.0.0.1:{}", free_udp_port());
+        let scenario = ui.join("display-flight.toml");
+        let hil = Hilsim::start(dir.path(), &scenario.display().to_string(), 1.0, 150.0);
+        let logs = dir.path().join("logs");
+        std::fs::create_dir_all(&logs).unwrap();
+        let vehicle = Vehicle::start_linked(&logs, &hil.dev, &link, Some(&key));
+        let saved = dir.path().join("saved");
+        let display = Display::start(&link, Some(&key), &saved);
+        let (run, said, shots) = run_page_script(&ui, "display", "HELI_UI_URL", &display.url);
+        let stopped = display.stop();
+        let vehicle_said = vehicle.output();
+        vehicle.quit();
+        drop(hil);
         assert!(
-            shots.join(format!("{step}.png")).exists(),
-            "no screenshot {step}"
+            run.success(),
+            "the browser test failed:\n{said}\nthe vehicle said:\n{vehicle_said}"
         );
-    }
-    // The log the display saved by the final parameters is the vehicle's, byte for byte.
-    let downloaded = std::fs::read(saved.join("ui/flight_mine.mcap")).unwrap();
-    let onboard = std::fs::read(logs.join("flight_ui1.mcap")).unwrap();
-    assert!(downloaded == onboard, "the saved log is not the vehicle's");
+        assert!(stopped, "heli ground did not stop cleanly on SIGTERM");
+        for step in [
+            "01-idle",
+            "02-connected",
+            "05-flying",
+            "07-gps-stale",
+            "08-battery-red",
+            "09-stopped-log-saved",
+        ] {
+            assert!(
+                shots.join(format!("{step}.png")).exists(),
+                "no screenshot {step}"
+            );
+        }
+        // The log the display saved by the final parameters is the vehicle's, byte for byte.
+        let downloaded = std::fs::read(saved.join("ui/flight_mine.mcap")).unwrap();
+        let onboard = std::fs::read(logs.join("flight_ui1.mcap")).unwrap();
+        assert!(downloaded == onboard, "the saved log is not the vehicle's");
+    });
 }
 
 /// Runs `tests/ui/NAME.mjs` with the page's URL in `url_var`; its screenshots go under the
@@ -167,147 +169,149 @@ fn processes_mentioning(needle: &str) -> Vec<String> {
 
 #[test]
 fn heli_sim_ui_brings_up_the_whole_system_and_ctrl_c_stops_it() {
-    use std::io::{BufRead, BufReader, Read, Write};
-    let _one = with_browser();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_heli"))
-        .args([
-            "sim",
-            "--ui",
-            "--http",
-            "127.0.0.1:0",
-            "--calibration-s",
-            "5",
-        ])
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::inherit())
-        .spawn()
-        .unwrap();
-    let mut out = BufReader::new(child.stdout.take().unwrap());
-    let mut said = String::new();
-    while !said.contains("Ctrl-C stops everything") {
-        let mut line = String::new();
+    crate::procs::void_if_starved(|| {
+        use std::io::{BufRead, BufReader, Read, Write};
+        let _one = with_browser();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_heli"))
+            .args([
+                "sim",
+                "--ui",
+                "--http",
+                "127.0.0.1:0",
+                "--calibration-s",
+                "5",
+            ])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::inherit())
+            .spawn()
+            .unwrap();
+        let mut out = BufReader::new(child.stdout.take().unwrap());
+        let mut said = String::new();
+        while !said.contains("Ctrl-C stops everything") {
+            let mut line = String::new();
+            assert!(
+                out.read_line(&mut line).unwrap() > 0,
+                "heli sim --ui ended:\n{said}"
+            );
+            said.push_str(&line);
+        }
+        let word_after = |key: &str| -> String {
+            let rest = &said[said
+                .find(key)
+                .unwrap_or_else(|| panic!("no '{key}' in\n{said}"))
+                + key.len()..];
+            rest.split_whitespace()
+                .next()
+                .unwrap()
+                .trim_end_matches(')')
+                .to_string()
+        };
+        let url = word_after("the display is at ");
+        let link = word_after("vehicle link ");
+        let key = word_after("(key ");
+        let dir = word_after("saved flights in ");
+        let view = word_after("(not the estimate) is at ");
+        // Each page with its key (exchanged for its cookie).
+        let get = |url: &str| {
+            let cookie = crate::web::login(url);
+            let (addr, _) = crate::web::split_url(url);
+            crate::web::get(&addr, "/", &cookie)
+        };
+        // The display answers, and the simulator's view of the truth.
+        let page = get(&url);
         assert!(
-            out.read_line(&mut line).unwrap() > 0,
-            "heli sim --ui ended:\n{said}"
+            page.starts_with("HTTP/1.1 200") && page.contains("heli ground station"),
+            "{page}"
         );
-        said.push_str(&line);
-    }
-    let word_after = |key: &str| -> String {
-        let rest = &said[said
-            .find(key)
-            .unwrap_or_else(|| panic!("no '{key}' in\n{said}"))
-            + key.len()..];
-        rest.split_whitespace()
-            .next()
-            .unwrap()
-            .trim_end_matches(')')
-            .to_string()
-    };
-    let url = word_after("the display is at ");
-    let link = word_after("vehicle link ");
-    let key = word_after("(key ");
-    let dir = word_after("saved flights in ");
-    let view = word_after("(not the estimate) is at ");
-    // Each page with its key (exchanged for its cookie).
-    let get = |url: &str| {
-        let cookie = crate::web::login(url);
-        let (addr, _) = crate::web::split_url(url);
-        crate::web::get(&addr, "/", &cookie)
-    };
-    // The display answers, and the simulator's view of the truth.
-    let page = get(&url);
-    assert!(
-        page.starts_with("HTTP/1.1 200") && page.contains("heli ground station"),
-        "{page}"
-    );
-    let page = get(&view);
-    assert!(
-        page.starts_with("HTTP/1.1 200") && page.contains("TRUTH (simulator)"),
-        "{page}"
-    );
-    let (addr, _) = crate::web::split_url(&url);
-    let addr = addr.as_str();
-    // A WebSocket opened by another site's page is refused.
-    let mut ws = std::net::TcpStream::connect(addr).unwrap();
-    write!(
+        let page = get(&view);
+        assert!(
+            page.starts_with("HTTP/1.1 200") && page.contains("TRUTH (simulator)"),
+            "{page}"
+        );
+        let (addr, _) = crate::web::split_url(&url);
+        let addr = addr.as_str();
+        // A WebSocket opened by another site's page is refused.
+        let mut ws = std::net::TcpStream::connect(addr).unwrap();
+        write!(
         ws,
         "GET /ws HTTP/1.1\r\nHost: {addr}\r\nOrigin: http://evil.example\r\nConnection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n"
     )
     .unwrap();
-    let mut answer = [0u8; 64];
-    let n = ws.read(&mut answer).unwrap();
-    let answer = String::from_utf8_lossy(&answer[..n]).to_string();
-    assert!(answer.starts_with("HTTP/1.1 403"), "{answer}");
-    // The vehicle answers on the signed link.
-    let (ok, status) = crate::procs::ground(
-        &link,
-        Some(Path::new(&key)),
-        &["status", "--seconds", "1.5"],
-    );
-    assert!(ok && status.contains("bootstrap idle"), "{status}");
-    assert_eq!(
-        processes_mentioning(&dir).len(),
-        3,
-        "hilsim, vehicle and ground: {:?}",
-        processes_mentioning(&dir)
-    );
-    // A flight (started on the vehicle's console), then the simulator ends under it (as when
-    // its helicopter crashes): the session goes on. The flight is stopped, the ground station
-    // saves its log by the flight's own suffix, and a new simulator stands ready.
-    let ctl = |words: &[&str]| {
-        let socket = format!("{dir}/ctl.sock");
-        let mut args = vec!["vehicle", "ctl"];
-        args.extend_from_slice(words);
-        args.extend(["--socket", &socket]);
-        let out = heli(&args);
-        String::from_utf8_lossy(&out.stdout).to_string()
-    };
-    assert!(ctl(&["connect"]).starts_with("ok connected"));
-    assert!(ctl(&["start-logging", "crash1", "manual", "hover"]).starts_with("ok flying"));
-    std::thread::sleep(std::time::Duration::from_secs(3));
-    let hilsim_pid = pid_of(&format!("hilsim --ptys {dir}")).expect("the hilsim's pid");
-    let _ = Command::new("kill")
-        .args(["-9", &hilsim_pid.to_string()])
-        .status();
-    while !said.contains("a new simulator is ready") {
-        let mut line = String::new();
-        assert!(
-            out.read_line(&mut line).unwrap() > 0,
-            "heli sim --ui ended when its simulator did:\n{said}"
+        let mut answer = [0u8; 64];
+        let n = ws.read(&mut answer).unwrap();
+        let answer = String::from_utf8_lossy(&answer[..n]).to_string();
+        assert!(answer.starts_with("HTTP/1.1 403"), "{answer}");
+        // The vehicle answers on the signed link.
+        let (ok, status) = crate::procs::ground(
+            &link,
+            Some(Path::new(&key)),
+            &["status", "--seconds", "1.5"],
         );
-        said.push_str(&line);
-    }
-    assert!(said.contains("the simulator ended ("), "{said}");
-    let saved = Path::new(&dir).join("flights/flight_crash1.mcap");
-    let end = std::time::Instant::now() + std::time::Duration::from_secs(60);
-    while !saved.exists() {
-        assert!(
-            std::time::Instant::now() < end,
-            "the flight's log was not saved: {}",
-            std::fs::read_to_string(Path::new(&dir).join("ground.log")).unwrap_or_default()
+        assert!(ok && status.contains("bootstrap idle"), "{status}");
+        assert_eq!(
+            processes_mentioning(&dir).len(),
+            3,
+            "hilsim, vehicle and ground: {:?}",
+            processes_mentioning(&dir)
         );
-        std::thread::sleep(std::time::Duration::from_millis(200));
-    }
-    assert!(pid_of(&format!("hilsim --ptys {dir}")).is_some_and(|p| p != hilsim_pid));
-    assert!(
-        get(&view).starts_with("HTTP/1.1 200"),
-        "the view is served again"
-    );
-    // Ctrl-C: everything stops.
-    let _ = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status();
-    let mut rest = String::new();
-    out.read_to_string(&mut rest).unwrap();
-    let status = child.wait().unwrap();
-    assert!(status.success(), "{status}: {rest}");
-    assert!(rest.contains("heli sim --ui: stopped"), "{rest}");
-    assert!(
-        processes_mentioning(&dir).is_empty(),
-        "left running: {:?}",
-        processes_mentioning(&dir)
-    );
-    let vehicle_log = std::fs::read_to_string(Path::new(&dir).join("vehicle.log")).unwrap();
-    assert!(vehicle_log.contains("bootstrap: quit"), "{vehicle_log}");
-    let _ = std::fs::remove_dir_all(&dir);
+        // A flight (started on the vehicle's console), then the simulator ends under it (as when
+        // its helicopter crashes): the session goes on. The flight is stopped, the ground station
+        // saves its log by the flight's own suffix, and a new simulator stands ready.
+        let ctl = |words: &[&str]| {
+            let socket = format!("{dir}/ctl.sock");
+            let mut args = vec!["vehicle", "ctl"];
+            args.extend_from_slice(words);
+            args.extend(["--socket", &socket]);
+            let out = heli(&args);
+            String::from_utf8_lossy(&out.stdout).to_string()
+        };
+        assert!(ctl(&["connect"]).starts_with("ok connected"));
+        assert!(ctl(&["start-logging", "crash1", "manual", "hover"]).starts_with("ok flying"));
+        std::thread::sleep(std::time::Duration::from_secs(3));
+        let hilsim_pid = pid_of(&format!("hilsim --ptys {dir}")).expect("the hilsim's pid");
+        let _ = Command::new("kill")
+            .args(["-9", &hilsim_pid.to_string()])
+            .status();
+        while !said.contains("a new simulator is ready") {
+            let mut line = String::new();
+            assert!(
+                out.read_line(&mut line).unwrap() > 0,
+                "heli sim --ui ended when its simulator did:\n{said}"
+            );
+            said.push_str(&line);
+        }
+        assert!(said.contains("the simulator ended ("), "{said}");
+        let saved = Path::new(&dir).join("flights/flight_crash1.mcap");
+        let end = std::time::Instant::now() + std::time::Duration::from_secs(60);
+        while !saved.exists() {
+            assert!(
+                std::time::Instant::now() < end,
+                "the flight's log was not saved: {}",
+                std::fs::read_to_string(Path::new(&dir).join("ground.log")).unwrap_or_default()
+            );
+            std::thread::sleep(std::time::Duration::from_millis(200));
+        }
+        assert!(pid_of(&format!("hilsim --ptys {dir}")).is_some_and(|p| p != hilsim_pid));
+        assert!(
+            get(&view).starts_with("HTTP/1.1 200"),
+            "the view is served again"
+        );
+        // Ctrl-C: everything stops.
+        let _ = Command::new("kill")
+            .args(["-INT", &child.id().to_string()])
+            .status();
+        let mut rest = String::new();
+        out.read_to_string(&mut rest).unwrap();
+        let status = child.wait().unwrap();
+        assert!(status.success(), "{status}: {rest}");
+        assert!(rest.contains("heli sim --ui: stopped"), "{rest}");
+        assert!(
+            processes_mentioning(&dir).is_empty(),
+            "left running: {:?}",
+            processes_mentioning(&dir)
+        );
+        let vehicle_log = std::fs::read_to_string(Path::new(&dir).join("vehicle.log")).unwrap();
+        assert!(vehicle_log.contains("bootstrap: quit"), "{vehicle_log}");
+        let _ = std::fs::remove_dir_all(&dir);
+    });
 }

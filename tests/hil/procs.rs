@@ -43,6 +43,52 @@ pub struct Lines {
     errors: Arc<Mutex<Vec<String>>>,
 }
 
+thread_local! {
+    /// The standard error of every process this test's thread started, to tell afterwards
+    /// whether a HILSim among them was starved.
+    static STARTED: std::cell::RefCell<Vec<Arc<Mutex<Vec<String>>>>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// The latest a HILSim started by this test's thread said a device write of its left (ms),
+/// from its `hilsim: behind: a device write left X ms late` lines.
+fn worst_behind_ms() -> f64 {
+    STARTED.with(|started| {
+        started
+            .borrow()
+            .iter()
+            .flat_map(|errors| errors.lock().unwrap().clone())
+            .filter_map(|line| {
+                let rest = line.strip_prefix("hilsim: behind: a device write left ")?;
+                rest.split_whitespace().next()?.parse::<f64>().ok()
+            })
+            .fold(0.0, f64::max)
+    })
+}
+
+/// A HILSim write this late (ms) stopped the world for the flight computer: the IMU's silence
+/// limit (`heli_sim::hil::STARVED`).
+const STARVED_MS: f64 = 100.0;
+
+/// Runs `test`; when it fails and a HILSim it started was starved past [`STARVED_MS`], the
+/// machine stopped the world, not the flight software: the run is void, said so, and the test
+/// runs once more, its verdict final. (As `heli field-day` does with its trials.)
+pub fn void_if_starved(test: impl Fn()) {
+    STARTED.with(|started| started.borrow_mut().clear());
+    let Err(failure) = std::panic::catch_unwind(std::panic::AssertUnwindSafe(&test)) else {
+        return;
+    };
+    let worst = worst_behind_ms();
+    if worst <= STARVED_MS {
+        std::panic::resume_unwind(failure);
+    }
+    eprintln!(
+        "VOID: a HILSim of this test was starved {worst:.0} ms by the machine (over the IMU's {STARVED_MS:.0} ms silence limit); the test runs once more"
+    );
+    STARTED.with(|started| started.borrow_mut().clear());
+    test();
+}
+
 impl Lines {
     fn spawn(args: &[String]) -> Self {
         Self::spawn_program(Path::new(env!("CARGO_BIN_EXE_heli")), args)
@@ -72,6 +118,7 @@ impl Lines {
         let lines = collect(Box::new(child.stdout.take().unwrap()), false);
         // Standard error is shown as before, and kept to be searched.
         let errors = collect(Box::new(child.stderr.take().unwrap()), true);
+        STARTED.with(|started| started.borrow_mut().push(Arc::clone(&errors)));
         Self {
             child,
             lines,

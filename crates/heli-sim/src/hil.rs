@@ -393,7 +393,14 @@ pub fn run(
                 writes_late += 1;
             }
             note_starved(&mut starved, t_us as f64 * 1e-6, late);
-            if late > BEHIND && said_behind.is_none_or(|at: Instant| at.elapsed() >= BEHIND_EVERY) {
+            // Said at most once a second, but a starved write (past [`STARVED`]) always
+            // (the first of a catching-up burst: the latest).
+            let starved_again =
+                late > STARVED && said_behind.is_none_or(|at: Instant| at.elapsed() >= STARVED);
+            if late > BEHIND
+                && (starved_again
+                    || said_behind.is_none_or(|at: Instant| at.elapsed() >= BEHIND_EVERY))
+            {
                 said_behind = Some(Instant::now());
                 eprintln!(
                     "hilsim: behind: a device write left {:.1} ms late at t={:.2} s (the simulator was starved: the flight computer saw the world late)",
