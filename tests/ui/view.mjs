@@ -65,6 +65,26 @@ try {
   page.on("pageerror", (e) => console.error(`page error: ${e.message}`));
   await page.goto(url);
   await waitFor(page, "the views", (v) => v.main && v.side, 30000);
+  // The interpolation between the simulator's states: halfway in time is halfway in
+  // position, and a roll from 170° to −170° passes through 180°, not back through level.
+  const between = await page.evaluate(async () => {
+    const { StateBuffer, attitude } = await import("./view3d.js");
+    const b = new StateBuffer();
+    const D = Math.PI / 180;
+    b.push({ pos_ned_m: [0, 0, -10], euler_rad: [170 * D, 0, 0] }, 1000);
+    b.push({ pos_ned_m: [2, 0, -10], euler_rad: [-170 * D, 0, 0] }, 1040);
+    const mid = b.at(1020);
+    return {
+      north_m: mid.state.pos_ned_m[0],
+      produced_ms: mid.produced_ms,
+      inverted: Math.abs(mid.state.quaternion.dot(attitude([Math.PI, 0, 0]))),
+      level: Math.abs(mid.state.quaternion.dot(attitude([0, 0, 0]))),
+    };
+  });
+  if (!(Math.abs(between.north_m - 1) < 1e-9 && between.produced_ms === 1020
+    && between.inverted > 0.9999 && between.level < 0.01)) {
+    throw new Error(`interpolation between states: ${JSON.stringify(between)}`);
+  }
   const main = await page.evaluate(() => window.truthView.main.camera);
   const side = await page.evaluate(() => window.truthView.side.camera);
   if (main !== "pilot" || side !== "chase") throw new Error(`the views are ${main} and ${side}, not pilot and chase`);

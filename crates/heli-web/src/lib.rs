@@ -68,9 +68,17 @@ impl Site {
 /// The path under which every page finds the helicopter's shape.
 pub const SHAPE_FILE: &str = "xcell60.json";
 
-/// The X-Cell 60's parts as JSON (`[{name, solid: {kind, ...}, center_frd_m, rgba, group}]`).
+/// The X-Cell 60 as JSON: its parts (`{name, solid: {kind, ...}, center_frd_m, rgba,
+/// group}`), the box that holds them (`bounds_frd_m`: least and most, m) and its rotor's
+/// diameter (m), the size the views frame it by.
 pub fn shape_json() -> String {
-    serde_json::to_string(heli_types::shape::XCELL_60).unwrap_or_else(|_| "[]".into())
+    use heli_types::shape;
+    serde_json::json!({
+        "parts": shape::XCELL_60,
+        "bounds_frd_m": shape::bounds_frd_m(shape::XCELL_60),
+        "rotor_diameter_m": 2.0 * shape::MAIN_ROTOR_RADIUS_M,
+    })
+    .to_string()
 }
 
 /// The content type of a file by its name.
@@ -133,13 +141,16 @@ mod tests {
             (status, kind.as_str()),
             (StatusCode::OK, "application/json")
         );
-        let parts: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let shape: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let parts = &shape["parts"];
         assert_eq!(
             parts.as_array().map(Vec::len),
             Some(heli_types::shape::XCELL_60.len())
         );
         assert_eq!(parts[0]["solid"]["kind"], "ellipsoid");
         assert_eq!(parts[2]["solid"]["axis"], "forward");
+        assert_eq!(shape["rotor_diameter_m"], 1.55);
+        assert_eq!(shape["bounds_frd_m"][1][2], 0.358);
         assert_eq!(content_type("a.html"), "text/html; charset=utf-8");
     }
 }

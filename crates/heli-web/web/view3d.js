@@ -55,7 +55,7 @@ const AXIS3 = { forward: new THREE.Vector3(0, 0, -1), right: new THREE.Vector3(1
 
 // The attitude (roll, pitch, yaw; body to NED, ZYX) as a three.js quaternion of the
 // helicopter's group: P R Pᵀ, P the NED-to-three.js axes (also FRD to the group's axes).
-function attitude([phi, theta, psi]) {
+export function attitude([phi, theta, psi]) {
   const cf = Math.cos(phi), sf = Math.sin(phi), ct = Math.cos(theta), st = Math.sin(theta);
   const cp = Math.cos(psi), sp = Math.sin(psi);
   const R = [
@@ -174,6 +174,7 @@ export class HeliView {
       console.warn("no WebGL: the flat view stays", e);
       return null;
     }
+    // {parts, bounds_frd_m: [least, most], rotor_diameter_m}: heli_types::shape.
     const shape = await (await fetch("xcell60.json")).json();
     return new HeliView(canvas, renderer, shape, opts || {});
   }
@@ -308,15 +309,14 @@ export class HeliView {
     this.tailRotor = new THREE.Group();
     this.spinners = [];
     const hub = (group) => {
-      const parts = shape.filter((p) => p.group === group);
+      const parts = shape.parts.filter((p) => p.group === group);
       return parts.length ? parts[0].center_frd_m : [0, 0, 0];
     };
     const mainHub = hub("main_rotor"), tailHub = hub("tail_rotor");
     this.mainRotor.position.copy(frd3(mainHub));
     this.tailRotor.position.copy(frd3(tailHub));
     this.heli.add(this.mainRotor, this.tailRotor);
-    const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
-    for (const part of shape) {
+    for (const part of shape.parts) {
       const mesh = partMesh(part);
       mesh.layers.set(LAYER.heli);
       let parent = this.heli, origin = [0, 0, 0];
@@ -335,22 +335,14 @@ export class HeliView {
       } else {
         parent.add(mesh);
       }
-      const size = part.solid.size_m || [part.solid.length_m, part.solid.length_m, part.solid.length_m];
-      const reach = part.solid.kind === "cylinder"
-        ? Math.max(part.solid.length_m / 2, part.solid.start_radius_m, part.solid.end_radius_m)
-        : null;
-      for (let k = 0; k < 3; k++) {
-        const half = reach !== null ? reach : size[k] / 2;
-        lo[k] = Math.min(lo[k], part.center_frd_m[k] - half);
-        hi[k] = Math.max(hi[k], part.center_frd_m[k] + half);
-      }
     }
     // The corners of the box that holds the helicopter, to measure it on screen.
+    const [lo, hi] = shape.bounds_frd_m;
     this.corners = [];
     for (const f of [lo[0], hi[0]]) for (const r of [lo[1], hi[1]]) for (const d of [lo[2], hi[2]]) {
       this.corners.push(frd3([f, r, d]));
     }
-    this.rotor_m = hi[1] - lo[1];
+    this.rotor_m = shape.rotor_diameter_m;
     this.scene.add(this.heli);
     // The shadow: every part again, flattened onto the ground along the sun (the spinning
     // rotor's disk a faint one, as on a sunny field).
@@ -663,11 +655,16 @@ export class StateBuffer {
   // The state to draw now, and when it was produced: a frame period and the recent arrival
   // lag behind the newest, interpolated (position linearly, attitude along the great circle).
   now() {
-    const f = this.frames;
-    if (!f.length) return null;
     const sorted = [...this.lag].sort((a, b) => a - b);
     const lag = sorted[Math.floor(0.9 * (sorted.length - 1))] || 0;
-    const at = Date.now() - lag - 40;
+    return this.at(Date.now() - lag - 40);
+  }
+
+  // The state as it was at `at` (Date.now() clock), between the two states around it; the
+  // first or the newest outside them.
+  at(at) {
+    const f = this.frames;
+    if (!f.length) return null;
     let i = f.length - 1;
     while (i > 0 && f[i - 1].produced > at) i--;
     const b = f[i], a = f[i - 1];
