@@ -66,24 +66,22 @@ fn worst_behind_ms() -> f64 {
     })
 }
 
-/// A HILSim write this late (ms) stopped the world for the flight computer: the IMU's silence
-/// limit (`heli_sim::hil::STARVED`).
-const STARVED_MS: f64 = 100.0;
-
-/// Runs `test`; when it fails and a HILSim it started was starved past [`STARVED_MS`], the
-/// machine stopped the world, not the flight software: the run is void, said so, and the test
-/// runs once more, its verdict final. (As `heli field-day` does with its trials.)
+/// Runs `test`; when it fails and a HILSim it started was starved past
+/// [`heli_sim::hil::STARVED`] (the IMU's silence limit), the machine stopped the world, not
+/// the flight software: the run is void, said so, and the test runs once more, its verdict
+/// final. (As `heli field-day` does with its trials.)
 pub fn void_if_starved(test: impl Fn()) {
     STARTED.with(|started| started.borrow_mut().clear());
     let Err(failure) = std::panic::catch_unwind(std::panic::AssertUnwindSafe(&test)) else {
         return;
     };
+    let starved_ms = heli_sim::hil::STARVED.as_secs_f64() * 1e3;
     let worst = worst_behind_ms();
-    if worst <= STARVED_MS {
+    if worst <= starved_ms {
         std::panic::resume_unwind(failure);
     }
     eprintln!(
-        "VOID: a HILSim of this test was starved {worst:.0} ms by the machine (over the IMU's {STARVED_MS:.0} ms silence limit); the test runs once more"
+        "VOID: a HILSim of this test was starved {worst:.0} ms by the machine (over the IMU's {starved_ms:.0} ms silence limit); the test runs once more"
     );
     STARTED.with(|started| started.borrow_mut().clear());
     test();
