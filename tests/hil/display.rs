@@ -66,7 +66,9 @@ fn the_operator_flies_a_hover_from_the_display_in_headless_chromium() {
         drop(hil);
         assert!(
             run.success(),
-            "the browser test failed:\n{said}\nthe vehicle said:\n{vehicle_said}"
+            "the browser test failed:\n{}\nthe vehicle said:\n{}",
+            tail(&said, 30),
+            tail(&vehicle_said, 30)
         );
         assert!(stopped, "heli ground did not stop cleanly on SIGTERM");
         for step in [
@@ -134,8 +136,35 @@ pub(crate) fn run_page_script_env(
         .expect("node");
     let said =
         String::from_utf8_lossy(&run.stdout).to_string() + &String::from_utf8_lossy(&run.stderr);
-    eprintln!("{said}\nscreenshots in {}", shots.display());
+    // The whole of what the script said goes to a file beside its screenshots; only its end
+    // is printed, so that a failing test's own message stays near the top of CI's excerpt.
+    let _ = std::fs::create_dir_all(&shots);
+    let file = shots.join(format!("{name}-said.txt"));
+    let _ = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&file)
+        .and_then(|mut f| std::io::Write::write_all(&mut f, said.as_bytes()));
+    eprintln!(
+        "{name}.mjs ({}) ended with:\n{}\nall it said: {}; screenshots in {}",
+        run.status,
+        tail(&said, 12),
+        file.display(),
+        shots.display()
+    );
     (run.status, said, shots)
+}
+
+/// The last `lines` lines of `text`, for failure messages that must stay short.
+pub(crate) fn tail(text: &str, lines: usize) -> String {
+    let all: Vec<&str> = text.lines().collect();
+    let skip = all.len().saturating_sub(lines);
+    let mut out = String::new();
+    if skip > 0 {
+        out.push_str(&format!("[… {skip} lines before]\n"));
+    }
+    out.push_str(&all[skip..].join("\n"));
+    out
 }
 
 /// The pid of a process whose command line mentions `needle`.

@@ -10,7 +10,7 @@ use std::path::Path;
 use std::time::Duration;
 
 use super::with_browser;
-use crate::display::{browser_ready, run_page_script_env};
+use crate::display::{browser_ready, run_page_script_env, tail};
 use crate::procs::{Display, Hilsim, Vehicle, free_udp_port, ground, heli, log_info};
 
 #[test]
@@ -69,8 +69,9 @@ fn a_certified_build_is_lab_tested_and_a_changed_gain_needs_the_override() {
             let (run, said, _) = run_page_script_env(&ui, "lab", "HELI_UI_URL", &display.url, env);
             assert!(
                 run.success(),
-                "the lab page failed:\n{said}\nthe vehicle said:\n{}",
-                vehicle.output()
+                "the lab page failed:\n{}\nthe vehicle said:\n{}",
+                tail(&said, 30),
+                tail(&vehicle.output(), 30)
             );
             said
         };

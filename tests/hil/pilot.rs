@@ -7,7 +7,7 @@
 //! panel, the stick settings kept across a reload. Both flights are logged by the vehicle.
 
 use super::with_browser;
-use crate::display::{browser_ready, run_page_script_with};
+use crate::display::{browser_ready, run_page_script_with, tail};
 use crate::procs::Vehicle;
 use crate::view::hilsim_with_view;
 use std::path::Path;
@@ -22,7 +22,7 @@ fn steps(said: &str) -> Vec<serde_json::Value> {
 fn step<'a>(all: &'a [serde_json::Value], name: &str, said: &str) -> &'a serde_json::Value {
     all.iter()
         .find(|v| v["step"] == name)
-        .unwrap_or_else(|| panic!("no {name} step in\n{said}"))
+        .unwrap_or_else(|| panic!("no {name} step in\n{}", tail(said, 30)))
 }
 
 #[test]
@@ -50,7 +50,11 @@ fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and
         vehicle.wait_for_line("phase manual", Duration::from_secs(30));
         let (run, said, _) =
             run_page_script_with(&ui, "pilot", &url, &[("HELI_PILOT_PHASE", "manual")]);
-        assert!(run.success(), "the manual phase failed:\n{said}");
+        assert!(
+            run.success(),
+            "the manual phase failed:\n{}",
+            tail(&said, 30)
+        );
         let manual = steps(&said);
         // One transmitter: a second page could not take it, and its sticks never reached the
         // simulator's receiver (checked on the ground after the manual flight).
@@ -102,7 +106,9 @@ fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and
         drop(hil);
         assert!(
             run.success(),
-            "the augmented phase failed:\n{said}\nthe vehicle said:\n{flown}"
+            "the augmented phase failed:\n{}\nthe vehicle said:\n{}",
+            tail(&said, 30),
+            tail(&flown, 30)
         );
         // The flight software flew the augmented mode, and the bypass made it stand aside.
         let velocity_flight = flown

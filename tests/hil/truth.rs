@@ -15,7 +15,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use heli_control::safety::{AUTOMATIC, Condition, Facts};
 use serde_json::Value;
 
-use crate::display::{browser_ready, run_page_script_with};
+use crate::display::{browser_ready, run_page_script_with, tail};
 use crate::procs::{Display, Vehicle, free_udp_port, heli, vehicle_program};
 use crate::view::hilsim_with_view;
 use crate::with_browser;
@@ -227,7 +227,9 @@ fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults()
         drop(hil);
         assert!(
             run.success(),
-            "the page script failed:\n{said}\nthe vehicle said:\n{vehicle_said}"
+            "the page script failed:\n{}\nthe vehicle said:\n{}",
+            tail(&said, 30),
+            tail(&vehicle_said, 30)
         );
 
         let steps: Vec<Value> = said
@@ -239,7 +241,9 @@ fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults()
             steps
                 .iter()
                 .find(|s| s["step"] == name)
-                .unwrap_or_else(|| panic!("no step {name} in\n{said}"))
+                .unwrap_or_else(|| {
+                    panic!("no step {name} in what the page said:\n{}", tail(&said, 30))
+                })
                 .clone()
         };
         // Page against vehicle, sample by sample.
@@ -306,7 +310,12 @@ fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults()
         // Three flights, three saves: three different files, each the vehicle's own.
         for (saved_as, onboard) in [("one", "one"), ("two", "two"), ("three", "three")] {
             let downloaded = std::fs::read(saved.join(format!("truth/flight_{saved_as}.mcap")))
-                .unwrap_or_else(|e| panic!("flight_{saved_as}.mcap was not saved ({e}):\n{said}"));
+                .unwrap_or_else(|e| {
+                    panic!(
+                        "flight_{saved_as}.mcap was not saved ({e}):\n{}",
+                        tail(&said, 30)
+                    )
+                });
             let log = std::fs::read(logs.join(format!("flight_{onboard}.mcap"))).unwrap();
             assert!(
                 downloaded == log,

@@ -9,7 +9,7 @@
 //! Screenshots are saved under the test's target directory.
 
 use super::with_browser;
-use crate::display::{browser_ready, run_page_script};
+use crate::display::{browser_ready, run_page_script, tail};
 use crate::procs::{Lines, Vehicle, heli_process};
 use std::path::Path;
 
@@ -38,7 +38,9 @@ fn the_truth_view_shows_the_helicopter_its_shadow_and_the_horizon_in_the_hover_a
         drop(hil);
         assert!(
             run.success(),
-            "the view test failed:\n{said}\nthe vehicle said:\n{story}"
+            "the view test failed:\n{}\nthe vehicle said:\n{}",
+            tail(&said, 30),
+            tail(&story, 30)
         );
         for shot in [
             "01-hover",
@@ -56,7 +58,7 @@ fn the_truth_view_shows_the_helicopter_its_shadow_and_the_horizon_in_the_hover_a
             .lines()
             .filter_map(|l| serde_json::from_str(l).ok())
             .find(|v: &serde_json::Value| v["step"] == "during-roll")
-            .unwrap_or_else(|| panic!("no during-roll line in\n{said}"));
+            .unwrap_or_else(|| panic!("no during-roll line in\n{}", tail(&said, 30)));
         assert!(
             during["roll_deg"].as_f64().unwrap().abs() > 90.0,
             "{during}"
