@@ -79,6 +79,17 @@ pub fn sensor_health(latest: &Latest, bit: MavSysStatusSensor) -> Option<bool> {
     }
 }
 
+/// Whether a `SYS_STATUS` that came after `since_us` no longer lists the sensor as present:
+/// the vehicle has no such device now (its flight process ended, or a new one has not yet
+/// heard from it), so a row from before speaks for a device that is not there.
+pub fn gone_since(latest: &Latest, bit: MavSysStatusSensor, since_us: u64) -> bool {
+    matches!(
+        latest.get(&SYS_STATUS_DATA::ID),
+        Some((at, MavMessage::SYS_STATUS(s)))
+            if *at > since_us && !s.onboard_control_sensors_present.contains(bit)
+    )
+}
+
 fn cell(label: &str, value: String) -> Cell {
     Cell {
         label: label.to_string(),
@@ -127,7 +138,9 @@ impl RowMaker<'_> {
         bit: Option<MavSysStatusSensor>,
     ) -> Row {
         let old = self.now_us.saturating_sub(at_us) > STALE_AFTER_US;
-        let unhealthy = bit.is_some_and(|b| sensor_health(self.latest, b) == Some(false));
+        let unhealthy = bit.is_some_and(|b| {
+            sensor_health(self.latest, b) == Some(false) || gone_since(self.latest, b, at_us)
+        });
         Row {
             time_s: f64::from(time_ms) / 1000.0,
             cells,
@@ -366,5 +379,38 @@ mod tests {
         // The flight process restarted: its clock at 1.5 s, the last fix the previous
         // process's at 100 s. Before, its age was taken as zero and the lamp stayed green.
         assert!(gps_stale(100_000_000, 1_500));
+    }
+
+    fn sys_status(present: MavSysStatusSensor, healthy: MavSysStatusSensor) -> MavMessage {
+        MavMessage::SYS_STATUS(SYS_STATUS_DATA {
+            onboard_control_sensors_present: present,
+            onboard_control_sensors_health: healthy,
+            ..Default::default()
+        })
+    }
+
+    #[test]
+    fn a_device_the_vehicle_no_longer_lists_makes_its_older_row_stale() {
+        let gps = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS;
+        let none = MavSysStatusSensor::empty();
+        let stale_with = |status: Option<(u64, MavMessage)>| {
+            let mut m = latest(100_000_000, 100_200);
+            if let Some(s) = status {
+                m.insert(SYS_STATUS_DATA::ID, s);
+            }
+            rows(&m, &Batteries::new(), 10_100_000, ["a", "e", "r", "c", "t"])
+                .gps
+                .is_some_and(|g| g.stale)
+        };
+        // No status at all, or one that says the GPS is there and healthy: a fresh fix.
+        assert!(!stale_with(None));
+        assert!(!stale_with(Some((10_050_000, sys_status(gps, gps)))));
+        // After the fix (10.0 s), the vehicle says it has no GPS (a flight process ended or
+        // has only begun): the fix speaks for a device that is not there.
+        assert!(stale_with(Some((10_050_000, sys_status(none, none)))));
+        // A status from before the fix says nothing of it.
+        assert!(!stale_with(Some((9_950_000, sys_status(none, none)))));
+        // Present and unhealthy is stale whenever it came.
+        assert!(stale_with(Some((9_950_000, sys_status(gps, none)))));
     }
 }

@@ -333,3 +333,23 @@ fn the_gps_row_has_posn_pose_from_the_estimates_origin_and_ages_by_its_fix() {
     assert!(lamp.stale && !lamp.ok, "{lamp:?}");
     assert!((1.3..1.9).contains(&lamp.age_s), "{lamp:?}");
 }
+
+#[test]
+fn a_new_flight_s_gps_lamp_is_not_green_on_the_last_flight_s_fix() {
+    let mut b = Bench::new();
+    b.flying_operator("g1", "manual");
+    b.telemetry = Some(flying_telemetry("manual"));
+    b.run(1.0);
+    assert!(b.station.view(b.t).gps.is_some_and(|g| g.ok && !g.stale));
+    // The flight ends and the next one begins at once: the new flight process has no fix
+    // (nor any telemetry) yet, and the last flight's fix is still under its age limit.
+    b.state = heli_link::status::BootstrapState::Idle;
+    b.telemetry = None;
+    b.run(0.05);
+    b.state = heli_link::status::BootstrapState::Starting;
+    b.run(0.05);
+    b.state = heli_link::status::BootstrapState::Flying;
+    b.run(0.1);
+    let lamp = b.station.view(b.t).gps.unwrap();
+    assert!(lamp.stale && !lamp.ok, "{lamp:?}");
+}

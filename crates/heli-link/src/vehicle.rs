@@ -560,6 +560,12 @@ impl VehicleLink {
         if changed {
             self.next_due
                 .insert(HEARTBEAT_DATA::ID, now_us.saturating_add(HEARTBEAT_US));
+            // And the sensors' state with it (when streamed): a flight process that ended or
+            // has only begun has no devices to speak for, and the ground must not go on
+            // showing the last one's as healthy until their messages age.
+            if self.next_due.contains_key(&SYS_STATUS_DATA::ID) {
+                self.next_due.insert(SYS_STATUS_DATA::ID, now_us);
+            }
         }
         if changed || self.due(HEARTBEAT_DATA::ID, Some(HEARTBEAT_US), now_us) {
             let hb = heartbeat(status);

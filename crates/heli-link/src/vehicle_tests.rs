@@ -669,3 +669,51 @@ fn a_change_of_state_is_said_at_once_not_at_the_next_beat() {
         "the beat goes on from it"
     );
 }
+
+#[test]
+fn a_change_of_state_sends_the_sensors_state_at_once_too() {
+    use crate::status::BootstrapState;
+    let mut v = VehicleLink::new(None, T0);
+    let mut g = GroundLink::new(None);
+    let s = store();
+    let mut tick = |t: u64, state: BootstrapState, tel: Option<&Telemetry>| {
+        let status = VehicleStatus {
+            state,
+            ..VehicleStatus::default()
+        };
+        v.tick(t, status, tel, &s);
+        for d in v.take_outgoing() {
+            g.receive(&d, t);
+        }
+        let present = match g.latest.get(&SYS_STATUS_DATA::ID) {
+            Some((_, MavMessage::SYS_STATUS(st))) => st.onboard_control_sensors_present,
+            _ => MavSysStatusSensor::empty(),
+        };
+        (
+            g.counts.get(&SYS_STATUS_DATA::ID).copied().unwrap_or(0),
+            present,
+        )
+    };
+    let flying = Telemetry {
+        health: vec![crate::telemetry::DeviceHealth {
+            device: "gps".into(),
+            state: "ok".into(),
+        }],
+        ..telemetry()
+    };
+    let gps = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS;
+    let (first, present) = tick(T0 + 10_000, BootstrapState::Flying, Some(&flying));
+    assert_eq!(first, 1, "the sensors' state streams");
+    assert!(present.contains(gps));
+    assert_eq!(
+        tick(T0 + 20_000, BootstrapState::Flying, Some(&flying)).0,
+        1
+    );
+    // The flight ends: the ground hears at once that the vehicle has no sensors to speak
+    // for, not a stream period later.
+    let (after, present) = tick(T0 + 30_000, BootstrapState::Idle, None);
+    assert_eq!(after, 2, "at once");
+    assert!(present.is_empty(), "{present:?}");
+    // Nothing changed since: the stream's own cadence again.
+    assert_eq!(tick(T0 + 40_000, BootstrapState::Idle, None).0, 2);
+}
