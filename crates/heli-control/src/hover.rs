@@ -138,6 +138,14 @@ pub fn accel_to_attitude(yaw_rad: f64, accel_ned: &Vector3<f64>) -> (f64, f64) {
     ((right / gravity).atan(), -(fwd / gravity).atan())
 }
 
+/// A hold begun after flight ([`HoverController::enter_hold`]) unlearns the flight's drag
+/// once the helicopter is slower than this (m/s) ...
+pub const SETTLE_FROM_MPS: f64 = 1.5;
+/// ... for this long (s) ...
+pub const SETTLE_S: f64 = 8.0;
+/// ... with its velocity integrator this many times faster.
+pub const SETTLE_INTEGRAL_BOOST: f64 = 3.0;
+
 /// The hover controller with its integrator states.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct HoverController {
@@ -147,6 +155,8 @@ pub struct HoverController {
     climb_integral: f64,
     yaw_integral: f64,
     tail_feedforward: Option<f64>,
+    /// A hold that began after flight and is settling: for how much longer (s).
+    settling_s: Option<f64>,
     /// The augmented modes' heading lock.
     pub(crate) heading_lock: HeadingLock,
 }
@@ -166,8 +176,21 @@ impl HoverController {
         self.vel_integral * self.gains.vel_integral
     }
 
+    /// A hold begins after flight along a trajectory (a path, the roll manoeuvre). In
+    /// flight the velocity integrator also held the drag of the airspeed (the flight's speed
+    /// through the wind: 1.3 m/s² more at 8 m/s into 7 m/s of wind), which the stopped
+    /// helicopter no longer has. Left to bleed off at the integrator's time constant
+    /// (`vel_to_accel / vel_integral`, some 9 s) it pushed the helicopter on at up to 1 m/s
+    /// for ten seconds after the stop, and the stop's target rode along with it. So once
+    /// slower than [`SETTLE_FROM_MPS`], the integrator learns [`SETTLE_INTEGRAL_BOOST`]
+    /// times faster for [`SETTLE_S`].
+    pub fn enter_hold(&mut self) {
+        self.settling_s = Some(SETTLE_S);
+    }
+
     /// Clears the integrators (on the ground, or when another mode had control).
     pub fn reset(&mut self) {
+        self.settling_s = None;
         self.vel_integral = Vector3::zeros();
         self.climb_integral = 0.0;
         self.yaw_integral = 0.0;
@@ -234,7 +257,16 @@ impl HoverController {
         let vel = est.vel_ned_mps;
         let vel_err = Vector3::new(vel_cmd.x - vel.x, vel_cmd.y - vel.y, 0.0);
         if airborne {
-            self.vel_integral += vel_err * dt;
+            // Settling after flight: the drag's trim unlearnt faster, once stopped.
+            let boost = match self.settling_s {
+                Some(left_s) if left_s < SETTLE_S || vel.xy().norm() < SETTLE_FROM_MPS => {
+                    let left_s = left_s - dt;
+                    self.settling_s = (left_s > 0.0).then_some(left_s);
+                    SETTLE_INTEGRAL_BOOST
+                }
+                _ => 1.0,
+            };
+            self.vel_integral += vel_err * (dt * boost);
             // The trim is limited in magnitude, whatever its direction.
             let trim = self.vel_integral.norm() * g.vel_integral;
             if trim > g.max_trim_accel_mps2 {
@@ -405,5 +437,48 @@ mod tests {
         for x in [u.aileron, u.elevator, u.rudder, u.collective] {
             assert!(x.is_finite() && x.abs() <= 1.0);
         }
+    }
+
+    /// How many times the usual rate the velocity integrator learnt in one step of `dt_s`
+    /// with 1 m/s of velocity error north, flying east at `speed_mps`.
+    fn learning(c: &mut HoverController, speed_mps: f64, dt_s: f64) -> f64 {
+        let before = c.trim_accel_ned_mps2().x;
+        let e = est_at(
+            Vector3::new(0.0, 0.0, -10.0),
+            Vector3::new(0.0, speed_mps, 0.0),
+        );
+        c.velocity_to_attitude(&e, &Vector3::new(1.0, speed_mps, 0.0), dt_s, true);
+        (c.trim_accel_ned_mps2().x - before) / (c.gains.vel_integral * dt_s)
+    }
+
+    #[test]
+    fn a_hold_after_flight_unlearns_the_flight_s_drag_faster_once_stopped_and_for_a_while() {
+        let dt = 0.0625;
+        let mut c = HoverController::new(HoverGains::default());
+        let near = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        // Without a hold after flight, and while it still slows: the usual rate.
+        assert!(near(learning(&mut c, 1.0, dt), 1.0));
+        c.enter_hold();
+        assert!(near(learning(&mut c, 5.0, dt), 1.0), "still braking");
+        assert!(
+            near(learning(&mut c, SETTLE_FROM_MPS, dt), 1.0),
+            "not yet slower"
+        );
+        // Stopped: three times the rate, for SETTLE_S from then, fast or slow.
+        let mut boosted = 0;
+        for i in 0..1000 {
+            let rate = learning(&mut c, if i % 2 == 0 { 1.0 } else { 5.0 }, dt);
+            if near(rate, 1.0) {
+                break;
+            }
+            assert!(near(rate, SETTLE_INTEGRAL_BOOST), "{rate} at step {i}");
+            boosted += 1;
+        }
+        assert_eq!(f64::from(boosted) * dt, SETTLE_S);
+        assert!(near(learning(&mut c, 1.0, dt), 1.0), "over");
+        // Cleared with the integrators.
+        c.enter_hold();
+        c.reset();
+        assert!(near(learning(&mut c, 1.0, dt), 1.0));
     }
 }

@@ -130,6 +130,14 @@ impl Phase {
         }
     }
 
+    /// A hold that follows flight along a trajectory (a path, the roll manoeuvre) from
+    /// `previous`: the hover controller unlearns that flight's drag
+    /// (`heli_control::HoverController::enter_hold`).
+    pub(crate) fn is_hold_after_flight(&self, previous: &Phase) -> bool {
+        matches!(self, Phase::Holding { .. })
+            && matches!(previous, Phase::Flying { .. } | Phase::Maneuver { .. })
+    }
+
     /// Same kind of phase (a moving target or a turning roll does not count as a change).
     pub(crate) fn same_kind(&self, other: &Phase) -> bool {
         match (self, other) {
@@ -177,5 +185,46 @@ impl RollStage {
             RollStage::Rolling { .. } => "rolling",
             RollStage::Recover { .. } => "recover",
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_a_hold_after_a_path_or_the_manoeuvre_is_a_hold_after_flight() {
+        let target = Target::hold(Vector3::new(1.0, 2.0, -10.0), 0.0);
+        let hold = Phase::Holding {
+            target,
+            since_us: 0,
+        };
+        let flying = Phase::Flying {
+            target,
+            to_ned_m: Vector3::zeros(),
+        };
+        let rolls = Phase::Maneuver {
+            target,
+            stage: RollStage::Recover { since_us: 0 },
+            rolls_done: 1,
+        };
+        assert!(hold.is_hold_after_flight(&flying));
+        assert!(hold.is_hold_after_flight(&rolls));
+        // Not the other way round, nor from a climb, a hold, the pilot's hands.
+        assert!(!flying.is_hold_after_flight(&hold));
+        assert!(!rolls.is_hold_after_flight(&hold));
+        for before in [
+            Phase::TakingOff { target },
+            hold,
+            Phase::Manual,
+            Phase::Augmented(AugmentedMode::Velocity),
+        ] {
+            assert!(!hold.is_hold_after_flight(&before), "{before:?}");
+        }
+        let landing = Phase::Landing {
+            target,
+            settled_since_us: None,
+        };
+        assert!(!landing.is_hold_after_flight(&flying));
     }
 }

@@ -11,6 +11,11 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Faults {
+    /// The phase of the flight software (its name, as the state records and the heartbeat
+    /// give it: `accelerate` for the roll manoeuvre's run-up, `hold`, `land`, …) from whose
+    /// first moment every fault time below counts; before it, no timed fault acts. None:
+    /// from the start of the run (`crate::fault_timing`).
+    pub timed_from: Option<String>,
     /// Probability that an IMU packet is lost (0..1).
     pub imu_drop_rate: f64,
     /// Intervals [start, end) in seconds during which the GPS sends nothing.

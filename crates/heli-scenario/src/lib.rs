@@ -13,6 +13,7 @@
 mod builtin;
 pub mod device_faults;
 pub mod engine_failures;
+pub mod fault_timing;
 pub mod faults;
 mod file;
 mod flights;

@@ -122,6 +122,14 @@ pub fn scenario(s: &Scenario) -> Result<(), Invalid> {
         }
     }
     let f = &s.faults;
+    if let Some(phase) = &f.timed_from
+        && !crate::fault_timing::PHASES.contains(&phase.as_str())
+    {
+        errors.push(format!(
+            "faults.timed_from = {phase:?}: not a phase of the flight software (one of {})",
+            crate::fault_timing::PHASES.join(", ")
+        ));
+    }
     let spans = f
         .gps_glitches
         .iter()
@@ -260,7 +268,7 @@ fn device_faults(faults: &[crate::faults::DeviceFault], errors: &mut Vec<String>
 /// Keys left unset on purpose: the temperature told to the flight software (then the
 /// flight pack's).
 fn unset_allowed(path: &str) -> bool {
-    path == "power.told_temperature_c"
+    path == "power.told_temperature_c" || path == "faults.timed_from"
 }
 
 /// Walks a value: every number must be finite and within its key's range.

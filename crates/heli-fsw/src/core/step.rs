@@ -129,6 +129,10 @@ impl FlightCore {
             ) {
                 self.hover.reset();
             }
+            // A hold after flight unlearns that flight's drag (`HoverController::enter_hold`).
+            if next_phase.is_hold_after_flight(&previous_phase) {
+                self.hover.enter_hold();
+            }
             out.push(Action::Event(Stamped::new(
                 now_us,
                 CoreEvent::PhaseChanged(next_phase),

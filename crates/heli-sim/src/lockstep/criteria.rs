@@ -16,6 +16,15 @@ impl Simulation {
                 criteria.push(Criterion::at_most(name, value, limit));
             }
         };
+        // Faults timed from a phase that never began never acted: such a run judges
+        // nothing of them, and fails for it.
+        if self.scenario.faults.timed_from.is_some() {
+            at_most(
+                "fault_phase_began_s",
+                self.fault_clock.began_us.map(|t| t as f64 * 1e-6),
+                Some(self.scenario.duration_s),
+            );
+        }
         let held = |v: Option<f64>| v.filter(|_| m.hold_start_us.is_some());
         at_most(
             "hold_horizontal_rms_m",
@@ -35,16 +44,31 @@ impl Simulation {
         let altitude_loss = m
             .maneuver_start_alt_m
             .map(|start| (start - m.maneuver_min_alt_m).max(0.0));
-        at_most("altitude_loss_m", altitude_loss, limits.altitude_loss_max_m);
+        // The roll criteria judge the rolls flown. A scenario that asks for no number of
+        // rolls (`rolls_min` unset: a transmitter lost anywhere in the manoeuvre, its run-up
+        // too, where the flight software rightly gives the rolls up) judges none when none
+        // was flown; one that asks for rolls fails on them unmeasured.
+        let rolled = |v: Option<f64>, limit: Option<f64>| {
+            if v.is_none() && limits.rolls_min.is_none() {
+                None
+            } else {
+                limit
+            }
+        };
+        at_most(
+            "altitude_loss_m",
+            altitude_loss,
+            rolled(altitude_loss, limits.altitude_loss_max_m),
+        );
         at_most(
             "recovery_attitude_deg",
             m.recovery_attitude_deg,
-            limits.recovery_attitude_max_deg,
+            rolled(m.recovery_attitude_deg, limits.recovery_attitude_max_deg),
         );
         at_most(
             "recovery_speed_error_mps",
             m.recovery_speed_error_mps,
-            limits.recovery_speed_max_mps,
+            rolled(m.recovery_speed_error_mps, limits.recovery_speed_max_mps),
         );
         at_most(
             "att_err_rms_deg",

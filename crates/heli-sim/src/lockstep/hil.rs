@@ -47,6 +47,13 @@ impl Simulation {
     /// The scenario's helicopter and devices with the flight software outside: nothing runs
     /// the flight computer; its bytes come through [`Simulation::inject`].
     pub fn hil(scenario: Scenario) -> Result<Self, ScenarioError> {
+        if let Some(phase) = &scenario.faults.timed_from {
+            return Err(ScenarioError::Invalid(format!(
+                "faults.timed_from = {phase:?}: the HILSim does not see the vehicle's phase; \
+                 time the faults from the start of the run (or fly it in the lockstep: heli sim, \
+                 heli campaign)"
+            )));
+        }
         let mut sim = Self::build(scenario, CoreConfig::default())?;
         sim.hil = Some(Hil::default());
         Ok(sim)

@@ -11,6 +11,7 @@
 
 mod batteries;
 mod criteria;
+mod fault_clock;
 mod hil;
 mod inject;
 mod metrics;
@@ -223,6 +224,8 @@ pub struct Simulation {
     core_events: Vec<heli_fsw::Stamped<CoreEvent>>,
     /// Every device input, kept for the flight log when asked for.
     input_log: Option<Vec<(u64, RecordedInput)>>,
+    /// Faults timed from a phase of the flight, waiting for it.
+    fault_clock: fault_clock::FaultClock,
 }
 
 impl Simulation {
@@ -233,7 +236,8 @@ impl Simulation {
     }
 
     /// The helicopter, its devices and the flight software, set up but not started.
-    fn build(scenario: Scenario, config: CoreConfig) -> Result<Self, ScenarioError> {
+    fn build(mut scenario: Scenario, config: CoreConfig) -> Result<Self, ScenarioError> {
+        let fault_clock = fault_clock::FaultClock::hold(&mut scenario.faults);
         let plan =
             Plan::new(&scenario.plan).map_err(|e| ScenarioError::Invalid(format!("plan: {e}")))?;
         let seed = scenario.seed;
@@ -319,6 +323,7 @@ impl Simulation {
             hil: None,
             core_events: Vec::new(),
             input_log: None,
+            fault_clock,
             scenario,
             heli,
             env,
@@ -558,6 +563,7 @@ impl Simulation {
             }
         }
         self.actions = actions;
+        self.time_faults_from_phase();
         self.reschedule_tick();
     }
 
