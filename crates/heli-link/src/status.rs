@@ -83,29 +83,9 @@ impl Tested {
     }
 }
 
-/// The flight software's phases, by name (`heli_fsw::Phase::name`), in the heartbeat's
-/// order.
-pub const PHASES: [&str; 19] = [
-    "calibrating",
-    "manual",
-    "ground-failsafe",
-    "blind-descent",
-    "takeoff-refused",
-    "preflight-check",
-    "takeoff",
-    "hold",
-    "fly",
-    "accelerate",
-    "pull-up",
-    "rolling",
-    "recover",
-    "land",
-    "autorotation",
-    "landed",
-    "augmented-rate",
-    "augmented-attitude",
-    "augmented-velocity",
-];
+/// The flight software's phases, by name, in the heartbeat's order
+/// ([`heli_types::phases::PHASES`]).
+pub use heli_types::phases::PHASES;
 
 /// The heartbeat's code of a phase name (0: not one of [`PHASES`]).
 pub fn phase_code(name: &str) -> u8 {

@@ -10,25 +10,8 @@
 
 use crate::faults::Faults;
 
-/// The phases a scenario's faults can be timed from: the flight software's phase names
-/// (`heli_fsw::phase::Phase::name`; the simulation's tests check each against it).
-pub const PHASES: [&str; 15] = [
-    "calibrating",
-    "manual",
-    "preflight-check",
-    "takeoff",
-    "hold",
-    "fly",
-    "accelerate",
-    "pull-up",
-    "rolling",
-    "recover",
-    "land",
-    "autorotation",
-    "augmented-rate",
-    "augmented-attitude",
-    "augmented-velocity",
-];
+/// The phases a scenario's faults can be timed from: any of the flight software's.
+pub use heli_types::phases::PHASES;
 
 /// Far beyond any run's end (s): where timed faults wait until their phase begins.
 pub const NOT_YET_S: f64 = 1.0e9;

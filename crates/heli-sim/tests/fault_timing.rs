@@ -71,11 +71,15 @@ fn the_hilsim_refuses_faults_timed_from_a_phase_it_cannot_see() {
 }
 
 #[test]
-fn every_phase_a_fault_can_be_timed_from_is_one_the_flight_software_names() {
+fn the_phases_faults_are_timed_from_are_the_flight_software_s_every_one() {
     let target = heli_control::Target::hold(nalgebra::Vector3::zeros(), 0.0);
     let names: Vec<&str> = [
         Phase::Calibrating,
         Phase::Manual,
+        Phase::GroundFailsafe,
+        Phase::BlindDescent,
+        Phase::TakeoffRefused,
+        Phase::Landed,
         Phase::PreflightCheck { since_us: 0 },
         Phase::TakingOff { target },
         Phase::Holding {
@@ -116,4 +120,8 @@ fn every_phase_a_fault_can_be_timed_from_is_one_the_flight_software_names() {
     for phase in PHASES {
         assert!(names.contains(&phase), "{phase} is not a phase's name");
     }
+    for name in &names {
+        assert!(PHASES.contains(name), "the phase {name} cannot be named");
+    }
+    assert_eq!(names.len(), PHASES.len());
 }

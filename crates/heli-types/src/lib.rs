@@ -25,6 +25,7 @@
 pub mod device;
 pub mod library;
 pub mod mode;
+pub mod phases;
 pub mod plan;
 pub mod shape;
 pub mod transmitter;
