@@ -188,6 +188,12 @@ impl HoverController {
         self.settling_s = Some(SETTLE_S);
     }
 
+    /// Whether a hold begun after flight is still to unlearn, or unlearning, that flight's
+    /// drag ([`HoverController::enter_hold`]).
+    pub fn settling(&self) -> bool {
+        self.settling_s.is_some()
+    }
+
     /// Clears the integrators (on the ground, or when another mode had control).
     pub fn reset(&mut self) {
         self.settling_s = None;
@@ -458,7 +464,9 @@ mod tests {
         let near = |a: f64, b: f64| (a - b).abs() < 1e-9;
         // Without a hold after flight, and while it still slows: the usual rate.
         assert!(near(learning(&mut c, 1.0, dt), 1.0));
+        assert!(!c.settling());
         c.enter_hold();
+        assert!(c.settling());
         assert!(near(learning(&mut c, 5.0, dt), 1.0), "still braking");
         assert!(
             near(learning(&mut c, SETTLE_FROM_MPS, dt), 1.0),
@@ -475,6 +483,7 @@ mod tests {
             boosted += 1;
         }
         assert_eq!(f64::from(boosted) * dt, SETTLE_S);
+        assert!(!c.settling());
         assert!(near(learning(&mut c, 1.0, dt), 1.0), "over");
         // Cleared with the integrators.
         c.enter_hold();

@@ -319,3 +319,43 @@ fn a_helicopter_exactly_at_the_airborne_height_has_not_yet_flown() {
         assert_eq!(core.seq.airborne_once, flown, "{home_z}");
     }
 }
+
+#[test]
+fn the_hold_a_lost_transmitter_turns_a_path_into_unlearns_the_path_s_drag() {
+    // 10 m up with an estimate, flying a path (or already holding); the transmitter goes.
+    let step_with_signal_lost = |phase: Phase| {
+        let mut core = core_in(phase, FlightMode::Autonomous, true, S);
+        core.seq.home_ned_m = Some(Vector3::new(0.0, 0.0, 10.0));
+        core.nav.initialise(
+            S,
+            &heli_nav::ImuBiases {
+                gyro_rps: Vector3::zeros(),
+                mean_accel_mps2: Vector3::new(0.0, 0.0, -heli_nav::GRAVITY_MPS2),
+                samples: 100,
+            },
+        );
+        core.main_loop.estimate_valid = true;
+        core.devices.pilot = Some(uplink(true, true));
+        let mut out = Vec::new();
+        core.control_step(still_imu(), still_imu(), false, S + 20_000, &mut out);
+        core
+    };
+    let target = Target::hold(Vector3::new(0.0, 0.0, -10.0), 0.0);
+    let flown = step_with_signal_lost(Phase::Flying {
+        target,
+        to_ned_m: Vector3::new(50.0, 0.0, -10.0),
+    });
+    assert!(
+        matches!(flown.seq.phase, Phase::Holding { .. }),
+        "{:?}",
+        flown.seq.phase
+    );
+    assert!(flown.hover.settling(), "the path's drag is to be unlearnt");
+    // A hold that goes on is no hold after flight.
+    let held = step_with_signal_lost(Phase::Holding {
+        target,
+        since_us: 0,
+    });
+    assert!(matches!(held.seq.phase, Phase::Holding { .. }));
+    assert!(!held.hover.settling());
+}
