@@ -6,13 +6,24 @@
 //! Needs `chromium` and `npm ci --prefix tests/ui` (`.ci/run` installs both). Without them
 //! the test says so and passes, unless `HELI_UI_REQUIRED=1` (set by `.ci/run`).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use super::with_browser;
 use crate::procs::{Display, Hilsim, Vehicle, free_udp_port, heli};
 
 const CHROMIUM: &str = "/usr/bin/chromium";
+
+/// For a browser test: the page scripts' directory and the machine to itself
+/// ([`crate::with_browser`]), or `None` when the test cannot run here (said); panics when
+/// it must and cannot.
+pub(crate) fn browser_test() -> Option<(PathBuf, std::sync::RwLockWriteGuard<'static, ()>)> {
+    let ui = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ui");
+    if !browser_ready(&ui) {
+        return None;
+    }
+    Some((ui, crate::with_browser()))
+}
 
 /// Whether the browser test can run here; panics when it must and cannot.
 pub(crate) fn browser_ready(ui: &Path) -> bool {
@@ -42,11 +53,9 @@ pub(crate) fn browser_ready(ui: &Path) -> bool {
 #[test]
 fn the_operator_flies_a_hover_from_the_display_in_headless_chromium() {
     crate::procs::void_if_starved(|| {
-        let ui = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ui");
-        if !browser_ready(&ui) {
+        let Some((ui, _one)) = browser_test() else {
             return;
-        }
-        let _one = with_browser();
+        };
         let dir = tempfile::tempdir().unwrap();
         let key = dir.path().join("link.key");
         let out = heli(&["link", "keygen", "--out", &key.display().to_string()]);

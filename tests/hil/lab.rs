@@ -9,18 +9,15 @@
 use std::path::Path;
 use std::time::Duration;
 
-use super::with_browser;
-use crate::display::{browser_ready, run_page_script_env, tail};
+use crate::display::{browser_test, run_page_script_env, tail};
 use crate::procs::{Display, Hilsim, Vehicle, free_udp_port, ground, heli, log_info};
 
 #[test]
 fn a_certified_build_is_lab_tested_and_a_changed_gain_needs_the_override() {
     crate::procs::void_if_starved(|| {
-        let ui = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ui");
-        if !browser_ready(&ui) {
+        let Some((ui, _one)) = browser_test() else {
             return;
-        }
-        let _one = with_browser();
+        };
         let dir = tempfile::tempdir().unwrap();
         let key = dir.path().join("key");
         assert!(

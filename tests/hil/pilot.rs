@@ -6,8 +6,7 @@
 //! flight), the bypass switch handing the servos to the sticks and back, the trainer's
 //! panel, the stick settings kept across a reload. Both flights are logged by the vehicle.
 
-use super::with_browser;
-use crate::display::{browser_ready, run_page_script_with, tail};
+use crate::display::{browser_test, run_page_script_with, tail};
 use crate::procs::Vehicle;
 use crate::view::hilsim_with_view;
 use std::path::Path;
@@ -28,11 +27,9 @@ fn step<'a>(all: &'a [serde_json::Value], name: &str, said: &str) -> &'a serde_j
 #[test]
 fn a_person_flies_the_simulated_helicopter_from_the_page_in_manual_augmented_and_bypass() {
     crate::procs::void_if_starved(|| {
-        let ui = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ui");
-        if !browser_ready(&ui) {
+        let Some((ui, _one)) = browser_test() else {
             return;
-        }
-        let _one = with_browser();
+        };
         let _ = std::fs::remove_dir_all(
             Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/pilot"),
         );

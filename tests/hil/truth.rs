@@ -15,10 +15,9 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use heli_control::safety::{AUTOMATIC, Condition, Facts};
 use serde_json::Value;
 
-use crate::display::{browser_ready, run_page_script_with, tail};
+use crate::display::{browser_test, run_page_script_with, tail};
 use crate::procs::{Display, Vehicle, free_udp_port, heli, vehicle_program};
 use crate::view::hilsim_with_view;
-use crate::with_browser;
 
 /// The bootstrap's passing states, each with the state before it and the state after it.
 const TRANSIT: [(&str, &str, &str); 3] = [
@@ -162,11 +161,9 @@ fn disagreements(page: &Value, near: &[&Truth]) -> Vec<String> {
 #[test]
 fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults() {
     crate::procs::void_if_starved(|| {
-        let ui = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ui");
-        if !browser_ready(&ui) {
+        let Some((ui, _one)) = browser_test() else {
             return;
-        }
-        let _one = with_browser();
+        };
         let _ = std::fs::remove_dir_all(
             Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/truth"),
         );

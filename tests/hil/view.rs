@@ -8,19 +8,15 @@
 //! rate and state-to-screen latency are printed (a measurement, not a timed check).
 //! Screenshots are saved under the test's target directory.
 
-use super::with_browser;
-use crate::display::{browser_ready, run_page_script, tail};
+use crate::display::{browser_test, run_page_script, tail};
 use crate::procs::{Lines, Vehicle, heli_process};
-use std::path::Path;
 
 #[test]
 fn the_truth_view_shows_the_helicopter_its_shadow_and_the_horizon_in_the_hover_and_a_roll() {
     crate::procs::void_if_starved(|| {
-        let ui = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ui");
-        if !browser_ready(&ui) {
+        let Some((ui, _one)) = browser_test() else {
             return;
-        }
-        let _one = with_browser();
+        };
         let dir = tempfile::tempdir().unwrap();
         let dev = dir.path().join("dev");
         let dev_s = dev.display().to_string();
