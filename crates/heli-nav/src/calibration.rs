@@ -25,6 +25,15 @@
 //!
 //! A restart is said once by [`BiasCalibration::take_motion`]; nothing else starts the
 //! window again.
+//!
+//! The warm-up, the window and its seconds are counted in IMU samples ([`SAMPLES_PER_S`] a
+//! second), not read off the clock: the same samples give the same calibration however
+//! they arrived. A window timed by the clock closed on whichever sample first came after
+//! its end — a sample's jitter moved the close by one, left a part-second of one or two
+//! samples whose noise alone looks like a tilt, and so made the window a second longer on
+//! one run of a recorded flight and not on another (measured: a replay of a recorded flight
+//! calibrated into the take-off it was fed). Samples the IMU did not deliver do not count:
+//! a window with gaps lasts longer.
 
 use heli_proto::imu::ImuRepr;
 use nalgebra::Vector3;
@@ -46,15 +55,15 @@ pub struct ImuBiases {
 pub enum CalibrationPhase {
     /// Waiting for the first IMU sample.
     Waiting,
-    /// The IMU is warming up until this time (µs).
+    /// The IMU is warming up.
     WarmingUp {
-        /// End of warm-up (µs).
-        until_us: u64,
+        /// Samples of warm-up still to come.
+        samples_left: u32,
     },
-    /// Accumulating samples until this time (µs).
+    /// Accumulating samples.
     Accumulating {
-        /// End of the window (µs), later by each second left out.
-        until_us: u64,
+        /// Samples the window still takes, more by each second left out.
+        samples_left: u32,
     },
     /// Finished.
     Done(ImuBiases),
@@ -86,8 +95,11 @@ pub const NEVER_STILL_SECONDS: usize = 10;
 /// longer grows them as it goes).
 const MAX_ROOM_SECONDS: usize = 2000;
 
-/// Samples in one block of the motion check (a second at 100 Hz).
-pub const BLOCK: u32 = 100;
+/// IMU samples in a second: the thesis's IMU speaks at 100 Hz.
+pub const SAMPLES_PER_S: u32 = 100;
+
+/// Samples in one block of the motion check (a second).
+pub const BLOCK: u32 = SAMPLES_PER_S;
 
 /// Motion seen during the calibration window, by the gyros and accelerometers.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -114,11 +126,10 @@ pub struct LeftOut {
 struct Second {
     /// Its mean rate (rad/s).
     gyro: Vector3<f64>,
-    /// Its samples' sums and count, and how long it lasted (µs).
+    /// Its samples' sums and count.
     gyro_sum: Vector3<f64>,
     accel_sum: Vector3<f64>,
     count: u32,
-    lasted_us: u64,
     kept: bool,
 }
 
@@ -128,9 +139,9 @@ enum Verdict {
     /// Kept in the average.
     Kept,
     /// Left out, with the second before it if that was kept (a turn's edge): the motion, if
-    /// the second moved (none for the still edge after a turn), and how much longer the
-    /// window is (µs).
-    LeftOut(Option<Motion>, u64),
+    /// the second moved (none for the still edge after a turn), and how many samples longer
+    /// the window is.
+    LeftOut(Option<Motion>, u32),
     /// The window starts again.
     Restart(Motion),
 }
@@ -260,7 +271,7 @@ impl Window {
     /// moved than were still (and more than [`NEVER_STILL_SECONDS`]).
     fn leave_out(&mut self, motion: Option<Motion>) -> Verdict {
         let n = self.seconds.len();
-        let mut longer_us = self.seconds.last().map_or(0, |s| s.lasted_us);
+        let mut longer = self.seconds.last().map_or(0, |s| s.count);
         self.left_out = self.left_out.saturating_add(1);
         if let Some(motion) = motion {
             self.moved = self.moved.saturating_add(1);
@@ -273,7 +284,7 @@ impl Window {
                 }
                 self.take_out(&edge);
                 self.left_out = self.left_out.saturating_add(1);
-                longer_us = longer_us.saturating_add(edge.lasted_us);
+                longer = longer.saturating_add(edge.count);
             }
         }
         // The median's breakdown: more seconds moved than were still.
@@ -281,7 +292,7 @@ impl Window {
         if self.moved as usize > still.max(NEVER_STILL_SECONDS) {
             return Verdict::Restart(self.last_motion);
         }
-        Verdict::LeftOut(motion, longer_us)
+        Verdict::LeftOut(motion, longer)
     }
 }
 
@@ -308,15 +319,13 @@ fn beyond(value: f64, limit: f64) -> bool {
 /// Accumulates IMU samples into bias estimates.
 #[derive(Clone, Debug)]
 pub struct BiasCalibration {
-    warm_up_us: u64,
-    window_us: u64,
+    warm_up_samples: u32,
+    window_samples: u32,
     phase: CalibrationPhase,
     window: Window,
     block_gyro: Vector3<f64>,
     block_accel: Vector3<f64>,
     block_count: u32,
-    /// When the last block ended (or the window opened) (µs).
-    block_from_us: u64,
     motion: Option<Motion>,
     left_out: Option<LeftOut>,
     /// The last second judged moved: a run of them is said once.
@@ -325,16 +334,17 @@ pub struct BiasCalibration {
 }
 
 impl BiasCalibration {
-    /// The thesis's window is 80 s; the warm-up is the IMU's (a few seconds).
+    /// The thesis's window is 80 s; the warm-up is the IMU's (a few seconds). Both are
+    /// counted in samples, [`SAMPLES_PER_S`] a second.
     pub fn new(warm_up_s: f64, window_s: f64) -> Self {
         Self {
-            warm_up_us: seconds_to_us(warm_up_s),
-            window_us: seconds_to_us(window_s),
+            warm_up_samples: seconds_to_samples(warm_up_s),
+            window_samples: seconds_to_samples(window_s),
             phase: CalibrationPhase::Waiting,
             // A window's seconds and those left out before it starts again: each second
             // that moved takes its two edges with it, and no more moved than were still.
             window: Window::with_capacity(
-                usize::try_from(seconds_to_us(window_s) / 1_000_000)
+                usize::try_from(seconds_to_samples(window_s) / SAMPLES_PER_S)
                     .unwrap_or(0)
                     .saturating_mul(4)
                     .min(MAX_ROOM_SECONDS),
@@ -342,7 +352,6 @@ impl BiasCalibration {
             block_gyro: Vector3::zeros(),
             block_accel: Vector3::zeros(),
             block_count: 0,
-            block_from_us: 0,
             motion: None,
             left_out: None,
             moving: false,
@@ -376,25 +385,24 @@ impl BiasCalibration {
         self.window.seconds.len()
     }
 
-    /// Starts the window again at `t_us`, throwing away what it had. Nothing happens before
-    /// the window has opened or after it has closed.
-    pub fn restart(&mut self, t_us: u64, motion: Motion) {
+    /// Starts the window again with the next sample, throwing away what it had. Nothing
+    /// happens before the window has opened or after it has closed.
+    pub fn restart(&mut self, motion: Motion) {
         if let CalibrationPhase::Accumulating { .. } = self.phase {
-            self.open(t_us);
+            self.open();
             self.motion = Some(motion);
             self.restarts = self.restarts.saturating_add(1);
         }
     }
 
-    fn open(&mut self, t_us: u64) {
+    fn open(&mut self) {
         self.phase = CalibrationPhase::Accumulating {
-            until_us: t_us.saturating_add(self.window_us),
+            samples_left: self.window_samples,
         };
         self.window.clear();
         self.block_gyro = Vector3::zeros();
         self.block_accel = Vector3::zeros();
         self.block_count = 0;
-        self.block_from_us = t_us;
         self.moving = false;
     }
 
@@ -411,36 +419,33 @@ impl BiasCalibration {
         }
     }
 
-    /// Feeds one IMU sample taken at `t_us`. Returns the biases on the sample that closes
-    /// the window (once), `None` otherwise.
-    pub fn push(&mut self, t_us: u64, imu: &ImuRepr) -> Option<ImuBiases> {
+    /// Feeds one real IMU sample (the main loop's stand-ins for a late one are not
+    /// samples). Returns the biases on the sample after the window's last (once), `None`
+    /// otherwise: that sample is not in the window.
+    pub fn push(&mut self, imu: &ImuRepr) -> Option<ImuBiases> {
         match self.phase {
             CalibrationPhase::Waiting => {
+                // The first sample is the warm-up's first.
                 self.phase = CalibrationPhase::WarmingUp {
-                    until_us: t_us.saturating_add(self.warm_up_us),
+                    samples_left: self.warm_up_samples.saturating_sub(1),
                 };
                 None
             }
-            CalibrationPhase::WarmingUp { until_us } => {
-                if t_us >= until_us {
-                    self.open(t_us);
-                    self.block(t_us, imu);
+            CalibrationPhase::WarmingUp { samples_left } => {
+                if samples_left == 0 {
+                    self.open();
+                    self.block(imu);
+                } else {
+                    self.phase = CalibrationPhase::WarmingUp {
+                        samples_left: samples_left.saturating_sub(1),
+                    };
                 }
                 None
             }
-            CalibrationPhase::Accumulating { until_us } => {
-                if t_us < until_us {
-                    self.block(t_us, imu);
+            CalibrationPhase::Accumulating { samples_left } => {
+                if samples_left > 0 {
+                    self.block(imu);
                     return None;
-                }
-                // A part-second left at the close is judged as a second: left out, the
-                // window is that much longer; a restart opens a new one.
-                if self.block_count > 0 {
-                    self.end_block(t_us);
-                    if !matches!(self.phase, CalibrationPhase::Accumulating { until_us } if t_us >= until_us)
-                    {
-                        return None;
-                    }
                 }
                 let n = f64::from(self.window.count.max(1));
                 let biases = ImuBiases {
@@ -455,37 +460,44 @@ impl BiasCalibration {
         }
     }
 
-    /// Adds a sample to the current second's block, judging the block when it is full.
-    fn block(&mut self, t_us: u64, imu: &ImuRepr) {
+    /// Adds a sample to the current second's block, judging the block when it is full or
+    /// the window's last sample is in (a window of a fractional number of seconds ends on
+    /// a part-second, always the same one).
+    fn block(&mut self, imu: &ImuRepr) {
         self.block_gyro += Vector3::from(imu.rate_rps);
         self.block_accel += Vector3::from(imu.accel_mps2);
         self.block_count = self.block_count.saturating_add(1);
-        if self.block_count >= BLOCK {
-            self.end_block(t_us);
+        let last = match &mut self.phase {
+            CalibrationPhase::Accumulating { samples_left } => {
+                *samples_left = samples_left.saturating_sub(1);
+                *samples_left == 0
+            }
+            _ => false,
+        };
+        if self.block_count >= BLOCK || last {
+            self.end_block();
         }
     }
 
-    /// Judges the block ending with the sample at `t_us`: kept, left out (the window made
-    /// as much longer), or the window started again.
-    fn end_block(&mut self, t_us: u64) {
+    /// Judges the block just ended: kept, left out (the window made as much longer), or the
+    /// window started again.
+    fn end_block(&mut self) {
         let count = self.block_count;
         let second = Second {
             gyro: self.block_gyro / f64::from(count.max(1)),
             gyro_sum: self.block_gyro,
             accel_sum: self.block_accel,
             count,
-            lasted_us: t_us.saturating_sub(self.block_from_us),
             kept: false,
         };
         self.block_gyro = Vector3::zeros();
         self.block_accel = Vector3::zeros();
         self.block_count = 0;
-        self.block_from_us = t_us;
         match self.window.judge(second) {
             Verdict::Kept => self.moving = false,
-            Verdict::LeftOut(motion, longer_us) => {
-                if let CalibrationPhase::Accumulating { until_us } = &mut self.phase {
-                    *until_us = until_us.saturating_add(longer_us);
+            Verdict::LeftOut(motion, longer) => {
+                if let CalibrationPhase::Accumulating { samples_left } = &mut self.phase {
+                    *samples_left = samples_left.saturating_add(longer);
                 }
                 if let Some(motion) = motion {
                     if !self.moving {
@@ -497,9 +509,19 @@ impl BiasCalibration {
                     self.moving = true;
                 }
             }
-            Verdict::Restart(motion) => self.restart(t_us, motion),
+            Verdict::Restart(motion) => self.restart(motion),
         }
     }
+}
+
+/// Seconds to whole samples at [`SAMPLES_PER_S`], saturating (negative and NaN give 0).
+#[expect(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    reason = "`as` from a float saturates at the target type's limits and maps NaN to 0, which is what is wanted here"
+)]
+pub fn seconds_to_samples(s: f64) -> u32 {
+    (s * f64::from(SAMPLES_PER_S)).round() as u32
 }
 
 /// Seconds to whole microseconds, saturating (negative and NaN give 0).

@@ -214,14 +214,11 @@ mod calibration {
         }
     }
 
-    /// Feeds `samples` samples 10 ms apart from `from_us`, returning the time reached.
-    fn feed(cal: &mut BiasCalibration, from_us: u64, samples: u32, s: ImuRepr) -> u64 {
-        let mut t = from_us;
+    /// Feeds `samples` samples.
+    fn feed(cal: &mut BiasCalibration, samples: u32, s: ImuRepr) {
         for _ in 0..samples {
-            t += 10_000;
-            cal.push(t, &s);
+            cal.push(&s);
         }
-        t
     }
 
     #[test]
@@ -234,8 +231,8 @@ mod calibration {
             (MOTION_RATE_RPS * 2.0, true),
         ] {
             let mut cal = BiasCalibration::new(0.1, 10.0);
-            let t = feed(&mut cal, 0, 211, sample(0.0, 0.0));
-            feed(&mut cal, t, 100, sample(rate, 0.0));
+            feed(&mut cal, 211, sample(0.0, 0.0));
+            feed(&mut cal, 100, sample(rate, 0.0));
             assert_eq!(cal.take_left_out().is_some(), moved, "{rate}");
             // With the second before it, the turn's edge.
             assert_eq!(cal.left_out_s(), 2 * u32::from(moved));
@@ -247,8 +244,8 @@ mod calibration {
             (MOTION_TILT_RAD * 2.0, true),
         ] {
             let mut cal = BiasCalibration::new(0.1, 10.0);
-            let t = feed(&mut cal, 0, 211, sample(0.0, 0.0));
-            feed(&mut cal, t, 100, sample(0.0, 9.81 * tilt.tan()));
+            feed(&mut cal, 211, sample(0.0, 0.0));
+            feed(&mut cal, 100, sample(0.0, 9.81 * tilt.tan()));
             assert_eq!(cal.take_left_out().is_some(), moved, "{tilt}");
         }
     }
@@ -257,7 +254,7 @@ mod calibration {
     fn the_biases_are_the_windows_means_once_it_closes() {
         let mut cal = BiasCalibration::new(0.1, 2.0);
         assert_eq!(cal.biases(), None);
-        let t = feed(&mut cal, 0, 250, sample(0.004, 0.0));
+        feed(&mut cal, 250, sample(0.004, 0.0));
         assert!(
             matches!(cal.phase(), CalibrationPhase::Done(_)),
             "{:?}",
@@ -268,7 +265,6 @@ mod calibration {
         assert!((b.mean_accel_mps2.z + 9.81).abs() < 1e-12);
         // A restart asked for after the window closed changes nothing.
         cal.restart(
-            t,
             Motion {
                 rate_rps: 0.0,
                 tilt_rad: 0.0,

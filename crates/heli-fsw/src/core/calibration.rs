@@ -61,11 +61,10 @@ impl GroundCalibration {
     /// handed to `raise`.
     pub fn push(
         &mut self,
-        now_us: u64,
         sample: &ImuRepr,
         raise: &mut dyn FnMut(CoreEvent),
     ) -> Option<ImuBiases> {
-        let biases = self.bias.push(now_us, sample);
+        let biases = self.bias.push(sample);
         if let Some(motion) = self.bias.take_motion() {
             self.heading = None;
             self.compass_pending = None;
@@ -179,7 +178,7 @@ mod tests {
         let start = (from_s * 1e6) as u64;
         for k in 0..n {
             let t_us = start + k * 10_000;
-            let biases = c.push(t_us, &f(t_us as f64 * 1e-6), &mut |e| events.push(e));
+            let biases = c.push(&f(t_us as f64 * 1e-6), &mut |e| events.push(e));
             done = done.or(biases);
         }
         (done, events)

@@ -435,7 +435,6 @@ fn a_calibration_held_up_tells_the_operator_why_and_what_to_do() {
     };
     // Three seconds still, then swinging one way and back two seconds in three: seconds left
     // out until more moved than were still, then restarts.
-    let mut t = 0u64;
     for k in 0..20_000u64 {
         let s = match (k / 100) % 3 {
             _ if k <= 300 => still,
@@ -443,8 +442,7 @@ fn a_calibration_held_up_tells_the_operator_why_and_what_to_do() {
             1 => turning(0.3),
             _ => turning(-0.3),
         };
-        c.push(t, &s, &mut |e| raised.push(e));
-        t += 10_000;
+        c.push(&s, &mut |e| raised.push(e));
     }
     let held: Vec<(u32, u32)> = raised
         .iter()

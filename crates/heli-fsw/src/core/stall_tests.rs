@@ -153,13 +153,14 @@ fn the_watchdogs_copies_of_a_sample_never_count_as_calibration_samples() {
     );
     let mut out = Vec::new();
     core.start(0);
+    // The warm-up's 10 samples and the window's 50: the next real sample closes it.
     let mut t = 0;
-    while t < 550_000 {
+    while t < 600_000 {
         t += 10_000;
         core.handle(Input::Imu(super::tests::still()), t, &mut out);
     }
-    // A short silence across the window's end: the loop runs on copies, the calibration
-    // waits for real samples.
+    // A short silence at the window's end: the loop runs on copies, the calibration waits
+    // for a real sample.
     let copies = core.stats().watchdog_fires;
     stall(&mut core, &mut out, &mut t, 0.1);
     assert!(core.stats().watchdog_fires > copies + 5);
@@ -170,6 +171,67 @@ fn the_watchdogs_copies_of_a_sample_never_count_as_calibration_samples() {
     assert!(core.navigator().state().is_none());
     core.handle(Input::Imu(super::tests::still()), t + 1_000, &mut out);
     assert!(done(&out));
+}
+
+/// The calibration's events and the sample that closed it, for IMU samples with noise
+/// arriving at `arrival_us(k)`.
+fn calibrated(arrival_us: impl Fn(u64) -> u64) -> (Vec<CoreEvent>, Option<u64>) {
+    let mut core = FlightCore::new(
+        CoreConfig {
+            imu_warm_up_s: 0.5,
+            calibration_s: 3.0,
+            ..CoreConfig::default()
+        },
+        FlightParams::default(),
+    );
+    let mut out = Vec::new();
+    core.start(0);
+    // Noise as an IMU has it: ±0.4 m/s², ±0.01 rad/s, one sample's worth enough to tip
+    // gravity's direction by two degrees on its own.
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let mut noise = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state % 2001) as f64 / 1000.0 - 1.0
+    };
+    let mut events = Vec::new();
+    for k in 0..400u64 {
+        let sample = ImuRepr {
+            rate_rps: [0.01 * noise(), 0.01 * noise(), 0.01 * noise()],
+            accel_mps2: [0.4 * noise(), 0.4 * noise(), -9.81 + 0.4 * noise()],
+            temp_c: 25.0,
+        };
+        out.clear();
+        core.handle(Input::Imu(sample), arrival_us(k), &mut out);
+        events.extend(out.iter().filter_map(|a| match a {
+            Action::Event(e) => Some(e.value.clone()),
+            _ => None,
+        }));
+        if events
+            .iter()
+            .any(|e| matches!(e, CoreEvent::CalibrationDone { .. }))
+        {
+            return (events, Some(k));
+        }
+    }
+    (events, None)
+}
+
+#[test]
+fn the_same_samples_arriving_with_jitter_calibrate_the_same_on_the_same_sample() {
+    // On time, then each up to 4 ms early or late (under the 12 ms watchdog): a replay of a
+    // recorded flight on another machine. A window timed by the clock closed one sample
+    // earlier or later, or on a part-second of a sample whose noise looked like a tilt.
+    let on_time = calibrated(|k| k * 10_000);
+    assert!(on_time.1.is_some(), "never closed");
+    for seed in 1..20u64 {
+        let jittered = calibrated(|k| {
+            let j = (k.wrapping_mul(seed).wrapping_mul(2_654_435_761) >> 7) % 8_001;
+            (k * 10_000 + 4_000).saturating_sub(j)
+        });
+        assert_eq!(jittered, on_time, "jitter {seed}");
+    }
 }
 
 /// The hold of [`holding`] turned into the first roll of a roll leg, `angle_rad` round.

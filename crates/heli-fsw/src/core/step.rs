@@ -52,7 +52,7 @@ impl FlightCore {
                 self.main_loop.revalidate();
             }
         } else if !repeated && self.nav.state().is_none() {
-            let biases = self.calibration.push(now_us, &sample, &mut |event| {
+            let biases = self.calibration.push(&sample, &mut |event| {
                 out.push(Action::Event(Stamped::new(now_us, event)));
             });
             if let Some(biases) = biases {

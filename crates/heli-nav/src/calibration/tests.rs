@@ -15,11 +15,11 @@ fn eighty_second_window_after_warm_up_yields_mean_gyro() {
     let mut t = 0u64;
     // Samples during warm-up carry a different (transient) bias that must be ignored.
     while t < 5_000_000 {
-        assert!(cal.push(t, &sample(0.5)).is_none());
+        assert!(cal.push(&sample(0.5)).is_none());
         t += 10_000;
     }
     while done.is_none() {
-        done = cal.push(t, &sample(0.01));
+        done = cal.push(&sample(0.01));
         t += 10_000;
         assert!(t < 100_000_000, "calibration never finished");
     }
@@ -31,7 +31,7 @@ fn eighty_second_window_after_warm_up_yields_mean_gyro() {
     // It closes 85 s after the first sample (5 s warm-up + 80 s).
     assert_eq!(t - 10_000, 85_000_000);
     assert!(
-        cal.push(t, &sample(0.01)).is_none(),
+        cal.push(&sample(0.01)).is_none(),
         "biases are delivered once"
     );
 }
@@ -46,11 +46,15 @@ fn moving(rate_z: f64, tilt: f64) -> ImuRepr {
     }
 }
 
-/// A calibration of `window_s` whose window opened at 1 s, and the time of its next sample.
+/// A calibration of `window_s` whose window opened at 1 s (the 101st sample, after a warm-up
+/// of 100), and the time of its next sample.
 fn opened_for(window_s: f64) -> (BiasCalibration, u64) {
     let mut cal = BiasCalibration::new(1.0, window_s);
-    assert!(cal.push(0, &moving(0.0, 0.0)).is_none());
-    assert!(cal.push(1_000_000, &moving(0.0, 0.0)).is_none());
+    for _ in 0..100 {
+        assert!(cal.push(&moving(0.0, 0.0)).is_none());
+    }
+    assert!(matches!(cal.phase(), CalibrationPhase::WarmingUp { .. }));
+    assert!(cal.push(&moving(0.0, 0.0)).is_none());
     assert!(matches!(cal.phase(), CalibrationPhase::Accumulating { .. }));
     (cal, 1_010_000)
 }
@@ -65,7 +69,7 @@ fn feed(
 ) -> Option<ImuBiases> {
     let mut done = None;
     for k in 0..(seconds * 100.0).round() as u32 {
-        done = done.or(cal.push(*t, &f(k)));
+        done = done.or(cal.push(&f(k)));
         *t += 10_000;
     }
     done
@@ -278,47 +282,43 @@ fn more_seconds_moved_than_still_is_judged_on_the_eleventh() {
 }
 
 #[test]
-fn a_part_second_at_the_close_is_judged_like_a_second() {
-    // Samples 15 ms apart: a second's block of 100 lasts 1.5 s, and the 2 s window closes
-    // with a part of one (34 samples).
+fn a_window_of_part_seconds_ends_on_a_part_second_judged_like_a_second() {
+    // A 2.34 s window: two seconds and a part of 34 samples, whatever the samples' times.
     let run = |rate_z: f64| {
-        let mut cal = BiasCalibration::new(0.0, 2.0);
+        let mut cal = BiasCalibration::new(0.0, 2.34);
+        let mut closed_on = None;
         let mut done = None;
-        let mut t = 0u64;
-        let mut closed_s = None;
         for k in 0..1000u32 {
-            let s = if (102..136).contains(&k) {
+            let s = if (201..235).contains(&k) {
                 moving(rate_z, 0.0)
             } else {
                 moving(0.0, 0.0)
             };
-            if let Some(b) = cal.push(t, &s) {
+            if let Some(b) = cal.push(&s) {
                 done = Some(b);
-                closed_s = Some(t as f64 * 1e-6);
+                closed_on = Some(k);
                 break;
             }
-            t += 15_000;
         }
-        (done, closed_s, cal)
+        (done, closed_on, cal)
     };
-    let (done, closed_s, _) = run(0.0);
+    // The first sample is the warm-up; the window is samples 1 to 234, closed by the next.
+    let (done, closed_on, _) = run(0.0);
     let b = done.unwrap_or_else(|| panic!("closed"));
-    assert_eq!(b.samples, 134, "the part-second kept");
-    assert!(
-        (closed_s.unwrap_or(0.0) - 2.025).abs() < 0.01,
-        "{closed_s:?}"
-    );
-    // The part-second turning: left out with the second before it, the window as much
-    // longer, and closed on still seconds.
-    let (done, closed_s, cal) = run(0.2);
+    assert_eq!(b.samples, 234, "the part-second kept");
+    assert_eq!(closed_on, Some(235));
+    // The part-second turning: left out with the second before it, the window as many
+    // samples longer, and closed on still seconds.
+    let (done, closed_on, cal) = run(0.2);
     assert_eq!(
         cal.left_out_s(),
         3,
         "the edge before, the part-second, the edge after"
     );
     let b = done.unwrap_or_else(|| panic!("closed"));
-    let at = closed_s.unwrap_or(0.0);
-    assert!(at > 4.0, "closed at {at} s");
+    assert_eq!(b.samples, 234, "{b:?}");
+    // 134 samples for the edge and the part-second, 100 for the edge after.
+    assert_eq!(closed_on, Some(235 + 134 + 100));
     assert!((b.gyro_rps.z - 0.02).abs() < 1e-9, "{b:?}");
 }
 
@@ -360,7 +360,7 @@ proptest::proptest! {
                 ],
                 temp_c: 25.0,
             };
-            done = cal.push(t, &s);
+            done = cal.push(&s);
             proptest::prop_assert_eq!(cal.take_motion(), None);
             proptest::prop_assert_eq!(cal.take_left_out(), None);
             t += 10_000;

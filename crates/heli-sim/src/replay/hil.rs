@@ -138,6 +138,37 @@ fn servo_commands(
     }
 }
 
+/// The ADC files and the power line hold the recorded flight's first readings before the
+/// flight computer starts: it reads them as it starts, as the recorded one read the
+/// HILSim's. Files of zeros gave it a 0 V battery and a compass of no field that the
+/// recorded computer never saw (a battery reading refused, a heading moved in the
+/// calibration: a different flight).
+fn seed_files(rec: &Recording, devices: &HilDevices) -> Result<(), HilError> {
+    let (mut compass, mut battery, mut line) = (None, None, None);
+    for (_, input) in &rec.inputs {
+        match input {
+            RecordedInput::Compass(adc) => compass = compass.or(Some(adc.counts)),
+            RecordedInput::Battery(adc) => battery = battery.or(Some(adc.counts)),
+            RecordedInput::PowerLine(high) => line = line.or(Some(*high)),
+            _ => {}
+        }
+    }
+    for (channel, counts) in (0u8..).zip(compass.unwrap_or([0; 3])) {
+        write_adc(&devices.adc, channel, counts).map_err(device("writing an ADC file"))?;
+    }
+    write_adc(
+        &devices.adc,
+        crate::lockstep::HIL_BATTERY_CHANNEL,
+        battery.unwrap_or(0),
+    )
+    .map_err(device("writing an ADC file"))?;
+    if let Some(high) = line {
+        crate::hil::write_line(&devices.hotswap, high)
+            .map_err(device("writing the power line file"))?;
+    }
+    Ok(())
+}
+
 /// Plays `rec` on the devices under `dir` to a flight computer, until the inputs end or
 /// `stop` is set; `ready` is called once the devices exist.
 pub fn run(
@@ -152,9 +183,7 @@ pub fn run(
     }
     let (mut ptys, devices) = expose(dir)?;
     let from_computer = spawn_readers(&ptys, stop, None)?;
-    for channel in 0..=crate::lockstep::HIL_BATTERY_CHANNEL {
-        write_adc(&devices.adc, channel, 0).map_err(device("writing an ADC file"))?;
-    }
+    seed_files(rec, &devices)?;
     ready(&devices);
 
     // Wait for the flight computer to start.
@@ -253,4 +282,49 @@ pub fn run(
         played_s: last_t.saturating_sub(rec.start_us) as f64 * 1e-6,
         comparison: compare(&window, &replayed, options.tolerance),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use heli_proto::battery::BatteryAdc;
+    use heli_proto::compass::CompassAdc;
+
+    #[test]
+    fn the_files_hold_the_recorded_first_readings_before_the_computer_starts() {
+        let dir = std::env::temp_dir().join(format!("heli-replay-seed-{}", std::process::id()));
+        let adc = dir.join("adc");
+        std::fs::create_dir_all(&adc).unwrap();
+        let devices = HilDevices {
+            dir: dir.clone(),
+            ports: Vec::new(),
+            adc: adc.clone(),
+            hotswap: dir.join("hotswap"),
+        };
+        let rec = Recording {
+            start_us: 0,
+            inputs: vec![
+                (10, RecordedInput::Bytes(Port::Imu, vec![0x55])),
+                (20, RecordedInput::PowerLine(true)),
+                (30, RecordedInput::Battery(BatteryAdc { counts: 3518 })),
+                (
+                    40,
+                    RecordedInput::Compass(CompassAdc {
+                        counts: [2255, 2015, 2515],
+                    }),
+                ),
+                (50, RecordedInput::Battery(BatteryAdc { counts: 3000 })),
+                (60, RecordedInput::PowerLine(false)),
+            ],
+            servo: Vec::new(),
+        };
+        seed_files(&rec, &devices).unwrap();
+        let read = |name: &str| std::fs::read_to_string(adc.join(name)).unwrap();
+        assert_eq!(read("in_voltage0_raw"), "2255\n");
+        assert_eq!(read("in_voltage1_raw"), "2015\n");
+        assert_eq!(read("in_voltage2_raw"), "2515\n");
+        assert_eq!(read("in_voltage3_raw"), "3518\n", "the first, not the last");
+        assert_eq!(std::fs::read_to_string(&devices.hotswap).unwrap(), "1\n");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }
