@@ -264,13 +264,11 @@ mod calibration {
         assert!((b.gyro_rps.x - 0.004).abs() < 1e-12);
         assert!((b.mean_accel_mps2.z + 9.81).abs() < 1e-12);
         // A restart asked for after the window closed changes nothing.
-        cal.restart(
-            Motion {
-                rate_rps: 0.0,
-                tilt_rad: 0.0,
-                turn_rad: 1.0,
-            },
-        );
+        cal.restart(Motion {
+            rate_rps: 0.0,
+            tilt_rad: 0.0,
+            turn_rad: 1.0,
+        });
         assert_eq!(cal.restarts(), 0);
         assert!(cal.biases().is_some());
     }

@@ -205,7 +205,7 @@ fn calibrated(arrival_us: impl Fn(u64) -> u64) -> (Vec<CoreEvent>, Option<u64>) 
         out.clear();
         core.handle(Input::Imu(sample), arrival_us(k), &mut out);
         events.extend(out.iter().filter_map(|a| match a {
-            Action::Event(e) => Some(e.value.clone()),
+            Action::Event(e) => Some(e.value),
             _ => None,
         }));
         if events
