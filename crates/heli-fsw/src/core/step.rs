@@ -149,6 +149,7 @@ impl FlightCore {
         }
 
         let controls = self.phase_controls(estimate, &current, dt_s);
+        self.engine.commanded(controls.collective);
         if self.averages_trim() {
             self.restart.average_trim(&controls, dt_s);
         }
