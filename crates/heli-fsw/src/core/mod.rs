@@ -631,6 +631,8 @@ mod edge_tests;
 #[cfg(test)]
 mod engine_tests;
 #[cfg(test)]
+mod engine_watch_tests;
+#[cfg(test)]
 mod mode_check_tests;
 #[cfg(test)]
 mod parts_tests;
