@@ -98,7 +98,7 @@ impl Default for HoverGains {
             heading_lock_to_rate: 8.0,
             max_yaw_rate_rps: 1.0,
             yaw_rate_feedback: 0.3,
-            yaw_integral: 0.1,
+            yaw_integral: 0.15,
             tail_trim: 0.4,
             tail_feedforward_lag_s: 0.5,
         }

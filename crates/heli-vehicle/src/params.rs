@@ -47,7 +47,7 @@ pub const SPECS: [ParamSpec; 16] = [
         "tail per rad of integrated yaw-rate error",
         0.0,
         1.0,
-        0.1,
+        0.15,
     ),
     spec(
         "AUG_HDG_LOCK",
