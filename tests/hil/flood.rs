@@ -83,6 +83,22 @@ fn flood(port: u16, stop: Arc<AtomicBool>, sent: Arc<AtomicU64>) -> std::thread:
 fn a_flood_of_the_link_port_takes_no_time_from_the_flight() {
     crate::procs::void_if_starved(|| {
         let _one = exclusive();
+        // A flood during which the HILSim itself fell behind cannot judge the flight
+        // software: void, and flown once more (a second such run fails).
+        if let Err(first) = flood_trial() {
+            eprintln!("VOID: {first}; the flood is flown once more");
+            if let Err(second) = flood_trial() {
+                panic!("{second}");
+            }
+        }
+    });
+}
+
+/// One flight flooded for a spell after a quiet one; `Err` when the HILSim was starved
+/// during the flood (the trial says nothing of the flight software), a panic when the flight
+/// software failed.
+fn flood_trial() -> Result<(), String> {
+    {
         let dir = tempfile::tempdir().unwrap();
         let key = dir.path().join("link.key");
         let out = heli(&["link", "keygen", "--out", &key.display().to_string()]);
@@ -151,10 +167,11 @@ fn a_flood_of_the_link_port_takes_no_time_from_the_flight() {
             .lines()
             .filter(|l| l.contains("hilsim: behind"))
             .collect();
-        assert!(
-            behind.len() <= 2,
-            "the HILSim itself was starved during the flood, so the flight's events say nothing of the flight software: {behind:?}"
-        );
+        if behind.len() > 2 {
+            return Err(format!(
+                "the HILSim itself was starved during the flood, so the flight's events say nothing of the flight software: {behind:?}"
+            ));
+        }
         let new: Vec<&String> = flooded.iter().filter(|e| !quiet.contains(e)).collect();
         // With the world on time, nothing new; with it a few ms behind, a device may be late
         // because the world was, never silent.
@@ -164,5 +181,6 @@ fn a_flood_of_the_link_port_takes_no_time_from_the_flight() {
             "device events during the flood that the quiet spell did not have: {new:?} (HILSim behind: {behind:?})\n{}",
             &said[flood_from..]
         );
-    });
+        Ok(())
+    }
 }
