@@ -225,6 +225,15 @@ fn read_into(bytes: &[u8], contents: &mut LogContents, fed: &mut usize) {
                         fed = *fed
                     );
                     stop(StopKind::Corrupt, *fed, bytes, detail)
+                } else if let McapError::DecompressionError(why) = e {
+                    // The CRC is of the uncompressed bytes: a damaged compressed chunk may
+                    // fail to decompress before its CRC can be computed.
+                    let detail = format!(
+                        "the chunk ending at byte {fed} does not decompress ({why}): none of \
+                         its messages is used",
+                        fed = *fed
+                    );
+                    stop(StopKind::Corrupt, *fed, bytes, detail)
                 } else if !cut_off {
                     stop(StopKind::Corrupt, *fed, bytes, e.to_string())
                 } else if bytes.windows(9).any(|w| w == UNFINISHED_CHUNK) {
