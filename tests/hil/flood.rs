@@ -98,89 +98,87 @@ fn a_flood_of_the_link_port_takes_no_time_from_the_flight() {
 /// during the flood (the trial says nothing of the flight software), a panic when the flight
 /// software failed.
 fn flood_trial() -> Result<(), String> {
-    {
-        let dir = tempfile::tempdir().unwrap();
-        let key = dir.path().join("link.key");
-        let out = heli(&["link", "keygen", "--out", &key.display().to_string()]);
-        assert!(out.status.success());
-        let port = free_udp_port();
-        let link = format!("udp:127.0.0.1:{port}");
-        let hil = Hilsim::start_args(
-            dir.path(),
-            "hover",
-            14.0 + 2.0 * SPELL_S as f64 + 4.0,
-            &["--cpu", "1"],
-        );
-        let logs = dir.path().join("logs");
-        std::fs::create_dir_all(&logs).unwrap();
-        let vehicle = Vehicle::start_linked_with(&logs, &hil.dev, &link, &key, &["--rt-cpu", "1"]);
-        let (ok, text) = ground(&link, Some(&key), &["connect"]);
-        assert!(ok, "{text}");
-        let (ok, text) = ground(
-            &link,
-            Some(&key),
-            &["start", "flood1", "autonomous", "hover"],
-        );
-        assert!(ok && text.contains("start logging: accepted"), "{text}");
-        // Calibrated and climbing to the hover by 14 s of the run.
-        std::thread::sleep(Duration::from_secs(12));
-        let quiet_from = vehicle.output().len();
-        std::thread::sleep(Duration::from_secs(SPELL_S));
-        let flood_from = vehicle.output().len();
-        let hil_flood_from = hil.output().len();
-        let stop = Arc::new(AtomicBool::new(false));
-        let sent = Arc::new(AtomicU64::new(0));
-        let flooding = flood(port, Arc::clone(&stop), Arc::clone(&sent));
-        let began = Instant::now();
-        std::thread::sleep(Duration::from_secs(SPELL_S));
-        stop.store(true, Ordering::Release);
-        flooding.join().unwrap();
-        let flood_s = began.elapsed().as_secs_f64();
-        // A moment for the events of the flood's last instant to be printed.
-        std::thread::sleep(Duration::from_millis(500));
-        let said = vehicle.output();
-        let hil_said = hil.output();
-        // The operator's ground still hears the vehicle once the flood is over.
-        let (ok, status) = ground(&link, Some(&key), &["status", "--seconds", "2"]);
-        let sent = sent.load(Ordering::Relaxed);
-        // Still hovering: the operator's kill (confirmed) ends the flight, then the bootstrap.
-        let (killed, text) = ground(&link, Some(&key), &["kill", "--confirm"]);
-        assert!(killed && text.contains("kill: accepted"), "{text}");
-        vehicle.quit();
-        let truth = hil.wait_json(Duration::from_secs(30));
-        let quiet = health_events(&said[quiet_from..flood_from]);
-        let flooded = health_events(&said[flood_from..]);
-        eprintln!(
-            "flood: {sent} datagrams in {flood_s:.1} s ({:.0}/s); device events quiet {quiet:?}, flooded {flooded:?}; hilsim {}",
-            sent as f64 / flood_s,
-            truth["hil"]
-        );
-        assert!(ok, "no ground heard after the flood: {status}");
-        // Bounded, and a real flood: tens of thousands of datagrams a second on loopback.
-        assert!(sent > 50_000, "only {sent} datagrams sent");
-        // The vehicle said it refused frames signed with another key.
-        assert!(said.contains("refused"), "{said}");
-        // The HILSim's own timing, apart: a device write that left late is the simulator's, not
-        // the flight computer's, and the HILSim says so (`hilsim: behind`). On this shared
-        // machine it may be behind once or twice; more, and the test cannot judge the flight.
-        let behind: Vec<&str> = hil_said[hil_flood_from..]
-            .lines()
-            .filter(|l| l.contains("hilsim: behind"))
-            .collect();
-        if behind.len() > 2 {
-            return Err(format!(
-                "the HILSim itself was starved during the flood, so the flight's events say nothing of the flight software: {behind:?}"
-            ));
-        }
-        let new: Vec<&String> = flooded.iter().filter(|e| !quiet.contains(e)).collect();
-        // With the world on time, nothing new; with it a few ms behind, a device may be late
-        // because the world was, never silent.
-        assert!(
-            new.iter()
-                .all(|e| !behind.is_empty() && e.ends_with(" late")),
-            "device events during the flood that the quiet spell did not have: {new:?} (HILSim behind: {behind:?})\n{}",
-            &said[flood_from..]
-        );
-        Ok(())
+    let dir = tempfile::tempdir().unwrap();
+    let key = dir.path().join("link.key");
+    let out = heli(&["link", "keygen", "--out", &key.display().to_string()]);
+    assert!(out.status.success());
+    let port = free_udp_port();
+    let link = format!("udp:127.0.0.1:{port}");
+    let hil = Hilsim::start_args(
+        dir.path(),
+        "hover",
+        14.0 + 2.0 * SPELL_S as f64 + 4.0,
+        &["--cpu", "1"],
+    );
+    let logs = dir.path().join("logs");
+    std::fs::create_dir_all(&logs).unwrap();
+    let vehicle = Vehicle::start_linked_with(&logs, &hil.dev, &link, &key, &["--rt-cpu", "1"]);
+    let (ok, text) = ground(&link, Some(&key), &["connect"]);
+    assert!(ok, "{text}");
+    let (ok, text) = ground(
+        &link,
+        Some(&key),
+        &["start", "flood1", "autonomous", "hover"],
+    );
+    assert!(ok && text.contains("start logging: accepted"), "{text}");
+    // Calibrated and climbing to the hover by 14 s of the run.
+    std::thread::sleep(Duration::from_secs(12));
+    let quiet_from = vehicle.output().len();
+    std::thread::sleep(Duration::from_secs(SPELL_S));
+    let flood_from = vehicle.output().len();
+    let hil_flood_from = hil.output().len();
+    let stop = Arc::new(AtomicBool::new(false));
+    let sent = Arc::new(AtomicU64::new(0));
+    let flooding = flood(port, Arc::clone(&stop), Arc::clone(&sent));
+    let began = Instant::now();
+    std::thread::sleep(Duration::from_secs(SPELL_S));
+    stop.store(true, Ordering::Release);
+    flooding.join().unwrap();
+    let flood_s = began.elapsed().as_secs_f64();
+    // A moment for the events of the flood's last instant to be printed.
+    std::thread::sleep(Duration::from_millis(500));
+    let said = vehicle.output();
+    let hil_said = hil.output();
+    // The operator's ground still hears the vehicle once the flood is over.
+    let (ok, status) = ground(&link, Some(&key), &["status", "--seconds", "2"]);
+    let sent = sent.load(Ordering::Relaxed);
+    // Still hovering: the operator's kill (confirmed) ends the flight, then the bootstrap.
+    let (killed, text) = ground(&link, Some(&key), &["kill", "--confirm"]);
+    assert!(killed && text.contains("kill: accepted"), "{text}");
+    vehicle.quit();
+    let truth = hil.wait_json(Duration::from_secs(30));
+    let quiet = health_events(&said[quiet_from..flood_from]);
+    let flooded = health_events(&said[flood_from..]);
+    eprintln!(
+        "flood: {sent} datagrams in {flood_s:.1} s ({:.0}/s); device events quiet {quiet:?}, flooded {flooded:?}; hilsim {}",
+        sent as f64 / flood_s,
+        truth["hil"]
+    );
+    assert!(ok, "no ground heard after the flood: {status}");
+    // Bounded, and a real flood: tens of thousands of datagrams a second on loopback.
+    assert!(sent > 50_000, "only {sent} datagrams sent");
+    // The vehicle said it refused frames signed with another key.
+    assert!(said.contains("refused"), "{said}");
+    // The HILSim's own timing, apart: a device write that left late is the simulator's, not
+    // the flight computer's, and the HILSim says so (`hilsim: behind`). On this shared
+    // machine it may be behind once or twice; more, and the test cannot judge the flight.
+    let behind: Vec<&str> = hil_said[hil_flood_from..]
+        .lines()
+        .filter(|l| l.contains("hilsim: behind"))
+        .collect();
+    if behind.len() > 2 {
+        return Err(format!(
+            "the HILSim itself was starved during the flood, so the flight's events say nothing of the flight software: {behind:?}"
+        ));
     }
+    let new: Vec<&String> = flooded.iter().filter(|e| !quiet.contains(e)).collect();
+    // With the world on time, nothing new; with it a few ms behind, a device may be late
+    // because the world was, never silent.
+    assert!(
+        new.iter()
+            .all(|e| !behind.is_empty() && e.ends_with(" late")),
+        "device events during the flood that the quiet spell did not have: {new:?} (HILSim behind: {behind:?})\n{}",
+        &said[flood_from..]
+    );
+    Ok(())
 }

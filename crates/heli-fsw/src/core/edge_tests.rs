@@ -219,14 +219,7 @@ fn without_a_fresh_gps_fix_a_landing_judges_only_the_sink() {
         alt_m: 10.0,
     };
     core.nav.set_origin(origin);
-    core.nav.initialise(
-        0,
-        &heli_nav::ImuBiases {
-            gyro_rps: Vector3::zeros(),
-            mean_accel_mps2: Vector3::new(0.0, 0.0, -heli_nav::GRAVITY_MPS2),
-            samples: 100,
-        },
-    );
+    level_estimate(&mut core, 0);
     let fix = heli_proto::gps::GpsNav {
         lat_deg: origin.lat_deg,
         lon_deg: origin.lon_deg,
@@ -268,14 +261,7 @@ fn gps_lost_and_regained_are_raised_once_each_and_only_with_an_estimate() {
     // No estimate yet: the outage is nobody's concern.
     core.control_step(still_imu(), still_imu(), false, 10 * S, &mut out);
     assert!(!raised(&out, CoreEvent::GpsLost));
-    core.nav.initialise(
-        0,
-        &heli_nav::ImuBiases {
-            gyro_rps: Vector3::zeros(),
-            mean_accel_mps2: Vector3::new(0.0, 0.0, -heli_nav::GRAVITY_MPS2),
-            samples: 100,
-        },
-    );
+    level_estimate(&mut core, 0);
     core.main_loop.estimate_valid = true;
     core.control_step(still_imu(), still_imu(), false, 10 * S + 20_000, &mut out);
     core.control_step(still_imu(), still_imu(), false, 10 * S + 40_000, &mut out);
@@ -292,6 +278,18 @@ fn still_imu() -> heli_proto::imu::ImuRepr {
     super::tests::still()
 }
 
+/// Starts `core`'s estimate at `t_us` from a calibration of a level, still helicopter.
+fn level_estimate(core: &mut FlightCore, t_us: u64) {
+    core.nav.initialise(
+        t_us,
+        &heli_nav::ImuBiases {
+            gyro_rps: Vector3::zeros(),
+            mean_accel_mps2: Vector3::new(0.0, 0.0, -heli_nav::GRAVITY_MPS2),
+            samples: 100,
+        },
+    );
+}
+
 #[test]
 fn a_helicopter_exactly_at_the_airborne_height_has_not_yet_flown() {
     // A level estimate at the origin, exactly 0.25 m above a take-off point 0.25 m below it:
@@ -304,14 +302,7 @@ fn a_helicopter_exactly_at_the_airborne_height_has_not_yet_flown() {
     for (home_z, flown) in [(0.25, false), (0.2500001, true)] {
         let mut core = FlightCore::new(CoreConfig::default(), FlightParams::default());
         core.config.airborne_height_m = 0.25;
-        core.nav.initialise(
-            0,
-            &heli_nav::ImuBiases {
-                gyro_rps: Vector3::zeros(),
-                mean_accel_mps2: Vector3::from(level.accel_mps2),
-                samples: 100,
-            },
-        );
+        level_estimate(&mut core, 0);
         core.main_loop.estimate_valid = true;
         core.seq.home_ned_m = Some(Vector3::new(0.0, 0.0, home_z));
         core.control_step(level, level, false, 20_000, &mut Vec::new());
@@ -326,14 +317,7 @@ fn the_hold_a_lost_transmitter_turns_a_path_into_unlearns_the_path_s_drag() {
     let step_with_signal_lost = |phase: Phase| {
         let mut core = core_in(phase, FlightMode::Autonomous, true, S);
         core.seq.home_ned_m = Some(Vector3::new(0.0, 0.0, 10.0));
-        core.nav.initialise(
-            S,
-            &heli_nav::ImuBiases {
-                gyro_rps: Vector3::zeros(),
-                mean_accel_mps2: Vector3::new(0.0, 0.0, -heli_nav::GRAVITY_MPS2),
-                samples: 100,
-            },
-        );
+        level_estimate(&mut core, S);
         core.main_loop.estimate_valid = true;
         core.devices.pilot = Some(uplink(true, true));
         let mut out = Vec::new();
