@@ -56,7 +56,31 @@ struct Truth {
     refused: bool,
 }
 
-fn truth_of(asked_ms: u64, t_ms: u64, status: &Value) -> Truth {
+/// The times `device`'s watchdog has found it late, silent or failed, as `status` says.
+fn lapses(status: &Value, device: &str) -> u64 {
+    status["telemetry"]["health"]
+        .as_array()
+        .and_then(|all| all.iter().find(|h| h["device"] == device))
+        .and_then(|h| h["lapses"].as_u64())
+        .unwrap_or(0)
+}
+
+/// The devices whose lapses rose from one status to the next: not on time at some moment
+/// between the two, though each may say `ok` (an IMU late for 50 ms between two polls).
+fn lapsed_between(before: &Value, after: &Value) -> Vec<String> {
+    let all = after["telemetry"]["health"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    all.iter()
+        .filter_map(|h| h["device"].as_str())
+        .filter(|d| lapses(after, d) > lapses(before, d))
+        .map(str::to_string)
+        .collect()
+}
+
+/// The vehicle's state from its status, with the devices in `lapsed` not on time.
+fn truth_of(asked_ms: u64, t_ms: u64, status: &Value, lapsed: &[String]) -> Truth {
     let state = status["state"].as_str().unwrap_or("?").to_string();
     let tel = &status["telemetry"];
     let flying = state == "flying" && tel.is_object();
@@ -65,10 +89,11 @@ fn truth_of(asked_ms: u64, t_ms: u64, status: &Value) -> Truth {
         .filter(|_| flying)
         .map(str::to_string);
     let health = |device: &str| {
-        tel["health"].as_array().is_some_and(|all| {
-            all.iter()
-                .any(|h| h["device"] == device && h["state"] == "ok")
-        })
+        !lapsed.iter().any(|d| d == device)
+            && tel["health"].as_array().is_some_and(|all| {
+                all.iter()
+                    .any(|h| h["device"] == device && h["state"] == "ok")
+            })
     };
     let satellites = tel["gps"]["satellites"].as_u64().unwrap_or(0);
     let remaining = tel["battery_remaining"].as_f64();
@@ -149,7 +174,10 @@ fn disagreements(page: &Value, near: &[&Truth]) -> Vec<String> {
     }
     let automatic = page["automatic"] == true;
     if !any(&|t| t.automatic == automatic) {
-        wrong.push(format!("automatic verdict {automatic}"));
+        wrong.push(format!(
+            "automatic verdict {automatic} (the page: {})",
+            page["failing"]
+        ));
     }
     let standing = page["standing"].is_string();
     if !any(&|t| t.refused == standing) {
@@ -189,9 +217,13 @@ fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults()
         let socket = logs.join("ctl.sock").display().to_string();
         let done = Arc::new(AtomicBool::new(false));
         let truths = Arc::new(Mutex::new(Vec::<Truth>::new()));
+        // Every answer as it came, kept with the page's artifacts to explain a disagreement.
+        let answers = Arc::new(Mutex::new(String::new()));
         let sampler = {
             let (done, truths) = (Arc::clone(&done), Arc::clone(&truths));
+            let answers = Arc::clone(&answers);
             std::thread::spawn(move || {
+                let mut previous: Option<(u64, Value)> = None;
                 while !done.load(Ordering::Relaxed) {
                     let asked_ms = unix_ms();
                     let out = Command::new(vehicle_program())
@@ -200,10 +232,24 @@ fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults()
                     let t_ms = unix_ms();
                     if let Ok(out) = out {
                         let text = String::from_utf8_lossy(&out.stdout);
-                        if let Ok(v) =
-                            serde_json::from_str::<Value>(text.trim().trim_start_matches("ok "))
-                        {
-                            truths.lock().unwrap().push(truth_of(asked_ms, t_ms, &v));
+                        let json = text.trim().trim_start_matches("ok ");
+                        answers
+                            .lock()
+                            .unwrap()
+                            .push_str(&format!("{asked_ms} {t_ms} {json}\n"));
+                        if let Ok(v) = serde_json::from_str::<Value>(json) {
+                            let mut truths = truths.lock().unwrap();
+                            // A device that lapsed between the last poll and this one was
+                            // not on time at some moment between them, as the telemetry
+                            // (sent at other moments) may have shown.
+                            if let Some((before_ms, before)) = &previous {
+                                let lapsed = lapsed_between(before, &v);
+                                if !lapsed.is_empty() {
+                                    truths.push(truth_of(*before_ms, asked_ms, before, &lapsed));
+                                }
+                            }
+                            truths.push(truth_of(asked_ms, t_ms, &v, &[]));
+                            previous = Some((t_ms, v));
                         }
                     }
                     std::thread::sleep(Duration::from_millis(200));
@@ -245,6 +291,10 @@ fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults()
         };
         // Page against vehicle, sample by sample.
         let truths = truths.lock().unwrap().clone();
+        let _ = std::fs::write(
+            Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/truth/vehicle-said.txt"),
+            answers.lock().unwrap().as_bytes(),
+        );
         let pages: Vec<Value> = said
             .lines()
             .filter_map(|l| l.strip_prefix("SAMPLE "))

@@ -66,6 +66,8 @@ try {
             : cls("battery").includes("green") ? "green" : cls("battery").includes("grey") ? "stale" : "red",
           augmented: cls("safe-augmented").includes("yes"),
           automatic: cls("safe-automatic").includes("yes"),
+          // What the page says fails, to name a disagreement's cause.
+          failing: document.querySelector("#safe-automatic .failing").textContent,
           pinned_above_fold: !pinned.hidden && r.top >= 0 && r.bottom <= window.innerHeight && window.scrollY === 0,
         };
       }).catch(() => null);

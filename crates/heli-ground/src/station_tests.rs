@@ -46,6 +46,7 @@ pub(crate) fn flying_telemetry(phase: &str) -> Telemetry {
     let ok = |d: &str| DeviceHealth {
         device: d.into(),
         state: "ok".into(),
+        lapses: 0,
     };
     Telemetry {
         t_us: 1,

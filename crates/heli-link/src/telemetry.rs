@@ -107,6 +107,11 @@ pub struct DeviceHealth {
     pub device: String,
     /// Verdict.
     pub state: String,
+    /// Times its watchdog has found it late, silent or failed since the flight process
+    /// began: a lapse shorter than the interval between two reports shows as a rise here
+    /// though both reports say `ok`.
+    #[serde(default)]
+    pub lapses: u32,
 }
 
 /// One battery as the flight software's gauge sees it.

@@ -698,6 +698,7 @@ fn a_change_of_state_sends_the_sensors_state_at_once_too() {
         health: vec![crate::telemetry::DeviceHealth {
             device: "gps".into(),
             state: "ok".into(),
+            lapses: 0,
         }],
         ..telemetry()
     };

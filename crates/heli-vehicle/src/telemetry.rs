@@ -160,6 +160,10 @@ pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u6
                 .map(|d| t::DeviceHealth {
                     device: d.name().to_string(),
                     state: h.state(*d).name().to_string(),
+                    lapses: {
+                        let c = h.monitor(*d).counts();
+                        c.late.saturating_add(c.silent).saturating_add(c.failed)
+                    },
                 })
                 .collect()
         })
@@ -422,6 +426,24 @@ mod tests {
             v["published"],
             json!({"imu": 1, "state": 1, "servo": 1, "uplink": 1, "gps": 1, "baro": 1, "compass": 1})
         );
+    }
+
+    #[test]
+    fn a_lapse_between_two_reports_is_counted_though_the_device_is_ok_again() {
+        let streams = LiveStreams::default();
+        let mut health = heli_fsw::health::Health::default();
+        let imu = health.monitor_mut(Device::Imu);
+        imu.arm(0);
+        let _ = imu.sample(10_000);
+        // 40 ms without a packet: late; the next packet makes it ok again.
+        let _ = imu.check(50_000);
+        let _ = imu.sample(55_000);
+        streams.health.publish(health);
+        let v = snapshot(&streams, None, 60_000);
+        assert_eq!(v["health"][0]["device"], "imu");
+        assert_eq!(v["health"][0]["state"], "ok");
+        assert_eq!(v["health"][0]["lapses"], 1);
+        assert_eq!(v["health"][1]["lapses"], 0);
     }
 
     #[test]

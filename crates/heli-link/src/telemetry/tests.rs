@@ -50,10 +50,12 @@ fn full() -> Telemetry {
             DeviceHealth {
                 device: "imu".into(),
                 state: "ok".into(),
+                lapses: 0,
             },
             DeviceHealth {
                 device: "gps".into(),
                 state: "silent".into(),
+                lapses: 0,
             },
         ],
     }
