@@ -506,8 +506,15 @@ impl Sequencer {
                         return Phase::PreflightCheck { since_us: now_us };
                     }
                     self.start_leg(est, now_us, out)
+                } else if on_ground && self.airborne_once {
+                    // Nothing left to fly, low after flying (a process started again over
+                    // a landing, or the switch put on in a low hover): the height alone,
+                    // within the altimeter's error of the ground, is no touchdown. It lands
+                    // where it is, and the landing's own judge (stopped for a second) says
+                    // when it is down.
+                    degraded::land_where_it_is(est)
                 } else if on_ground {
-                    // Nothing left to fly: stay on the skids.
+                    // Nothing left to fly, never airborne: stay on the skids.
                     Phase::Landed
                 } else {
                     // Auto switch on in the air: hover here, once stopped.

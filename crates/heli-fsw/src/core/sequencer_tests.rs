@@ -136,6 +136,33 @@ fn with_the_plan_done_the_auto_switch_on_the_ground_stays_landed() {
 }
 
 #[test]
+fn low_after_flying_with_nothing_left_to_fly_it_lands_rather_than_calls_itself_landed() {
+    // A process started again over a landing (its plan abandoned) finds the helicopter 0.2 m
+    // above home by its altimeter: within its error of the ground, and no touchdown. It
+    // lands where it is; the landing's judge says when it is down.
+    let mut core = core_in(Phase::Manual, FlightMode::Autonomous, true, S);
+    core.seq.plan_abandoned = true;
+    core.seq.airborne_once = true;
+    let low = est(0.2, 0.0, Vector3::new(0.0, 0.0, 0.5));
+    let (phase, _) = next(&mut core, &low, S);
+    match phase {
+        Phase::Landing {
+            target,
+            settled_since_us: None,
+        } => {
+            assert!((target.pos_ned_m - low.pos_ned_m).norm() < 1e-12);
+            assert!(target.vel_ned_mps.z > 0.0, "it descends: {target:?}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // The same with the plan done: landing, not landed.
+    let mut core = core_in(Phase::Manual, FlightMode::Autonomous, true, S);
+    core.seq.plan_done = true;
+    core.seq.airborne_once = true;
+    assert!(matches!(next(&mut core, &low, S).0, Phase::Landing { .. }));
+}
+
+#[test]
 fn the_bypass_and_the_switch_off_give_the_pilot_the_helicopter() {
     let hold = Phase::Holding {
         target: Target::hold(Vector3::new(0.0, 0.0, -8.0), 0.3),
