@@ -68,11 +68,10 @@ fn lapses(status: &Value, device: &str) -> u64 {
 /// The devices whose lapses rose from one status to the next: not on time at some moment
 /// between the two, though each may say `ok` (an IMU late for 50 ms between two polls).
 fn lapsed_between(before: &Value, after: &Value) -> Vec<String> {
-    let all = after["telemetry"]["health"]
+    after["telemetry"]["health"]
         .as_array()
-        .cloned()
-        .unwrap_or_default();
-    all.iter()
+        .into_iter()
+        .flatten()
         .filter_map(|h| h["device"].as_str())
         .filter(|d| lapses(after, d) > lapses(before, d))
         .map(str::to_string)

@@ -83,6 +83,16 @@ pub struct HealthCounts {
     pub failed: u32,
 }
 
+impl HealthCounts {
+    /// Times the device left `ok` for late, silent or failed (late then silent is two): a
+    /// lapse shorter than the interval between two reports shows as a rise of this.
+    pub fn lapses(&self) -> u32 {
+        self.late
+            .saturating_add(self.silent)
+            .saturating_add(self.failed)
+    }
+}
+
 /// One device's watchdog.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DeviceMonitor {
@@ -297,6 +307,9 @@ mod tests {
                 failed: 0
             }
         );
+        assert_eq!(m.counts().lapses(), 2);
+        let _ = m.fail();
+        assert_eq!(m.counts().lapses(), 3);
     }
 
     #[test]

@@ -160,10 +160,7 @@ pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u6
                 .map(|d| t::DeviceHealth {
                     device: d.name().to_string(),
                     state: h.state(*d).name().to_string(),
-                    lapses: {
-                        let c = h.monitor(*d).counts();
-                        c.late.saturating_add(c.silent).saturating_add(c.failed)
-                    },
+                    lapses: h.monitor(*d).counts().lapses(),
                 })
                 .collect()
         })
