@@ -185,6 +185,40 @@ fn disagreements(page: &Value, near: &[&Truth]) -> Vec<String> {
     wrong
 }
 
+/// The vehicle's answers (`asked_ms t_ms json` lines) told as the changes of its flight
+/// process, state and phase: when (ms from the first answer), the process's own time and
+/// how its predecessor ended — what a failed page wait needs to be explained.
+fn phase_story(answers: &str) -> String {
+    let mut story = String::new();
+    let mut first_ms = None;
+    let mut last = None;
+    for line in answers.lines() {
+        let mut words = line.splitn(3, ' ');
+        let (Some(asked), Some(_), Some(json)) = (words.next(), words.next(), words.next()) else {
+            continue;
+        };
+        let (Ok(asked_ms), Ok(v)) = (asked.parse::<u64>(), serde_json::from_str::<Value>(json))
+        else {
+            continue;
+        };
+        let at_ms = asked_ms - *first_ms.get_or_insert(asked_ms);
+        let telemetry = &v["telemetry"];
+        let now = (
+            v["pid"].clone(),
+            v["state"].clone(),
+            telemetry["state"]["phase"].clone(),
+        );
+        if last.as_ref() != Some(&now) {
+            story.push_str(&format!(
+                "{at_ms:>7} ms: pid {} {} {} (process t {} us, last exit {})\n",
+                now.0, now.1, now.2, telemetry["t_us"], v["last_exit"]
+            ));
+            last = Some(now);
+        }
+    }
+    story
+}
+
 #[test]
 fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults() {
     crate::procs::void_if_starved(|| {
@@ -267,11 +301,17 @@ fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults()
         display.stop();
         vehicle.quit();
         drop(hil);
+        let answers = answers.lock().unwrap().clone();
+        let _ = std::fs::write(
+            Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/truth/vehicle-said.txt"),
+            answers.as_bytes(),
+        );
         assert!(
             run.success(),
-            "the page script failed:\n{}\nthe vehicle said:\n{}",
+            "the page script failed:\n{}\nthe vehicle's phases as sampled:\n{}\nthe vehicle said:\n{}",
             tail(&said, 30),
-            tail(&vehicle_said, 30)
+            phase_story(&answers),
+            tail(&vehicle_said, 60)
         );
 
         let steps: Vec<Value> = said
@@ -290,10 +330,6 @@ fn the_display_never_contradicts_the_vehicle_through_three_flights_with_faults()
         };
         // Page against vehicle, sample by sample.
         let truths = truths.lock().unwrap().clone();
-        let _ = std::fs::write(
-            Path::new(env!("CARGO_TARGET_TMPDIR")).join("ui-artifacts/truth/vehicle-said.txt"),
-            answers.lock().unwrap().as_bytes(),
-        );
         let pages: Vec<Value> = said
             .lines()
             .filter_map(|l| l.strip_prefix("SAMPLE "))

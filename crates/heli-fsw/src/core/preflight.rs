@@ -10,9 +10,17 @@
 //!   five is dangerous);
 //! - an IMU whose watchdog says it is on time;
 //! - and then the whole safety rule for automatic flight (`heli_control::safety`).
+//!
+//! The wait is not begun again by a loss of the estimate on the skids (an IMU stall): the
+//! check under way ends in a refusal at once ([`estimate_lost`]). Begun again after every
+//! stall, a flaky IMU would hold the helicopter in the check for ever, neither flying nor
+//! refused — and an IMU that stalled in the half minute before a take-off is none to take
+//! off on. A refusal stands through a loss of the estimate too.
 
 use heli_nav::{NavSensorStats, seconds_between};
 use heli_proto::gps::GpsNav;
+
+use crate::phase::Phase;
 
 /// Longest wait for the checks to pass before a take-off is refused (s): longer than a
 /// receiver's satellite drop-outs (up to 15 s) and a short GPS outage, which pass.
@@ -36,6 +44,8 @@ pub enum Refusal {
     ImuNotHealthy,
     /// The safety rule for automatic flight fails (`heli_control::safety::AUTOMATIC`).
     Unsafe(heli_control::safety::Verdict),
+    /// The estimate was lost during the check (the IMU stalled on the skids).
+    EstimateLost,
 }
 
 impl Refusal {
@@ -49,6 +59,9 @@ impl Refusal {
             }
             Refusal::ImuNotHealthy => "the IMU is not on time".into(),
             Refusal::Unsafe(verdict) => format!("not safe for automatic flight: {verdict}"),
+            Refusal::EstimateLost => {
+                "the estimate was lost (the IMU stalled) during the checks".into()
+            }
         }
     }
 }
@@ -80,4 +93,15 @@ pub fn check(
     }
     let verdict = automatic();
     (!verdict.allowed).then_some(Refusal::Unsafe(verdict))
+}
+
+/// What becomes of `phase` when the estimate is lost on a helicopter the pilot left to the
+/// computer: a check under way is refused ([`Refusal::EstimateLost`], returned to be
+/// raised), a refusal stands; `None` for every other phase (the failsafes decide).
+pub fn estimate_lost(phase: Phase) -> Option<(Phase, Option<Refusal>)> {
+    match phase {
+        Phase::PreflightCheck { .. } => Some((Phase::TakeoffRefused, Some(Refusal::EstimateLost))),
+        Phase::TakeoffRefused => Some((Phase::TakeoffRefused, None)),
+        _ => None,
+    }
 }

@@ -83,6 +83,11 @@ pub struct Sequencer {
     /// The operator's Stop came in the air: landing where it is, then the flight ends
     /// (`core::stop`).
     pub(super) operator_stop: bool,
+    /// When the pilot's switch asked for the autonomous take-off the pre-flight check
+    /// waits on: the wait counts from the request, whatever interrupted the check since
+    /// (a transmitter blip's ground failsafe), until the switch goes off or the check
+    /// passes (`preflight`).
+    pub(super) preflight_asked_us: Option<u64>,
 }
 
 impl Sequencer {
@@ -99,6 +104,7 @@ impl Sequencer {
             has_flown: false,
             airborne_once: false,
             operator_stop: false,
+            preflight_asked_us: None,
         }
     }
 
@@ -358,6 +364,14 @@ impl Sequencer {
                 && pilot.is_some_and(|p| {
                     !p.auto_mode || p.bypass || self.params.mode != FlightMode::Autonomous
                 });
+            // A pre-flight check is refused, a refusal stands (`preflight`).
+            if !pilot_flies && let Some((phase, refusal)) = preflight::estimate_lost(self.phase) {
+                if let Some(refusal) = refusal {
+                    let refused = CoreEvent::TakeoffRefused(refusal);
+                    out.push(Action::Event(Stamped::new(now_us, refused)));
+                }
+                return phase;
+            }
             // Landed already, it stays on its skids: no blind descent on the ground.
             return if pilot_flies {
                 Phase::Manual
@@ -402,6 +416,7 @@ impl Sequencer {
             // The emergency bypass: the board drives the servos from the pilot; the computer
             // still supplies the tail with yaw damping.
             crew.modes.clear();
+            self.preflight_asked_us = None;
             return Phase::Manual;
         }
         // The engine failed: the computer autorotates whatever it was flying.
@@ -482,6 +497,7 @@ impl Sequencer {
             Phase::TakeoffRefused => Phase::TakeoffRefused,
             Phase::PreflightCheck { since_us } => match self.preflight(crew, now_us) {
                 None => {
+                    self.preflight_asked_us = None;
                     self.leg = 0;
                     self.start_leg(est, now_us, out)
                 }
@@ -503,8 +519,10 @@ impl Sequencer {
                     self.leg = 0;
                     // Pre-flight checks before the helicopter leaves the ground on its own.
                     if self.preflight(crew, now_us).is_some() {
-                        return Phase::PreflightCheck { since_us: now_us };
+                        let since_us = *self.preflight_asked_us.get_or_insert(now_us);
+                        return Phase::PreflightCheck { since_us };
                     }
+                    self.preflight_asked_us = None;
                     self.start_leg(est, now_us, out)
                 } else if on_ground && self.airborne_once {
                     // Nothing left to fly, low after flying (a process started again over

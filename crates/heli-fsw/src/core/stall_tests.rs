@@ -457,3 +457,61 @@ fn a_roll_finished_blind_counts_the_gyro_less_its_bias() {
     let turned = angle(&core) - before;
     assert!((turned - 1.0 * 0.02).abs() < 1e-9, "{turned} rad in a step");
 }
+
+/// `seconds` on the skids, the auto switch on: IMU and the pilot's packets (if `imu`), a
+/// fix of `satellites` every half second.
+fn on_skids(
+    core: &mut FlightCore,
+    out: &mut Vec<Action>,
+    t: &mut u64,
+    seconds: u64,
+    imu: bool,
+    satellites: u8,
+) {
+    for _ in 0..2 * seconds {
+        *t = fly_for(core, out, *t, 500_000, imu, Some(uplink(true, false)));
+        core.handle(Input::Gps(gps_fix(satellites)), *t, out);
+    }
+}
+
+#[test]
+fn a_stall_on_the_skids_during_the_pre_flight_check_refuses_the_take_off_and_the_refusal_stands() {
+    use super::preflight::{CHECK_WAIT_S, Refusal};
+    let mut core = super::tests::core_with(FlightMode::Autonomous);
+    let (mut out, mut t) = (Vec::new(), 0);
+    core.start(0);
+    // Too few satellites: the check waits.
+    on_skids(&mut core, &mut out, &mut t, 5, true, 3);
+    assert!(
+        matches!(core.phase(), Phase::PreflightCheck { .. }),
+        "{:?}",
+        core.phase()
+    );
+    // The IMU stalls long enough to lose the estimate, then comes back. Were the wait begun
+    // again after each stall, a flaky IMU would hold the helicopter in the check for ever,
+    // neither flying nor refused; and it is no IMU to take off on.
+    out.clear();
+    on_skids(&mut core, &mut out, &mut t, 1, false, 3);
+    assert!(raised(&out, CoreEvent::EstimateInvalid));
+    assert!(
+        raised(&out, CoreEvent::TakeoffRefused(Refusal::EstimateLost)),
+        "{:?}",
+        core.phase()
+    );
+    // The IMU back, the estimate stays lost on a helicopter that never flew (no alignment
+    // on the skids): the refusal stands, the rotor governed on the skids.
+    on_skids(&mut core, &mut out, &mut t, 5, true, 3);
+    assert_eq!(core.phase(), Phase::TakeoffRefused);
+    // The refusal stands through another stall, and past the wait with the satellites back:
+    // only the pilot's switch, off and on, asks again.
+    on_skids(&mut core, &mut out, &mut t, 1, false, 8);
+    on_skids(
+        &mut core,
+        &mut out,
+        &mut t,
+        CHECK_WAIT_S as u64 + 5,
+        true,
+        8,
+    );
+    assert_eq!(core.phase(), Phase::TakeoffRefused);
+}
