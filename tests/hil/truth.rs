@@ -201,7 +201,7 @@ fn phase_story(answers: &str) -> String {
         else {
             continue;
         };
-        let at_ms = asked_ms - *first_ms.get_or_insert(asked_ms);
+        let at_ms = asked_ms.saturating_sub(*first_ms.get_or_insert(asked_ms));
         let telemetry = &v["telemetry"];
         let now = (
             v["pid"].clone(),

@@ -210,22 +210,29 @@ fn kind(phase: &Phase) -> Kind {
 }
 
 /// Whether the flight logic may go from `from` to `to` in one control step (`engine_failed`:
-/// the engine failure was raised before this step).
+/// the engine failure was raised before this step; `refused`: a refused take-off stands, the
+/// pilot's switch not taken off since).
 ///
 /// The rules, each what some part of the core relies on:
 /// - the ground calibration happens once: nothing goes back to calibrating;
 /// - a roll sequence starts only from autonomous flight with a target (a climb, a hold or a
 ///   path), never from the ground or from the pilot;
-/// - the take-off is refused only after its pre-flight check;
+/// - the take-off is refused only after its pre-flight check (or, a refusal standing, again
+///   after the ground failsafe that interrupted it);
+/// - a standing refusal is neither checked again nor taken off from: only the pilot's
+///   switch, off (the pilot's phase) and on, asks again;
 /// - landed follows a landing, an autorotation, or a phase on the ground whose plan is done,
 ///   never straight from autonomous flight in the air;
 /// - autorotation follows the engine failure, and after it the engine is never flown on
 ///   again: no climb, hold, path, roll, powered landing or pre-flight check;
 /// - a take-off never starts from landed, an autorotation or a refusal.
-fn legal(from: Kind, to: Kind, engine_failed: bool) -> bool {
+fn legal(from: Kind, to: Kind, engine_failed: bool, refused: bool) -> bool {
     use Kind::*;
     if from == to {
         return true;
+    }
+    if refused && matches!(to, PreflightCheck | TakingOff) {
+        return false;
     }
     if engine_failed
         && matches!(
@@ -238,7 +245,7 @@ fn legal(from: Kind, to: Kind, engine_failed: bool) -> bool {
     match to {
         Calibrating => false,
         Maneuver => matches!(from, TakingOff | Holding | Flying),
-        TakeoffRefused => from == PreflightCheck,
+        TakeoffRefused => from == PreflightCheck || (refused && from == GroundFailsafe),
         Landed => matches!(
             from,
             Landing | Autorotation | Calibrating | Pilot | GroundFailsafe | BlindDescent
@@ -318,6 +325,8 @@ pub struct Invariants {
     stats: CoreStats,
     estimate_valid: bool,
     engine_failed: bool,
+    /// A refused take-off stands: refused since the pilot last had the helicopter.
+    refusal_standing: bool,
     /// Each stream's last record time (µs).
     stream_us: [Option<u64>; 7],
     /// The watchdog has been armed (the core started, or heard the IMU).
@@ -337,6 +346,7 @@ impl Invariants {
             stats: core.stats(),
             estimate_valid: core.estimate_valid(),
             engine_failed: false,
+            refusal_standing: core.phase() == Phase::TakeoffRefused,
             stream_us: [None; 7],
             armed: core.watchdog_deadline_us().is_some(),
             // Started: the start's time is a period before the first deadline.
@@ -366,6 +376,7 @@ impl Invariants {
         let stats = core.stats();
         // The engine failure raised before this input, or by it.
         let mut engine_failed = self.engine_failed;
+        let mut refused_now = false;
         let mut aligned_in_air = false;
         let mut phase_events = Vec::new();
         let mut result = Ok(());
@@ -386,6 +397,7 @@ impl Invariants {
                     match e.value {
                         CoreEvent::PhaseChanged(p) => phase_events.push(p),
                         CoreEvent::EngineFailure { .. } => engine_failed = true,
+                        CoreEvent::TakeoffRefused(_) => refused_now = true,
                         CoreEvent::AlignedInAir { .. } => aligned_in_air = true,
                         _ => {}
                     }
@@ -413,7 +425,12 @@ impl Invariants {
                 return Err(Violation::ServoWithoutStep { servos, steps });
             }
             check_phase_events(&before.0, &after, &phase_events)?;
-            if !legal(kind(&before.0), kind(&after), engine_failed) {
+            if !legal(
+                kind(&before.0),
+                kind(&after),
+                engine_failed,
+                self.refusal_standing || refused_now,
+            ) {
                 return Err(Violation::IllegalTransition {
                     from: before.0.name(),
                     to: after.name(),
@@ -428,6 +445,11 @@ impl Invariants {
         };
         let result = judge();
         self.phase = after;
+        self.refusal_standing = match kind(&after) {
+            Kind::TakeoffRefused => true,
+            Kind::Pilot => false,
+            _ => self.refusal_standing || refused_now,
+        };
         self.stats = stats;
         self.estimate_valid = core.estimate_valid();
         self.engine_failed = engine_failed;

@@ -28,6 +28,7 @@
 
 pub mod aids;
 pub mod battery_channel;
+mod blind;
 mod brake;
 pub mod calibration;
 mod degraded;
@@ -638,6 +639,8 @@ mod mode_check_tests;
 mod parts_tests;
 #[cfg(test)]
 mod power_tests;
+#[cfg(test)]
+mod preflight_tests;
 #[cfg(test)]
 mod restart_tests;
 #[cfg(test)]

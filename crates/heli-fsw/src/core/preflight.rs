@@ -11,16 +11,16 @@
 //! - an IMU whose watchdog says it is on time;
 //! - and then the whole safety rule for automatic flight (`heli_control::safety`).
 //!
-//! The wait is not begun again by a loss of the estimate on the skids (an IMU stall): the
-//! check under way ends in a refusal at once ([`estimate_lost`]). Begun again after every
-//! stall, a flaky IMU would hold the helicopter in the check for ever, neither flying nor
-//! refused — and an IMU that stalled in the half minute before a take-off is none to take
-//! off on. A refusal stands through a loss of the estimate too.
+//! The pilot's request ([`Request`]) is held from the auto switch put on to the take-off or
+//! the switch off, through whatever interrupts the check on the ground (a transmitter
+//! blip's ground failsafe): the wait counts from the request, not from the interruption,
+//! and a refusal stands through it — only the switch, off and on, asks again. The estimate
+//! lost during the wait (an IMU stall on the skids, after which the estimate never starts
+//! again on the ground) refuses the take-off at once, said so, rather than leaving the
+//! operator a ground failsafe that never says the helicopter will not go.
 
 use heli_nav::{NavSensorStats, seconds_between};
 use heli_proto::gps::GpsNav;
-
-use crate::phase::Phase;
 
 /// Longest wait for the checks to pass before a take-off is refused (s): longer than a
 /// receiver's satellite drop-outs (up to 15 s) and a short GPS outage, which pass.
@@ -95,13 +95,46 @@ pub fn check(
     (!verdict.allowed).then_some(Refusal::Unsafe(verdict))
 }
 
-/// What becomes of `phase` when the estimate is lost on a helicopter the pilot left to the
-/// computer: a check under way is refused ([`Refusal::EstimateLost`], returned to be
-/// raised), a refusal stands; `None` for every other phase (the failsafes decide).
-pub fn estimate_lost(phase: Phase) -> Option<(Phase, Option<Refusal>)> {
-    match phase {
-        Phase::PreflightCheck { .. } => Some((Phase::TakeoffRefused, Some(Refusal::EstimateLost))),
-        Phase::TakeoffRefused => Some((Phase::TakeoffRefused, None)),
-        _ => None,
+/// The pilot's request for an autonomous take-off, as the pre-flight check holds it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Request {
+    /// Nothing asked: the switch off, or the take-off under way.
+    #[default]
+    None,
+    /// Asked at `since_us`, the checks not yet passed.
+    Waiting {
+        /// When the wait began (µs).
+        since_us: u64,
+    },
+    /// Refused: it stands until the pilot takes the switch off.
+    Refused,
+}
+
+impl Request {
+    /// The wait's start: the request's under way, or `now_us` for a new one (the caller
+    /// has found no standing refusal).
+    pub fn wait_since(&mut self, now_us: u64) -> u64 {
+        match *self {
+            Request::Waiting { since_us } => since_us,
+            Request::None | Request::Refused => {
+                *self = Request::Waiting { since_us: now_us };
+                now_us
+            }
+        }
+    }
+
+    /// The estimate lost: a wait under way is refused ([`Refusal::EstimateLost`], returned
+    /// to be raised).
+    pub fn estimate_lost(&mut self) -> Option<Refusal> {
+        let Request::Waiting { .. } = self else {
+            return None;
+        };
+        *self = Request::Refused;
+        Some(Refusal::EstimateLost)
+    }
+
+    /// Whether a refusal stands.
+    pub fn refused(self) -> bool {
+        self == Request::Refused
     }
 }

@@ -3,6 +3,8 @@
 //! transmitter loss, the engine's failure, a mode the safety rule refuses, a degraded
 //! estimate, the batteries.
 //!
+//! Without an estimate it decides in `blind`.
+//!
 //! A component: it owns the phase, the plan and where it is in it, the stop under way, home
 //! and whether the helicopter has flown; each control step the core hands it the estimate
 //! and its crew ([`Crew`]: what it consults — the devices, the aids, the filter — and the
@@ -23,7 +25,7 @@ use super::legs::{self, Begin};
 use super::mode_check::{ModeCheck, automatic_verdict, safety_facts};
 use super::power::{Failsafe, Power};
 use super::preflight::{self, Refusal};
-use super::roll::{self, BlindRoll, RollEnd, RollStep};
+use super::roll::{self, RollEnd, RollStep};
 use super::{Action, CoreConfig, CoreStats, FlightParams, Stamped, degraded, weathervane};
 use crate::phase::{Phase, RollStage};
 
@@ -83,11 +85,10 @@ pub struct Sequencer {
     /// The operator's Stop came in the air: landing where it is, then the flight ends
     /// (`core::stop`).
     pub(super) operator_stop: bool,
-    /// When the pilot's switch asked for the autonomous take-off the pre-flight check
-    /// waits on: the wait counts from the request, whatever interrupted the check since
-    /// (a transmitter blip's ground failsafe), until the switch goes off or the check
-    /// passes (`preflight`).
-    pub(super) preflight_asked_us: Option<u64>,
+    /// The pilot's request for the autonomous take-off: waiting on the pre-flight check
+    /// since it was made, or refused, through whatever interrupts the check on the ground,
+    /// until the switch goes off or the check passes (`preflight::Request`).
+    pub(super) takeoff: preflight::Request,
 }
 
 impl Sequencer {
@@ -104,7 +105,7 @@ impl Sequencer {
             has_flown: false,
             airborne_once: false,
             operator_stop: false,
-            preflight_asked_us: None,
+            takeoff: preflight::Request::None,
         }
     }
 
@@ -312,76 +313,7 @@ impl Sequencer {
         // The board's line going silent is transmitter loss too.
         let signal_lost = crew.devices.signal_lost();
         let Some(est) = estimate else {
-            // A roll under way when the estimate went is finished before anything else.
-            if let Phase::Maneuver {
-                target,
-                stage: stage @ RollStage::Rolling { .. },
-                rolls_done,
-            } = self.phase
-            {
-                let finished = match roll::blind_step(
-                    &crew.config.roll,
-                    stage,
-                    crew.roll_rate_rps,
-                    now_us,
-                    dt_s,
-                ) {
-                    BlindRoll::Rolling(stage) => {
-                        return Phase::Maneuver {
-                            target,
-                            stage,
-                            rolls_done,
-                        };
-                    }
-                    BlindRoll::Stopped => false,
-                    BlindRoll::Finished => true,
-                };
-                out.push(Action::Event(Stamped::new(
-                    now_us,
-                    CoreEvent::RollEndedBlind { finished },
-                )));
-            }
-            if crew.aligning {
-                // Restarted in the air and aligning: the pilot flies if the switch is off,
-                // otherwise the blind failsafe holds on until the estimate starts.
-                let pilot_flies = !signal_lost && pilot.is_some_and(|p| !p.auto_mode || p.bypass);
-                return if pilot_flies {
-                    Phase::Manual
-                } else {
-                    Phase::BlindDescent
-                };
-            }
-            if crew.estimate_valid {
-                self.refuse_while_calibrating(crew, now_us, out);
-                return Phase::Calibrating;
-            }
-            // The estimate is gone: the pilot flies if one is flying (the switch off, the
-            // bypass, or a flight the pilot flies through the augmentation or by hand);
-            // otherwise the blind failsafe in the air, the safest thing left without
-            // attitude, and idle on a helicopter that never left the ground. A pilot who
-            // left the helicopter to the computer is not handed it unawares.
-            let pilot_flies = !signal_lost
-                && pilot.is_some_and(|p| {
-                    !p.auto_mode || p.bypass || self.params.mode != FlightMode::Autonomous
-                });
-            // A pre-flight check is refused, a refusal stands (`preflight`).
-            if !pilot_flies && let Some((phase, refusal)) = preflight::estimate_lost(self.phase) {
-                if let Some(refusal) = refusal {
-                    let refused = CoreEvent::TakeoffRefused(refusal);
-                    out.push(Action::Event(Stamped::new(now_us, refused)));
-                }
-                return phase;
-            }
-            // Landed already, it stays on its skids: no blind descent on the ground.
-            return if pilot_flies {
-                Phase::Manual
-            } else if self.phase == Phase::Landed {
-                Phase::Landed
-            } else if self.airborne_once {
-                Phase::BlindDescent
-            } else {
-                Phase::GroundFailsafe
-            };
+            return self.without_estimate(crew, now_us, dt_s, out);
         };
         let auto_switch = pilot.is_some_and(|p| p.auto_mode);
         let (_, _, yaw) = est.euler_rad();
@@ -416,7 +348,7 @@ impl Sequencer {
             // The emergency bypass: the board drives the servos from the pilot; the computer
             // still supplies the tail with yaw damping.
             crew.modes.clear();
-            self.preflight_asked_us = None;
+            self.takeoff = preflight::Request::None;
             return Phase::Manual;
         }
         // The engine failed: the computer autorotates whatever it was flying.
@@ -497,7 +429,7 @@ impl Sequencer {
             Phase::TakeoffRefused => Phase::TakeoffRefused,
             Phase::PreflightCheck { since_us } => match self.preflight(crew, now_us) {
                 None => {
-                    self.preflight_asked_us = None;
+                    self.takeoff = preflight::Request::None;
                     self.leg = 0;
                     self.start_leg(est, now_us, out)
                 }
@@ -506,6 +438,7 @@ impl Sequencer {
                         now_us,
                         CoreEvent::TakeoffRefused(refusal),
                     )));
+                    self.takeoff = preflight::Request::Refused;
                     Phase::TakeoffRefused
                 }
                 Some(_) => Phase::PreflightCheck { since_us },
@@ -517,12 +450,16 @@ impl Sequencer {
             | Phase::Augmented(_) => {
                 if on_ground && !self.plan_done && !self.plan_abandoned {
                     self.leg = 0;
-                    // Pre-flight checks before the helicopter leaves the ground on its own.
+                    // Pre-flight checks before the helicopter leaves the ground on its own;
+                    // a refusal interrupted (a transmitter blip) stands.
+                    if self.takeoff.refused() {
+                        return Phase::TakeoffRefused;
+                    }
                     if self.preflight(crew, now_us).is_some() {
-                        let since_us = *self.preflight_asked_us.get_or_insert(now_us);
+                        let since_us = self.takeoff.wait_since(now_us);
                         return Phase::PreflightCheck { since_us };
                     }
-                    self.preflight_asked_us = None;
+                    self.takeoff = preflight::Request::None;
                     self.start_leg(est, now_us, out)
                 } else if on_ground && self.airborne_once {
                     // Nothing left to fly, low after flying (a process started again over

@@ -115,42 +115,6 @@ fn the_auto_switch_on_the_ground_checks_then_takes_off_or_is_refused() {
 }
 
 #[test]
-fn the_pre_flight_wait_counts_from_the_request_through_a_transmitter_blip() {
-    let mut core = core_in(Phase::Manual, FlightMode::Autonomous, true, S);
-    let ground = est(0.0, 0.0, Vector3::zeros());
-    let (phase, _) = next(&mut core, &ground, S);
-    assert_eq!(phase, Phase::PreflightCheck { since_us: S });
-    core.seq.phase = phase;
-    // The transmitter lost on the skids: everything idles.
-    core.devices.uplink_lost = true;
-    let (phase, _) = next(&mut core, &ground, 20 * S);
-    assert_eq!(phase, Phase::GroundFailsafe);
-    core.seq.phase = phase;
-    // Back: the check goes on from the pilot's request, not from the blip; begun again
-    // after every blip, an unsteady link would hold the helicopter in the check for ever.
-    core.devices.uplink_lost = false;
-    let (phase, _) = next(&mut core, &ground, 21 * S);
-    assert_eq!(phase, Phase::PreflightCheck { since_us: S });
-    core.seq.phase = phase;
-    let wait = (preflight::CHECK_WAIT_S * 1e6) as u64;
-    let (phase, out) = next(&mut core, &ground, S + wait);
-    assert_eq!(phase, Phase::TakeoffRefused);
-    assert!(raised(
-        &out,
-        CoreEvent::TakeoffRefused(preflight::Refusal::NoGpsFix)
-    ));
-    // The switch off and on again: a new request, a new wait.
-    core.seq.phase = phase;
-    core.devices.pilot = Some(uplink(false, false));
-    let (phase, _) = next(&mut core, &ground, 40 * S);
-    assert_eq!(phase, Phase::Manual);
-    core.seq.phase = phase;
-    core.devices.pilot = Some(uplink(true, false));
-    let (phase, _) = next(&mut core, &ground, 41 * S);
-    assert_eq!(phase, Phase::PreflightCheck { since_us: 41 * S });
-}
-
-#[test]
 fn with_the_plan_done_the_auto_switch_on_the_ground_stays_landed() {
     let mut core = core_in(Phase::Manual, FlightMode::Autonomous, true, S);
     core.seq.plan_done = true;

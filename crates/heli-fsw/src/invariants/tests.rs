@@ -433,20 +433,28 @@ fn violations_say_what_broke() {
 #[test]
 fn the_transition_rules() {
     use Kind::*;
-    assert!(!legal(Pilot, Calibrating, false));
-    assert!(legal(Calibrating, Pilot, false));
-    assert!(legal(Holding, Maneuver, false));
-    assert!(!legal(Pilot, Maneuver, false));
-    assert!(!legal(Landed, Maneuver, false));
-    assert!(legal(PreflightCheck, TakeoffRefused, false));
-    assert!(!legal(Pilot, TakeoffRefused, false));
-    assert!(legal(Landing, Landed, false));
-    assert!(!legal(Holding, Landed, false));
-    assert!(!legal(Flying, Autorotation, false));
-    assert!(legal(Flying, Autorotation, true));
-    assert!(!legal(Autorotation, Holding, true));
-    assert!(!legal(Landed, TakingOff, false));
-    assert!(legal(PreflightCheck, TakingOff, false));
-    assert!(!legal(Pilot, TakingOff, true));
-    assert!(legal(Maneuver, Maneuver, true));
+    assert!(!legal(Pilot, Calibrating, false, false));
+    assert!(legal(Calibrating, Pilot, false, false));
+    assert!(legal(Holding, Maneuver, false, false));
+    assert!(!legal(Pilot, Maneuver, false, false));
+    assert!(!legal(Landed, Maneuver, false, false));
+    assert!(legal(PreflightCheck, TakeoffRefused, false, false));
+    assert!(!legal(Pilot, TakeoffRefused, false, false));
+    assert!(legal(Landing, Landed, false, false));
+    assert!(!legal(Holding, Landed, false, false));
+    assert!(!legal(Flying, Autorotation, false, false));
+    assert!(legal(Flying, Autorotation, true, false));
+    assert!(!legal(Autorotation, Holding, true, false));
+    assert!(!legal(Landed, TakingOff, false, false));
+    assert!(legal(PreflightCheck, TakingOff, false, false));
+    assert!(!legal(Pilot, TakingOff, true, false));
+    assert!(legal(Maneuver, Maneuver, true, false));
+    // A refused take-off standing: it returns from the ground failsafe that interrupted
+    // it, and is neither checked again nor taken off from.
+    assert!(!legal(GroundFailsafe, TakeoffRefused, false, false));
+    assert!(legal(GroundFailsafe, TakeoffRefused, false, true));
+    assert!(!legal(GroundFailsafe, PreflightCheck, false, true));
+    assert!(!legal(GroundFailsafe, TakingOff, false, true));
+    assert!(legal(GroundFailsafe, TakingOff, false, false));
+    assert!(legal(TakeoffRefused, Pilot, false, true));
 }

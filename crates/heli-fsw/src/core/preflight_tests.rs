@@ -1,0 +1,182 @@
+//! Component tests of the pre-flight check (`preflight.rs`) through the core's inputs, on
+//! the skids: the wait counted from the pilot's request, a refusal that stands through a
+//! transmitter blip and an IMU stall, and only the pilot's switch, off and on, asking
+//! again. Every input's outcome is checked against the core's invariants.
+
+use heli_proto::scb::PilotUplink;
+
+use super::preflight::{CHECK_WAIT_S, Refusal};
+use super::tests::{core_with, gps_fix, raised, still, uplink};
+use super::*;
+use crate::invariants::Invariants;
+
+/// The switch on, the transmitter heard.
+fn on() -> PilotUplink {
+    uplink(true, false)
+}
+
+/// An autonomous core (short calibration) on its skids, what it did, its time, and the
+/// checker of its invariants.
+struct Skids {
+    core: FlightCore,
+    out: Vec<Action>,
+    t: u64,
+    checker: Invariants,
+}
+
+impl Skids {
+    fn new() -> Self {
+        let mut core = core_with(FlightMode::Autonomous);
+        core.start(0);
+        let checker = Invariants::new(&core, core.config.watchdog_us);
+        Self {
+            core,
+            out: Vec::new(),
+            t: 0,
+            checker,
+        }
+    }
+
+    /// `seconds` of the IMU (when `imu`), `pilot`'s packets at 50 Hz and, when
+    /// `satellites` is given, a fix with them every half second.
+    fn run(&mut self, seconds: f64, imu: bool, pilot: PilotUplink, satellites: Option<u8>) {
+        let end = self.t + (seconds * 1e6) as u64;
+        while self.t < end {
+            self.t += 1_000;
+            let t = self.t;
+            let mut inputs = Vec::new();
+            if self.core.poll_at().is_some_and(|at| at <= t) {
+                inputs.push(Input::Timer);
+            }
+            if imu && t.is_multiple_of(10_000) {
+                inputs.push(Input::Imu(still()));
+            }
+            if t.is_multiple_of(20_000) {
+                inputs.push(Input::Uplink(pilot));
+            }
+            if let Some(n) = satellites
+                && t.is_multiple_of(500_000)
+            {
+                inputs.push(Input::Gps(gps_fix(n)));
+            }
+            for input in inputs {
+                let mut actions = Vec::new();
+                self.core.handle(input, t, &mut actions);
+                let verdict = self.checker.check(&self.core, t, &actions);
+                assert_eq!(verdict, Ok(()), "t = {t} µs, {:?}", self.core.phase());
+                self.out.extend(actions);
+            }
+        }
+    }
+
+    /// The take-off refusals raised so far.
+    fn refusals(&self) -> Vec<Refusal> {
+        self.out
+            .iter()
+            .filter_map(|a| match a {
+                Action::Event(e) => match e.value {
+                    CoreEvent::TakeoffRefused(r) => Some(r),
+                    _ => None,
+                },
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+#[test]
+fn the_wait_counts_from_the_request_through_a_transmitter_blip() {
+    let mut skids = Skids::new();
+    // Three satellites: the check waits.
+    skids.run(5.0, true, on(), Some(3));
+    let Phase::PreflightCheck { since_us } = skids.core.phase() else {
+        panic!("{:?}", skids.core.phase());
+    };
+    // The transmitter lost on the skids for a second: everything idles.
+    skids.run(1.0, true, uplink(true, true), Some(3));
+    assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
+    // Back, the check goes on from the request: begun again after every blip, an
+    // unsteady link would keep the helicopter in the check for ever, neither flying nor
+    // refused.
+    skids.run(1.0, true, on(), Some(3));
+    assert_eq!(skids.core.phase(), Phase::PreflightCheck { since_us });
+    let refused_at = since_us + (CHECK_WAIT_S * 1e6) as u64;
+    skids.run(
+        (refused_at - skids.t) as f64 * 1e-6 + 0.1,
+        true,
+        on(),
+        Some(3),
+    );
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+    assert_eq!(skids.refusals(), [Refusal::NoGpsFix]);
+}
+
+#[test]
+fn a_refusal_stands_through_a_transmitter_blip_until_the_switch_is_cycled() {
+    let mut skids = Skids::new();
+    skids.run(CHECK_WAIT_S + 5.0, true, on(), Some(3));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+    // Eight satellites now, and a blip: back from the ground failsafe the refusal stands;
+    // the checks, which would pass, are not asked again, and nothing is raised again.
+    skids.run(3.0, true, on(), Some(8));
+    skids.run(1.0, true, uplink(true, true), Some(8));
+    assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
+    skids.run(5.0, true, on(), Some(8));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+    assert_eq!(skids.refusals(), [Refusal::NoGpsFix]);
+    // Off, then on: a new request, whose checks pass: it takes off.
+    skids.run(0.5, true, uplink(false, false), Some(8));
+    assert_eq!(skids.core.phase(), Phase::Manual);
+    skids.run(0.5, true, on(), Some(8));
+    assert!(
+        matches!(skids.core.phase(), Phase::TakingOff { .. }),
+        "{:?}",
+        skids.core.phase()
+    );
+}
+
+#[test]
+fn a_stall_during_the_check_refuses_the_take_off_at_once_and_the_refusal_stands() {
+    let mut skids = Skids::new();
+    skids.run(5.0, true, on(), Some(3));
+    assert!(matches!(skids.core.phase(), Phase::PreflightCheck { .. }));
+    // The IMU stalls long enough to lose the estimate, which never starts again on a
+    // helicopter that never flew: the take-off will not happen, and the operator is told
+    // so now rather than shown a ground failsafe.
+    skids.run(1.0, false, on(), Some(3));
+    assert!(raised(&skids.out, CoreEvent::EstimateInvalid));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+    assert_eq!(skids.refusals(), [Refusal::EstimateLost]);
+    // The IMU back: the refusal stands, the rotor governed on the skids; through another
+    // stall, and a transmitter blip (idle meanwhile), too.
+    skids.run(5.0, true, on(), Some(8));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+    skids.run(1.0, false, on(), Some(8));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+    skids.run(1.0, true, uplink(true, true), Some(8));
+    assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
+    skids.run(1.0, true, on(), Some(8));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+    assert_eq!(skids.refusals(), [Refusal::EstimateLost]);
+    // The switch off gives the pilot the helicopter; on again, with no estimate, nothing
+    // flies on its own: the ground failsafe.
+    skids.run(0.5, true, uplink(false, false), Some(8));
+    assert_eq!(skids.core.phase(), Phase::Manual);
+    skids.run(0.5, true, on(), Some(8));
+    assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
+}
+
+#[test]
+fn a_stall_after_a_blip_interrupted_the_check_refuses_too() {
+    let mut skids = Skids::new();
+    skids.run(5.0, true, on(), Some(3));
+    // Transmitter lost, and while it is the IMU stalls: the request is refused (idle while
+    // the transmitter is lost), and the refusal shows when it is back.
+    skids.run(0.5, true, uplink(true, true), Some(3));
+    assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
+    skids.run(1.0, false, uplink(true, true), Some(3));
+    assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
+    assert_eq!(skids.refusals(), [Refusal::EstimateLost]);
+    skids.run(1.0, true, on(), Some(3));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+}
