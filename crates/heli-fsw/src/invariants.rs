@@ -445,11 +445,9 @@ impl Invariants {
         };
         let result = judge();
         self.phase = after;
-        self.refusal_standing = match kind(&after) {
-            Kind::TakeoffRefused => true,
-            Kind::Pilot => false,
-            _ => self.refusal_standing || refused_now,
-        };
+        // Raised, a refusal stands until the pilot has the helicopter (the switch off).
+        self.refusal_standing =
+            kind(&after) != Kind::Pilot && (self.refusal_standing || refused_now);
         self.stats = stats;
         self.estimate_valid = core.estimate_valid();
         self.engine_failed = engine_failed;
