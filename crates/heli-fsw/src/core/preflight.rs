@@ -66,8 +66,8 @@ impl Refusal {
     }
 }
 
-/// The checks at `now_us`: the IMU on time (`imu_ok`), the filter's GPS fusions (`nav`),
-/// the last good fix, then the safety rule's verdict on automatic flight (asked last, only
+/// The checks at `now_us`: the IMU on time (`imu_ok`), the last good fix's satellites, the
+/// filter's GPS fusions (`nav`), then the safety rule's verdict on automatic flight (asked last, only
 /// when everything else passed). `None` when the take-off may go.
 pub fn check(
     imu_ok: bool,
@@ -79,17 +79,19 @@ pub fn check(
     if !imu_ok {
         return Some(Refusal::ImuNotHealthy);
     }
-    if nav.gps_fused == 0 {
-        return Some(Refusal::NoGpsFix);
-    }
-    if seconds_between(nav.last_gps_fused_us, now_us) > GPS_FRESH_S {
-        return Some(Refusal::GpsStale);
-    }
+    // Too few satellites first: the receiver's fix, too poor for the filter to fuse, is
+    // what the operator sees (the ground's GPS lamp names its satellites), not "no fix".
     match last_good_fix {
         Some((_, fix)) if fix.satellites < MIN_SATELLITES => {
             return Some(Refusal::TooFewSatellites(fix.satellites));
         }
         _ => {}
+    }
+    if nav.gps_fused == 0 {
+        return Some(Refusal::NoGpsFix);
+    }
+    if seconds_between(nav.last_gps_fused_us, now_us) > GPS_FRESH_S {
+        return Some(Refusal::GpsStale);
     }
     let verdict = automatic();
     (!verdict.allowed).then_some(Refusal::Unsafe(verdict))

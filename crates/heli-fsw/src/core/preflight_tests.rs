@@ -108,7 +108,7 @@ fn the_wait_counts_from_the_request_through_a_transmitter_blip() {
         Some(3),
     );
     assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
-    assert_eq!(skids.refusals(), [Refusal::NoGpsFix]);
+    assert_eq!(skids.refusals(), [Refusal::TooFewSatellites(3)]);
 }
 
 #[test]
@@ -123,7 +123,7 @@ fn a_refusal_stands_through_a_transmitter_blip_until_the_switch_is_cycled() {
     assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
     skids.run(5.0, true, on(), Some(8));
     assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
-    assert_eq!(skids.refusals(), [Refusal::NoGpsFix]);
+    assert_eq!(skids.refusals(), [Refusal::TooFewSatellites(3)]);
     // Off, then on: a new request, whose checks pass: it takes off.
     skids.run(0.5, true, uplink(false, false), Some(8));
     assert_eq!(skids.core.phase(), Phase::Manual);
