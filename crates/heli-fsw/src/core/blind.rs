@@ -76,17 +76,17 @@ impl Sequencer {
             && pilot.is_some_and(|p| {
                 !p.auto_mode || p.bypass || self.params.mode != FlightMode::Autonomous
             });
-        // A pre-flight check under way is refused; a refusal stands (`preflight`).
         if pilot_flies {
             self.takeoff = preflight::Request::None;
-        } else if let Some(refusal) = self.takeoff.estimate_lost() {
+            return Phase::Manual;
+        }
+        // A pre-flight check under way is refused; a refusal stands (`preflight`).
+        if let Some(refusal) = self.takeoff.estimate_lost() {
             let refused = CoreEvent::TakeoffRefused(refusal);
             out.push(Action::Event(Stamped::new(now_us, refused)));
         }
         // Landed already, it stays on its skids: no blind descent on the ground.
-        if pilot_flies {
-            Phase::Manual
-        } else if self.phase == Phase::Landed {
+        if self.phase == Phase::Landed {
             Phase::Landed
         } else if self.airborne_once {
             Phase::BlindDescent
