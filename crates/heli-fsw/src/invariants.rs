@@ -218,7 +218,8 @@ fn kind(phase: &Phase) -> Kind {
 /// - a roll sequence starts only from autonomous flight with a target (a climb, a hold or a
 ///   path), never from the ground or from the pilot;
 /// - the take-off is refused only after its pre-flight check (or, a refusal standing, again
-///   after the ground failsafe that interrupted it);
+///   after the ground failsafe that interrupted it, or at the end of the calibration of a
+///   process started again on the ground with the switch on);
 /// - a standing refusal is neither checked again nor taken off from: only the pilot's
 ///   switch, off (the pilot's phase) and on, asks again;
 /// - landed follows a landing, an autorotation, or a phase on the ground whose plan is done,
@@ -245,7 +246,9 @@ fn legal(from: Kind, to: Kind, engine_failed: bool, refused: bool) -> bool {
     match to {
         Calibrating => false,
         Maneuver => matches!(from, TakingOff | Holding | Flying),
-        TakeoffRefused => from == PreflightCheck || (refused && from == GroundFailsafe),
+        TakeoffRefused => {
+            from == PreflightCheck || (refused && matches!(from, GroundFailsafe | Calibrating))
+        }
         Landed => matches!(
             from,
             Landing | Autorotation | Calibrating | Pilot | GroundFailsafe | BlindDescent

@@ -64,6 +64,11 @@ impl Sequencer {
             };
         }
         if crew.estimate_valid {
+            // The switch seen off while calibrating after a restart: the next one on is
+            // the pilot's request.
+            if !signal_lost && pilot.is_some_and(|p| !p.auto_mode) {
+                self.takeoff = preflight::Request::None;
+            }
             self.refuse_while_calibrating(crew, now_us, out);
             return Phase::Calibrating;
         }

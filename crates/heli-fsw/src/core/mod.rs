@@ -308,10 +308,14 @@ impl FlightCore {
     }
 
     /// A core started again in the air from what the process before it left. A record
-    /// from a helicopter that never flew gives an ordinary start, calibration included.
+    /// from a helicopter that never flew gives an ordinary start, calibration included,
+    /// except that the auto switch must be seen off before it takes off on its own
+    /// (`preflight::Request::AfterRestart`): the switch the process before was refused on,
+    /// or was waiting on, is no new request.
     pub fn restarted(config: CoreConfig, params: FlightParams, warm: WarmStart) -> Self {
         let mut core = Self::new(config, params);
         if !warm.airborne {
+            core.seq.takeoff = preflight::Request::AfterRestart;
             return core;
         }
         if let Some(origin) = warm.origin {

@@ -26,8 +26,25 @@ struct Skids {
 
 impl Skids {
     fn new() -> Self {
-        let mut core = core_with(FlightMode::Autonomous);
-        core.start(0);
+        Self::started(core_with(FlightMode::Autonomous))
+    }
+
+    /// The same core as [`Skids::new`]'s, started again from `warm` (a crash or a
+    /// brown-out), its time going on from `t` µs.
+    fn restarted(warm: WarmStart, t: u64) -> Self {
+        let like = core_with(FlightMode::Autonomous);
+        let core = FlightCore::restarted(like.config, like.seq.params, warm);
+        let mut skids = Self::started_at(core, t);
+        skids.t = t;
+        skids
+    }
+
+    fn started(core: FlightCore) -> Self {
+        Self::started_at(core, 0)
+    }
+
+    fn started_at(mut core: FlightCore, t: u64) -> Self {
+        core.start(t);
         let checker = Invariants::new(&core, core.config.watchdog_us);
         Self {
             core,
@@ -179,4 +196,105 @@ fn a_stall_after_a_blip_interrupted_the_check_refuses_too() {
     assert_eq!(skids.refusals(), [Refusal::EstimateLost]);
     skids.run(1.0, true, on(), Some(3));
     assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+}
+
+#[test]
+fn a_transmitter_lost_past_the_wait_refuses_then_and_its_return_is_no_take_off() {
+    let mut skids = Skids::new();
+    // Three satellites: the check waits; then the transmitter is lost on the skids.
+    skids.run(5.0, true, on(), Some(3));
+    let Phase::PreflightCheck { since_us } = skids.core.phase() else {
+        panic!("{:?}", skids.core.phase());
+    };
+    skids.run(5.0, true, uplink(true, true), Some(3));
+    assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
+    assert_eq!(skids.refusals(), []);
+    // The wait runs out while it is lost: refused then, with the check that fails, and
+    // said while the helicopter idles.
+    let refused_at = since_us + (CHECK_WAIT_S * 1e6) as u64;
+    skids.run(
+        (refused_at - skids.t) as f64 * 1e-6 + 0.1,
+        true,
+        uplink(true, true),
+        Some(3),
+    );
+    assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
+    assert_eq!(skids.refusals(), [Refusal::TooFewSatellites(3)]);
+    // Eight satellites, and minutes later the transmitter back with the switch still on:
+    // the refusal stands, nothing takes off.
+    skids.run(120.0, true, uplink(true, true), Some(8));
+    skids.run(5.0, true, on(), Some(8));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+    assert_eq!(skids.refusals(), [Refusal::TooFewSatellites(3)]);
+    // Only the switch, off and on, asks again.
+    skids.run(0.5, true, uplink(false, false), Some(8));
+    skids.run(0.5, true, on(), Some(8));
+    assert!(
+        matches!(skids.core.phase(), Phase::TakingOff { .. }),
+        "{:?}",
+        skids.core.phase()
+    );
+}
+
+#[test]
+fn a_wait_whose_checks_pass_while_the_transmitter_is_lost_is_refused_for_the_loss() {
+    let mut skids = Skids::new();
+    skids.run(5.0, true, on(), Some(3));
+    // Lost; the satellites come meanwhile; the wait runs out: the loss is the reason.
+    skids.run(40.0, true, uplink(true, true), Some(8));
+    assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
+    let refusals = skids.refusals();
+    assert_eq!(refusals.len(), 1, "{refusals:?}");
+    assert_eq!(refusals, [Refusal::TransmitterLost]);
+    skids.run(5.0, true, on(), Some(8));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+}
+
+/// A core calibrated on the skids with the switch on and refused for three satellites,
+/// and the record it leaves.
+fn refused_then_record() -> (Skids, WarmStart) {
+    let mut skids = Skids::new();
+    skids.run(CHECK_WAIT_S + 5.0, true, on(), Some(3));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+    let warm = skids.core.warm_start().expect("calibrated");
+    assert!(!warm.airborne);
+    (skids, warm)
+}
+
+#[test]
+fn a_process_started_again_on_the_skids_with_the_switch_on_refuses_until_it_is_cycled() {
+    let (before, warm) = refused_then_record();
+    // The process crashes and is started again; the switch is still on and the checks
+    // would pass now: a switch left on is no request, refused once the calibration is done.
+    let mut skids = Skids::restarted(warm, before.t + 500_000);
+    skids.run(CHECK_WAIT_S + 5.0, true, on(), Some(8));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+    assert_eq!(skids.refusals(), [Refusal::Restarted]);
+    assert!(Refusal::Restarted.text().contains("off and on"));
+    // Off and on: the pilot's request, whose checks pass.
+    skids.run(0.5, true, uplink(false, false), Some(8));
+    skids.run(0.5, true, on(), Some(8));
+    assert!(
+        matches!(skids.core.phase(), Phase::TakingOff { .. }),
+        "{:?}",
+        skids.core.phase()
+    );
+    assert_eq!(skids.refusals(), [Refusal::Restarted]);
+}
+
+#[test]
+fn a_switch_seen_off_during_the_restarted_calibration_makes_the_next_on_a_request() {
+    let (before, warm) = refused_then_record();
+    let mut skids = Skids::restarted(warm, before.t + 500_000);
+    // Off while the new process calibrates, on afterwards: an ordinary take-off.
+    skids.run(0.5, true, uplink(false, false), Some(8));
+    assert_eq!(skids.core.phase(), Phase::Calibrating);
+    skids.run(5.0, true, uplink(false, false), Some(8));
+    skids.run(1.0, true, on(), Some(8));
+    assert!(
+        matches!(skids.core.phase(), Phase::TakingOff { .. }),
+        "{:?}",
+        skids.core.phase()
+    );
+    assert_eq!(skids.refusals(), []);
 }

@@ -395,6 +395,7 @@ impl Sequencer {
                 // The transmitter lost on the ground is no order to take off (nor to finish
                 // one): everything idles.
                 _ if on_ground && !matches!(self.phase, Phase::Holding { .. }) => {
+                    self.skids_without_transmitter(crew, now_us, out);
                     Phase::GroundFailsafe
                 }
                 // A hold already in place (the plan's, or the loss's) is kept; the plan is
@@ -434,11 +435,7 @@ impl Sequencer {
                     self.start_leg(est, now_us, out)
                 }
                 Some(refusal) if seconds_between(since_us, now_us) >= preflight::CHECK_WAIT_S => {
-                    out.push(Action::Event(Stamped::new(
-                        now_us,
-                        CoreEvent::TakeoffRefused(refusal),
-                    )));
-                    self.takeoff = preflight::Request::Refused;
+                    self.refuse(refusal, now_us, out);
                     Phase::TakeoffRefused
                 }
                 Some(_) => Phase::PreflightCheck { since_us },
@@ -449,18 +446,9 @@ impl Sequencer {
             | Phase::BlindDescent
             | Phase::Augmented(_) => {
                 if on_ground && !self.plan_done && !self.plan_abandoned {
-                    self.leg = 0;
                     // Pre-flight checks before the helicopter leaves the ground on its own;
                     // a refusal interrupted (a transmitter blip) stands.
-                    if self.takeoff.refused() {
-                        return Phase::TakeoffRefused;
-                    }
-                    if self.preflight(crew, now_us).is_some() {
-                        let since_us = self.takeoff.wait_since(now_us);
-                        return Phase::PreflightCheck { since_us };
-                    }
-                    self.takeoff = preflight::Request::None;
-                    self.start_leg(est, now_us, out)
+                    self.on_the_skids(crew, est, now_us, out)
                 } else if on_ground && self.airborne_once {
                     // Nothing left to fly, low after flying (a process started again over
                     // a landing, or the switch put on in a low hover): the height alone,
