@@ -298,3 +298,40 @@ fn a_switch_seen_off_during_the_restarted_calibration_makes_the_next_on_a_reques
     );
     assert_eq!(skids.refusals(), []);
 }
+
+#[test]
+fn the_altimeter_s_drift_through_a_long_wait_is_no_climb() {
+    let mut skids = Skids::new();
+    skids.run(CHECK_WAIT_S + 5.0, true, on(), Some(3));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+    // The estimate half a metre above home, as the weather's pressure drifts it over
+    // minutes on the skids; then the transmitter is lost: still on the ground, idle — not
+    // airborne, not a hover to lift into.
+    let est_z = skids
+        .core
+        .navigator()
+        .state()
+        .expect("estimate")
+        .pos_ned_m
+        .z;
+    skids.core.seq.home_ned_m = skids
+        .core
+        .seq
+        .home_ned_m
+        .map(|h| Vector3::new(h.x, h.y, est_z + 0.5));
+    skids.run(1.0, true, uplink(true, true), Some(3));
+    assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
+    assert!(!skids.core.seq.airborne_once);
+    let est_z = skids
+        .core
+        .navigator()
+        .state()
+        .expect("estimate")
+        .pos_ned_m
+        .z;
+    let home_z = skids.core.seq.home_ned_m.expect("home").z;
+    assert!(
+        (home_z - est_z).abs() < 1e-9,
+        "home {home_z}, estimate {est_z}"
+    );
+}
