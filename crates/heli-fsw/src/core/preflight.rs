@@ -51,8 +51,7 @@ pub enum Refusal {
     Unsafe(heli_control::safety::Verdict),
     /// The estimate was lost during the check (the IMU stalled on the skids).
     EstimateLost,
-    /// The transmitter was lost during the check for longer than the wait, with the checks
-    /// passing when the wait ran out.
+    /// The transmitter was lost when the wait ran out, the checks passing then.
     TransmitterLost,
     /// The flight process started again on the ground (after a crash or a brown-out) with
     /// the auto switch on: a switch left on is no request.
@@ -74,7 +73,7 @@ impl Refusal {
                 "the estimate was lost (the IMU stalled) during the checks".into()
             }
             Refusal::TransmitterLost => {
-                format!("the transmitter was lost for more than {CHECK_WAIT_S} s of the checks")
+                format!("the transmitter was lost when the checks' {CHECK_WAIT_S} s ran out")
             }
             Refusal::Restarted => {
                 "the flight process started again on the ground with the auto switch on: take it off and on to ask again".into()

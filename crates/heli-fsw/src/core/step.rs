@@ -108,13 +108,17 @@ impl FlightCore {
             self.watch_engine(est, now_us, out);
         }
         if let Some(est) = estimate.as_ref() {
-            // On the skids, never flown: home's height follows the estimate's, so that the
-            // altimeter's drift through a long wait on the ground (the weather's pressure:
-            // some 0.3 m in minutes) is no climb — neither "airborne" to the engine watch nor
-            // a hover to take off into when the transmitter is lost (as autopilots take the
-            // ground's pressure again while disarmed).
-            if self.on_skids()
-                && !self.seq.airborne_once
+            // Held on the skids by the computer, never flown: home's height follows the
+            // estimate's, so that the altimeter's drift through a long wait on the ground
+            // (the weather's pressure: some 0.3 m in minutes) is no climb — neither
+            // "airborne" to the engine watch nor a hover to take off into when the
+            // transmitter is lost (as autopilots take the ground's pressure again while
+            // disarmed). Not in the pilot's phases: there only the rotor's speed says the
+            // helicopter is down, and a wrong reading must not carry home up with it.
+            if matches!(
+                self.seq.phase,
+                Phase::PreflightCheck { .. } | Phase::TakeoffRefused | Phase::GroundFailsafe
+            ) && !self.seq.airborne_once
                 && let Some(home) = self.seq.home_ned_m.as_mut()
             {
                 home.z = est.pos_ned_m.z;
