@@ -41,6 +41,7 @@ pub mod main_loop;
 pub mod mode_check;
 pub mod power;
 pub mod preflight;
+mod request;
 pub mod restart;
 mod resume;
 pub mod roll;

@@ -19,13 +19,8 @@
 //! again on the ground) refuses the take-off at once, said so, rather than leaving the
 //! operator a ground failsafe that never says the helicopter will not go.
 
-use heli_nav::{NavSensorStats, NavState, seconds_between};
+use heli_nav::{NavSensorStats, seconds_between};
 use heli_proto::gps::GpsNav;
-
-use super::event::CoreEvent;
-use super::sequencer::{Crew, Sequencer};
-use super::{Action, Stamped};
-use crate::phase::Phase;
 
 /// Longest wait for the checks to pass before a take-off is refused (s): longer than a
 /// receiver's satellite drop-outs (up to 15 s) and a short GPS outage, which pass.
@@ -164,59 +159,5 @@ impl Request {
     /// Whether a wait under way has run out at `now_us`.
     pub fn expired(self, now_us: u64) -> bool {
         matches!(self, Request::Waiting { since_us } if seconds_between(since_us, now_us) >= CHECK_WAIT_S)
-    }
-}
-
-impl Sequencer {
-    /// On the skids, the auto switch on and nothing flown yet: the take-off, or the check
-    /// that holds it back. A standing refusal stands (a restart's switch left on is refused
-    /// first, said once); the checks failing, the wait goes on from the pilot's request; they
-    /// pass, it takes off.
-    pub(super) fn on_the_skids(
-        &mut self,
-        crew: &Crew<'_>,
-        est: &NavState,
-        now_us: u64,
-        out: &mut Vec<Action>,
-    ) -> Phase {
-        self.leg = 0;
-        if self.takeoff == Request::AfterRestart {
-            self.refuse(Refusal::Restarted, now_us, out);
-        }
-        if self.takeoff.refused() {
-            return Phase::TakeoffRefused;
-        }
-        if self.preflight(crew, now_us).is_some() {
-            let since_us = self.takeoff.wait_since(now_us);
-            return Phase::PreflightCheck { since_us };
-        }
-        self.takeoff = Request::None;
-        self.start_leg(est, now_us, out)
-    }
-
-    /// On the skids with the transmitter lost: a wait that runs out meanwhile is refused
-    /// then, said with the check that fails (or the loss itself), so that the transmitter's
-    /// return, however late, is no order to take off.
-    pub(super) fn skids_without_transmitter(
-        &mut self,
-        crew: &Crew<'_>,
-        now_us: u64,
-        out: &mut Vec<Action>,
-    ) {
-        if self.takeoff.expired(now_us) {
-            let refusal = self
-                .preflight(crew, now_us)
-                .unwrap_or(Refusal::TransmitterLost);
-            self.refuse(refusal, now_us, out);
-        }
-    }
-
-    /// Refuses the pilot's request: raised, and it stands.
-    pub(super) fn refuse(&mut self, refusal: Refusal, now_us: u64, out: &mut Vec<Action>) {
-        out.push(Action::Event(Stamped::new(
-            now_us,
-            CoreEvent::TakeoffRefused(refusal),
-        )));
-        self.takeoff = Request::Refused;
     }
 }
