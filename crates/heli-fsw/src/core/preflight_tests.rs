@@ -26,21 +26,14 @@ struct Skids {
 
 impl Skids {
     fn new() -> Self {
-        Self::started(core_with(FlightMode::Autonomous))
+        Self::started_at(core_with(FlightMode::Autonomous), 0)
     }
 
     /// The same core as [`Skids::new`]'s, started again from `warm` (a crash or a
     /// brown-out), its time going on from `t` µs.
     fn restarted(warm: WarmStart, t: u64) -> Self {
         let like = core_with(FlightMode::Autonomous);
-        let core = FlightCore::restarted(like.config, like.seq.params, warm);
-        let mut skids = Self::started_at(core, t);
-        skids.t = t;
-        skids
-    }
-
-    fn started(core: FlightCore) -> Self {
-        Self::started_at(core, 0)
+        Self::started_at(FlightCore::restarted(like.config, like.seq.params, warm), t)
     }
 
     fn started_at(mut core: FlightCore, t: u64) -> Self {
@@ -49,9 +42,29 @@ impl Skids {
         Self {
             core,
             out: Vec::new(),
-            t: 0,
+            t,
             checker,
         }
+    }
+
+    /// The pilot's switch off and on again, half a second each, with eight satellites.
+    fn cycle_switch(&mut self) {
+        self.run(0.5, true, uplink(false, false), Some(8));
+        self.run(0.5, true, on(), Some(8));
+    }
+
+    /// Panics unless the core is taking off.
+    fn assert_taking_off(&self) {
+        assert!(
+            matches!(self.core.phase(), Phase::TakingOff { .. }),
+            "{:?}",
+            self.core.phase()
+        );
+    }
+
+    /// The estimate's down position (m).
+    fn est_z(&self) -> f64 {
+        self.core.navigator().state().expect("estimate").pos_ned_m.z
     }
 
     /// `seconds` of the IMU (when `imu`), `pilot`'s packets at 50 Hz and, when
@@ -145,11 +158,7 @@ fn a_refusal_stands_through_a_transmitter_blip_until_the_switch_is_cycled() {
     skids.run(0.5, true, uplink(false, false), Some(8));
     assert_eq!(skids.core.phase(), Phase::Manual);
     skids.run(0.5, true, on(), Some(8));
-    assert!(
-        matches!(skids.core.phase(), Phase::TakingOff { .. }),
-        "{:?}",
-        skids.core.phase()
-    );
+    skids.assert_taking_off();
 }
 
 #[test]
@@ -227,13 +236,8 @@ fn a_transmitter_lost_past_the_wait_refuses_then_and_its_return_is_no_take_off()
     assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
     assert_eq!(skids.refusals(), [Refusal::TooFewSatellites(3)]);
     // Only the switch, off and on, asks again.
-    skids.run(0.5, true, uplink(false, false), Some(8));
-    skids.run(0.5, true, on(), Some(8));
-    assert!(
-        matches!(skids.core.phase(), Phase::TakingOff { .. }),
-        "{:?}",
-        skids.core.phase()
-    );
+    skids.cycle_switch();
+    skids.assert_taking_off();
 }
 
 #[test]
@@ -243,9 +247,7 @@ fn a_wait_whose_checks_pass_while_the_transmitter_is_lost_is_refused_for_the_los
     // Lost; the satellites come meanwhile; the wait runs out: the loss is the reason.
     skids.run(40.0, true, uplink(true, true), Some(8));
     assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
-    let refusals = skids.refusals();
-    assert_eq!(refusals.len(), 1, "{refusals:?}");
-    assert_eq!(refusals, [Refusal::TransmitterLost]);
+    assert_eq!(skids.refusals(), [Refusal::TransmitterLost]);
     skids.run(5.0, true, on(), Some(8));
     assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
 }
@@ -272,13 +274,8 @@ fn a_process_started_again_on_the_skids_with_the_switch_on_refuses_until_it_is_c
     assert_eq!(skids.refusals(), [Refusal::Restarted]);
     assert!(Refusal::Restarted.text().contains("off and on"));
     // Off and on: the pilot's request, whose checks pass.
-    skids.run(0.5, true, uplink(false, false), Some(8));
-    skids.run(0.5, true, on(), Some(8));
-    assert!(
-        matches!(skids.core.phase(), Phase::TakingOff { .. }),
-        "{:?}",
-        skids.core.phase()
-    );
+    skids.cycle_switch();
+    skids.assert_taking_off();
     assert_eq!(skids.refusals(), [Refusal::Restarted]);
 }
 
@@ -291,11 +288,7 @@ fn a_switch_seen_off_during_the_restarted_calibration_makes_the_next_on_a_reques
     assert_eq!(skids.core.phase(), Phase::Calibrating);
     skids.run(5.0, true, uplink(false, false), Some(8));
     skids.run(1.0, true, on(), Some(8));
-    assert!(
-        matches!(skids.core.phase(), Phase::TakingOff { .. }),
-        "{:?}",
-        skids.core.phase()
-    );
+    skids.assert_taking_off();
     assert_eq!(skids.refusals(), []);
 }
 
@@ -307,13 +300,7 @@ fn the_altimeter_s_drift_through_a_long_wait_is_no_climb() {
     // The estimate half a metre above home, as the weather's pressure drifts it over
     // minutes on the skids; then the transmitter is lost: still on the ground, idle — not
     // airborne, not a hover to lift into.
-    let est_z = skids
-        .core
-        .navigator()
-        .state()
-        .expect("estimate")
-        .pos_ned_m
-        .z;
+    let est_z = skids.est_z();
     skids.core.seq.home_ned_m = skids
         .core
         .seq
@@ -322,13 +309,7 @@ fn the_altimeter_s_drift_through_a_long_wait_is_no_climb() {
     skids.run(1.0, true, uplink(true, true), Some(3));
     assert_eq!(skids.core.phase(), Phase::GroundFailsafe);
     assert!(!skids.core.seq.airborne_once);
-    let est_z = skids
-        .core
-        .navigator()
-        .state()
-        .expect("estimate")
-        .pos_ned_m
-        .z;
+    let est_z = skids.est_z();
     let home_z = skids.core.seq.home_ned_m.expect("home").z;
     assert!(
         (home_z - est_z).abs() < 1e-9,
@@ -346,11 +327,7 @@ fn during_the_restarted_calibration_the_switch_off_asks_again_but_a_lost_signal_
     skids.run(0.2, true, on(), Some(8));
     assert_eq!(skids.core.phase(), Phase::Calibrating);
     skids.run(5.0, true, on(), Some(8));
-    assert!(
-        matches!(skids.core.phase(), Phase::TakingOff { .. }),
-        "{:?}",
-        skids.core.phase()
-    );
+    skids.assert_taking_off();
     assert_eq!(skids.refusals(), []);
     // A receiver's failsafe packet (every channel zero, the auto flag with them) in the
     // calibration is no switch the pilot moved: a switch left on is still refused.

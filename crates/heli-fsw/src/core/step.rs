@@ -115,10 +115,7 @@ impl FlightCore {
             // transmitter is lost (as autopilots take the ground's pressure again while
             // disarmed). Not in the pilot's phases: there only the rotor's speed says the
             // helicopter is down, and a wrong reading must not carry home up with it.
-            if matches!(
-                self.seq.phase,
-                Phase::PreflightCheck { .. } | Phase::TakeoffRefused | Phase::GroundFailsafe
-            ) && !self.seq.airborne_once
+            if self.held_on_skids()
                 && let Some(home) = self.seq.home_ned_m.as_mut()
             {
                 home.z = est.pos_ned_m.z;
@@ -322,7 +319,7 @@ impl FlightCore {
         match self.seq.phase {
             Phase::Landed => true,
             Phase::PreflightCheck { .. } | Phase::TakeoffRefused | Phase::GroundFailsafe => {
-                !self.seq.airborne_once
+                self.held_on_skids()
             }
             Phase::Manual | Phase::Augmented(_) => {
                 !self.seq.airborne_once
@@ -332,6 +329,16 @@ impl FlightCore {
             }
             _ => false,
         }
+    }
+
+    /// On its skids because the computer holds it there (the pre-flight check, a refused
+    /// take-off, the ground failsafe) and never flown: down whatever the sensors say.
+    fn held_on_skids(&self) -> bool {
+        !self.seq.airborne_once
+            && matches!(
+                self.seq.phase,
+                Phase::PreflightCheck { .. } | Phase::TakeoffRefused | Phase::GroundFailsafe
+            )
     }
 
     pub(super) fn height_above_home(&self, est: &NavState) -> f64 {
