@@ -95,14 +95,20 @@ fn truth_of(asked_ms: u64, t_ms: u64, status: &Value, lapsed: &[String]) -> Trut
             })
     };
     let satellites = tel["gps"]["satellites"].as_u64().unwrap_or(0);
-    let remaining = tel["battery_remaining"].as_f64();
-    let packs_good = tel["power"]["batteries"].as_array().is_none_or(|b| {
-        b.iter()
-            .all(|p| p["percent"].as_f64().unwrap_or(0.0) > 100.0 / 3.0)
-    });
-    let battery_green = remaining
-        .filter(|_| flying)
-        .map(|r| r * 100.0 > 100.0 / 3.0);
+    // The vehicle's own verdict on each pack: its gauge's level (latched: a warning is not
+    // withdrawn by a charge that bounces back), not the charge judged again here.
+    let packs = tel["power"]["batteries"].as_array();
+    let packs_good = packs.is_none_or(|b| b.iter().all(|p| p["level"] == "good"));
+    let flight_level = packs
+        .and_then(|b| b.iter().find(|p| p["name"] == "flight"))
+        .map(|p| p["level"] == "good");
+    let battery_green = flight_level
+        .or_else(|| {
+            tel["battery_remaining"]
+                .as_f64()
+                .map(|r| r * 100.0 > 100.0 / 3.0)
+        })
+        .filter(|_| flying);
     // The estimate runs: calibrated, and not in the blind failsafe of a lost estimate.
     let calibrated = phase
         .as_deref()

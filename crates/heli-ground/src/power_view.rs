@@ -5,7 +5,9 @@
 //! the flight test, so Start Logging of a new flight waits until the operator acknowledges.
 
 use heli_link::ground::GroundLink;
-use heli_link::telemetry::{FLIGHT_BATTERY_ID, RECEIVER_BATTERY_ID, SERVO_BATTERY_ID};
+use heli_link::telemetry::{
+    FLIGHT_BATTERY_ID, RECEIVER_BATTERY_ID, SERVO_BATTERY_ID, level_of_percent,
+};
 use serde::Serialize;
 
 /// One pack on the display.
@@ -40,14 +42,10 @@ pub struct PowerView {
     pub logbook: Vec<crate::pack_log::PackTotalsView>,
 }
 
-/// The state word of a charge (%), at the vehicle's default levels.
+/// The state word of a charge (%) as the link sent it: the vehicle's own level, which the
+/// whole percentage it sends is kept in the band of (`heli_link::telemetry::level_of_percent`).
 pub fn state_of(percent: Option<f64>) -> &'static str {
-    match percent {
-        None => "unknown",
-        Some(p) if p <= 15.0 => "critical",
-        Some(p) if p <= 100.0 / 3.0 => "warning",
-        Some(_) => "good",
-    }
+    percent.map_or("unknown", level_of_percent)
 }
 
 /// The packs and the hot-swap from what the link has heard.

@@ -547,7 +547,8 @@ fn every_pack_shows_its_gauge_and_the_hot_swap_its_times() {
             volts,
             percent,
             minutes_left,
-            level: "good".into(),
+            // The vehicle's gauge's level at its default levels.
+            level: heli_link::telemetry::level_of_percent(percent).into(),
             draining_abnormally: false,
         }
     };

@@ -2,6 +2,7 @@
 //! [`Station::view`] and sent to every page several times a second.
 
 use heli_link::mission::{PlanPoint, plan_points};
+use heli_link::telemetry::level_of_percent;
 use mavlink::MessageData;
 use mavlink::dialects::common::*;
 use serde::Serialize;
@@ -187,10 +188,11 @@ impl Station {
             Some((at, MavMessage::SYS_STATUS(s))) if s.voltage_battery != u16::MAX => {
                 let age_us = now_us.saturating_sub(*at);
                 let volts = f64::from(s.voltage_battery) / 1000.0;
-                // The vehicle's gauge when it sends one; bare voltage only otherwise.
+                // The vehicle's gauge when it sends one (its level kept in the whole
+                // percentage's band); bare voltage only otherwise.
                 let (percent, green, from) = if s.battery_remaining >= 0 {
                     let p = f64::from(s.battery_remaining);
-                    (p, p > 100.0 / 3.0, "gauge")
+                    (p, level_of_percent(p) == "good", "gauge")
                 } else {
                     let (p, g) = battery_meter(&self.config.curve, volts);
                     (p, g, "voltage")

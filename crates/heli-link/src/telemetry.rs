@@ -404,7 +404,7 @@ pub fn message(id: u32, t: &Telemetry, time_boot_ms: u32) -> Option<MavMessage> 
                 onboard_control_sensors_health: healthy,
                 voltage_battery: t.battery_v.map_or(u16::MAX, millivolts),
                 current_battery: -1,
-                battery_remaining: remaining_percent(t.battery_remaining),
+                battery_remaining: flight_percent(t),
                 ..Default::default()
             })
         }
@@ -412,7 +412,7 @@ pub fn message(id: u32, t: &Telemetry, time_boot_ms: u32) -> Option<MavMessage> 
             FLIGHT_BATTERY_ID,
             t.battery_v?,
             MavBatteryFunction::MAV_BATTERY_FUNCTION_AVIONICS,
-            remaining_percent(t.battery_remaining),
+            flight_percent(t),
         ),
         RAW_RPM_DATA::ID => {
             let u = t.uplink.as_ref()?;
@@ -439,7 +439,7 @@ pub fn board_batteries(t: &Telemetry) -> Vec<MavMessage> {
     .into_iter()
     .filter(|(_, v, _)| v.is_finite() && *v > 0.0)
     .map(|(id, v, name)| {
-        let remaining = remaining_percent(gauge(t, name).map(|b| b.percent / 100.0));
+        let remaining = gauge(t, name).map_or(-1, pack_percent);
         battery_status(
             id,
             v,
@@ -527,8 +527,59 @@ fn battery_status(id: u8, volts: f64, function: MavBatteryFunction, remaining: i
     })
 }
 
-fn remaining_percent(fraction: Option<f64>) -> i8 {
-    fraction.map_or(-1, |r| (r * 100.0).round().clamp(0.0, 100.0) as i8)
+/// A pack's charge at or below this (%) is at its warning level on the ground's meter:
+/// red, "finish and land" (the thesis's meter turned red with a third of the life left).
+pub const WARNING_PERCENT: f64 = 100.0 / 3.0;
+/// A pack's charge at or below this (%) is critical on the ground's meter.
+pub const CRITICAL_PERCENT: f64 = 15.0;
+
+/// The level (`good`, `warning`, `critical`) the ground reads from a whole percentage sent
+/// as `battery_remaining`: the bands that [`pack_percent`] keeps each level of the
+/// vehicle's in.
+pub fn level_of_percent(percent: f64) -> &'static str {
+    if percent <= CRITICAL_PERCENT {
+        "critical"
+    } else if percent <= WARNING_PERCENT {
+        "warning"
+    } else {
+        "good"
+    }
+}
+
+/// The flight battery's `battery_remaining`: its gauge's, or the bare charge when the
+/// telemetry has no gauge row (-1: not known).
+fn flight_percent(t: &Telemetry) -> i8 {
+    match gauge(t, "flight") {
+        Some(row) => pack_percent(row),
+        None => t.battery_remaining.map_or(-1, |r| whole_percent(100.0 * r)),
+    }
+}
+
+/// A pack's charge as the whole percentage `battery_remaining` carries, kept within the
+/// band of the vehicle's own level ([`level_of_percent`]): the ground judges the integer,
+/// and a pack the vehicle calls good at 33.46 % must not arrive as a 33 % the ground calls
+/// its warning — nor a latched warning, its charge bounced back to 34 %, as good. At most
+/// one percentage point from the charge, and only next to a level's edge.
+fn pack_percent(row: &BatteryRow) -> i8 {
+    let p = whole_percent(row.percent);
+    // The band's whole percentages: good above the warning level, warning above the
+    // critical one.
+    let above = |edge: f64| (edge.floor() as i8).saturating_add(1);
+    match row.level.as_str() {
+        "good" => p.max(above(WARNING_PERCENT)),
+        "warning" => p.clamp(above(CRITICAL_PERCENT), WARNING_PERCENT.floor() as i8),
+        "critical" => p.min(CRITICAL_PERCENT.floor() as i8),
+        _ => p,
+    }
+}
+
+/// A percentage rounded to a whole one in 0–100; a charge that is not a number is none.
+fn whole_percent(percent: f64) -> i8 {
+    if percent.is_nan() {
+        0
+    } else {
+        percent.round().clamp(0.0, 100.0) as i8
+    }
 }
 
 #[cfg(test)]

@@ -178,3 +178,64 @@ fn the_gauges_go_out_as_battery_remaining_and_named_values() {
         ]
     );
 }
+
+/// The flight pack's `battery_remaining` in SYS_STATUS and BATTERY_STATUS, for a gauge row
+/// at `percent` with the vehicle's `level`.
+fn flight_remaining(percent: f64, level: &str) -> [i8; 2] {
+    let mut t = full();
+    t.battery_remaining = Some(percent / 100.0);
+    t.power = Some(PowerRow {
+        batteries: vec![BatteryRow {
+            name: "flight".into(),
+            volts: 11.6,
+            percent,
+            minutes_left: 3.0,
+            level: level.into(),
+            draining_abnormally: false,
+        }],
+        source: None,
+        flight_s: 0.0,
+        ground_s: 0.0,
+    });
+    let sys = match message(SYS_STATUS_DATA::ID, &t, 0) {
+        Some(MavMessage::SYS_STATUS(s)) => s.battery_remaining,
+        other => panic!("{other:?}"),
+    };
+    let bat = match message(BATTERY_STATUS_DATA::ID, &t, 0) {
+        Some(MavMessage::BATTERY_STATUS(b)) => b.battery_remaining,
+        other => panic!("{other:?}"),
+    };
+    [sys, bat]
+}
+
+#[test]
+fn the_whole_percentage_sent_keeps_the_vehicles_level_for_the_ground_to_read() {
+    // Found by the operator-truth test: the vehicle's good 33.46 % went out as 33, which the
+    // ground's meter (red at a third or less) showed red.
+    for (percent, level, sent) in [
+        (33.46, "good", 34),
+        (33.2, "warning", 33),
+        // A warning latched while the charge bounced back is still a warning.
+        (34.2, "warning", 33),
+        (15.4, "warning", 16),
+        (15.0, "critical", 15),
+        (16.1, "critical", 15),
+        (72.6, "good", 73),
+        (10.2, "critical", 10),
+    ] {
+        let got = flight_remaining(percent, level);
+        assert_eq!(got, [sent, sent], "{percent} % {level}");
+        assert_eq!(
+            level_of_percent(f64::from(sent)),
+            level,
+            "{percent} % {level}"
+        );
+    }
+    // No gauge row: the bare charge, rounded.
+    let mut t = full();
+    t.battery_remaining = Some(0.3346);
+    match message(SYS_STATUS_DATA::ID, &t, 0) {
+        Some(MavMessage::SYS_STATUS(s)) => assert_eq!(s.battery_remaining, 33),
+        other => panic!("{other:?}"),
+    }
+}
