@@ -573,13 +573,10 @@ fn pack_percent(row: &BatteryRow) -> i8 {
     }
 }
 
-/// A percentage rounded to a whole one in 0–100; a charge that is not a number is none.
+/// A percentage rounded to a whole one in 0–100 (a charge that is not a number casts to
+/// none: 0).
 fn whole_percent(percent: f64) -> i8 {
-    if percent.is_nan() {
-        0
-    } else {
-        percent.round().clamp(0.0, 100.0) as i8
-    }
+    percent.round().clamp(0.0, 100.0) as i8
 }
 
 #[cfg(test)]

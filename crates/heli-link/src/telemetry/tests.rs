@@ -231,6 +231,11 @@ fn the_whole_percentage_sent_keeps_the_vehicles_level_for_the_ground_to_read() {
             "{percent} % {level}"
         );
     }
+    // The levels' edges themselves, as the vehicle's gauge places them (at or below).
+    assert_eq!(level_of_percent(100.0 / 3.0), "warning");
+    assert_eq!(level_of_percent(33.34), "good");
+    assert_eq!(level_of_percent(15.01), "warning");
+    assert_eq!(flight_remaining(f64::NAN, "critical"), [0, 0]);
     // No gauge row: the bare charge, rounded.
     let mut t = full();
     t.battery_remaining = Some(0.3346);
