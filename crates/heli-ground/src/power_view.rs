@@ -6,7 +6,7 @@
 
 use heli_link::ground::GroundLink;
 use heli_link::telemetry::{
-    FLIGHT_BATTERY_ID, RECEIVER_BATTERY_ID, SERVO_BATTERY_ID, level_of_percent,
+    FLIGHT_BATTERY_ID, RECEIVER_BATTERY_ID, SERVO_BATTERY_ID, level_of_code, level_of_percent,
 };
 use serde::Serialize;
 
@@ -42,26 +42,51 @@ pub struct PowerView {
     pub logbook: Vec<crate::pack_log::PackTotalsView>,
 }
 
-/// The state word of a charge (%) as the link sent it: the vehicle's own level, which the
-/// whole percentage it sends is kept in the band of (`heli_link::telemetry::level_of_percent`).
+/// The state word of a charge (%) alone, at the gauge's default levels
+/// (`heli_link::telemetry::level_of_percent`): for a vehicle that sends no level.
 pub fn state_of(percent: Option<f64>) -> &'static str {
     percent.map_or("unknown", level_of_percent)
 }
 
-/// The packs and the hot-swap from what the link has heard.
+/// The level the vehicle's gauge gives pack `value_name` (`FLT_LVL`, …), if one came within
+/// the rows' staleness ([`crate::rows::STALE_AFTER_US`]) of `now_us`: a level from the last
+/// flight is not this one's.
+pub fn vehicle_level(link: &GroundLink, value_name: &str, now_us: u64) -> Option<&'static str> {
+    let (at_us, code) = link.named.get(value_name)?;
+    if now_us.saturating_sub(*at_us) > crate::rows::STALE_AFTER_US {
+        return None;
+    }
+    level_of_code(f64::from(*code))
+}
+
+/// The packs and the hot-swap from what the link has heard by `now_us`. Each pack's state
+/// is the level the vehicle's gauge sends with it (latched as the gauge latches it, at the
+/// levels the vehicle is set to), not the whole percentage judged again: a good 33.46 %
+/// arrives as 33. Only a vehicle that sends no level is judged by its number.
 pub fn power_view(
     link: &GroundLink,
     field_rule: &FieldRule,
     logbook: &crate::pack_log::PackLog,
+    now_us: u64,
 ) -> PowerView {
     let named = |name: &str| link.named.get(name).map(|(_, v)| f64::from(*v));
     let packs = [
-        (FLIGHT_BATTERY_ID, "flight battery", "FLT_MIN"),
-        (RECEIVER_BATTERY_ID, "receiver battery (RTXB)", "RTXB_MIN"),
-        (SERVO_BATTERY_ID, "servo battery (Sbat)", "SBAT_MIN"),
+        (FLIGHT_BATTERY_ID, "flight battery", "FLT_MIN", "FLT_LVL"),
+        (
+            RECEIVER_BATTERY_ID,
+            "receiver battery (RTXB)",
+            "RTXB_MIN",
+            "RTXB_LVL",
+        ),
+        (
+            SERVO_BATTERY_ID,
+            "servo battery (Sbat)",
+            "SBAT_MIN",
+            "SBAT_LVL",
+        ),
     ]
     .into_iter()
-    .filter_map(|(id, name, minutes)| {
+    .filter_map(|(id, name, minutes, level)| {
         let (_, b) = link.batteries.get(&id)?;
         let volts = f64::from(*b.voltages.first()?) / 1000.0;
         let percent = (b.battery_remaining >= 0).then(|| f64::from(b.battery_remaining));
@@ -70,7 +95,7 @@ pub fn power_view(
             volts,
             percent,
             minutes_left: named(minutes),
-            state: state_of(percent),
+            state: vehicle_level(link, level, now_us).unwrap_or_else(|| state_of(percent)),
         })
     })
     .collect();
@@ -140,6 +165,52 @@ mod tests {
         assert!(rule.acknowledge().is_some());
         assert!(rule.blocks_start().is_none());
         assert!(rule.acknowledge().is_none());
+    }
+
+    /// A link that has heard the flight pack at `percent` (whole, as sent) at `at_us`, and
+    /// the vehicle's level for it `level_code` at `level_at_us`.
+    fn heard(percent: i8, at_us: u64, level_code: Option<(f32, u64)>) -> GroundLink {
+        let mut link = GroundLink::new(None);
+        let mut voltages = [u16::MAX; 10];
+        voltages[0] = 11_600;
+        link.batteries.insert(
+            FLIGHT_BATTERY_ID,
+            (
+                at_us,
+                mavlink::dialects::common::BATTERY_STATUS_DATA {
+                    voltages,
+                    battery_remaining: percent,
+                    ..Default::default()
+                },
+            ),
+        );
+        if let Some((code, level_at_us)) = level_code {
+            link.named.insert("FLT_LVL".into(), (level_at_us, code));
+        }
+        link
+    }
+
+    #[test]
+    fn a_pack_shows_the_vehicles_level_not_its_whole_percentage_judged_again() {
+        let state = |link: &GroundLink, now_us: u64| {
+            power_view(link, &FieldRule::default(), &Default::default(), now_us).packs[0].state
+        };
+        // The vehicle's good 33.46 % arrives as 33: good, as the vehicle says.
+        assert_eq!(
+            state(&heard(33, 1_000_000, Some((0.0, 1_000_000))), 1_200_000),
+            "good"
+        );
+        // A warning latched while the charge bounced back to 40 %: a warning.
+        assert_eq!(
+            state(&heard(40, 1_000_000, Some((1.0, 1_000_000))), 1_200_000),
+            "warning"
+        );
+        // No level sent (another vehicle), or only the last flight's: the number alone.
+        assert_eq!(state(&heard(33, 1_000_000, None), 1_200_000), "warning");
+        assert_eq!(
+            state(&heard(40, 9_000_000, Some((1.0, 1_000_000))), 9_200_000),
+            "good"
+        );
     }
 
     #[test]

@@ -188,11 +188,14 @@ impl Station {
             Some((at, MavMessage::SYS_STATUS(s))) if s.voltage_battery != u16::MAX => {
                 let age_us = now_us.saturating_sub(*at);
                 let volts = f64::from(s.voltage_battery) / 1000.0;
-                // The vehicle's gauge when it sends one (its level kept in the whole
-                // percentage's band); bare voltage only otherwise.
+                // The vehicle's gauge when it sends one: its charge, and its level's
+                // colour (the number judged again only when no level came); bare voltage
+                // only otherwise.
                 let (percent, green, from) = if s.battery_remaining >= 0 {
                     let p = f64::from(s.battery_remaining);
-                    (p, level_of_percent(p) == "good", "gauge")
+                    let level = crate::power_view::vehicle_level(&self.link, "FLT_LVL", now_us)
+                        .unwrap_or_else(|| level_of_percent(p));
+                    (p, level == "good", "gauge")
                 } else {
                     let (p, g) = battery_meter(&self.config.curve, volts);
                     (p, g, "voltage")
@@ -209,7 +212,8 @@ impl Station {
             }
             _ => None,
         };
-        let power = crate::power_view::power_view(&self.link, &self.field_rule, &self.packs);
+        let power =
+            crate::power_view::power_view(&self.link, &self.field_rule, &self.packs, now_us);
         // The safety rule's `battery`: the meter green and no pack at its warning level.
         let battery_green = battery.as_ref().is_some_and(|b| b.green)
             && power

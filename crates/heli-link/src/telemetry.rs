@@ -439,7 +439,7 @@ pub fn board_batteries(t: &Telemetry) -> Vec<MavMessage> {
     .into_iter()
     .filter(|(_, v, _)| v.is_finite() && *v > 0.0)
     .map(|(id, v, name)| {
-        let remaining = gauge(t, name).map_or(-1, pack_percent);
+        let remaining = gauge(t, name).map_or(-1, |b| whole_percent(b.percent));
         battery_status(
             id,
             v,
@@ -457,14 +457,18 @@ fn gauge<'a>(t: &'a Telemetry, name: &str) -> Option<&'a BatteryRow> {
 
 /// Names of the power values sent as `NAMED_VALUE_FLOAT` with the batteries (ten
 /// characters at most): minutes left on the flight, receiver and servo packs, the hot-swap's
-/// source (1 flight, 0 ground) and the seconds on each.
-pub const POWER_VALUES: [&str; 6] = [
+/// source (1 flight, 0 ground) and the seconds on each, and each pack's level as the
+/// vehicle's gauge judges it ([`level_code`]).
+pub const POWER_VALUES: [&str; 9] = [
     "FLT_MIN",
     "RTXB_MIN",
     "SBAT_MIN",
     "PWR_FLIGHT",
     "PWR_FLT_S",
     "PWR_GND_S",
+    "FLT_LVL",
+    "RTXB_LVL",
+    "SBAT_LVL",
 ];
 
 /// The power values as `NAMED_VALUE_FLOAT`s ([`POWER_VALUES`]), sent with the batteries: what
@@ -474,6 +478,7 @@ pub fn power_values(t: &Telemetry, time_boot_ms: u32) -> Vec<MavMessage> {
         return Vec::new();
     };
     let minutes = |name: &str| gauge(t, name).map(|b| b.minutes_left);
+    let level = |name: &str| gauge(t, name).and_then(|b| level_code(&b.level));
     let source = p
         .source
         .as_deref()
@@ -485,6 +490,9 @@ pub fn power_values(t: &Telemetry, time_boot_ms: u32) -> Vec<MavMessage> {
         source,
         source.map(|_| p.flight_s),
         source.map(|_| p.ground_s),
+        level("flight"),
+        level("receiver"),
+        level("servo"),
     ];
     POWER_VALUES
         .iter()
@@ -498,6 +506,24 @@ pub fn power_values(t: &Telemetry, time_boot_ms: u32) -> Vec<MavMessage> {
             }))
         })
         .collect()
+}
+
+/// A gauge's level as the number sent for it (`FLT_LVL`, …): 0 good, 1 warning, 2
+/// critical; `None` for a word that is none of them.
+pub fn level_code(level: &str) -> Option<f64> {
+    match level {
+        "good" => Some(0.0),
+        "warning" => Some(1.0),
+        "critical" => Some(2.0),
+        _ => None,
+    }
+}
+
+/// The level a number sent by [`level_code`] stands for; `None` for any other number.
+pub fn level_of_code(code: f64) -> Option<&'static str> {
+    ["good", "warning", "critical"]
+        .into_iter()
+        .find(|&l| level_code(l) == Some(code))
 }
 
 /// A pack's voltage (V) as millivolts, `u16::MAX` when not known.
@@ -527,15 +553,15 @@ fn battery_status(id: u8, volts: f64, function: MavBatteryFunction, remaining: i
     })
 }
 
-/// A pack's charge at or below this (%) is at its warning level on the ground's meter:
-/// red, "finish and land" (the thesis's meter turned red with a third of the life left).
+/// A pack's charge at or below this (%) is at its warning level at the gauge's default
+/// levels (the thesis's meter turned red with a third of the life left).
 pub const WARNING_PERCENT: f64 = 100.0 / 3.0;
-/// A pack's charge at or below this (%) is critical on the ground's meter.
+/// A pack's charge at or below this (%) is critical at the gauge's default levels.
 pub const CRITICAL_PERCENT: f64 = 15.0;
 
-/// The level (`good`, `warning`, `critical`) the ground reads from a whole percentage sent
-/// as `battery_remaining`: the bands that [`pack_percent`] keeps each level of the
-/// vehicle's in.
+/// The level (`good`, `warning`, `critical`) of a charge (%) at the gauge's default levels:
+/// what a ground can tell from `battery_remaining` alone, for a vehicle that sends no level
+/// of its own ([`level_code`]).
 pub fn level_of_percent(percent: f64) -> &'static str {
     if percent <= CRITICAL_PERCENT {
         "critical"
@@ -550,26 +576,8 @@ pub fn level_of_percent(percent: f64) -> &'static str {
 /// telemetry has no gauge row (-1: not known).
 fn flight_percent(t: &Telemetry) -> i8 {
     match gauge(t, "flight") {
-        Some(row) => pack_percent(row),
+        Some(row) => whole_percent(row.percent),
         None => t.battery_remaining.map_or(-1, |r| whole_percent(100.0 * r)),
-    }
-}
-
-/// A pack's charge as the whole percentage `battery_remaining` carries, kept within the
-/// band of the vehicle's own level ([`level_of_percent`]): the ground judges the integer,
-/// and a pack the vehicle calls good at 33.46 % must not arrive as a 33 % the ground calls
-/// its warning — nor a latched warning, its charge bounced back to 34 %, as good. At most
-/// one percentage point from the charge, and only next to a level's edge.
-fn pack_percent(row: &BatteryRow) -> i8 {
-    let p = whole_percent(row.percent);
-    // The band's whole percentages: good above the warning level, warning above the
-    // critical one.
-    let above = |edge: f64| (edge.floor() as i8).saturating_add(1);
-    match row.level.as_str() {
-        "good" => p.max(above(WARNING_PERCENT)),
-        "warning" => p.clamp(above(CRITICAL_PERCENT), WARNING_PERCENT.floor() as i8),
-        "critical" => p.min(CRITICAL_PERCENT.floor() as i8),
-        _ => p,
     }
 }
 

@@ -486,4 +486,13 @@ mod tests {
         assert_eq!(row.source.as_deref(), Some("flight"));
         assert!((row.flight_s - 60.0).abs() < 1e-9 && (row.ground_s - 30.0).abs() < 1e-9);
     }
+
+    #[test]
+    fn the_links_default_levels_are_the_gauges() {
+        // A ground that gets no level judges the whole percentage at these: they must be
+        // the gauge's defaults, which the vehicle judges at.
+        let levels = heli_power::Levels::default();
+        assert!((100.0 * levels.warning - heli_link::telemetry::WARNING_PERCENT).abs() < 1e-9);
+        assert!((100.0 * levels.critical - heli_link::telemetry::CRITICAL_PERCENT).abs() < 1e-9);
+    }
 }

@@ -175,13 +175,14 @@ fn the_gauges_go_out_as_battery_remaining_and_named_values() {
             ("PWR_FLIGHT".to_string(), 0.0),
             ("PWR_FLT_S".to_string(), 0.0),
             ("PWR_GND_S".to_string(), 90.0),
+            ("RTXB_LVL".to_string(), 0.0),
+            ("SBAT_LVL".to_string(), 0.0),
         ]
     );
 }
 
-/// The flight pack's `battery_remaining` in SYS_STATUS and BATTERY_STATUS, for a gauge row
-/// at `percent` with the vehicle's `level`.
-fn flight_remaining(percent: f64, level: &str) -> [i8; 2] {
+/// The telemetry with a flight pack's gauge row at `percent` with the vehicle's `level`.
+fn with_flight_pack(percent: f64, level: &str) -> Telemetry {
     let mut t = full();
     t.battery_remaining = Some(percent / 100.0);
     t.power = Some(PowerRow {
@@ -197,45 +198,60 @@ fn flight_remaining(percent: f64, level: &str) -> [i8; 2] {
         flight_s: 0.0,
         ground_s: 0.0,
     });
-    let sys = match message(SYS_STATUS_DATA::ID, &t, 0) {
-        Some(MavMessage::SYS_STATUS(s)) => s.battery_remaining,
-        other => panic!("{other:?}"),
-    };
-    let bat = match message(BATTERY_STATUS_DATA::ID, &t, 0) {
-        Some(MavMessage::BATTERY_STATUS(b)) => b.battery_remaining,
-        other => panic!("{other:?}"),
-    };
-    [sys, bat]
+    t
 }
 
 #[test]
-fn the_whole_percentage_sent_keeps_the_vehicles_level_for_the_ground_to_read() {
-    // Found by the operator-truth test: the vehicle's good 33.46 % went out as 33, which the
-    // ground's meter (red at a third or less) showed red.
+fn each_pack_goes_out_with_its_charge_and_the_vehicles_own_level() {
+    // Found by the operator-truth test: the vehicle's good 33.46 % goes out as a whole 33,
+    // which a ground judging the number by the same levels shows red. The charge goes out
+    // as it is and the level beside it, the vehicle's verdict — a warning latched while
+    // the charge bounced back to 34.2 % as well.
     for (percent, level, sent) in [
-        (33.46, "good", 34),
-        (33.2, "warning", 33),
-        // A warning latched while the charge bounced back is still a warning.
-        (34.2, "warning", 33),
-        (15.4, "warning", 16),
-        (15.0, "critical", 15),
-        (16.1, "critical", 15),
+        (33.46, "good", 33),
+        (34.2, "warning", 34),
+        (15.4, "warning", 15),
+        (16.1, "critical", 16),
         (72.6, "good", 73),
-        (10.2, "critical", 10),
     ] {
-        let got = flight_remaining(percent, level);
-        assert_eq!(got, [sent, sent], "{percent} % {level}");
+        let t = with_flight_pack(percent, level);
+        let sys = match message(SYS_STATUS_DATA::ID, &t, 0) {
+            Some(MavMessage::SYS_STATUS(s)) => s.battery_remaining,
+            other => panic!("{other:?}"),
+        };
+        let bat = match message(BATTERY_STATUS_DATA::ID, &t, 0) {
+            Some(MavMessage::BATTERY_STATUS(b)) => b.battery_remaining,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!([sys, bat], [sent, sent], "{percent} % {level}");
+        let levels: Vec<(String, f32)> = power_values(&t, 5)
+            .iter()
+            .filter_map(|m| match m {
+                MavMessage::NAMED_VALUE_FLOAT(v) => {
+                    Some((v.name.to_str().unwrap_or("").to_string(), v.value))
+                }
+                _ => None,
+            })
+            .filter(|(name, _)| name.ends_with("_LVL"))
+            .collect();
+        assert_eq!(levels.len(), 1, "{levels:?}");
+        assert_eq!(levels[0].0, "FLT_LVL");
         assert_eq!(
-            level_of_percent(f64::from(sent)),
-            level,
+            level_of_code(f64::from(levels[0].1)),
+            Some(level),
             "{percent} % {level}"
         );
     }
-    // The levels' edges themselves, as the vehicle's gauge places them (at or below).
+    for level in ["good", "warning", "critical"] {
+        assert_eq!(level_code(level).and_then(level_of_code), Some(level));
+    }
+    assert_eq!(level_code("unknown"), None);
+    assert_eq!(level_of_code(0.5), None);
+    // A ground without the level judges the number at the default levels, at or below each.
     assert_eq!(level_of_percent(100.0 / 3.0), "warning");
     assert_eq!(level_of_percent(33.34), "good");
+    assert_eq!(level_of_percent(15.0), "critical");
     assert_eq!(level_of_percent(15.01), "warning");
-    assert_eq!(flight_remaining(f64::NAN, "critical"), [0, 0]);
     // No gauge row: the bare charge, rounded.
     let mut t = full();
     t.battery_remaining = Some(0.3346);
