@@ -131,6 +131,19 @@ fn telemetry_round_trips_as_json() {
     assert_eq!(serde_json::from_str::<Telemetry>(&text).unwrap(), full());
 }
 
+/// The power values sent with the batteries, by name.
+fn named_values(t: &Telemetry) -> Vec<(String, f32)> {
+    power_values(t, 5)
+        .iter()
+        .filter_map(|m| match m {
+            MavMessage::NAMED_VALUE_FLOAT(v) => {
+                Some((v.name.to_str().unwrap_or("").to_string(), v.value))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
 #[test]
 fn the_gauges_go_out_as_battery_remaining_and_named_values() {
     let mut t = full();
@@ -157,15 +170,7 @@ fn the_gauges_go_out_as_battery_remaining_and_named_values() {
         })
         .collect();
     assert_eq!(remaining, [80, 55]);
-    let values: Vec<(String, f32)> = power_values(&t, 5)
-        .iter()
-        .filter_map(|m| match m {
-            MavMessage::NAMED_VALUE_FLOAT(v) => {
-                Some((v.name.to_str().unwrap_or("").to_string(), v.value))
-            }
-            _ => None,
-        })
-        .collect();
+    let values = named_values(&t);
     // No flight pack read: its minutes are left out, not sent as a made-up number.
     assert_eq!(
         values,
@@ -224,14 +229,8 @@ fn each_pack_goes_out_with_its_charge_and_the_vehicles_own_level() {
             other => panic!("{other:?}"),
         };
         assert_eq!([sys, bat], [sent, sent], "{percent} % {level}");
-        let levels: Vec<(String, f32)> = power_values(&t, 5)
-            .iter()
-            .filter_map(|m| match m {
-                MavMessage::NAMED_VALUE_FLOAT(v) => {
-                    Some((v.name.to_str().unwrap_or("").to_string(), v.value))
-                }
-                _ => None,
-            })
+        let levels: Vec<(String, f32)> = named_values(&t)
+            .into_iter()
             .filter(|(name, _)| name.ends_with("_LVL"))
             .collect();
         assert_eq!(levels.len(), 1, "{levels:?}");
