@@ -99,15 +99,9 @@ fn truth_of(asked_ms: u64, t_ms: u64, status: &Value, lapsed: &[String]) -> Trut
     // withdrawn by a charge that bounces back), not the charge judged again here.
     let packs = tel["power"]["batteries"].as_array();
     let packs_good = packs.is_none_or(|b| b.iter().all(|p| p["level"] == "good"));
-    let flight_level = packs
+    let battery_green = packs
         .and_then(|b| b.iter().find(|p| p["name"] == "flight"))
-        .map(|p| p["level"] == "good");
-    let battery_green = flight_level
-        .or_else(|| {
-            tel["battery_remaining"]
-                .as_f64()
-                .map(|r| r * 100.0 > 100.0 / 3.0)
-        })
+        .map(|p| p["level"] == "good")
         .filter(|_| flying);
     // The estimate runs: calibrated, and not in the blind failsafe of a lost estimate.
     let calibrated = phase

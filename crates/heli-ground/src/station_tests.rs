@@ -591,6 +591,20 @@ fn every_pack_shows_its_gauge_and_the_hot_swap_its_times() {
             .failing
             .contains("a battery down to a third")
     );
+    // The vehicle's good 33.46 % arrives as a whole 33: the meter shows the vehicle's level
+    // (green), not the number judged again (red at a third or less).
+    let mut t = b.telemetry.take().unwrap();
+    if let Some(power) = t.power.as_mut() {
+        power.batteries[0] = pack("flight", 11.9, 33.46, 5.0);
+        power.batteries[0].level = "good".into();
+    }
+    t.battery_remaining = Some(0.3346);
+    b.telemetry = Some(t);
+    b.run(2.0);
+    let v = b.station.view(b.t);
+    let meter = v.battery.as_ref().unwrap();
+    assert_eq!((meter.percent, meter.green), (33.0, true));
+    assert_eq!(v.power.packs[0].state, "good");
 }
 
 #[test]
