@@ -85,6 +85,34 @@ try {
     && between.inverted > 0.9999 && between.level < 0.01)) {
     throw new Error(`interpolation between states: ${JSON.stringify(between)}`);
   }
+  // The drawing's resolution follows the frame rate: frames 20 a second (under 30) for two
+  // seconds bring it down to what should give 36; 60 a second for three seconds raise it a
+  // step; never under a quarter; a fixed resolution stays.
+  const adapted = await page.evaluate(async () => {
+    const { HeliView } = await import("./view3d.js");
+    const run = async (opts, steps) => {
+      const c = document.createElement("canvas");
+      c.width = 320; c.height = 256;
+      const v = await HeliView.create(c, opts);
+      let t = 1000;
+      const seen = [];
+      for (const [fps, seconds] of steps) {
+        for (let k = 0; k < fps * seconds; k++) { t += 1000 / fps; v.adapt(t); }
+        seen.push(v.ratio);
+      }
+      v.renderer.dispose();
+      return seen;
+    };
+    return {
+      adaptive: await run({ resolution: 0.5, adaptive: true }, [[20, 1.02], [20, 1.02], [60, 2.05], [60, 1.02], [5, 3.1]]),
+      fixed: await run({ resolution: 0.5 }, [[5, 3.1]]),
+    };
+  });
+  const [once, twice, notYet, raised, floor] = adapted.adaptive;
+  if (!(once === 0.5 && twice === 0.37 && notYet === 0.37 && raised === 0.44 && floor === 0.25
+    && adapted.fixed[0] === 0.5)) {
+    throw new Error(`the resolution's adaptation: ${JSON.stringify(adapted)}`);
+  }
   const main = await page.evaluate(() => window.truthView.main.camera);
   const side = await page.evaluate(() => window.truthView.side.camera);
   if (main !== "pilot" || side !== "chase") throw new Error(`the views are ${main} and ${side}, not pilot and chase`);

@@ -6,7 +6,8 @@ import { HeliView } from "./view3d.js";
 
 const canvas = document.getElementById("view3d");
 if (canvas) {
-  HeliView.create(canvas, { camera: "chase" })
+  // Drawn whole where the machine keeps 30 frames a second, else at the share that does.
+  HeliView.create(canvas, { camera: "chase", adaptive: true })
     .then((view) => {
       if (view) window.heliEstimateView = view;
       else window.heliEstimateFlat = true;

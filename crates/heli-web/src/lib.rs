@@ -16,7 +16,8 @@ use axum::response::{IntoResponse, Response};
 use include_dir::{Dir, include_dir};
 
 /// The files every page may load: `view3d.js` (the 3D view of the helicopter, a module on
-/// three.js: `three.module.min.js`, vendored with its licence `three.LICENSE.txt`),
+/// three.js: `three.module.min.js`, vendored with its licence `three.LICENSE.txt`; its world
+/// in `field3d.js`, the helicopter's solids and shadow in `xcell3d.js`),
 /// `instruments.js` (the attitude, the track, the plots, and the flat 3D drawing used where
 /// WebGL is not to be had) and `style.css`; and `xcell60.json`, the helicopter's shape
 /// ([`heli_types::shape::XCELL_60`], as the flight log carries it).

@@ -19,12 +19,10 @@
 // latency); `measure(k)` counts camera k's rendered pixels of the helicopter, its shadow, the
 // sky and the ground.
 import * as THREE from "./three.module.min.js";
+import { LAYER, SKY_HORIZON, SUN, buildWorld, ned3 } from "./field3d.js";
+import { buildHeli, shadowMatrix } from "./xcell3d.js";
 
 const DEG = Math.PI / 180;
-// Where the sun is (three.js axes, toward the light): high in the south-west.
-const SUN = new THREE.Vector3(-0.25, 1.0, 0.2).normalize();
-const SKY_ZENITH = new THREE.Color(0x3f7fc8);
-const SKY_HORIZON = new THREE.Color(0xcfe0ee);
 // The pilot's eye above the ground (m), and where the pilot stands from the take-off point
 // (m north, m east) unless placed elsewhere: 15 m behind the pad, as at a flying field's
 // pilot station.
@@ -44,15 +42,17 @@ const CHASE_FOV_MAX_DEG = 80;
 // The chase camera: behind the helicopter and above it (m).
 const CHASE_BACK_M = 5;
 const CHASE_UP_M = 1.5;
-// Layers, for counting rendered pixels.
-const LAYER = { heli: 1, shadow: 2, sky: 3, ground: 4 };
-
-// NED → three.js.
-const ned3 = (n, e, d) => new THREE.Vector3(e, -d, -n);
-// Body FRD → the helicopter's own three.js axes (x right, y up, z back).
-const frd3 = ([f, r, d]) => new THREE.Vector3(r, -d, -f);
-const AXIS3 = { forward: new THREE.Vector3(0, 0, -1), right: new THREE.Vector3(1, 0, 0), down: new THREE.Vector3(0, -1, 0) };
-
+// The drawing's resolution (a share of the canvas's pixels) where it adapts to hold the
+// frame rate: a software renderer's time goes with the pixels it fills (on a 2-core machine,
+// 1280x1024 drawn whole: 8 frames a second; at half: 18 to 50, as the host allows). Under
+// TARGET_FPS two seconds running, the share drops to what should give FPS_AIM (the fill being
+// what costs); at RAISE_FPS_AT or more three seconds running, it rises by RAISE_STEP (a step
+// up would still give FPS_AIM). Never under MIN_RESOLUTION.
+const TARGET_FPS = 30;
+const FPS_AIM = 36;
+const RAISE_STEP = 1.2;
+const RAISE_FPS_AT = FPS_AIM * RAISE_STEP * RAISE_STEP;
+const MIN_RESOLUTION = 0.25;
 // The attitude (roll, pitch, yaw; body to NED, ZYX) as a three.js quaternion of the
 // helicopter's group: P R Pᵀ, P the NED-to-three.js axes (also FRD to the group's axes).
 export function attitude([phi, theta, psi]) {
@@ -73,90 +73,6 @@ export function attitude([phi, theta, psi]) {
   const m4 = new THREE.Matrix4().set(
     M[0][0], M[0][1], M[0][2], 0, M[1][0], M[1][1], M[1][2], 0, M[2][0], M[2][1], M[2][2], 0, 0, 0, 0, 1);
   return new THREE.Quaternion().setFromRotationMatrix(m4);
-}
-
-// A texture drawn on a canvas by `paint(g, size)`.
-function canvasTexture(size, paint) {
-  const c = document.createElement("canvas");
-  c.width = c.height = size;
-  paint(c.getContext("2d"), size);
-  const t = new THREE.CanvasTexture(c);
-  t.colorSpace = THREE.SRGBColorSpace;
-  return t;
-}
-
-// Mown grass: a 10 m tile, two 5 m stripes, speckled.
-function grassTexture() {
-  const t = canvasTexture(128, (g, n) => {
-    g.fillStyle = "#4f7d36"; g.fillRect(0, 0, n, n / 2);
-    g.fillStyle = "#5b8b3e"; g.fillRect(0, n / 2, n, n / 2);
-    let seed = 7;
-    const rnd = () => ((seed = (seed * 16807) % 2147483647) / 2147483647);
-    for (let k = 0; k < 2500; k++) {
-      const v = Math.floor(rnd() * 40) - 20;
-      g.fillStyle = `rgba(${90 + v},${130 + v},${60 + v},0.55)`;
-      g.fillRect(rnd() * n, rnd() * n, 1.5, 1.5);
-    }
-  });
-  t.wrapS = t.wrapT = THREE.RepeatWrapping;
-  return t;
-}
-
-// A label (text on a sprite), `width_m` wide.
-function label(text, width_m) {
-  const t = canvasTexture(128, (g, n) => {
-    g.font = "bold 44px system-ui, sans-serif";
-    g.textAlign = "center";
-    g.textBaseline = "middle";
-    g.lineWidth = 8;
-    g.strokeStyle = "rgba(0,0,0,0.6)";
-    g.strokeText(text, n / 2, n / 2);
-    g.fillStyle = "#ffffff";
-    g.fillText(text, n / 2, n / 2);
-  });
-  const s = new THREE.Sprite(new THREE.SpriteMaterial({ map: t, depthWrite: false }));
-  s.scale.set(width_m, width_m, 1);
-  return s;
-}
-
-// The mesh of one part of the shape (heli_types::shape), in the helicopter's axes.
-function partMesh(part) {
-  const s = part.solid;
-  let geometry;
-  const q = new THREE.Quaternion();
-  if (s.kind === "box") {
-    geometry = new THREE.BoxGeometry(s.size_m[1], s.size_m[2], s.size_m[0]);
-  } else if (s.kind === "ellipsoid") {
-    geometry = new THREE.SphereGeometry(0.5, 20, 12);
-    geometry.scale(s.size_m[1], s.size_m[2], s.size_m[0]);
-  } else {
-    // Along three.js's y, its top the axis's positive end.
-    const round = Math.max(s.start_radius_m, s.end_radius_m) > 0.1 ? 40 : 10;
-    geometry = new THREE.CylinderGeometry(s.end_radius_m, s.start_radius_m, s.length_m, round);
-    q.setFromUnitVectors(new THREE.Vector3(0, 1, 0), AXIS3[s.axis]);
-  }
-  const [r, g, b, a] = part.rgba;
-  const material = new THREE.MeshLambertMaterial({
-    color: new THREE.Color().setRGB(r, g, b, THREE.SRGBColorSpace),
-    transparent: a < 1,
-    opacity: a,
-    depthWrite: a >= 1,
-    side: a < 1 ? THREE.DoubleSide : THREE.FrontSide,
-  });
-  const mesh = new THREE.Mesh(geometry, material);
-  mesh.quaternion.copy(q);
-  mesh.userData.part = part;
-  return mesh;
-}
-
-// The plane-projection matrix onto y = `y` along `light` (toward the light).
-function shadowMatrix(light, y) {
-  const [lx, ly, lz] = [light.x, light.y, light.z];
-  return new THREE.Matrix4().set(
-    ly, -lx, 0, lx * y,
-    0, 0, 0, ly * y,
-    0, -lz, ly, lz * y,
-    0, 0, 0, ly);
 }
 
 export class HeliView {
@@ -185,10 +101,17 @@ export class HeliView {
     this.opts = opts;
     this.pilotNE = opts.pilotNE || PILOT_DEFAULT_NE;
     // Drawn at `resolution` of the canvas's size and scaled up (a software renderer's time
-    // goes with the pixels it fills); sizes and rectangles here are the canvas's own.
+    // goes with the pixels it fills); sizes and rectangles here are the canvas's own. With
+    // `adaptive`, the resolution is where it starts, and the drawing's share then follows
+    // the frame rate (between MIN_RESOLUTION and `maxResolution`, 1 unless given).
     const size = { w: canvas.width, h: canvas.height };
     this.size = size;
-    this.ratio = opts.resolution || 1;
+    this.adaptive = Boolean(opts.adaptive);
+    this.maxRatio = Math.min(1, opts.maxResolution || 1);
+    this.ratio = Math.min(this.maxRatio, opts.resolution || 1);
+    this.ratioSince = null;
+    this.ratioFrames = 0;
+    this.ratioVotes = 0;
     renderer.setPixelRatio(this.ratio);
     renderer.setSize(size.w, size.h, true);
     this.scene = new THREE.Scene();
@@ -208,156 +131,8 @@ export class HeliView {
     this.latencies = [];
     this.spin = 0;
     this.lastRenderMs = null;
-    this.buildWorld();
-    this.buildHeli(shape);
-  }
-
-  buildWorld() {
-    const s = this.scene;
-    s.add(new THREE.HemisphereLight(0xdfeaff, 0x4a5a30, 1.6));
-    const sun = new THREE.DirectionalLight(0xffffff, 2.2);
-    sun.position.copy(SUN).multiplyScalar(100);
-    s.add(sun);
-    // Sky: a dome that follows the eye, pale at the horizon, blue above.
-    const dome = new THREE.SphereGeometry(1800, 32, 16);
-    const colors = [];
-    const p = dome.attributes.position;
-    for (let i = 0; i < p.count; i++) {
-      const up = Math.max(0, p.getY(i) / 1800);
-      const c = SKY_HORIZON.clone().lerp(SKY_ZENITH, Math.pow(up, 0.6));
-      colors.push(c.r, c.g, c.b);
-    }
-    dome.setAttribute("color", new THREE.Float32BufferAttribute(colors, 3));
-    this.sky = new THREE.Mesh(dome, new THREE.MeshBasicMaterial({
-      vertexColors: true, side: THREE.BackSide, fog: false, depthWrite: false }));
-    this.sky.renderOrder = -1;
-    this.sky.layers.set(LAYER.sky);
-    s.add(this.sky);
-    // The field: mown grass to the horizon (fog blends it into the sky).
-    const grass = grassTexture();
-    grass.repeat.set(400, 400);
-    grass.anisotropy = 1;
-    grass.minFilter = THREE.NearestMipmapNearestFilter;
-    this.ground = new THREE.Mesh(new THREE.PlaneGeometry(4000, 4000),
-      new THREE.MeshBasicMaterial({ map: grass }));
-    this.ground.rotation.x = -Math.PI / 2;
-    this.ground.layers.set(LAYER.ground);
-    s.add(this.ground);
-    // The take-off pad, the distance rings and their labels, the pilot's stand.
-    this.field = new THREE.Group();
-    const pad = new THREE.Mesh(new THREE.CircleGeometry(1.2, 32), new THREE.MeshLambertMaterial({
-      map: canvasTexture(128, (g, n) => {
-        g.fillStyle = "#9a9a94"; g.fillRect(0, 0, n, n);
-        g.fillStyle = "#f4f4f0"; g.font = "bold 90px system-ui, sans-serif";
-        g.textAlign = "center"; g.textBaseline = "middle"; g.fillText("H", n / 2, n / 2 + 4);
-      }),
-      polygonOffset: true, polygonOffsetFactor: -2 }));
-    pad.rotation.x = -Math.PI / 2;
-    pad.rotation.z = Math.PI;
-    pad.position.y = 0.01;
-    this.field.add(pad);
-    for (const r of [10, 20, 30, 50]) {
-      const ring = new THREE.Mesh(new THREE.RingGeometry(r - 0.15, r + 0.15, 96),
-        new THREE.MeshBasicMaterial({ color: 0xf0f0e8, transparent: true, opacity: 0.7, depthWrite: false }));
-      ring.rotation.x = -Math.PI / 2;
-      ring.position.y = 0.02;
-      this.field.add(ring);
-      // Labelled ahead and to the sides (not under the pilot's feet).
-      for (const [n, e] of [[r, 0], [0, r], [0, -r]]) {
-        const tag = label(`${r} m`, 1.6);
-        tag.position.copy(ned3(n, e, -0.6));
-        this.field.add(tag);
-      }
-    }
-    this.stand = new THREE.Mesh(new THREE.CircleGeometry(0.4, 20),
-      new THREE.MeshBasicMaterial({ color: 0xff8a1c }));
-    this.stand.rotation.x = -Math.PI / 2;
-    this.field.add(this.stand);
-    // The wind sock: a 3 m pole 8 m east of the pad, its sock downwind, drooping in a calm.
-    this.sock = new THREE.Group();
-    const pole = new THREE.Mesh(new THREE.CylinderGeometry(0.03, 0.04, 3, 8),
-      new THREE.MeshLambertMaterial({ color: 0xdddddd }));
-    pole.position.y = 1.5;
-    this.sock.add(pole);
-    this.sockPivot = new THREE.Group();
-    this.sockPivot.position.y = 3;
-    const cone = new THREE.ConeGeometry(0.22, 1.3, 12, 1, true);
-    cone.rotateX(Math.PI / 2); // along +z, the narrow end at +z
-    cone.translate(0, 0, 0.65);
-    const sockMesh = new THREE.Mesh(cone, new THREE.MeshLambertMaterial({ color: 0xff5a1c, side: THREE.DoubleSide }));
-    this.sockPivot.add(sockMesh);
-    this.sock.add(this.sockPivot);
-    this.sock.position.copy(ned3(0, 8, 0));
-    this.field.add(this.sock);
-    s.add(this.field);
-    // The plan (dashed) and the trail.
-    this.plan = new THREE.Line(new THREE.BufferGeometry(),
-      new THREE.LineDashedMaterial({ color: 0xc792ea, dashSize: 1.2, gapSize: 0.8 }));
-    this.planKey = "";
-    s.add(this.plan);
-    this.trailPositions = new Float32Array(3 * 2000);
-    const trail = new THREE.BufferGeometry();
-    trail.setAttribute("position", new THREE.BufferAttribute(this.trailPositions, 3));
-    this.trail = new THREE.Line(trail, new THREE.LineBasicMaterial({ color: 0x2f6fb8 }));
-    this.trail.frustumCulled = false;
-    s.add(this.trail);
-  }
-
-  buildHeli(shape) {
-    this.heli = new THREE.Group();
-    this.mainRotor = new THREE.Group();
-    this.tailRotor = new THREE.Group();
-    this.spinners = [];
-    const hub = (group) => {
-      const parts = shape.parts.filter((p) => p.group === group);
-      return parts.length ? parts[0].center_frd_m : [0, 0, 0];
-    };
-    const mainHub = hub("main_rotor"), tailHub = hub("tail_rotor");
-    this.mainRotor.position.copy(frd3(mainHub));
-    this.tailRotor.position.copy(frd3(tailHub));
-    this.heli.add(this.mainRotor, this.tailRotor);
-    for (const part of shape.parts) {
-      const mesh = partMesh(part);
-      mesh.layers.set(LAYER.heli);
-      let parent = this.heli, origin = [0, 0, 0];
-      if (part.group === "main_rotor") { parent = this.mainRotor; origin = mainHub; }
-      if (part.group === "tail_rotor") { parent = this.tailRotor; origin = tailHub; }
-      mesh.position.copy(frd3(part.center_frd_m.map((c, k) => c - origin[k])));
-      if (part.name.endsWith("blades") || part.name === "flybar") {
-        // Spun about the mast, or the tail rotor's shaft.
-        const spinner = new THREE.Group();
-        spinner.position.copy(mesh.position);
-        mesh.position.set(0, 0, 0);
-        spinner.add(mesh);
-        spinner.userData.axis = part.group === "tail_rotor" ? "x" : "y";
-        parent.add(spinner);
-        this.spinners.push(spinner);
-      } else {
-        parent.add(mesh);
-      }
-    }
-    // The corners of the box that holds the helicopter, to measure it on screen.
-    const [lo, hi] = shape.bounds_frd_m;
-    this.corners = [];
-    for (const f of [lo[0], hi[0]]) for (const r of [lo[1], hi[1]]) for (const d of [lo[2], hi[2]]) {
-      this.corners.push(frd3([f, r, d]));
-    }
-    this.rotor_m = shape.rotor_diameter_m;
-    this.scene.add(this.heli);
-    // The shadow: every part again, flattened onto the ground along the sun (the spinning
-    // rotor's disk a faint one, as on a sunny field).
-    this.shadows = [];
-    const dark = new THREE.MeshBasicMaterial({ color: 0x000000, transparent: true, opacity: 0.38, depthWrite: false });
-    const faint = new THREE.MeshBasicMaterial({ color: 0x000000, transparent: true, opacity: 0.12, depthWrite: false, side: THREE.DoubleSide });
-    this.heli.traverse((o) => {
-      if (!o.isMesh) return;
-      const s = new THREE.Mesh(o.geometry, o.material.opacity < 1 ? faint : dark);
-      s.matrixAutoUpdate = false;
-      s.layers.set(LAYER.shadow);
-      s.userData.of = o;
-      this.scene.add(s);
-      this.shadows.push(s);
-    });
+    buildWorld(this);
+    buildHeli(this, shape);
   }
 
   // Places the pilot `ne` ([m north, m east]) from the take-off point.
@@ -373,6 +148,7 @@ export class HeliView {
     const now = performance.now();
     this.frameTimes.push(now);
     while (this.frameTimes.length && now - this.frameTimes[0] > 1000) this.frameTimes.shift();
+    this.adapt(now);
     const dt = this.lastRenderMs === null ? 0 : Math.min(0.1, (now - this.lastRenderMs) / 1000);
     this.lastRenderMs = now;
     home = home || [0, 0, 0];
@@ -424,6 +200,7 @@ export class HeliView {
       this.renderer.setScissor(x, H - y - h, w, h);
       this.place(shot, pos, origin, state);
       this.sky.position.copy(shot.cam.position);
+      this.labels.face(shot.cam);
       this.renderer.render(this.scene, shot.cam);
     }
     this.renderer.setScissorTest(false);
@@ -432,6 +209,38 @@ export class HeliView {
       while (this.latencies.length && now - this.latencies[0][0] > 1000) this.latencies.shift();
     }
     return this.shots.map((shot) => this.stats(shot, pos, origin));
+  }
+
+  // Once a second, with a whole second drawn at the present resolution: the share of the
+  // canvas's pixels drawn down where the frame rate fell under TARGET_FPS (twice running),
+  // up a step where it has room for it (three times running).
+  adapt(now) {
+    if (!this.adaptive) return;
+    if (this.ratioSince === null) {
+      [this.ratioSince, this.ratioFrames] = [now, 0];
+      return;
+    }
+    this.ratioFrames++;
+    if (now - this.ratioSince < 1000) return;
+    const fps = (1000 * this.ratioFrames) / (now - this.ratioSince);
+    let want = this.ratio;
+    if (fps < TARGET_FPS && this.ratio > MIN_RESOLUTION) {
+      this.ratioVotes = Math.min(0, this.ratioVotes) - 1;
+      if (this.ratioVotes <= -2) want = this.ratio * Math.sqrt(Math.max(1, fps) / FPS_AIM);
+    } else if (fps >= RAISE_FPS_AT && this.ratio < this.maxRatio) {
+      this.ratioVotes = Math.max(0, this.ratioVotes) + 1;
+      if (this.ratioVotes >= 3) want = this.ratio * RAISE_STEP;
+    } else {
+      this.ratioVotes = 0;
+    }
+    [this.ratioSince, this.ratioFrames] = [now, 0];
+    want = Math.min(this.maxRatio, Math.max(MIN_RESOLUTION, Math.round(want * 100) / 100));
+    if (want !== this.ratio) {
+      this.ratio = want;
+      this.ratioVotes = 0;
+      this.renderer.setPixelRatio(want);
+      this.renderer.setSize(this.size.w, this.size.h, true);
+    }
   }
 
   updatePlan(plan, home) {
@@ -583,6 +392,7 @@ export class HeliView {
       range_m: cam.position.distanceTo(pos),
       fps: this.frameTimes.length,
       latency_ms: latency,
+      resolution: this.ratio,
     };
   }
 
