@@ -6,8 +6,9 @@ import { HeliView } from "./view3d.js";
 
 const canvas = document.getElementById("view3d");
 if (canvas) {
-  // Drawn whole where the machine keeps 30 frames a second, else at the share that does.
-  HeliView.create(canvas, { camera: "chase", adaptive: true })
+  // Drawn whole, not adapted: it is drawn when a telemetry view arrives (10 a second), not on
+  // every animation frame, so its frame count says nothing of the machine.
+  HeliView.create(canvas, { camera: "chase" })
     .then((view) => {
       if (view) window.heliEstimateView = view;
       else window.heliEstimateFlat = true;

@@ -84,9 +84,10 @@ function wind(w) {
 // The view: 3D where WebGL is (the big camera and the inset in one canvas), else the flat
 // drawing (its field camera).
 let view = null;
-// Drawn at a share of the canvas's resolution and scaled up, so that a software renderer (a
-// laptop without a GPU, headless Chromium) keeps 30 frames a second: half to begin with, then
-// the share that holds the frame rate (view3d.js), or `?resolution=` fixed.
+// Drawn at a scale of the canvas's resolution and scaled up, so that a software renderer (a
+// laptop without a GPU, headless Chromium) keeps 30 frames a second: half scale to begin with,
+// then the scale that holds the frame rate (view3d.js), or `?resolution=` fixed; not adapted
+// under a `?max_fps=` cap (its frame count is the cap's).
 const FIXED_RESOLUTION = Number(query.get("resolution")) || 0;
 // The inset: the chase camera in the top right corner.
 const INSET = { x: 1280 - 480 - 12, y: 12, w: 480, h: 300 };
@@ -101,7 +102,7 @@ async function makeView() {
   const cameras = [query.get("camera") || "pilot", query.get("inset") || "chase"];
   view = await HeliView.create(document.getElementById("view-main"), {
     camera: cameras[0], inset: { ...INSET, camera: cameras[1] }, flapScale: 3,
-    resolution: FIXED_RESOLUTION || 0.5, adaptive: !FIXED_RESOLUTION,
+    resolution: FIXED_RESOLUTION || 0.5, adaptive: !FIXED_RESOLUTION && !MAX_FPS,
     pilotNE: pilotNE || undefined,
   });
   ["camera-main", "camera-side"].forEach((id, k) => {
@@ -126,7 +127,8 @@ function perf(stats) {
   if (!el || !stats || stats.fps === undefined) return;
   const latency = stats.latency_ms === null ? "–" : `${stats.latency_ms.toFixed(0)} ms`;
   el.textContent = `${stats.fps} frames/s · state to screen ${latency}` +
-    ` · drawn at ${Math.round(100 * stats.resolution)} % of the pixels`;
+    ` · drawn at ${Math.round(100 * stats.resolution)} % scale` +
+    ` (${Math.round(100 * stats.resolution * stats.resolution)} % of the pixels)`;
 }
 
 // A cap on the frames drawn a second (`?max_fps=`; none by default): for a weak machine, or

@@ -44,7 +44,6 @@ export function grassTexture() {
   return t;
 }
 
-// A label (text on a sprite), `width_m` wide.
 // The distance rings' labels, as one mesh of quads that turn to face each camera before it
 // draws (`face`), their texts side by side in one texture: one draw call, not one a label.
 export class Labels {

@@ -42,10 +42,11 @@ const CHASE_FOV_MAX_DEG = 80;
 // The chase camera: behind the helicopter and above it (m).
 const CHASE_BACK_M = 5;
 const CHASE_UP_M = 1.5;
-// The drawing's resolution (a share of the canvas's pixels) where it adapts to hold the
-// frame rate: a software renderer's time goes with the pixels it fills (on a 2-core machine,
-// 1280x1024 drawn whole: 8 frames a second; at half: 18 to 50, as the host allows). Under
-// TARGET_FPS two seconds running, the share drops to what should give FPS_AIM (the fill being
+// The drawing's resolution (its scale: a share of the canvas's width and height, the pixels
+// drawn its square) where it adapts to hold the frame rate: a software renderer's time goes
+// with the pixels it fills (on a 2-core machine, 1280x1024 drawn whole: 8 frames a second;
+// at half scale: 18 to 50, as the host allows). It counts the frames drawn, so it suits a page
+// that draws on every animation frame. Under TARGET_FPS two seconds running, the scale drops to what should give FPS_AIM (the fill being
 // what costs); at RAISE_FPS_AT or more three seconds running, it rises by RAISE_STEP (a step
 // up would still give FPS_AIM). Never under MIN_RESOLUTION.
 const TARGET_FPS = 30;
@@ -108,7 +109,7 @@ export class HeliView {
     this.size = size;
     this.adaptive = Boolean(opts.adaptive);
     this.maxRatio = Math.min(1, opts.maxResolution || 1);
-    this.ratio = Math.min(this.maxRatio, opts.resolution || 1);
+    this.ratio = this.adaptive ? Math.min(this.maxRatio, opts.resolution || 1) : opts.resolution || 1;
     this.ratioSince = null;
     this.ratioFrames = 0;
     this.ratioVotes = 0;
