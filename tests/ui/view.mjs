@@ -113,6 +113,8 @@ try {
     && adapted.fixed[0] === 0.5)) {
     throw new Error(`the resolution's adaptation: ${JSON.stringify(adapted)}`);
   }
+  // The page itself adapts (no ?resolution= or ?max_fps= in its URL).
+  if (!(await page.evaluate(() => window.heliView.adaptive))) throw new Error("the page's view does not adapt its resolution");
   const main = await page.evaluate(() => window.truthView.main.camera);
   const side = await page.evaluate(() => window.truthView.side.camera);
   if (main !== "pilot" || side !== "chase") throw new Error(`the views are ${main} and ${side}, not pilot and chase`);

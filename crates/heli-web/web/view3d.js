@@ -104,12 +104,11 @@ export class HeliView {
     // Drawn at `resolution` of the canvas's size and scaled up (a software renderer's time
     // goes with the pixels it fills); sizes and rectangles here are the canvas's own. With
     // `adaptive`, the resolution is where it starts, and the drawing's share then follows
-    // the frame rate (between MIN_RESOLUTION and `maxResolution`, 1 unless given).
+    // the frame rate (between MIN_RESOLUTION and the whole canvas).
     const size = { w: canvas.width, h: canvas.height };
     this.size = size;
     this.adaptive = Boolean(opts.adaptive);
-    this.maxRatio = Math.min(1, opts.maxResolution || 1);
-    this.ratio = this.adaptive ? Math.min(this.maxRatio, opts.resolution || 1) : opts.resolution || 1;
+    this.ratio = this.adaptive ? Math.min(1, opts.resolution || 1) : opts.resolution || 1;
     this.ratioSince = null;
     this.ratioFrames = 0;
     this.ratioVotes = 0;
@@ -228,14 +227,14 @@ export class HeliView {
     if (fps < TARGET_FPS && this.ratio > MIN_RESOLUTION) {
       this.ratioVotes = Math.min(0, this.ratioVotes) - 1;
       if (this.ratioVotes <= -2) want = this.ratio * Math.sqrt(Math.max(1, fps) / FPS_AIM);
-    } else if (fps >= RAISE_FPS_AT && this.ratio < this.maxRatio) {
+    } else if (fps >= RAISE_FPS_AT && this.ratio < 1) {
       this.ratioVotes = Math.max(0, this.ratioVotes) + 1;
       if (this.ratioVotes >= 3) want = this.ratio * RAISE_STEP;
     } else {
       this.ratioVotes = 0;
     }
     [this.ratioSince, this.ratioFrames] = [now, 0];
-    want = Math.min(this.maxRatio, Math.max(MIN_RESOLUTION, Math.round(want * 100) / 100));
+    want = Math.min(1, Math.max(MIN_RESOLUTION, Math.round(want * 100) / 100));
     if (want !== this.ratio) {
       this.ratio = want;
       this.ratioVotes = 0;
