@@ -3,9 +3,10 @@
 //! real time: screenshots in the hover and during a roll from the pilot's view and the chase
 //! camera, checked in rendered pixels to show the helicopter as a solid at least 40 px
 //! across, its shadow on the ground and the horizon (`tests/ui/view.mjs` says which cue
-//! each view must show when: from the pilot's eyes the rolling helicopter's shadow, 90 m
-//! away, is a sliver); the page's frame
-//! rate and state-to-screen latency are printed (a measurement, not a timed check).
+//! each view must show when: from the pilot's eyes the rolling helicopter's shadow, 100 m
+//! away, is under a pixel tall, so the pilot's view holds the helicopter and the horizon);
+//! the page's frame rate and state-to-screen latency are printed (a measurement, not a
+//! timed check).
 //! Screenshots are saved under the test's target directory.
 
 use crate::display::{browser_test, run_page_script, tail};

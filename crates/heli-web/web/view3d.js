@@ -3,8 +3,8 @@
 // the flight log also carries), its main rotor disk tilted by the flapping with spinning
 // blades, its shadow on a mown field with the take-off pad and distance rings, sky and
 // horizon, the plan and the trail, a wind sock. Cameras: the pilot's (standing where an RC
-// pilot stands, turning to keep the helicopter centred and zooming to keep it a flyable
-// size), chase and top.
+// pilot stands, turning to the helicopter and zooming to keep it a flyable size with the
+// shadow and the horizon in view where they fit), chase and top.
 //
 // Frames (the same as the flight software's): world NED (north, east, down) from the
 // take-off point, body FRD (forward, right, down). three.js draws in x east, y up, z south.
@@ -28,14 +28,19 @@ const DEG = Math.PI / 180;
 // pilot station.
 const PILOT_EYE_M = 1.7;
 const PILOT_DEFAULT_NE = [-15, 0];
-// The framing: the helicopter's rotor this many px across on screen when nothing else is
-// framed (auto-zoom), never smaller than MIN_HELI_PX when the view widens for the ground
-// cues, never more than MAX_SHARE of the view; a margin round what is framed; the zoom's
-// limits (vertical field of view, degrees), the chase camera's wider.
+// The framing (px on screen): the helicopter's rotor TARGET_HELI_PX across when no ground
+// cue is framed (auto-zoom); never under MIN_HELI_PX when the view widens for the cues (a
+// little over the 40 px a pilot needs: a software renderer drawing at a quarter of the scale
+// rounds it to 4 px), or under MIN_HELI_PX - HOLD_SLACK_PX for a cue the last frame held;
+// never more than MAX_SHARE of the view's height; the shadow framed only where it is
+// SHADOW_LEAST_PX tall or more; MARGIN_PX between what is framed and the view's edge. The
+// zoom's limits (vertical field of view, degrees), the chase camera's wider.
 const TARGET_HELI_PX = 80;
-const MIN_HELI_PX = 48;
+const MIN_HELI_PX = 44;
+const HOLD_SLACK_PX = 2;
+const SHADOW_LEAST_PX = 3;
 const MAX_SHARE = 0.3;
-const MARGIN_DEG = 0.5;
+const MARGIN_PX = 6;
 const FOV_MIN_DEG = 3;
 const FOV_MAX_DEG = 60;
 const CHASE_FOV_MAX_DEG = 80;
@@ -54,6 +59,47 @@ const FPS_AIM = 36;
 const RAISE_STEP = 1.2;
 const RAISE_FPS_AT = FPS_AIM * RAISE_STEP * RAISE_STEP;
 const MIN_RESOLUTION = 0.25;
+// The framing of a view `h` px tall (its vertical field of view at most `fovMax_deg`) that
+// turns to the helicopter, seen at elevation `eHeli_deg` with its rotor's half-angle
+// `rho_deg`, and takes in as many of the ground cues `cues` ([lowest, highest] elevation,
+// degrees, and the least height on screen, px, that makes it worth having: a shadow far off
+// is a line under a pixel tall; in order of preference) as fit. Returns the view's centre (elevation) and field
+// of view (degrees), which cues it holds (`held`, one flag a cue), and the helicopter's
+// width on screen (px). A cue the last frame held (`heldBefore`) is kept down to
+// MIN_HELI_PX - HOLD_SLACK_PX, so that a helicopter near the limit does not make the view
+// jump in and out from frame to frame.
+export function frameCues(h, fovMax_deg, eHeli_deg, rho_deg, cues, heldBefore = []) {
+  const tanRho = Math.tan(rho_deg * DEG);
+  const fovOf = (f) => (2 * Math.atan(h / 2 / f)) / DEG;
+  // The view whose edges, MARGIN_PX inside, hold the elevations lo to hi: its centre and
+  // focal length (px), and the helicopter's width in it (wider off the centre).
+  const view = (lo, hi) => {
+    const centre = (lo + hi) / 2;
+    const f = Math.max(1, h / 2 - MARGIN_PX) / Math.tan(Math.min(89.9, (hi - lo) / 2) * DEG);
+    return { centre, f };
+  };
+  const width = (v) => (2 * v.f * tanRho) / Math.cos((eHeli_deg - v.centre) * DEG);
+  // Never so narrow that the helicopter takes more than MAX_SHARE of the view's height.
+  const fMax = (MAX_SHARE * h) / (2 * tanRho);
+  let lo = eHeli_deg - rho_deg, hi = eHeli_deg + rho_deg;
+  const tall = (v, a, b) => v.f * (Math.tan((b - v.centre) * DEG) - Math.tan((a - v.centre) * DEG));
+  const held = cues.map(([a, b, leastPx = 0], k) => {
+    const v = view(Math.min(lo, a), Math.max(hi, b));
+    v.f = Math.min(v.f, fMax);
+    const least = heldBefore[k] ? MIN_HELI_PX - HOLD_SLACK_PX : MIN_HELI_PX;
+    if (fovOf(v.f) > fovMax_deg || width(v) < least || tall(v, a, b) < leastPx) return false;
+    lo = Math.min(lo, a);
+    hi = Math.max(hi, b);
+    return true;
+  });
+  const any = held.some((x) => x);
+  // With no cue, the helicopter alone, centred, TARGET_HELI_PX across.
+  const v = any ? view(lo, hi) : { centre: eHeli_deg, f: TARGET_HELI_PX / (2 * tanRho) };
+  const fov_deg = Math.min(fovMax_deg, Math.max(FOV_MIN_DEG, fovOf(Math.min(v.f, fMax))));
+  const f = h / 2 / Math.tan((fov_deg / 2) * DEG);
+  return { centre_deg: v.centre, fov_deg, held, heli_px: width({ centre: v.centre, f }) };
+}
+
 // The attitude (roll, pitch, yaw; body to NED, ZYX) as a three.js quaternion of the
 // helicopter's group: P R Pᵀ, P the NED-to-three.js axes (also FRD to the group's axes).
 export function attitude([phi, theta, psi]) {
@@ -269,11 +315,13 @@ export class HeliView {
 
   // The camera for this frame. Each camera turns to the helicopter and frames it with the
   // ground cues a pilot flies by — its shadow and the horizon — where they fit: the view
-  // widens to take them in, but never so far that the helicopter is smaller than
-  // MIN_HELI_PX on screen (nor narrower than makes it larger than MAX_SHARE of the view).
-  // Where they do not fit (high and far: from 1.7 m, a rotor 30 m up needs some 40 times its
-  // own angle between it and the horizon), the view zooms on the helicopter alone, centred,
-  // TARGET_HELI_PX across.
+  // widens to take them in (the helicopter then above or below the centre), but never so far
+  // that the helicopter is under MIN_HELI_PX across on screen (nor so narrow that it is more
+  // than MAX_SHARE of the view). Where they do not fit, the view zooms on the helicopter
+  // alone, centred, TARGET_HELI_PX across. The fit is reckoned in screen pixels, through the
+  // perspective (a thing off the centre is drawn larger): a cue fits where the view that
+  // holds it and the helicopter, MARGIN_PX inside its edges, still draws the helicopter
+  // MIN_HELI_PX across.
   place(shot, pos, origin, state) {
     const cam = shot.cam;
     let eye, fovMax = FOV_MAX_DEG;
@@ -288,6 +336,7 @@ export class HeliView {
       cam.up.set(0, 0, -1); // north up
       cam.lookAt(pos.x, pos.y, pos.z);
       this.setFov(cam, 40);
+      shot.frame = null;
       return;
     } else {
       // The pilot: eyes 1.7 m up where the pilot stands.
@@ -302,37 +351,22 @@ export class HeliView {
     // The helicopter's size for the framing: its rotor, the span seen from any side.
     const rho = Math.atan(this.rotor_m / 2 / range) / DEG;
     const eHeli = elev(to.y, flat);
-    // The shadow's tilt in the vertical plane of the view (it may lie to one side of the
-    // helicopter), with its own size as a margin.
+    // The shadow in the vertical plane of the view (it may lie to one side of the
+    // helicopter): from its near edge to its far, a rotor's length apart on the ground, worth
+    // framing where that is SHADOW_LEAST_PX tall or more.
     const azimuth = Math.atan2(to.x, -to.z);
     const shadow = this.shadowPoint(pos, origin).sub(eye);
-    const ahead = Math.max(0.01, shadow.x * Math.sin(azimuth) - shadow.z * Math.cos(azimuth));
-    const eShadow = elev(shadow.y, ahead);
-    const shadowRho = Math.atan(this.rotor_m / 2 / Math.max(0.3, shadow.length())) / DEG;
+    const ahead = shadow.x * Math.sin(azimuth) - shadow.z * Math.cos(azimuth);
+    const r = this.rotor_m / 2;
     const eHorizon = elev(origin.y - eye.y, 2000);
-    const h = shot.rect.h;
-    // The widest view that keeps the helicopter MIN_HELI_PX tall, the narrowest that keeps
-    // it within MAX_SHARE of the view.
-    const widest = Math.min(fovMax, (2 * rho * h) / MIN_HELI_PX);
-    const narrowest = Math.max(FOV_MIN_DEG, (2 * rho) / MAX_SHARE);
-    let lo = eHeli - rho - MARGIN_DEG, hi = eHeli + rho + MARGIN_DEG;
-    const fits = (a, b) => Math.max(hi, b) - Math.min(lo, a) <= widest;
-    let cues = 0;
-    for (const [e, m] of [[eShadow, shadowRho + MARGIN_DEG], [eHorizon, MARGIN_DEG]]) {
-      if (fits(e - m, e + m)) {
-        lo = Math.min(lo, e - m);
-        hi = Math.max(hi, e + m);
-        cues++;
-      }
-    }
-    const zoomed = (2 * rho * h) / TARGET_HELI_PX;
-    const fov = cues
-      ? Math.min(Math.max(hi - lo, narrowest), Math.max(widest, FOV_MIN_DEG))
-      : Math.min(fovMax, Math.max(zoomed, narrowest, FOV_MIN_DEG));
-    const centre = cues ? (lo + hi) / 2 : eHeli;
-    const c = centre * DEG;
+    const frame = frameCues(shot.rect.h, fovMax, eHeli, rho, [
+      [elev(shadow.y, ahead - r), elev(shadow.y, ahead + r), SHADOW_LEAST_PX],
+      [eHorizon, eHorizon],
+    ], shot.frame ? shot.frame.held : []);
+    shot.frame = frame;
+    const c = frame.centre_deg * DEG;
     cam.lookAt(eye.x + Math.sin(azimuth) * Math.cos(c), eye.y + Math.sin(c), eye.z - Math.cos(azimuth) * Math.cos(c));
-    this.setFov(cam, fov);
+    this.setFov(cam, frame.fov_deg);
   }
 
   setFov(cam, fov) {
@@ -389,6 +423,10 @@ export class HeliView {
       shadowOnScreen,
       horizonInView,
       fov_deg: cam.fov,
+      // The framing's ground cues held ([shadow, horizon]) and the helicopter's planned
+      // width (px).
+      cues_framed: shot.frame ? shot.frame.held : null,
+      planned_heli_px: shot.frame ? shot.frame.heli_px : null,
       range_m: cam.position.distanceTo(pos),
       fps: this.frameTimes.length,
       latency_ms: latency,
