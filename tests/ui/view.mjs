@@ -117,29 +117,36 @@ try {
   // The framing, checked through three.js's own projection: from the pilot's eyes (1.7 m up)
   // the helicopter H m up and D m ahead, its shadow S m ahead and the horizon, on a view
   // 1280x1024 (the page's) or 320x256 (an inset). Every cue the framing holds is on screen,
-  // 6 px or more inside the edges, with the helicopter's rotor 44 px across or more (42 for
-  // cues the last frame held: no jumping in and out at the limit), the shadow 3 px tall or
-  // more; where it holds none, the helicopter is centred and 80 px across (at most 30 % of
-  // the view's height). Near, both cues; 90 m off and 30 m up, the horizon (the shadow under
-  // a pixel tall); 37 m up, the horizon only for a view that held it.
+  // 6 px or more inside the edges, with all of the helicopter's reach (its box's farthest
+  // corner), its rotor 44 px across or more (42 where every cue held was held the frame
+  // before: no jumping in and out at the limit) and the shadow 3 px tall or more; where it
+  // holds none, the helicopter is centred and 80 px across (at most 30 % of the view's
+  // height, or what a 3° view makes it). Near, both cues; 97 m off and 30 m up, and 90 m
+  // off and 34 m up, the horizon (the shadow under a pixel tall); 36 m up, the horizon only
+  // for a view that held it; 38 m up, not even then; 150 m off and 1.9 m up (the narrowest
+  // view) the horizon but not the shadow; 200 m off in the inset, nothing.
   const framed = await page.evaluate(async () => {
     const { frameCues } = await import("./view3d.js");
     const THREE = await import("./three.module.min.js");
-    const D = Math.PI / 180, EYE = 1.7, R = 0.775;
+    const D = Math.PI / 180, EYE = 1.7, R = 0.775, REACH = window.heliView.reach_m;
     const el = (dy, d) => Math.atan2(dy, d) / D;
     const cases = [
       [15, 10, 18, 1024, [], [true, true]],
       [30, 10, 33, 1024, [], [true, true]],
       [97, 30, 106, 1024, [], [false, true]],
       [90, 34, 100, 1024, [], [false, true]],
-      [90, 37, 100, 1024, [], [false, false]],
-      [90, 37, 100, 1024, [false, true], [false, true]],
+      [90, 36, 100, 1024, [], [false, false]],
+      [90, 36, 100, 1024, [false, true], [false, true]],
+      [90, 38, 100, 1024, [false, true], [false, false]],
+      [150, 1.9, 160, 1024, [], [false, true]],
+      [200, 5, 210, 256, [], [false, false]],
       [40, 30, 49, 256, [], [false, false]],
     ];
     return cases.map(([d, H, s, h, before, expected]) => {
       const range = Math.hypot(d, H - EYE), rho = Math.atan(R / range) / D;
+      const reach = Math.atan(REACH / range) / D;
       const eH = el(H - EYE, d), sNear = el(-EYE, s - R), sFar = el(-EYE, s + R), eHz = el(-EYE, 2000);
-      const f = frameCues(h, 60, eH, rho, [[sNear, sFar, 3], [eHz, eHz]], before);
+      const f = frameCues(h, 60, eH, rho, [[sNear, sFar, 3], [eHz, eHz]], before, reach);
       const cam = new THREE.PerspectiveCamera(f.fov_deg, 1.25, 0.1, 5000);
       cam.position.set(0, EYE, 0);
       const c = f.centre_deg * D;
@@ -148,12 +155,15 @@ try {
       const px = (x, y, z) => { const p = new THREE.Vector3(x, y, z).project(cam); return [(p.x + 1) * 0.625 * h, (1 - p.y) * h / 2]; };
       // A point at elevation e (degrees) straight ahead, far off.
       const at = (e) => px(0, EYE + 1000 * Math.sin(e * D), -1000 * Math.cos(e * D))[1];
-      const extremes = [at(eH + rho), at(eH - rho)];
+      const extremes = [at(eH + reach), at(eH - reach)];
       const shadowTall = at(sNear) - at(sFar);
       if (f.held[0]) extremes.push(at(sNear), at(sFar));
       if (f.held[1]) extremes.push(at(eHz));
+      const focal = h / 2 / Math.tan(1.5 * D);
       return {
-        d, H, h, held: f.held, expected, least: before.length ? 42 : 44, shadowTall,
+        d, H, h, held: f.held, expected, shadowTall,
+        least: f.held.every((x, k) => !x || before[k]) ? 42 : 44,
+        alone_px: Math.min(80, 0.3 * h, 2 * focal * Math.tan(rho * D)),
         width_px: px(R, H, -d)[0] - px(-R, H, -d)[0],
         heli_y: px(0, H, -d)[1],
         extremes_y: extremes,
@@ -162,10 +172,10 @@ try {
   });
   for (const v of framed) {
     const inside = v.extremes_y.every((y) => y >= 5.5 && y <= v.h - 5.5);
-    const ok = JSON.stringify(v.held) === JSON.stringify(v.expected) && inside
+    const ok = JSON.stringify(v.held) === JSON.stringify(v.expected)
       && (!v.held[0] || v.shadowTall >= 3) && (v.held.some((x) => x)
-      ? v.width_px >= v.least
-      : Math.abs(v.width_px - Math.min(80, 0.3 * v.h)) < 1 && Math.abs(v.heli_y - v.h / 2) < 1);
+      ? inside && v.width_px >= v.least
+      : Math.abs(v.width_px - v.alone_px) < 1 && Math.abs(v.heli_y - v.h / 2) < 1);
     if (!ok) throw new Error(`the framing: ${JSON.stringify(v)}`);
   }
   // The page itself adapts (no ?resolution= or ?max_fps= in its URL).

@@ -31,13 +31,15 @@ const PILOT_DEFAULT_NE = [-15, 0];
 // The framing (px on screen): the helicopter's rotor TARGET_HELI_PX across when no ground
 // cue is framed (auto-zoom); never under MIN_HELI_PX when the view widens for the cues (a
 // little over the 40 px a pilot needs: a software renderer drawing at a quarter of the scale
-// rounds it to 4 px), or under MIN_HELI_PX - HOLD_SLACK_PX for a cue the last frame held;
+// rounds it to 4 px), or under MIN_HELI_PX - HOLD_SLACK_PX for a cue the last frame held
+// (a new cue also wants FOV_SLACK_DEG of room under the widest view);
 // never more than MAX_SHARE of the view's height; the shadow framed only where it is
 // SHADOW_LEAST_PX tall or more; MARGIN_PX between what is framed and the view's edge. The
 // zoom's limits (vertical field of view, degrees), the chase camera's wider.
 const TARGET_HELI_PX = 80;
 const MIN_HELI_PX = 44;
 const HOLD_SLACK_PX = 2;
+const FOV_SLACK_DEG = 2;
 const SHADOW_LEAST_PX = 3;
 const MAX_SHARE = 0.3;
 const MARGIN_PX = 6;
@@ -59,45 +61,55 @@ const FPS_AIM = 36;
 const RAISE_STEP = 1.2;
 const RAISE_FPS_AT = FPS_AIM * RAISE_STEP * RAISE_STEP;
 const MIN_RESOLUTION = 0.25;
-// The framing of a view `h` px tall (its vertical field of view at most `fovMax_deg`) that
-// turns to the helicopter, seen at elevation `eHeli_deg` with its rotor's half-angle
-// `rho_deg`, and takes in as many of the ground cues `cues` ([lowest, highest] elevation,
-// degrees, and the least height on screen, px, that makes it worth having: a shadow far off
-// is a line under a pixel tall; in order of preference) as fit. Returns the view's centre (elevation) and field
-// of view (degrees), which cues it holds (`held`, one flag a cue), and the helicopter's
-// width on screen (px). A cue the last frame held (`heldBefore`) is kept down to
-// MIN_HELI_PX - HOLD_SLACK_PX, so that a helicopter near the limit does not make the view
-// jump in and out from frame to frame.
-export function frameCues(h, fovMax_deg, eHeli_deg, rho_deg, cues, heldBefore = []) {
+// The framing of a view `h` px tall (its vertical field of view FOV_MIN_DEG to `fovMax_deg`)
+// that turns to the helicopter, seen at elevation `eHeli_deg` with its rotor's half-angle
+// `rho_deg` (its width) and its whole reach's `reach_deg` (what must stay inside the edges:
+// the tail rotor reaches past the main rotor's tips), and takes in as many of the ground cues
+// `cues` as fit: [lowest, highest] elevation (degrees) and the least height on screen (px)
+// that makes it worth having (a shadow far off is a line under a pixel tall), in order of
+// preference. Returns the view's centre (elevation) and field of view (degrees), which cues
+// it holds (`held`, one flag a cue), and the helicopter's width on screen (px). Every cue
+// held is kept at its least height and the helicopter at MIN_HELI_PX across in the view
+// finally chosen; a cue the last frame held (`heldBefore`) with MIN_HELI_PX - HOLD_SLACK_PX
+// and up to the widest view, a new one only with MIN_HELI_PX and FOV_SLACK_DEG short of it,
+// so that the view does not jump in and out at a limit from frame to frame.
+export function frameCues(h, fovMax_deg, eHeli_deg, rho_deg, cues, heldBefore = [], reach_deg = rho_deg) {
   const tanRho = Math.tan(rho_deg * DEG);
   const fovOf = (f) => (2 * Math.atan(h / 2 / f)) / DEG;
+  const fOf = (fov) => h / 2 / Math.tan((fov / 2) * DEG);
+  // Never so narrow that the helicopter takes more than MAX_SHARE of the view's height, nor
+  // narrower than FOV_MIN_DEG.
+  const fMax = Math.min((MAX_SHARE * h) / (2 * tanRho), fOf(FOV_MIN_DEG));
   // The view whose edges, MARGIN_PX inside, hold the elevations lo to hi: its centre and
-  // focal length (px), and the helicopter's width in it (wider off the centre).
+  // focal length (px), no narrower than allowed.
   const view = (lo, hi) => {
-    const centre = (lo + hi) / 2;
     const f = Math.max(1, h / 2 - MARGIN_PX) / Math.tan(Math.min(89.9, (hi - lo) / 2) * DEG);
-    return { centre, f };
+    return { centre: (lo + hi) / 2, f: Math.min(f, fMax) };
   };
+  // The helicopter's width in a view (wider off the centre), and a cue's height.
   const width = (v) => (2 * v.f * tanRho) / Math.cos((eHeli_deg - v.centre) * DEG);
-  // Never so narrow that the helicopter takes more than MAX_SHARE of the view's height.
-  const fMax = (MAX_SHARE * h) / (2 * tanRho);
-  let lo = eHeli_deg - rho_deg, hi = eHeli_deg + rho_deg;
-  const tall = (v, a, b) => v.f * (Math.tan((b - v.centre) * DEG) - Math.tan((a - v.centre) * DEG));
-  const held = cues.map(([a, b, leastPx = 0], k) => {
+  const tall = (v, [a, b]) => v.f * (Math.tan((b - v.centre) * DEG) - Math.tan((a - v.centre) * DEG));
+  let lo = eHeli_deg - reach_deg, hi = eHeli_deg + reach_deg;
+  const held = cues.map(() => false);
+  cues.forEach((cue, k) => {
+    const [a, b] = cue;
     const v = view(Math.min(lo, a), Math.max(hi, b));
-    v.f = Math.min(v.f, fMax);
-    const least = heldBefore[k] ? MIN_HELI_PX - HOLD_SLACK_PX : MIN_HELI_PX;
-    if (fovOf(v.f) > fovMax_deg || width(v) < least || tall(v, a, b) < leastPx) return false;
+    const before = (j) => Boolean(heldBefore[j]);
+    const widest = before(k) ? fovMax_deg : fovMax_deg - FOV_SLACK_DEG;
+    const withIt = held.map((x, j) => x || j === k);
+    const allBefore = withIt.every((x, j) => !x || before(j));
+    const least = allBefore ? MIN_HELI_PX - HOLD_SLACK_PX : MIN_HELI_PX;
+    // The cue, and every cue held already, still tall enough in the wider view.
+    const tallEnough = withIt.every((x, j) => !x || tall(v, cues[j]) >= (cues[j][2] || 0));
+    if (fovOf(v.f) > widest || width(v) < least || !tallEnough) return;
     lo = Math.min(lo, a);
     hi = Math.max(hi, b);
-    return true;
+    held[k] = true;
   });
-  const any = held.some((x) => x);
   // With no cue, the helicopter alone, centred, TARGET_HELI_PX across.
-  const v = any ? view(lo, hi) : { centre: eHeli_deg, f: TARGET_HELI_PX / (2 * tanRho) };
-  const fov_deg = Math.min(fovMax_deg, Math.max(FOV_MIN_DEG, fovOf(Math.min(v.f, fMax))));
-  const f = h / 2 / Math.tan((fov_deg / 2) * DEG);
-  return { centre_deg: v.centre, fov_deg, held, heli_px: width({ centre: v.centre, f }) };
+  const v = held.some((x) => x) ? view(lo, hi) : { centre: eHeli_deg, f: Math.min(TARGET_HELI_PX / (2 * tanRho), fMax) };
+  const fov_deg = Math.min(fovMax_deg, fovOf(v.f));
+  return { centre_deg: v.centre, fov_deg, held, heli_px: width({ centre: v.centre, f: fOf(fov_deg) }) };
 }
 
 // The attitude (roll, pitch, yaw; body to NED, ZYX) as a three.js quaternion of the
@@ -348,21 +360,25 @@ export class HeliView {
     const flat = Math.max(0.01, Math.hypot(to.x, to.z));
     const range = Math.max(0.3, to.length());
     const elev = (dy, d) => Math.atan2(dy, Math.max(0.01, d)) / DEG;
-    // The helicopter's size for the framing: its rotor, the span seen from any side.
+    // The helicopter's size for the framing: its rotor, the span seen from any side; its
+    // reach, the farthest corner of its box from its centre.
     const rho = Math.atan(this.rotor_m / 2 / range) / DEG;
+    const reach = Math.atan(Math.max(this.rotor_m / 2, this.reach_m) / range) / DEG;
     const eHeli = elev(to.y, flat);
     // The shadow in the vertical plane of the view (it may lie to one side of the
     // helicopter): from its near edge to its far, a rotor's length apart on the ground, worth
-    // framing where that is SHADOW_LEAST_PX tall or more.
+    // framing where that is SHADOW_LEAST_PX tall or more — and not at all where part of it is
+    // behind the eye or under it.
     const azimuth = Math.atan2(to.x, -to.z);
     const shadow = this.shadowPoint(pos, origin).sub(eye);
     const ahead = shadow.x * Math.sin(azimuth) - shadow.z * Math.cos(azimuth);
     const r = this.rotor_m / 2;
+    const shadowCue = ahead - r > 0.01
+      ? [elev(shadow.y, ahead - r), elev(shadow.y, ahead + r), SHADOW_LEAST_PX]
+      : [-90, -90, Infinity];
     const eHorizon = elev(origin.y - eye.y, 2000);
-    const frame = frameCues(shot.rect.h, fovMax, eHeli, rho, [
-      [elev(shadow.y, ahead - r), elev(shadow.y, ahead + r), SHADOW_LEAST_PX],
-      [eHorizon, eHorizon],
-    ], shot.frame ? shot.frame.held : []);
+    const frame = frameCues(shot.rect.h, fovMax, eHeli, rho, [shadowCue, [eHorizon, eHorizon]],
+      shot.frame ? shot.frame.held : [], reach);
     shot.frame = frame;
     const c = frame.centre_deg * DEG;
     cam.lookAt(eye.x + Math.sin(azimuth) * Math.cos(c), eye.y + Math.sin(c), eye.z - Math.cos(azimuth) * Math.cos(c));

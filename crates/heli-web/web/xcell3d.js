@@ -111,6 +111,8 @@ export function buildHeli(view, shape) {
     view.corners.push(frd3([f, r, d]));
   }
   view.rotor_m = shape.rotor_diameter_m;
+  // The farthest of them from the helicopter's centre (m): what the framing keeps in view.
+  view.reach_m = Math.max(...view.corners.map((c) => c.length()));
   view.scene.add(view.heli);
   // The shadow: every part again, flattened onto the ground along the sun (the spinning
   // rotor's disk a faint one, as on a sunny field).
