@@ -44,6 +44,7 @@ fn the_truth_view_shows_the_helicopter_its_shadow_and_the_horizon_in_the_hover_a
             "02-during-roll",
             "03-pilot-view-roll",
             "04-chase-view-roll",
+            "05-pilot-view-zoomed",
         ] {
             assert!(
                 shots.join(format!("{shot}.png")).exists(),

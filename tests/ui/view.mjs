@@ -9,7 +9,8 @@
 // least 40 px across, its shadow on the ground, the horizon in view. Prints one JSON line per
 // screenshot with what the page drew and its frame rate and state-to-screen latency; exits
 // non-zero, naming the step, when a check fails. The hover at 10 m: every cue in both views;
-// the first roll: every cue in the chase view, the helicopter and the horizon in the pilot's.
+// the first roll: every cue in the chase view, the helicopter and the horizon in the pilot's;
+// then the pilot's view with the ground cues turned off: the helicopter alone, zoomed.
 import { chromium } from "playwright-core";
 import { mkdirSync } from "node:fs";
 import { join } from "node:path";
@@ -207,6 +208,19 @@ try {
     path: join(out, "04-chase-view-roll.png"),
     clip: { x: box.x + inset.x, y: box.y + inset.y, width: inset.w, height: inset.h },
   });
+  // The box "shadow and horizon in view" unticked: the pilot's view zooms on the helicopter
+  // alone, centred, its rotor planned 80 px across; ticked again, the cues come back.
+  await page.locator("#frame-ground").uncheck();
+  await waitFor(page, "the pilot's view zoomed on the helicopter alone", (v) => v.main.cues_framed.length === 0, 5000);
+  const zoomed = await look(page);
+  console.log(JSON.stringify({ step: "zoomed", ...zoomed }));
+  const z = zoomed.main;
+  if (!(Math.abs(z.planned_heli_px - 80) < 1 && z.pixels.heli.across_px >= 60 && Math.abs(z.heliXY[1] - 512) < 40)) {
+    throw new Error(`the pilot's view unframed from the ground: ${JSON.stringify(z)}`);
+  }
+  await page.screenshot({ path: join(out, "05-pilot-view-zoomed.png"), clip: box });
+  await page.locator("#frame-ground").check();
+  await waitFor(page, "the cues framed again", (v) => v.main.cues_framed.length === 2, 5000);
 } finally {
   await browser.close();
 }

@@ -2,7 +2,8 @@
 // drawn on every animation frame between the frames `heli hilsim --view` sends (30 a second
 // at most), interpolated. The view is the pilot's by default (placeable: the inputs, or
 // `?pilot=N,E` in metres from the pad), the inset the chase camera; each can be switched
-// (`?camera=`, `?inset=`; `?resolution=` the share of the canvas's pixels drawn, `?max_fps=`
+// (`?camera=`, `?inset=`; `?ground=0` the helicopter alone, zoomed, not framed with its
+// shadow and the horizon; `?resolution=` the share of the canvas's pixels drawn, `?max_fps=`
 // a cap on the frame rate). Where WebGL is not to be had, the flat drawing of instruments.js.
 // window.truthView holds what was drawn last; window.heliView the view, for tests.
 import { HeliView, StateBuffer } from "./view3d.js";
@@ -100,11 +101,16 @@ async function makeView() {
     document.getElementById("pilot-e").value = pilotNE[1];
   }
   const cameras = [query.get("camera") || "pilot", query.get("inset") || "chase"];
+  // The framing: the shadow and the horizon with the helicopter where they fit, or
+  // (`?ground=0`, the box unticked) the helicopter alone, zoomed.
+  const ground = document.getElementById("frame-ground");
+  ground.checked = query.get("ground") !== "0";
   view = await HeliView.create(document.getElementById("view-main"), {
     camera: cameras[0], inset: { ...INSET, camera: cameras[1] }, flapScale: 3,
     resolution: FIXED_RESOLUTION || 0.5, adaptive: !FIXED_RESOLUTION && !MAX_FPS,
-    pilotNE: pilotNE || undefined,
+    pilotNE: pilotNE || undefined, frameGround: ground.checked,
   });
+  ground.addEventListener("change", () => { if (view) view.setFrameGround(ground.checked); });
   ["camera-main", "camera-side"].forEach((id, k) => {
     const select = document.getElementById(id);
     select.value = cameras[k];

@@ -159,6 +159,9 @@ export class HeliView {
     this.renderer = renderer;
     this.opts = opts;
     this.pilotNE = opts.pilotNE || PILOT_DEFAULT_NE;
+    // Whether the cameras frame the ground cues with the helicopter (false: the helicopter
+    // alone, zoomed, at any height).
+    this.frameGround = opts.frameGround !== false;
     // Drawn at `resolution` of the canvas's size and scaled up (a software renderer's time
     // goes with the pixels it fills); sizes and rectangles here are the canvas's own. With
     // `adaptive`, the resolution is where it starts, and the drawing's share then follows
@@ -195,6 +198,9 @@ export class HeliView {
 
   // Places the pilot `ne` ([m north, m east]) from the take-off point.
   placePilot(ne) { this.pilotNE = ne; }
+
+  // Frames the ground cues with the helicopter (true) or the helicopter alone (false).
+  setFrameGround(on) { this.frameGround = Boolean(on); }
 
   // Sets the camera of shot `index` (0: the whole canvas, 1: the inset).
   setCamera(kind, index) { const s = this.shots[index || 0]; if (s) s.camera = kind; }
@@ -377,8 +383,8 @@ export class HeliView {
       ? [elev(shadow.y, ahead - r), elev(shadow.y, ahead + r), SHADOW_LEAST_PX]
       : [-90, -90, Infinity];
     const eHorizon = elev(origin.y - eye.y, 2000);
-    const frame = frameCues(shot.rect.h, fovMax, eHeli, rho, [shadowCue, [eHorizon, eHorizon]],
-      shot.frame ? shot.frame.held : [], reach);
+    const cues = this.frameGround ? [shadowCue, [eHorizon, eHorizon]] : [];
+    const frame = frameCues(shot.rect.h, fovMax, eHeli, rho, cues, shot.frame ? shot.frame.held : [], reach);
     shot.frame = frame;
     const c = frame.centre_deg * DEG;
     cam.lookAt(eye.x + Math.sin(azimuth) * Math.cos(c), eye.y + Math.sin(c), eye.z - Math.cos(azimuth) * Math.cos(c));
