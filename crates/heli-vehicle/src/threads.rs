@@ -246,10 +246,14 @@ pub fn spawn_port(
                     source,
                 })),
             };
-            writers.set(port, None);
             if stop.load(Ordering::Acquire) {
+                // The flight is ending: the loop may still write its last commands, so the
+                // write half stays until the flight is over (it closes with the `Writers`).
+                // Taken away here, the servo board's last command was lost and counted as a
+                // failed write (seen on a loaded machine).
                 break;
             }
+            writers.set(port, None);
             let why = match outcome {
                 Ok(Ok(())) => "stopped".to_string(),
                 Ok(Err(e)) => e.to_string(),
