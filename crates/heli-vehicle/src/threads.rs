@@ -480,6 +480,46 @@ mod tests {
     }
 
     #[test]
+    fn a_driver_stopping_with_the_flight_leaves_the_loop_its_port_to_write_the_last_commands() {
+        let (mut board, slave) = TTYPort::pair().unwrap();
+        let mut devices = Devices::hilsim(std::path::Path::new("/nonexistent"));
+        devices.ports.scb = PathBuf::from(slave.name().unwrap());
+        let stop = Arc::new(AtomicBool::new(false));
+        let (tx, _rx) = std::sync::mpsc::channel();
+        let writers = Arc::new(Writers::default());
+        let handle = spawn_port(
+            Port::Scb,
+            &devices,
+            Clock::start(),
+            tx,
+            Arc::clone(&writers),
+            Arc::clone(&stop),
+            crate::rt::RtThreads::default(),
+        )
+        .unwrap();
+        let end = Instant::now() + Duration::from_secs(5);
+        while !writers.write(Port::Scb, b"a") && Instant::now() < end {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        // The flight ends: its driver thread is gone, and the loop's last command still goes.
+        stop.store(true, Ordering::Release);
+        handle.join().unwrap();
+        assert!(
+            writers.write(Port::Scb, b"z"),
+            "the last command found no port"
+        );
+        let mut got = Vec::new();
+        let mut buf = [0u8; 16];
+        let end = Instant::now() + Duration::from_secs(5);
+        while !got.ends_with(b"z") && Instant::now() < end {
+            if let Ok(n) = std::io::Read::read(&mut board, &mut buf) {
+                got.extend_from_slice(&buf[..n]);
+            }
+        }
+        assert!(got.ends_with(b"z"), "{got:?}");
+    }
+
+    #[test]
     fn a_port_that_never_opens_fails_its_device_once_and_is_retried_quietly() {
         let stop = Arc::new(AtomicBool::new(false));
         let (tx, rx) = std::sync::mpsc::channel();
