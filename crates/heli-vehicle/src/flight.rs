@@ -18,6 +18,7 @@ use heli_fsw::{FlightComputer, Phase, RecordedInput};
 use heli_types::Port;
 use serde_json::Value;
 
+use crate::device_writes::WriteTally;
 use crate::devices::Devices;
 use crate::error::VehicleError;
 use crate::logger::{self, LogItem, LogReport, LogSender};
@@ -328,7 +329,7 @@ fn control_loop(
         None => FlightComputer::new(setup.config, setup.params, setup.baro_rate_hz),
     };
     let mut actions: Vec<Action> = Vec::with_capacity(64);
-    let write_failures = std::cell::Cell::new(0u64);
+    let write_failures = std::cell::RefCell::new(WriteTally::default());
     let probe = crate::latency::Probe::new(setup.latency_trace.clone());
     let mut tx = |port: Port, bytes: &[u8]| {
         if port == Port::Scb {
@@ -336,16 +337,10 @@ fn control_loop(
             // before the call returns here.
             probe.servo_written();
         }
-        let written = writers.write(port, bytes);
-        if !written {
-            // Counted, and the first one said: a command that found its port closed.
-            if write_failures.get() == 0 {
-                report(Report::Note(format!(
-                    "write to {} failed (port not open): commands to it are being lost",
-                    port.name()
-                )));
-            }
-            write_failures.set(write_failures.get().saturating_add(1));
+        let outcome = writers.write(port, bytes);
+        // Counted per port; a port's first failure (with why) and its recovery said.
+        if let Some(note) = write_failures.borrow_mut().record(port, &outcome) {
+            report(Report::Note(note));
         }
     };
     let mut last_t_us = clock.now_us();
@@ -485,11 +480,8 @@ fn control_loop(
     if let Some(note) = probe.finish() {
         report(Report::Note(note));
     }
-    if write_failures.get() > 0 {
-        report(Report::Note(format!(
-            "{} device writes failed during the flight",
-            write_failures.get()
-        )));
+    if let Some(note) = write_failures.borrow().summary() {
+        report(Report::Note(note));
     }
     (computer.core().stats(), inputs)
 }

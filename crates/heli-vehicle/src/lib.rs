@@ -48,6 +48,7 @@ pub mod cli;
 pub mod compass_file;
 pub mod control_socket;
 pub mod ctl;
+pub mod device_writes;
 pub mod devices;
 pub mod error;
 pub mod flight;

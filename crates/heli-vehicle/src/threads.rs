@@ -20,6 +20,7 @@ use heli_types::Port;
 use serialport::TTYPort;
 
 use crate::adc;
+use crate::device_writes::WriteError;
 use crate::devices::{Devices, baud};
 use crate::error::VehicleError;
 use crate::port;
@@ -137,16 +138,13 @@ impl Writers {
         }
     }
 
-    /// Writes `bytes` to `port`; false if the port is not open or the write failed.
-    pub fn write(&self, port: Port, bytes: &[u8]) -> bool {
-        let Some(slot) = self.slot(port) else {
-            return false;
-        };
+    /// Writes `bytes` to `port`; an error if the port is not open (or takes no writes) or
+    /// the write failed.
+    pub fn write(&self, port: Port, bytes: &[u8]) -> Result<(), WriteError> {
+        let slot = self.slot(port).ok_or(WriteError::NotOpen)?;
         let mut guard = slot.lock().unwrap_or_else(|e| e.into_inner());
-        match guard.as_mut() {
-            Some(p) => port::write_all(p, bytes).is_ok(),
-            None => false,
-        }
+        let open = guard.as_mut().ok_or(WriteError::NotOpen)?;
+        port::write_all(open, bytes).map_err(WriteError::Io)
     }
 
     /// How many ports have had their first try at opening (successful or not).
@@ -498,14 +496,14 @@ mod tests {
         )
         .unwrap();
         let end = Instant::now() + Duration::from_secs(5);
-        while !writers.write(Port::Scb, b"a") && Instant::now() < end {
+        while writers.write(Port::Scb, b"a").is_err() && Instant::now() < end {
             std::thread::sleep(Duration::from_millis(10));
         }
         // The flight ends: its driver thread is gone, and the loop's last command still goes.
         stop.store(true, Ordering::Release);
         handle.join().unwrap();
         assert!(
-            writers.write(Port::Scb, b"z"),
+            writers.write(Port::Scb, b"z").is_ok(),
             "the last command found no port"
         );
         let mut got = Vec::new();

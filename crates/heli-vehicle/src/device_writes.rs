@@ -1,0 +1,146 @@
+//! The control loop's writes to the devices (servo commands to the servo controller board,
+//! handshakes to the altimeter): why one failed, and the tally of failures per port.
+//!
+//! A failed write is a command lost, so each port's failures are said, not only counted: the
+//! first of a run of failures with its reason, the write that works again after them, and at
+//! the end of the flight each port's total. One port's failures never hide another's (an
+//! absent altimeter's closed port does not stand for the servo board's).
+//!
+//! What it is not: the ports themselves ([`crate::threads::Writers`] holds their write halves).
+
+use heli_types::Port;
+
+/// Why a write to a device did not go out.
+#[derive(Debug)]
+pub enum WriteError {
+    /// The port is not open (its driver has not opened it, or lost it and is reopening it).
+    NotOpen,
+    /// The port is open and the write failed.
+    Io(std::io::Error),
+}
+
+impl std::fmt::Display for WriteError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            WriteError::NotOpen => f.write_str("port not open"),
+            WriteError::Io(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+/// One port's failed writes.
+#[derive(Debug, Default, Clone, Copy)]
+struct PortTally {
+    /// Failures since the last write that went out.
+    run: u64,
+    /// Failures in the flight.
+    total: u64,
+}
+
+/// The failed writes of a flight, per port.
+#[derive(Debug, Default)]
+pub struct WriteTally {
+    ports: [PortTally; Port::ALL.len()],
+}
+
+impl WriteTally {
+    fn of(&mut self, port: Port) -> Option<&mut PortTally> {
+        let i = Port::ALL.iter().position(|p| *p == port)?;
+        self.ports.get_mut(i)
+    }
+
+    /// Counts the outcome of a write to `port`; returns what to say: the first failure of a
+    /// run, with its reason, or the first write that goes out after a run of failures.
+    pub fn record(&mut self, port: Port, outcome: &Result<(), WriteError>) -> Option<String> {
+        let tally = self.of(port)?;
+        match outcome {
+            Err(why) => {
+                let first = tally.run == 0;
+                tally.run = tally.run.saturating_add(1);
+                tally.total = tally.total.saturating_add(1);
+                first.then(|| {
+                    format!(
+                        "write to {} failed ({why}): commands to it are being lost",
+                        port.name()
+                    )
+                })
+            }
+            Ok(()) if tally.run > 0 => {
+                let lost = std::mem::take(&mut tally.run);
+                Some(format!(
+                    "writes to {} go out again, after {lost} failed",
+                    port.name()
+                ))
+            }
+            Ok(()) => None,
+        }
+    }
+
+    /// Failed writes in the flight, all ports.
+    pub fn total(&self) -> u64 {
+        self.ports
+            .iter()
+            .fold(0u64, |n, t| n.saturating_add(t.total))
+    }
+
+    /// The flight's closing account, if any write failed: each port's failures.
+    pub fn summary(&self) -> Option<String> {
+        let ports: Vec<String> = Port::ALL
+            .iter()
+            .zip(&self.ports)
+            .filter(|(_, t)| t.total > 0)
+            .map(|(p, t)| format!("{} {}", p.name(), t.total))
+            .collect();
+        (!ports.is_empty()).then(|| {
+            format!(
+                "{} device writes failed during the flight ({})",
+                self.total(),
+                ports.join(", ")
+            )
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn broken() -> Result<(), WriteError> {
+        Err(WriteError::Io(std::io::Error::from_raw_os_error(5)))
+    }
+
+    #[test]
+    fn each_port_says_its_first_failure_with_why_and_its_recovery() {
+        let mut tally = WriteTally::default();
+        assert_eq!(tally.record(Port::Scb, &Ok(())), None);
+        assert_eq!(tally.summary(), None);
+        // The altimeter's closed port is said; the servo board's failure is said too, with
+        // its own reason, not hidden behind the altimeter's.
+        let baro = tally.record(Port::Baro, &Err(WriteError::NotOpen)).unwrap();
+        assert_eq!(
+            baro,
+            "write to baro failed (port not open): commands to it are being lost"
+        );
+        assert_eq!(tally.record(Port::Baro, &Err(WriteError::NotOpen)), None);
+        let scb = tally.record(Port::Scb, &broken()).unwrap();
+        assert!(
+            scb.starts_with("write to scb failed (") && scb.contains("os error 5"),
+            "{scb}"
+        );
+        assert_eq!(tally.record(Port::Scb, &broken()), None);
+        assert_eq!(tally.record(Port::Scb, &broken()), None);
+        // The servo board's writes go out again: said once, with the run lost.
+        assert_eq!(
+            tally.record(Port::Scb, &Ok(())).as_deref(),
+            Some("writes to scb go out again, after 3 failed")
+        );
+        assert_eq!(tally.record(Port::Scb, &Ok(())), None);
+        // A new run of failures is said again.
+        assert!(tally.record(Port::Scb, &broken()).is_some());
+        assert_eq!(tally.total(), 6);
+        assert_eq!(
+            tally.summary().as_deref(),
+            Some("6 device writes failed during the flight (scb 4, baro 2)")
+        );
+    }
+}
