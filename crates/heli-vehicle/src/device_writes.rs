@@ -28,11 +28,17 @@ impl std::fmt::Display for WriteError {
     }
 }
 
+/// How many runs of failures of one port are said (their first failure and their end); a
+/// port that keeps failing and recovering says no more after them, counted to the end.
+pub const RUNS_SAID: u64 = 5;
+
 /// One port's failed writes.
 #[derive(Debug, Default, Clone, Copy)]
 struct PortTally {
     /// Failures since the last write that went out.
     run: u64,
+    /// Runs of failures in the flight.
+    runs: u64,
     /// Failures in the flight.
     total: u64,
 }
@@ -50,7 +56,8 @@ impl WriteTally {
     }
 
     /// Counts the outcome of a write to `port`; returns what to say: the first failure of a
-    /// run, with its reason, or the first write that goes out after a run of failures.
+    /// run, with its reason, or the first write that goes out after a run of failures (for
+    /// the port's first [`RUNS_SAID`] runs).
     pub fn record(&mut self, port: Port, outcome: &Result<(), WriteError>) -> Option<String> {
         let tally = self.of(port)?;
         match outcome {
@@ -58,19 +65,29 @@ impl WriteTally {
                 let first = tally.run == 0;
                 tally.run = tally.run.saturating_add(1);
                 tally.total = tally.total.saturating_add(1);
-                first.then(|| {
-                    format!(
-                        "write to {} failed ({why}): commands to it are being lost",
-                        port.name()
-                    )
-                })
+                if !first {
+                    return None;
+                }
+                tally.runs = tally.runs.saturating_add(1);
+                let name = port.name();
+                match tally.runs.cmp(&RUNS_SAID) {
+                    std::cmp::Ordering::Less => Some(format!(
+                        "write to {name} failed ({why}): commands to it are being lost"
+                    )),
+                    std::cmp::Ordering::Equal => Some(format!(
+                        "write to {name} failed ({why}): commands to it are being lost (its {RUNS_SAID}th run of failures: more are counted, not said)"
+                    )),
+                    std::cmp::Ordering::Greater => None,
+                }
             }
             Ok(()) if tally.run > 0 => {
                 let lost = std::mem::take(&mut tally.run);
-                Some(format!(
-                    "writes to {} go out again, after {lost} failed",
-                    port.name()
-                ))
+                (tally.runs <= RUNS_SAID).then(|| {
+                    format!(
+                        "writes to {} go out again, after {lost} failed",
+                        port.name()
+                    )
+                })
             }
             Ok(()) => None,
         }
@@ -142,5 +159,28 @@ mod tests {
             tally.summary().as_deref(),
             Some("6 device writes failed during the flight (scb 4, baro 2)")
         );
+    }
+
+    #[test]
+    fn a_port_that_keeps_failing_and_recovering_says_its_first_runs_and_counts_the_rest() {
+        let mut tally = WriteTally::default();
+        let mut said = Vec::new();
+        for _ in 0..100 {
+            said.extend(tally.record(Port::Scb, &broken()));
+            said.extend(tally.record(Port::Scb, &Ok(())));
+        }
+        // Each said run is its failure and its end; the last said run says so.
+        assert_eq!(said.len() as u64, 2 * RUNS_SAID, "{said:#?}");
+        assert!(
+            said[2 * RUNS_SAID as usize - 2].ends_with("more are counted, not said)"),
+            "{said:#?}"
+        );
+        assert!(!said[2 * RUNS_SAID as usize - 4].contains("more are counted"));
+        assert_eq!(
+            tally.summary().as_deref(),
+            Some("100 device writes failed during the flight (scb 100)")
+        );
+        // Another port's runs are its own.
+        assert!(tally.record(Port::Baro, &broken()).is_some());
     }
 }
