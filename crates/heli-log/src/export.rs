@@ -39,8 +39,34 @@ fn flatten(prefix: &str, value: &Value, out: &mut Vec<(String, String)>) {
     });
 }
 
-/// One channel's messages as CSV: a `t_s` column, then one column per (flattened) field,
-/// named after the first message.
+/// The top-level field a flattened name belongs to (`target_ned_m` of `target_ned_m[2]`).
+fn root(name: &str) -> &str {
+    name.split(['.', '[']).next().unwrap_or(name)
+}
+
+/// Every flattened field of `rows`, in the order first seen: a field a later message has
+/// and the first lacks (a null that became a vector, a list that grew) is a column too,
+/// placed after the other columns of its top-level field.
+fn columns(rows: &[(u64, Vec<(String, String)>)]) -> Vec<String> {
+    let mut columns: Vec<String> = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    for (_, fields) in rows {
+        for (name, _) in fields {
+            if !seen.insert(name.clone()) {
+                continue;
+            }
+            let at = columns
+                .iter()
+                .rposition(|c| root(c) == root(name))
+                .map_or(columns.len(), |i| i + 1);
+            columns.insert(at, name.clone());
+        }
+    }
+    columns
+}
+
+/// One channel's messages as CSV: a `t_s` column, then one column per (flattened) field of
+/// any of its messages; a message without a field leaves its cell empty.
 pub fn to_csv(contents: &LogContents, topic: &str) -> String {
     let rows: Vec<(u64, Vec<(String, String)>)> = contents
         .messages
@@ -52,10 +78,10 @@ pub fn to_csv(contents: &LogContents, topic: &str) -> String {
             (m.t_us, fields)
         })
         .collect();
-    let Some((_, first)) = rows.first() else {
+    if rows.is_empty() {
         return String::new();
-    };
-    let columns: Vec<String> = first.iter().map(|(k, _)| k.clone()).collect();
+    }
+    let columns = columns(&rows);
     let mut csv = String::from("t_s");
     for c in &columns {
         csv.push(',');
@@ -106,5 +132,38 @@ mod tests {
         assert_eq!(lines.next(), Some("0.000000,hold,1.0,2.0,-10.0"));
         assert_eq!(csv.lines().count(), 51);
         assert_eq!(to_csv(&contents, "nothing"), "");
+    }
+
+    #[test]
+    fn a_field_the_first_message_lacks_is_exported_too() {
+        // The state's target is null until a plan gives one; a list grows.
+        let values = [
+            json!({"target_ned_m": null, "sats": [1], "alt_m": 0.5}),
+            json!({"target_ned_m": [1.0, 2.0, -3.0], "sats": [1, 2], "alt_m": 0.75}),
+        ];
+        let messages = values
+            .into_iter()
+            .enumerate()
+            .map(|(k, value)| LoggedMessage {
+                topic: "state".into(),
+                t_us: k as u64 * 1_000_000,
+                sequence: k as u32,
+                value,
+            })
+            .collect();
+        let contents = LogContents {
+            messages,
+            ..Default::default()
+        };
+        let csv = to_csv(&contents, "state");
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(
+            lines,
+            [
+                "t_s,alt_m,sats[0],sats[1],target_ned_m,target_ned_m[0],target_ned_m[1],target_ned_m[2]",
+                "0.000000,0.5,1,,,,,",
+                "1.000000,0.75,1,2,,1.0,2.0,-3.0",
+            ]
+        );
     }
 }
