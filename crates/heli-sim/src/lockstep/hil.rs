@@ -43,6 +43,16 @@ pub(super) struct Hil {
     hold_last_us: u64,
 }
 
+/// How long the hover is judged for from its origin (µs): the scenario's hold time less the
+/// settling (at least [`HIL_HOLD_MIN_S`]), so that what the helicopter does after its plan's
+/// hold (a Stop's landing, the next leg) is not counted as drift; to the run's end for a
+/// scenario that sets no hold time.
+fn hold_window_us(limits: &heli_scenario::Limits) -> Option<u64> {
+    let hold_s = limits.hold_min_s?;
+    let window_s = (hold_s - HIL_HOLD_SETTLE_S).max(HIL_HOLD_MIN_S);
+    Some((window_s * 1e6) as u64)
+}
+
 impl Simulation {
     /// The scenario's helicopter and devices with the flight software outside: nothing runs
     /// the flight computer; its bytes come through [`Simulation::inject`].
@@ -93,6 +103,7 @@ impl Simulation {
         let start_alt = *self.metrics.start_alt_m.get_or_insert(alt);
         self.metrics.max_alt_m = self.metrics.max_alt_m.max(alt - start_alt);
         let target = self.takeoff_alt_m();
+        let window_us = hold_window_us(&self.scenario.limits);
         let Some(hil) = self.hil.as_mut() else {
             return;
         };
@@ -105,9 +116,11 @@ impl Simulation {
         if let Some(reached) = hil.reached_at_us
             && now >= reached + settle_us
         {
-            let (_, origin) = *hil.hold_origin.get_or_insert((now, p));
-            hil.hold_drift_max_m = hil.hold_drift_max_m.max((p - origin).norm());
-            hil.hold_last_us = now;
+            let (t0, origin) = *hil.hold_origin.get_or_insert((now, p));
+            if window_us.is_none_or(|w| now <= t0.saturating_add(w)) {
+                hil.hold_drift_max_m = hil.hold_drift_max_m.max((p - origin).norm());
+                hil.hold_last_us = now;
+            }
         }
     }
 
@@ -131,5 +144,56 @@ impl Simulation {
             criteria.push(Criterion::at_most("hil_hold_drift_m", drift, limit));
         }
         Some(criteria)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Moves the simulated helicopter to `pos` at `t_s` and measures.
+    fn at(sim: &mut Simulation, t_s: f64, pos: [f64; 3]) {
+        sim.now_us = (t_s * 1e6) as u64;
+        sim.heli.state.pos_ned_m = Vector3::new(pos[0], pos[1], pos[2]);
+        sim.measure_hil_truth();
+    }
+
+    fn drift(sim: &Simulation) -> Option<f64> {
+        let criteria = sim.hil_criteria().unwrap();
+        let c = criteria
+            .iter()
+            .find(|c| c.name == "hil_hold_drift_m")
+            .unwrap();
+        c.value
+    }
+
+    /// The hover scenario (take-off to 10 m, 60 s hold, 3 m of true drift allowed), its
+    /// helicopter at 90 % of the take-off height at 20 s and settled 5 s later.
+    fn hovering() -> Simulation {
+        let mut sim = Simulation::hil(heli_scenario::hover()).unwrap();
+        at(&mut sim, 0.0, [0.0, 0.0, 0.0]);
+        at(&mut sim, 20.0, [0.0, 0.0, -9.5]);
+        at(&mut sim, 25.0, [0.0, 0.0, -10.0]);
+        sim
+    }
+
+    #[test]
+    fn the_hold_is_judged_over_the_plans_hold_not_the_landing_after_it() {
+        let mut sim = hovering();
+        at(&mut sim, 50.0, [1.0, 0.0, -10.5]);
+        at(&mut sim, 79.9, [1.5, 0.0, -10.0]);
+        assert!((drift(&sim).unwrap() - 1.5).abs() < 1e-9);
+        // The plan's hold is over (55 s after the origin): a Stop's landing is not drift.
+        at(&mut sim, 81.0, [1.5, 0.0, -6.0]);
+        at(&mut sim, 95.0, [1.5, 0.0, 0.0]);
+        assert!((drift(&sim).unwrap() - 1.5).abs() < 1e-9);
+        // Within the hold, a sink is drift.
+        let mut sim = hovering();
+        at(&mut sim, 40.0, [0.0, 0.0, -6.0]);
+        assert!((drift(&sim).unwrap() - 4.0).abs() < 1e-9);
+        // Under 10 s of hold: not measured.
+        let mut sim = hovering();
+        at(&mut sim, 30.0, [0.0, 0.0, -10.0]);
+        assert_eq!(drift(&sim), None);
     }
 }
