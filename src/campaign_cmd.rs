@@ -217,7 +217,7 @@ fn one_flight(campaign: &Campaign, index: u64, args: &RunArgs) -> Result<ExitCod
         library: None,
         log: args.log.clone(),
         ui: false,
-        http: String::new(),
+        http: std::net::SocketAddr::from(([127, 0, 0, 1], 0)),
         calibration_s: 0.0,
     };
     crate::fly(scenario, &sim)

@@ -48,7 +48,8 @@ pub struct HilsimArgs {
     pub tolerance_us: u16,
     /// Serve a 3D view of the simulator's truth on this address (`127.0.0.1:0` picks a free
     /// port; the URL is printed): the helicopter, its rotor disk, the field, the plan, the
-    /// trail, the wind, with a chase and a fixed field camera.
+    /// trail, the wind, from the pilot's stand, a chase camera or above (a flat field camera
+    /// where the browser has no WebGL).
     #[arg(long, value_name = "ADDR")]
     pub view: Option<std::net::SocketAddr>,
     /// With --view: a person flies from the view's page — a gamepad or RC transmitter
@@ -65,7 +66,7 @@ pub struct HilsimArgs {
     /// Take failures on standard input, one a line, applied at once — the trainer panel's
     /// requests as JSON (`{"kind":"servo-board-silent","seconds":3}`; docs/pilot.md lists
     /// every kind), for a script or a fault campaign to inject faults while a flight runs.
-    /// Each is answered on standard error (`hilsim: failure: …` or `… refused: …`).
+    /// Each is answered on standard error (`hilsim: failure at T s: …` or `hilsim: failure refused: …`).
     #[arg(long, conflicts_with = "replay")]
     pub failures_stdin: bool,
     /// Pin the HILSim's loop and device readers to this CPU (as `heli vehicle --rt-cpu`):
@@ -240,6 +241,18 @@ pub(crate) fn print_devices(devices: &hil::HilDevices, compass_cal: &std::path::
 
 /// Replays `flight`; exit 0 when the commands match, 1 when they differ.
 fn replay(args: &HilsimArgs, flight: &Path, json: Option<JsonOut>) -> Result<ExitCode> {
+    if !(args.wait_s.is_finite() && args.wait_s > 0.0) {
+        anyhow::bail!(
+            "--wait-s must be a positive number of seconds, not {}",
+            args.wait_s
+        );
+    }
+    if !(0.0..=1.0).contains(&args.tolerance_share) {
+        anyhow::bail!(
+            "--tolerance-share must be a share of the commands from 0 to 1, not {}",
+            args.tolerance_share
+        );
+    }
     let bytes = std::fs::read(flight).with_context(|| format!("{}", flight.display()))?;
     let contents = heli_log::read(&bytes);
     let setup = heli_sim::replay::setup::setup_of(&contents)
@@ -247,12 +260,6 @@ fn replay(args: &HilsimArgs, flight: &Path, json: Option<JsonOut>) -> Result<Exi
     let rec = Recording::from_log(&contents)
         .map_err(|e| anyhow!(e))
         .with_context(|| format!("{}", flight.display()))?;
-    if !(args.wait_s.is_finite() && args.wait_s > 0.0) {
-        anyhow::bail!(
-            "--wait-s must be a positive number of seconds, not {}",
-            args.wait_s
-        );
-    }
     // A lockstep flight names its scenario (whose plan the vehicle knows by that name); a
     // vehicle's flight names its plan.
     let flight_entry = |key: &str| {

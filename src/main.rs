@@ -246,7 +246,7 @@ struct SimArgs {
     ui: bool,
     /// With --ui: where the display is served (port 0 picks a free one).
     #[arg(long, default_value = "127.0.0.1:8080")]
-    http: String,
+    http: std::net::SocketAddr,
     /// With --ui: the vehicle's bias calibration (s); the thesis's 80 s by default.
     #[arg(long, default_value_t = 80.0)]
     calibration_s: f64,
@@ -271,9 +271,22 @@ fn quiet_on_closed_stdout() {
     }));
 }
 
+/// Every option of every command takes a negative number as its value, so that `--speed -3`
+/// reaches the option's own check ("--speed -3: must be more than 0 …") instead of clap's
+/// "unexpected argument '-3' found", which does not name the option.
+fn negative_numbers(command: clap::Command) -> clap::Command {
+    command
+        .mut_args(|arg| arg.allow_negative_numbers(true))
+        .mut_subcommands(negative_numbers)
+}
+
 fn main() -> ExitCode {
     quiet_on_closed_stdout();
-    let cli = Cli::parse();
+    let matches = negative_numbers(<Cli as clap::CommandFactory>::command()).get_matches();
+    let cli = match <Cli as clap::FromArgMatches>::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     let result = match cli.command {
         Command::Sim(args) => sim(args),
         Command::Model(args) => model_cmd::model(args),
@@ -315,7 +328,7 @@ fn sim(args: SimArgs) -> Result<ExitCode> {
         return Ok(heli_sim::system::run(&heli_sim::system::UiOptions {
             program: std::env::current_exe().context("finding this program")?,
             scenario: args.scenario.unwrap_or_else(|| "demo".into()),
-            http: args.http,
+            http: args.http.to_string(),
             calibration_s: args.calibration_s,
         })?);
     }

@@ -93,6 +93,77 @@ fn scenario_file_sets_seed_wind_and_imu_drops() {
 }
 
 #[test]
+fn a_nonsense_number_is_refused_by_its_option_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let ptys = dir.path().display().to_string();
+    let flight = dir.path().join("none.mcap").display().to_string();
+    // A negative value reaches the option's own check, which names it (not clap's
+    // "unexpected argument '-3'").
+    for (args, named) in [
+        (vec!["sim", "--duration", "-3"], "--duration"),
+        // An address is checked before any process starts.
+        (vec!["sim", "--ui", "--http", "bogus"], "--http"),
+        (vec!["model", "trim", "--speed", "-3"], "--speed"),
+        (vec!["hilsim", "--ptys", &ptys, "--speed", "-3"], "--speed"),
+        (
+            vec![
+                "hilsim",
+                "--ptys",
+                &ptys,
+                "--replay",
+                &flight,
+                "--tolerance-share",
+                "2",
+            ],
+            "--tolerance-share",
+        ),
+        (
+            vec![
+                "hilsim",
+                "--ptys",
+                &ptys,
+                "--replay",
+                &flight,
+                "--tolerance-share",
+                "NaN",
+            ],
+            "--tolerance-share",
+        ),
+    ] {
+        let out = heli(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} was taken");
+        assert!(
+            err.contains(named) && !err.contains("unexpected argument"),
+            "{args:?}: {err}"
+        );
+    }
+}
+
+#[test]
+fn a_cpu_the_machine_has_not_is_said_by_the_hilsim() {
+    use std::io::BufRead;
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_heli"))
+        .args(["hilsim", "--ptys"])
+        .arg(dir.path())
+        .args(["--cpu", "4095", "--duration", "1"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stderr = child.stderr.take().unwrap();
+    let first = std::io::BufReader::new(stderr).lines().next();
+    let _ = child.kill();
+    let _ = child.wait();
+    let line = first.unwrap().unwrap();
+    assert!(
+        line.starts_with("hilsim: ") && line.contains("CPU 4095") && line.contains("any CPU"),
+        "{line}"
+    );
+}
+
+#[test]
 fn unknown_scenario_is_a_clear_error() {
     let out = heli(&["sim", "--scenario", "no-such-flight"]);
     assert_eq!(out.status.code(), Some(2));

@@ -350,7 +350,11 @@ pub fn run(
         let _ = heli_vehicle::rt::realtime_thread(HILSIM_PRIORITY);
     }
     if let Some(cpu) = options.cpu {
-        let _ = heli_vehicle::rt::pin_to_cpu(cpu);
+        // Asked for: said when refused (a CPU the machine has not), as the vehicle's notes.
+        let note = heli_vehicle::rt::pin_to_cpu(cpu);
+        if !note.starts_with("pinned to CPU") {
+            eprintln!("hilsim: {note}: the loop and the device readers run on any CPU");
+        }
     }
     let (mut ptys, devices) = expose(dir)?;
     let from_computer = spawn_readers(&ptys, stop, options.cpu)?;

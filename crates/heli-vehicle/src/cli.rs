@@ -263,8 +263,8 @@ pub struct BootstrapArgs {
 /// The bootstrap's own subcommand: one command to a running bootstrap.
 #[derive(clap::Subcommand, Clone, Debug)]
 pub enum BootstrapCommand {
-    /// Send the bootstrap one command: connect, start-logging SUFFIX MODE [PLAN], stop,
-    /// status, quit.
+    /// Send the bootstrap one command: connect, start-logging SUFFIX MODE [PLAN]
+    /// [override-untested], stop, kill confirmed, status, quit.
     Ctl {
         /// The command and its arguments.
         #[arg(required = true, num_args = 1..)]

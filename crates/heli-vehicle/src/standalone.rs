@@ -190,7 +190,7 @@ pub fn run(
                     }
                     _ => {
                         return Err(VehicleError::Device(
-                            "wrong number of ADC channels for this device",
+                            "wrong number of ADC channels for this device (the compass reads 3, x, y and z; the battery 1)",
                         ));
                     }
                 }

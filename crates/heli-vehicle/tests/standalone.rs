@@ -366,7 +366,10 @@ fn the_wrong_kind_of_source_is_refused_with_what_to_give() {
         .0
         .unwrap_err()
         .to_string();
-    assert_eq!(e, "wrong number of ADC channels for this device");
+    assert_eq!(
+        e,
+        "wrong number of ADC channels for this device (the compass reads 3, x, y and z; the battery 1)"
+    );
     let missing = Source::Adc {
         dir: dir.path().to_path_buf(),
         channels: vec![7],
