@@ -127,8 +127,12 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
                 "t={t:.2} s stop in the air: landing where it is first, the flight ends on the ground"
             ),
             StopAnswer::Refused(why) => format!("t={t:.2} s stop refused: {}", why.text()),
-            StopAnswer::Cancelled => format!(
-                "t={t:.2} s stop cancelled: the landing was given up (the pilot took the helicopter); Stop again once it is down"
+            StopAnswer::Cancelled(why) => format!(
+                "t={t:.2} s stop cancelled: the landing was given up ({}); Stop again once it is down",
+                match why {
+                    StopRefusal::PilotFlying => "the pilot took the helicopter",
+                    StopRefusal::Blind => "the estimate was lost: descending blind",
+                }
             ),
         },
         CoreEvent::EstimateDegraded { since_gps_s } => format!(
@@ -271,7 +275,8 @@ fn events_without_numbers() -> Vec<CoreEvent> {
         CoreEvent::Stop(StopAnswer::Landing),
         CoreEvent::Stop(StopAnswer::Refused(StopRefusal::PilotFlying)),
         CoreEvent::Stop(StopAnswer::Refused(StopRefusal::Blind)),
-        CoreEvent::Stop(StopAnswer::Cancelled),
+        CoreEvent::Stop(StopAnswer::Cancelled(StopRefusal::PilotFlying)),
+        CoreEvent::Stop(StopAnswer::Cancelled(StopRefusal::Blind)),
         CoreEvent::AidAccepted(heli_fsw::core::Aid::Altimeter),
         CoreEvent::AidAccepted(heli_fsw::core::Aid::Compass),
     ];

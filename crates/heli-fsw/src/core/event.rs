@@ -352,7 +352,7 @@ impl CoreEvent {
                 super::stop::StopAnswer::Now | super::stop::StopAnswer::Landing => {
                     Severity::ActivityHi
                 }
-                super::stop::StopAnswer::Refused(_) | super::stop::StopAnswer::Cancelled => {
+                super::stop::StopAnswer::Refused(_) | super::stop::StopAnswer::Cancelled(_) => {
                     Severity::WarningHi
                 }
             },

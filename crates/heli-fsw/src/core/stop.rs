@@ -26,11 +26,13 @@ pub enum StopAnswer {
     Landing,
     /// Refused: the flight goes on.
     Refused(StopRefusal),
-    /// A Stop's landing was given up (the pilot took the helicopter): the flight goes on.
-    Cancelled,
+    /// A Stop's landing was given up, for the reason a Stop would now be refused (the
+    /// pilot took the helicopter, or the estimate was lost and it descends blind): the
+    /// flight goes on.
+    Cancelled(StopRefusal),
 }
 
-/// Why a Stop in the air is refused.
+/// Why a Stop in the air is refused (or a Stop's landing given up).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StopRefusal {
     /// The pilot flies (manual or augmented): the pilot lands.
@@ -83,7 +85,7 @@ pub fn settled(height_m: f64, speed_mps: f64) -> bool {
 }
 
 /// What a Stop's landing under way comes to in `phase`: `Some(Now)` down, `Some(Cancelled)`
-/// the pilot or the blind failsafe took over, `None` still on its way down.
+/// the pilot or the blind failsafe took over (which of them), `None` still on its way down.
 pub fn landing_outcome(phase: Phase) -> Option<StopAnswer> {
     match phase {
         Phase::Landed
@@ -91,7 +93,10 @@ pub fn landing_outcome(phase: Phase) -> Option<StopAnswer> {
         | Phase::Calibrating
         | Phase::PreflightCheck { .. }
         | Phase::TakeoffRefused => Some(StopAnswer::Now),
-        Phase::Manual | Phase::Augmented(_) | Phase::BlindDescent => Some(StopAnswer::Cancelled),
+        Phase::Manual | Phase::Augmented(_) => {
+            Some(StopAnswer::Cancelled(StopRefusal::PilotFlying))
+        }
+        Phase::BlindDescent => Some(StopAnswer::Cancelled(StopRefusal::Blind)),
         Phase::TakingOff { .. }
         | Phase::Holding { .. }
         | Phase::Flying { .. }

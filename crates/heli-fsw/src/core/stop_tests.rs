@@ -142,10 +142,14 @@ fn a_stop_landing_ends_on_the_skids_or_is_given_up_when_the_pilot_takes_it() {
         landing_outcome(Phase::GroundFailsafe),
         Some(StopAnswer::Now)
     );
-    assert_eq!(landing_outcome(Phase::Manual), Some(StopAnswer::Cancelled));
+    assert_eq!(
+        landing_outcome(Phase::Manual),
+        Some(StopAnswer::Cancelled(StopRefusal::PilotFlying))
+    );
+    // The estimate lost on the way down: given up for the blind descent, not the pilot.
     assert_eq!(
         landing_outcome(Phase::BlindDescent),
-        Some(StopAnswer::Cancelled)
+        Some(StopAnswer::Cancelled(StopRefusal::Blind))
     );
     assert_eq!(landing_outcome(hold()), None);
     // The pilot's switch off during a Stop's landing: the pilot flies.
@@ -155,7 +159,10 @@ fn a_stop_landing_ends_on_the_skids_or_is_given_up_when_the_pilot_takes_it() {
     core.devices.pilot = Some(super::tests::uplink(false, false));
     let (phase, _) = next(&mut core, &est(10.0, 0.0, Vector3::zeros()), S + 20_000);
     assert_eq!(phase, Phase::Manual);
-    assert_eq!(landing_outcome(phase), Some(StopAnswer::Cancelled));
+    assert_eq!(
+        landing_outcome(phase),
+        Some(StopAnswer::Cancelled(StopRefusal::PilotFlying))
+    );
 }
 
 #[test]
