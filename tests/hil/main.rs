@@ -55,7 +55,12 @@ fn the_vehicle_flies_the_hover_scenario_against_the_hilsim_in_real_time() {
         let reply = vehicle.ctl(&["start-logging", "hover1", "autonomous", "hover"]);
         assert!(reply.starts_with("ok flying"), "{reply}");
         // The flight goes on while the HILSim runs; its truth summary decides.
-        let summary = hil.wait_json(Duration::from_secs(90));
+        let (summary, hil_said) = hil.wait_end(Duration::from_secs(90));
+        // Its 42 s end under the hovering helicopter, and the HILSim says so.
+        assert!(
+            hil_said.contains("hilsim: the run's 42 s are up with the helicopter in the air ("),
+            "{hil_said}"
+        );
         let reply = vehicle.ctl(&["kill", "confirmed"]);
         assert!(reply.starts_with("ok stopped (exit code 0)"), "{reply}");
         let said = vehicle.output();

@@ -245,7 +245,12 @@ impl Hilsim {
     }
 
     /// Waits for the end of the run and returns its JSON truth summary.
-    pub fn wait_json(mut self, timeout: Duration) -> serde_json::Value {
+    pub fn wait_json(self, timeout: Duration) -> serde_json::Value {
+        self.wait_end(timeout).0
+    }
+
+    /// As [`Hilsim::wait_json`], with everything it printed (standard output and error).
+    pub fn wait_end(mut self, timeout: Duration) -> (serde_json::Value, String) {
         let end = Instant::now() + timeout;
         loop {
             if let Some(status) = self.proc.child.try_wait().unwrap() {
@@ -253,12 +258,13 @@ impl Hilsim {
                 std::thread::sleep(Duration::from_millis(200));
                 // With --json its standard output is the JSON document and nothing else.
                 let json = self.proc.stdout();
-                return serde_json::from_str(&json).unwrap_or_else(|e| {
+                let summary = serde_json::from_str(&json).unwrap_or_else(|e| {
                     panic!(
                         "hilsim ended ({status}) without a JSON summary alone on its standard output ({e}):\n{json}\n{}",
                         self.proc.all()
                     )
                 });
+                return (summary, self.proc.all());
             }
             assert!(
                 Instant::now() < end,

@@ -381,6 +381,14 @@ pub fn run(
             sim.inject(port, &bytes);
         }
         if !sim.advance(end_us) {
+            let truth = sim.truth_frame();
+            if sim.crash().is_none() && truth.contact_points == 0 {
+                // The world ends under a flying helicopter: its computer loses every device.
+                eprintln!(
+                    "hilsim: the run's {duration_s} s are up with the helicopter in the air ({:.1} m up): its flight computer loses its devices now (--duration for a longer run)",
+                    -truth.pos_ned_m[2]
+                );
+            }
             break;
         }
         watch(&mut sim);
