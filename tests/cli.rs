@@ -97,6 +97,17 @@ fn a_nonsense_number_is_refused_by_its_option_by_name() {
     let dir = tempfile::tempdir().unwrap();
     let ptys = dir.path().display().to_string();
     let flight = dir.path().join("none.mcap").display().to_string();
+    let replay = |share| {
+        vec![
+            "hilsim",
+            "--ptys",
+            &ptys,
+            "--replay",
+            &flight,
+            "--tolerance-share",
+            share,
+        ]
+    };
     // A negative value reaches the option's own check, which names it (not clap's
     // "unexpected argument '-3'").
     for (args, named) in [
@@ -105,30 +116,8 @@ fn a_nonsense_number_is_refused_by_its_option_by_name() {
         (vec!["sim", "--ui", "--http", "bogus"], "--http"),
         (vec!["model", "trim", "--speed", "-3"], "--speed"),
         (vec!["hilsim", "--ptys", &ptys, "--speed", "-3"], "--speed"),
-        (
-            vec![
-                "hilsim",
-                "--ptys",
-                &ptys,
-                "--replay",
-                &flight,
-                "--tolerance-share",
-                "2",
-            ],
-            "--tolerance-share",
-        ),
-        (
-            vec![
-                "hilsim",
-                "--ptys",
-                &ptys,
-                "--replay",
-                &flight,
-                "--tolerance-share",
-                "NaN",
-            ],
-            "--tolerance-share",
-        ),
+        (replay("2"), "--tolerance-share"),
+        (replay("NaN"), "--tolerance-share"),
     ] {
         let out = heli(&args);
         let err = String::from_utf8_lossy(&out.stderr);
