@@ -271,22 +271,10 @@ fn quiet_on_closed_stdout() {
     }));
 }
 
-/// Every option of every command takes a negative number as its value, so that `--speed -3`
-/// reaches the option's own check ("--speed -3: must be more than 0 …") instead of clap's
-/// "unexpected argument '-3' found", which does not name the option.
-fn negative_numbers(command: clap::Command) -> clap::Command {
-    command
-        .mut_args(|arg| arg.allow_negative_numbers(true))
-        .mut_subcommands(negative_numbers)
-}
-
 fn main() -> ExitCode {
     quiet_on_closed_stdout();
-    let matches = negative_numbers(<Cli as clap::CommandFactory>::command()).get_matches();
-    let cli = match <Cli as clap::FromArgMatches>::from_arg_matches(&matches) {
-        Ok(cli) => cli,
-        Err(e) => e.exit(),
-    };
+    // A negative number reaches its option's own check (`--speed -3: must be …`).
+    let cli: Cli = heli_vehicle::args::parse();
     let result = match cli.command {
         Command::Sim(args) => sim(args),
         Command::Model(args) => model_cmd::model(args),

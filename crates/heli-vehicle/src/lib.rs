@@ -43,6 +43,7 @@
 
 pub mod adc;
 pub mod adopt;
+pub mod args;
 pub mod bootstrap;
 pub mod cli;
 pub mod compass_file;

@@ -32,7 +32,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli: Cli = heli_vehicle::args::parse();
     let result = match cli.command {
         None => cli::vehicle(&cli.bootstrap, None),
         Some(Command::Bootstrap(command)) => cli::vehicle(&cli.bootstrap, Some(&command)),
