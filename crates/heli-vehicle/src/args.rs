@@ -7,7 +7,14 @@
 /// its range) instead of clap's "unexpected argument '-3' found", which names neither.
 pub fn negative_numbers(command: clap::Command) -> clap::Command {
     command
-        .mut_args(|arg| arg.allow_negative_numbers(true))
+        .mut_args(|arg| {
+            // Only an option that takes a value may (a flag with it fails clap's checks).
+            if arg.get_action().takes_values() {
+                arg.allow_negative_numbers(true)
+            } else {
+                arg
+            }
+        })
         .mut_subcommands(negative_numbers)
 }
 
@@ -26,6 +33,8 @@ mod tests {
     struct Top {
         #[arg(long)]
         speed: Option<f64>,
+        #[arg(long)]
+        json: bool,
         #[command(subcommand)]
         sub: Option<Sub>,
     }
@@ -52,5 +61,33 @@ mod tests {
         // An unknown flag is still one.
         let e = parse_from(&["t", "--speed", "1", "-x"]).unwrap_err();
         assert!(e.to_string().contains("unexpected argument '-x'"), "{e}");
+        let top = parse_from(&["t", "--json"]).unwrap();
+        assert!(top.json);
+    }
+
+    /// Every argument of `command` and its subcommands that takes no value is left without
+    /// negative numbers (clap's own check of this runs only in debug builds, and panics).
+    fn flags_untouched(command: &clap::Command) {
+        for arg in command.get_arguments() {
+            assert!(
+                arg.get_action().takes_values() || !arg.is_allow_negative_numbers_set(),
+                "{}: a flag given negative numbers",
+                arg.get_id()
+            );
+        }
+        command.get_subcommands().for_each(flags_untouched);
+    }
+
+    #[test]
+    fn flags_are_left_as_they_are_in_the_onboard_programs_commands() {
+        use clap::{Args, CommandFactory, Subcommand};
+        flags_untouched(&negative_numbers(<Top as CommandFactory>::command()));
+        let onboard = crate::cli::BootstrapCommand::augment_subcommands(
+            crate::cli::BootstrapArgs::augment_args(clap::Command::new("heli-vehicle")),
+        );
+        let onboard = negative_numbers(onboard);
+        flags_untouched(&onboard);
+        // And clap's own checks pass (they run in a debug build).
+        onboard.debug_assert();
     }
 }
