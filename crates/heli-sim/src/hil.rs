@@ -350,11 +350,12 @@ pub fn run(
         let _ = heli_vehicle::rt::realtime_thread(HILSIM_PRIORITY);
     }
     if let Some(cpu) = options.cpu {
-        // Asked for: said when refused (a CPU the machine has not), as the vehicle's notes.
-        let note = heli_vehicle::rt::pin_to_cpu(cpu);
-        if !note.starts_with("pinned to CPU") {
-            eprintln!("hilsim: {note}: the loop and the device readers run on any CPU");
-        }
+        // Asked for: said, pinned or refused (a CPU the machine has not), as the vehicle's
+        // note on its own pinning.
+        eprintln!(
+            "hilsim: loop and device readers {}",
+            heli_vehicle::rt::pin_to_cpu(cpu)
+        );
     }
     let (mut ptys, devices) = expose(dir)?;
     let from_computer = spawn_readers(&ptys, stop, options.cpu)?;

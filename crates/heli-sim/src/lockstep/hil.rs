@@ -41,6 +41,8 @@ pub(super) struct Hil {
     reached_at_us: Option<u64>,
     hold_drift_max_m: f64,
     hold_last_us: u64,
+    /// How long the hover is judged for from its origin ([`hold_window_us`]).
+    hold_window_us: Option<u64>,
 }
 
 /// How long the hover is judged for from its origin (µs): the scenario's hold time less the
@@ -65,7 +67,10 @@ impl Simulation {
             )));
         }
         let mut sim = Self::build(scenario, CoreConfig::default())?;
-        sim.hil = Some(Hil::default());
+        sim.hil = Some(Hil {
+            hold_window_us: hold_window_us(&sim.scenario.limits),
+            ..Hil::default()
+        });
         Ok(sim)
     }
 
@@ -103,7 +108,6 @@ impl Simulation {
         let start_alt = *self.metrics.start_alt_m.get_or_insert(alt);
         self.metrics.max_alt_m = self.metrics.max_alt_m.max(alt - start_alt);
         let target = self.takeoff_alt_m();
-        let window_us = hold_window_us(&self.scenario.limits);
         let Some(hil) = self.hil.as_mut() else {
             return;
         };
@@ -117,7 +121,10 @@ impl Simulation {
             && now >= reached + settle_us
         {
             let (t0, origin) = *hil.hold_origin.get_or_insert((now, p));
-            if window_us.is_none_or(|w| now <= t0.saturating_add(w)) {
+            if hil
+                .hold_window_us
+                .is_none_or(|w| now <= t0.saturating_add(w))
+            {
                 hil.hold_drift_max_m = hil.hold_drift_max_m.max((p - origin).norm());
                 hil.hold_last_us = now;
             }
