@@ -6,8 +6,13 @@
 //! the end of the flight each port's total. One port's failures never hide another's (an
 //! absent altimeter's closed port does not stand for the servo board's).
 //!
+//! A lost command changes what the helicopter does, so a failure is said at
+//! [`Severity::WarningHi`] (the ground pins it) and a recovery at [`Severity::ActivityHi`];
+//! the control loop also writes both into the flight's log.
+//!
 //! What it is not: the ports themselves ([`crate::threads::Writers`] holds their write halves).
 
+use heli_fsw::core::Severity;
 use heli_types::Port;
 
 /// Why a write to a device did not go out.
@@ -31,6 +36,25 @@ impl std::fmt::Display for WriteError {
 /// How many runs of failures of one port are said (their first failure and their end); a
 /// port that keeps failing and recovering says no more after them, counted to the end.
 pub const RUNS_SAID: u64 = 5;
+
+/// Something to say about a port's writes, with how much it matters.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Said {
+    /// [`Severity::WarningHi`] for commands being lost, [`Severity::ActivityHi`] when they go
+    /// out again.
+    pub severity: Severity,
+    /// What to say.
+    pub text: String,
+}
+
+impl Said {
+    fn lost(text: String) -> Self {
+        Self {
+            severity: Severity::WarningHi,
+            text,
+        }
+    }
+}
 
 /// One port's failed writes.
 #[derive(Debug, Default, Clone, Copy)]
@@ -58,7 +82,7 @@ impl WriteTally {
     /// Counts the outcome of a write to `port`; returns what to say: the first failure of a
     /// run, with its reason, or the first write that goes out after a run of failures (for
     /// the port's first [`RUNS_SAID`] runs).
-    pub fn record(&mut self, port: Port, outcome: &Result<(), WriteError>) -> Option<String> {
+    pub fn record(&mut self, port: Port, outcome: &Result<(), WriteError>) -> Option<Said> {
         let tally = self.of(port)?;
         match outcome {
             Err(why) => {
@@ -71,22 +95,23 @@ impl WriteTally {
                 tally.runs = tally.runs.saturating_add(1);
                 let name = port.name();
                 match tally.runs.cmp(&RUNS_SAID) {
-                    std::cmp::Ordering::Less => Some(format!(
+                    std::cmp::Ordering::Less => Some(Said::lost(format!(
                         "write to {name} failed ({why}): commands to it are being lost"
-                    )),
-                    std::cmp::Ordering::Equal => Some(format!(
+                    ))),
+                    std::cmp::Ordering::Equal => Some(Said::lost(format!(
                         "write to {name} failed ({why}): commands to it are being lost (its {RUNS_SAID}th run of failures: more are counted, not said)"
-                    )),
+                    ))),
                     std::cmp::Ordering::Greater => None,
                 }
             }
             Ok(()) if tally.run > 0 => {
                 let lost = std::mem::take(&mut tally.run);
-                (tally.runs <= RUNS_SAID).then(|| {
-                    format!(
+                (tally.runs <= RUNS_SAID).then(|| Said {
+                    severity: Severity::ActivityHi,
+                    text: format!(
                         "writes to {} go out again, after {lost} failed",
                         port.name()
-                    )
+                    ),
                 })
             }
             Ok(()) => None,
@@ -100,8 +125,9 @@ impl WriteTally {
             .fold(0u64, |n, t| n.saturating_add(t.total))
     }
 
-    /// The flight's closing account, if any write failed: each port's failures.
-    pub fn summary(&self) -> Option<String> {
+    /// The flight's closing account, if any write failed: each port's failures (commands
+    /// lost: [`Severity::WarningHi`]).
+    pub fn summary(&self) -> Option<Said> {
         let ports: Vec<String> = Port::ALL
             .iter()
             .zip(&self.ports)
@@ -109,11 +135,11 @@ impl WriteTally {
             .map(|(p, t)| format!("{} {}", p.name(), t.total))
             .collect();
         (!ports.is_empty()).then(|| {
-            format!(
+            Said::lost(format!(
                 "{} device writes failed during the flight ({})",
                 self.total(),
                 ports.join(", ")
-            )
+            ))
         })
     }
 }
@@ -121,6 +147,10 @@ impl WriteTally {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn text(said: Option<Said>) -> Option<String> {
+        said.map(|s| s.text)
+    }
 
     fn broken() -> Result<(), WriteError> {
         Err(WriteError::Io(std::io::Error::from_raw_os_error(5)))
@@ -135,11 +165,14 @@ mod tests {
         // its own reason, not hidden behind the altimeter's.
         let baro = tally.record(Port::Baro, &Err(WriteError::NotOpen)).unwrap();
         assert_eq!(
-            baro,
+            baro.text,
             "write to baro failed (port not open): commands to it are being lost"
         );
+        assert_eq!(baro.severity, Severity::WarningHi);
         assert_eq!(tally.record(Port::Baro, &Err(WriteError::NotOpen)), None);
         let scb = tally.record(Port::Scb, &broken()).unwrap();
+        assert_eq!(scb.severity, Severity::WarningHi);
+        let scb = scb.text;
         assert!(
             scb.starts_with("write to scb failed (") && scb.contains("os error 5"),
             "{scb}"
@@ -148,16 +181,22 @@ mod tests {
         assert_eq!(tally.record(Port::Scb, &broken()), None);
         // The servo board's writes go out again: said once, with the run lost.
         assert_eq!(
-            tally.record(Port::Scb, &Ok(())).as_deref(),
-            Some("writes to scb go out again, after 3 failed")
+            tally.record(Port::Scb, &Ok(())),
+            Some(Said {
+                severity: Severity::ActivityHi,
+                text: "writes to scb go out again, after 3 failed".into()
+            })
         );
         assert_eq!(tally.record(Port::Scb, &Ok(())), None);
         // A new run of failures is said again.
         assert!(tally.record(Port::Scb, &broken()).is_some());
         assert_eq!(tally.total(), 6);
         assert_eq!(
-            tally.summary().as_deref(),
-            Some("6 device writes failed during the flight (scb 4, baro 2)")
+            tally.summary(),
+            Some(Said {
+                severity: Severity::WarningHi,
+                text: "6 device writes failed during the flight (scb 4, baro 2)".into()
+            })
         );
     }
 
@@ -166,8 +205,8 @@ mod tests {
         let mut tally = WriteTally::default();
         let mut said = Vec::new();
         for _ in 0..100 {
-            said.extend(tally.record(Port::Scb, &broken()));
-            said.extend(tally.record(Port::Scb, &Ok(())));
+            said.extend(text(tally.record(Port::Scb, &broken())));
+            said.extend(text(tally.record(Port::Scb, &Ok(()))));
         }
         // Each said run is its failure and its end; the last said run says so.
         assert_eq!(said.len() as u64, 2 * RUNS_SAID, "{said:#?}");
@@ -177,7 +216,7 @@ mod tests {
         );
         assert!(!said[2 * RUNS_SAID as usize - 4].contains("more are counted"));
         assert_eq!(
-            tally.summary().as_deref(),
+            text(tally.summary()).as_deref(),
             Some("100 device writes failed during the flight (scb 100)")
         );
         // Another port's runs are its own.

@@ -173,23 +173,34 @@ pub fn run(
         realtime,
         cpu: setup.rt_cpu,
     };
+    // What the machine granted of the real-time settings: said now, and kept in the log
+    // once it is open (a jittery flight's log says whether it flew under them).
+    let mut rt_notes = Vec::new();
     let _wake_latency = if realtime {
-        report(Report::Note(rt::lock_memory()));
+        rt_notes.push(rt::lock_memory());
         let (request, note) = rt::hold_wake_latency();
-        report(Report::Note(note));
+        rt_notes.push(note);
         request
     } else {
-        report(Report::Note(
+        rt_notes.push(
             "real-time settings off (--no-realtime): memory not locked, normal scheduler, \
              CPUs may sleep"
-                .into(),
-        ));
+                .to_string(),
+        );
         None
     };
+    for note in &rt_notes {
+        report(Report::Note(note.clone()));
+    }
     let (tx, rx) = channel::<LoopMsg>();
     let writers = Arc::new(Writers::default());
     let streams = Arc::new(LiveStreams::default());
     let (log, log_thread, log_path) = open_log(&setup, clock, &report);
+    if let Some(log) = &log {
+        for note in rt_notes {
+            log.send(LogItem::Note(clock.now_us(), note));
+        }
+    }
     let spawn_error = |what: &str, source: std::io::Error| VehicleError::Thread {
         name: what.to_string(),
         source,
@@ -267,14 +278,17 @@ pub fn run(
         let log = log.clone();
         rt::thread("control", rt::CONTROL_STACK_BYTES)
             .spawn(move || {
+                let said = |note: String| {
+                    if let Some(log) = &log {
+                        log.send(LogItem::Note(clock.now_us(), note.clone()));
+                    }
+                    report(Report::Note(note));
+                };
                 if realtime {
-                    report(Report::Note(rt::realtime_thread(rt::LOOP_PRIORITY)));
+                    said(rt::realtime_thread(rt::LOOP_PRIORITY));
                 }
                 if let Some(cpu) = rt_threads.cpu {
-                    report(Report::Note(format!(
-                        "control loop and drivers {}",
-                        rt::pin_to_cpu(cpu)
-                    )));
+                    said(format!("control loop and drivers {}", rt::pin_to_cpu(cpu)));
                 }
                 control_loop(
                     &setup,
@@ -330,6 +344,18 @@ fn control_loop(
     };
     let mut actions: Vec<Action> = Vec::with_capacity(64);
     let write_failures = std::cell::RefCell::new(WriteTally::default());
+    // A write's failure or recovery: raised with its severity, and kept in the log.
+    let raise = |said: crate::device_writes::Said| {
+        let t_us = clock.now_us();
+        if let Some(log) = log {
+            log.send(LogItem::Note(t_us, said.text.clone()));
+        }
+        report(Report::Event {
+            t_us,
+            severity: said.severity,
+            text: said.text,
+        });
+    };
     let probe = crate::latency::Probe::new(setup.latency_trace.clone());
     let mut tx = |port: Port, bytes: &[u8]| {
         if port == Port::Scb {
@@ -339,8 +365,8 @@ fn control_loop(
         }
         let outcome = writers.write(port, bytes);
         // Counted per port; a port's first failure (with why) and its recovery said.
-        if let Some(note) = write_failures.borrow_mut().record(port, &outcome) {
-            report(Report::Note(note));
+        if let Some(said) = write_failures.borrow_mut().record(port, &outcome) {
+            raise(said);
         }
     };
     let mut last_t_us = clock.now_us();
@@ -480,8 +506,8 @@ fn control_loop(
     if let Some(note) = probe.finish() {
         report(Report::Note(note));
     }
-    if let Some(note) = write_failures.borrow().summary() {
-        report(Report::Note(note));
+    if let Some(said) = write_failures.borrow().summary() {
+        raise(said);
     }
     (computer.core().stats(), inputs)
 }

@@ -46,12 +46,19 @@ pub fn spawn_battery_server(
     let handle = crate::rt::thread("battery", crate::rt::HELPER_STACK_BYTES).spawn(move || {
         let mut latest: Option<Stamped<f64>> = None;
         let mut next_read_us = 0u64;
+        // A channel that cannot be read is said once a failing spell, with why (the
+        // path and the error); the core's channel watch raises the readings' lateness.
+        let mut failing = false;
         let period_us = u64::try_from(BATTERY_PERIOD.as_micros()).unwrap_or(1_000_000);
         while !stop.load(Ordering::Acquire) {
             let now = clock.now_us();
             if now >= next_read_us {
                 next_read_us = now.saturating_add(period_us);
-                if let Ok(counts) = adc::read_channel(&dir, adc_channel) {
+                let read = adc::read_channel(&dir, adc_channel);
+                if let Some(note) = spell_note(&mut failing, &read) {
+                    let _ = to_loop.send(LoopMsg::Note(format!("battery: {note}")));
+                }
+                if let Ok(counts) = read {
                     let _ = to_loop.send(LoopMsg::Input(
                         now,
                         RecordedInput::Battery(BatteryAdc { counts }),
@@ -76,6 +83,22 @@ pub fn spawn_battery_server(
         }
     })?;
     Ok((tx, handle))
+}
+
+/// What to say of a read in a spell of failures: the first failure (with its error), and
+/// the first read that works after it. `failing` is whether the spell is on.
+fn spell_note<T, E: std::fmt::Display>(failing: &mut bool, read: &Result<T, E>) -> Option<String> {
+    match (read, *failing) {
+        (Err(e), false) => {
+            *failing = true;
+            Some(format!("{e}: no reading until it can be read again"))
+        }
+        (Ok(_), true) => {
+            *failing = false;
+            Some("read again".to_string())
+        }
+        _ => None,
+    }
 }
 
 /// Asks the battery server for the voltage (waits at most 200 ms).
@@ -269,6 +292,25 @@ mod tests {
     use heli_proto::imu::ImuRepr;
     use heli_proto::scb::{Controls, PilotUplink, Pulses};
     use nalgebra::{UnitQuaternion, Vector3};
+
+    #[test]
+    fn a_failing_channel_is_said_once_a_spell_and_again_when_it_reads() {
+        let mut failing = false;
+        let bad: Result<u16, &str> = Err("in_voltage3_raw: 'junk' is not a count");
+        let good: Result<u16, &str> = Ok(3000);
+        assert_eq!(spell_note(&mut failing, &good), None);
+        assert_eq!(
+            spell_note(&mut failing, &bad).as_deref(),
+            Some("in_voltage3_raw: 'junk' is not a count: no reading until it can be read again")
+        );
+        assert_eq!(spell_note(&mut failing, &bad), None);
+        assert_eq!(
+            spell_note(&mut failing, &good).as_deref(),
+            Some("read again")
+        );
+        assert_eq!(spell_note(&mut failing, &good), None);
+        assert!(spell_note(&mut failing, &bad).is_some(), "a new spell");
+    }
 
     fn close(v: &Value, expected: f64) {
         let x = v.as_f64().unwrap_or(f64::NAN);

@@ -280,6 +280,29 @@ fn a_flight_on_pseudo_terminals_is_timed_by_the_imu_and_watched() {
                 .any(|r| matches!(r, Report::Note(t) if t.contains("is not 0 or 1")))
         },
     );
+    // A battery channel that reads nonsense is said once, with its path and what it read,
+    // and again when it reads a count.
+    let battery_channel = heli_vehicle::adc::channel_path(&dir.path().join("adc"), 3);
+    std::fs::write(&battery_channel, "junk\n").unwrap();
+    flight.wait_for(
+        "the battery channel's nonsense said",
+        Duration::from_secs(4),
+        |r| {
+            r.iter().any(|r| {
+                matches!(r, Report::Note(t) if t.starts_with("battery: ")
+                    && t.contains("in_voltage3_raw") && t.contains("'junk'"))
+            })
+        },
+    );
+    heli_vehicle::adc::write_channel(&dir.path().join("adc"), 3, 3000).unwrap();
+    flight.wait_for(
+        "the battery channel read again",
+        Duration::from_secs(4),
+        |r| {
+            r.iter()
+                .any(|r| matches!(r, Report::Note(t) if t == "battery: read again"))
+        },
+    );
     std::thread::sleep(Duration::from_millis(300));
     let (summary, reports) = flight.land();
     // Single watchdog fires are counted, not reported; the IMU's silence is.
@@ -297,14 +320,31 @@ fn a_flight_on_pseudo_terminals_is_timed_by_the_imu_and_watched() {
         })
         .collect();
     // The altimeter's port is not there: its first lost command is said (once, however many
-    // follow), and its count at the end; every servo command went out; the logger kept up.
+    // follow) as a warning the ground pins, and its count at the end; every servo command
+    // went out; the logger kept up.
+    let lost = events(&reports, Severity::WarningHi);
     assert_eq!(
-        notes
-            .iter()
+        lost.iter()
             .filter(|n| n.contains("write to baro failed"))
             .count(),
         1,
-        "{notes:#?}"
+        "{lost:#?}"
+    );
+    assert!(
+        lost.iter().any(
+            |n| n.contains("device writes failed during the flight (baro ") && !n.contains("scb")
+        ),
+        "{lost:#?}"
+    );
+    assert!(
+        !reports.iter().any(|r| matches!(r,
+            Report::Note(t) | Report::Event { text: t, .. } if t.contains("write to scb"))),
+        "{reports:#?}"
+    );
+    assert_eq!(
+        notes.iter().filter(|n| n.starts_with("battery: ")).count(),
+        2,
+        "one failing spell, said once, and its end: {notes:#?}"
     );
     assert!(
         !notes.iter().any(|n| n.contains("logger fell behind")),
@@ -313,16 +353,6 @@ fn a_flight_on_pseudo_terminals_is_timed_by_the_imu_and_watched() {
     assert_eq!(
         notes.iter().filter(|n| n.contains("is not 0 or 1")).count(),
         1,
-        "{notes:#?}"
-    );
-    assert!(
-        notes.iter().any(
-            |n| n.contains("device writes failed during the flight (baro ") && !n.contains("scb")
-        ),
-        "{notes:#?}"
-    );
-    assert!(
-        !notes.iter().any(|n| n.contains("write to scb")),
         "{notes:#?}"
     );
     // The board was checked at start, then given one servo command per control step: one
@@ -358,6 +388,25 @@ fn a_flight_on_pseudo_terminals_is_timed_by_the_imu_and_watched() {
     assert_eq!(report.path, log_path);
     assert_eq!(report.error, None);
     assert_eq!(report.messages, log.messages.len() as u64);
+    // The lost commands, the battery channel's spell and the real-time settings granted
+    // are in the log's notes, as they were said.
+    let logged: Vec<&str> = log
+        .messages
+        .iter()
+        .filter(|m| m.topic == "notes")
+        .filter_map(|m| m.value["text"].as_str())
+        .collect();
+    for said in [
+        "write to baro failed",
+        "device writes failed during the flight (baro ",
+        "battery: read again",
+        "memory ",
+    ] {
+        assert!(
+            logged.iter().any(|t| t.contains(said)),
+            "{said}: {logged:#?}"
+        );
+    }
     let counts = log.counts();
     for channel in ["imu", "servo", "state", "device", "events", "notes"] {
         assert!(
