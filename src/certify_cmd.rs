@@ -69,9 +69,7 @@ pub(crate) fn certify(args: &CertifyArgs) -> Result<ExitCode> {
         .ok_or_else(|| anyhow!("no key in {}", args.key.display()))?;
     let vehicle = match &args.vehicle {
         Some(p) => p.clone(),
-        None => std::env::current_exe()
-            .context("finding this program")?
-            .with_file_name("heli-vehicle"),
+        None => crate::onboard_program(" (or name one with --vehicle)")?,
     };
     let identity = heli_vehicle::lab::identity(&vehicle, &args.log_dir).map_err(|e| anyhow!(e))?;
     let table = if heli_vehicle::params::path_in(&args.log_dir).exists() {

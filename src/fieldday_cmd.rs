@@ -65,7 +65,7 @@ pub fn field_day(args: &FieldDayArgs) -> Result<ExitCode> {
             .collect()
     };
     let heli = std::env::current_exe().context("finding this program")?;
-    let vehicle = heli.with_file_name("heli-vehicle");
+    let vehicle = crate::onboard_program("")?;
     let options = Options {
         programs: heli_fieldday::procs::Programs { heli, vehicle },
         python: args.python.clone(),

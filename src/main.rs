@@ -447,6 +447,22 @@ fn bench(
 }
 
 /// Writes to standard output; a reader that stops early (`| head`) is not an error.
+/// The onboard program `heli-vehicle` beside this one, as the lab's tools fly it
+/// (`heli certify`, `heli field-day`). `cargo build --release` and `cargo run --release`
+/// build only this program: where the onboard one is missing, the error says how to build
+/// it, or to name one.
+pub(crate) fn onboard_program(option: &str) -> Result<std::path::PathBuf> {
+    let exe = std::env::current_exe().context("finding this program")?;
+    let onboard = exe.with_file_name("heli-vehicle");
+    if !onboard.is_file() {
+        bail!(
+            "the onboard program {} is not built: `cargo build --release --workspace` builds it beside this one{option}",
+            onboard.display()
+        );
+    }
+    Ok(onboard)
+}
+
 fn write_stdout(text: &str) -> Result<()> {
     use std::io::Write;
     match std::io::stdout().lock().write_all(text.as_bytes()) {

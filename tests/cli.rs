@@ -155,6 +155,46 @@ fn a_cpu_the_machine_has_not_is_said_by_the_hilsim() {
 }
 
 #[test]
+fn the_lab_tools_say_how_to_build_the_onboard_program_where_it_is_missing() {
+    // `cargo build --release` builds `heli` alone: a copy of it with no `heli-vehicle`
+    // beside it, as on a fresh clone.
+    let dir = tempfile::tempdir().unwrap();
+    let alone = dir.path().join("heli");
+    std::fs::copy(env!("CARGO_BIN_EXE_heli"), &alone).unwrap();
+    let key = dir.path().join("link.key");
+    let out = Command::new(&alone)
+        .args(["link", "keygen", "--out"])
+        .arg(&key)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let run = |args: &[&str]| {
+        let out = Command::new(&alone)
+            .args(args)
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "an error, not a run: {out:?}");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let missing = dir.path().join("heli-vehicle").display().to_string();
+    let certify = run(&["certify", "--log-dir", ".", "--key", "link.key"]);
+    assert!(
+        certify.contains(&format!("the onboard program {missing} is not built"))
+            && certify.contains("cargo build --release --workspace")
+            && certify.contains("--vehicle"),
+        "{certify}"
+    );
+    let field_day = run(&["field-day", "--out", "fd"]);
+    assert!(
+        field_day.contains(&format!("the onboard program {missing} is not built"))
+            && field_day.contains("cargo build --release --workspace"),
+        "{field_day}"
+    );
+    assert!(!dir.path().join("fd").exists(), "nothing flown");
+}
+
+#[test]
 fn unknown_scenario_is_a_clear_error() {
     let out = heli(&["sim", "--scenario", "no-such-flight"]);
     assert_eq!(out.status.code(), Some(2));
