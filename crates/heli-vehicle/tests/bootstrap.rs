@@ -86,6 +86,32 @@ fn power_on_with_a_fresh_record_of_a_flying_helicopter_resumes_the_flight() {
     assert_eq!(boot.count("flight process started"), 0);
 }
 
+#[test]
+fn power_on_with_a_record_dated_after_the_clock_says_so_and_does_not_resume() {
+    // A computer without a battery-backed clock comes up with an older time: a record
+    // written before the power failed is dated after "now", and its age is unknown.
+    let dir = tempfile::tempdir().unwrap();
+    let told = dir.path().join("told");
+    let warm = dir.path().join("warm-start");
+    std::fs::write(
+        &warm,
+        "start = bo1 autonomous hover\nairborne = true\ngyro_bias_rps = 0 0 0\n",
+    )
+    .unwrap();
+    std::fs::File::options()
+        .write(true)
+        .open(&warm)
+        .unwrap()
+        .set_modified(std::time::SystemTime::now() + Duration::from_secs(7200))
+        .unwrap();
+    let boot = Running::start(dir.path(), crashing_child(&told), Some(&warm));
+    boot.wait_count("after this computer's clock", 1, Duration::from_secs(5));
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(boot.count("resuming the flight in the air"), 0);
+    assert_eq!(boot.count("flight process started"), 0);
+    assert!(!told.exists());
+}
+
 /// A well-behaved flight process: says ready, records every line it is told in `told`,
 /// answers `start` with a telemetry line and `started LOG`, and exits 0 on `stop`.
 fn polite_child(told: &Path) -> Vec<std::ffi::OsString> {

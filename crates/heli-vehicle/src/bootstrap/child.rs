@@ -347,19 +347,18 @@ impl Bootstrap {
 
     /// At power-on (a brown-out of the whole computer): the freshest readable warm-start
     /// file, if it is fresh and says the helicopter was airborne, resumes the flight.
+    /// A record whose age cannot be told (its time unreadable, or later than this
+    /// computer's clock) is said, and not resumed from.
     pub(super) fn resume_after_power_on(&mut self) {
-        let age = |path: &PathBuf| {
-            std::fs::metadata(path)
-                .and_then(|m| m.modified())
-                .ok()
-                .and_then(|t| t.elapsed().ok())
-        };
-        let mut records: Vec<(PathBuf, Duration)> = self
-            .config
-            .warm_files
-            .iter()
-            .filter_map(|p| age(p).map(|a| (p.clone(), a)))
-            .collect();
+        let now = std::time::SystemTime::now();
+        let mut records: Vec<(PathBuf, Duration)> = Vec::new();
+        for path in self.config.warm_files.clone() {
+            match record_age(&path, now) {
+                Ok(Some(age)) => records.push((path, age)),
+                Ok(None) => {}
+                Err(why) => self.say(Severity::WarningHi, &why),
+            }
+        }
         records.sort_by_key(|(_, age)| *age);
         for (path, age) in records {
             match crate::warm::WarmFile::read(&path) {
@@ -392,5 +391,62 @@ impl Bootstrap {
                 ),
             }
         }
+    }
+}
+
+/// How old the warm-start record at `path` is at `now`: `None` where there is none, an
+/// error (what to say) where its age cannot be told — its time unreadable, or later than
+/// `now` (a clock set back at power-on: a computer without a battery-backed clock restores
+/// an older time until GPS or the network sets it).
+pub(crate) fn record_age(
+    path: &std::path::Path,
+    now: std::time::SystemTime,
+) -> Result<Option<Duration>, String> {
+    let modified = match std::fs::metadata(path).and_then(|m| m.modified()) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => {
+            return Err(format!(
+                "warm-start record {}: its time cannot be read ({e}): not resuming from it",
+                path.display()
+            ));
+        }
+    };
+    now.duration_since(modified).map(Some).map_err(|ahead| {
+        format!(
+            "warm-start record {} is dated {:.0} s after this computer's clock (a clock set back at power-on?): its age is unknown, not resuming from it",
+            path.display(),
+            ahead.duration().as_secs_f64()
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::SystemTime;
+
+    #[test]
+    fn a_record_s_age_is_told_or_why_it_cannot_be() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("warm-start");
+        let now = SystemTime::now();
+        assert_eq!(
+            record_age(&path, now),
+            Ok(None),
+            "no record, nothing to say"
+        );
+        std::fs::write(&path, "airborne = true\n").unwrap();
+        let file = std::fs::File::options().write(true).open(&path).unwrap();
+        file.set_modified(now - Duration::from_secs(5)).unwrap();
+        assert_eq!(record_age(&path, now), Ok(Some(Duration::from_secs(5))));
+        file.set_modified(now + Duration::from_secs(3600)).unwrap();
+        let said = record_age(&path, now).unwrap_err();
+        assert!(
+            said.contains("is dated 3600 s after this computer's clock")
+                && said.contains(&path.display().to_string())
+                && said.ends_with("not resuming from it"),
+            "{said}"
+        );
     }
 }
