@@ -23,6 +23,37 @@ pub const REQUEST_DEADLINE: Duration = Duration::from_secs(2);
 /// Control connections served at once; more are refused at once, with a reply.
 pub const MAX_CONNECTIONS: usize = 16;
 
+/// How long a listener waits after a failed accept before the next: a failure that
+/// repeats at once (no file descriptor left, no memory) must not spin a core.
+pub const ACCEPT_BACK_OFF: Duration = Duration::from_millis(100);
+
+/// A listener's failed accepts: the first of a spell is said with why, and the first
+/// accept after it with how many failed; every failure is counted.
+#[derive(Debug, Default)]
+pub struct AcceptErrors {
+    /// Failures since the last accept that worked.
+    run: u64,
+}
+
+impl AcceptErrors {
+    /// An accept failed with `e`: what to say, for the first failure of a spell.
+    pub fn failed(&mut self, e: &io::Error) -> Option<String> {
+        self.run = self.run.saturating_add(1);
+        (self.run == 1).then(|| {
+            format!(
+                "accept failed ({e}): trying again every {} ms",
+                ACCEPT_BACK_OFF.as_millis()
+            )
+        })
+    }
+
+    /// An accept worked: what to say, after a spell of failures.
+    pub fn accepted(&mut self) -> Option<String> {
+        let run = std::mem::take(&mut self.run);
+        (run > 0).then(|| format!("accepts again, after {run} failed"))
+    }
+}
+
 /// The name of the socket in its directory.
 const SOCKET_NAME: &str = "vehicle.sock";
 

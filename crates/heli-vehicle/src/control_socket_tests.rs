@@ -339,3 +339,23 @@ fn a_directory_of_another_user_is_refused() {
         "{text}"
     );
 }
+
+#[test]
+fn a_spell_of_failed_accepts_is_said_once_and_its_end_with_the_count() {
+    let mut errors = AcceptErrors::default();
+    assert_eq!(errors.accepted(), None);
+    let e = io::Error::from_raw_os_error(24);
+    let first = errors.failed(&e).unwrap_or_default();
+    assert!(
+        first.starts_with("accept failed (") && first.contains("os error 24"),
+        "{first}"
+    );
+    assert_eq!(errors.failed(&e), None);
+    assert_eq!(errors.failed(&e), None);
+    assert_eq!(
+        errors.accepted().as_deref(),
+        Some("accepts again, after 3 failed")
+    );
+    assert_eq!(errors.accepted(), None);
+    assert!(errors.failed(&e).is_some(), "a new spell");
+}

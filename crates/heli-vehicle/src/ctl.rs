@@ -296,8 +296,23 @@ pub fn serve(
     written: &std::sync::mpsc::Sender<()>,
 ) {
     let live = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let mut errors = control_socket::AcceptErrors::default();
     for stream in listener.incoming() {
-        let Ok(mut stream) = stream else { continue };
+        let mut stream = match stream {
+            Ok(stream) => {
+                if let Some(note) = errors.accepted() {
+                    eprintln!("control socket: {note}");
+                }
+                stream
+            }
+            Err(e) => {
+                if let Some(note) = errors.failed(&e) {
+                    eprintln!("control socket: {note}");
+                }
+                std::thread::sleep(control_socket::ACCEPT_BACK_OFF);
+                continue;
+            }
+        };
         let _ = stream.set_write_timeout(Some(Duration::from_secs(1)));
         let refusal = match control_socket::peer_allowed(&stream) {
             Err(why) => Some(why),

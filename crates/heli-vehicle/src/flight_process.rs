@@ -444,9 +444,23 @@ impl BootstrapLines {
     /// introduction; from then on the lines go to it. `None` without a socket.
     fn wait_for_a_bootstrap(&self) -> Option<std::os::unix::net::UnixStream> {
         let listener = self.listener.as_ref()?;
+        let mut errors = crate::control_socket::AcceptErrors::default();
         loop {
-            let Ok((mut stream, _)) = listener.accept() else {
-                continue;
+            let mut stream = match listener.accept() {
+                Ok((stream, _)) => {
+                    if let Some(note) = errors.accepted() {
+                        eprintln!("adoption socket: {note}");
+                    }
+                    stream
+                }
+                Err(e) => {
+                    // Said on standard error: no bootstrap hears this process now.
+                    if let Some(note) = errors.failed(&e) {
+                        eprintln!("adoption socket: {note}");
+                    }
+                    std::thread::sleep(crate::control_socket::ACCEPT_BACK_OFF);
+                    continue;
+                }
             };
             let log = self
                 .log_name
