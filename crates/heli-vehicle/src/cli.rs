@@ -344,6 +344,7 @@ pub fn bootstrap(args: &BootstrapArgs) -> Result<ExitCode> {
             addr,
             key,
             flight.log_dir.clone(),
+            flight.fallback_dir(),
             shared,
             bootstrap.requests(),
             to_ground,

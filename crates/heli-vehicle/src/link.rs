@@ -167,36 +167,46 @@ fn mav_severity(said: &Said) -> MavSeverity {
     }
 }
 
-/// The flight logs of a directory (`*.mcap`, numbered from 1 by name).
+/// The flight logs of the vehicle's log directories (`*.mcap`, numbered from 1 by name):
+/// the log directory and the fallback directory, where a flight logs when the log
+/// directory refuses its log (a full or read-only disk) — a log there is downloaded as any
+/// other, before a power-off loses it. A name in both is the log directory's.
 pub struct DirStore {
-    dir: PathBuf,
+    dirs: Vec<PathBuf>,
     /// The log being read, kept open between packets (a transfer reads it 90 bytes at a time).
     open: std::cell::RefCell<Option<(String, std::fs::File)>>,
 }
 
 impl DirStore {
-    /// The logs of `dir`.
-    pub fn new(dir: PathBuf) -> Self {
+    /// The logs of `dirs`, the first first where a name is in more than one.
+    pub fn new(dirs: Vec<PathBuf>) -> Self {
         Self {
-            dir,
+            dirs,
             open: std::cell::RefCell::new(None),
         }
     }
 
-    fn files(&self) -> Vec<(String, std::fs::Metadata)> {
-        let mut files: Vec<(String, std::fs::Metadata)> = std::fs::read_dir(&self.dir)
-            .map(|rd| {
-                rd.filter_map(Result::ok)
-                    .filter_map(|e| {
-                        let name = e.file_name().to_string_lossy().to_string();
-                        let meta = e.metadata().ok()?;
-                        (name.ends_with(".mcap") && meta.is_file()).then_some((name, meta))
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
-        files.sort_by(|a, b| a.0.cmp(&b.0));
+    /// Every log's name, directory and metadata, by name.
+    fn files(&self) -> Vec<(String, &PathBuf, std::fs::Metadata)> {
+        let mut files: BTreeMap<String, (&PathBuf, std::fs::Metadata)> = BTreeMap::new();
+        for dir in &self.dirs {
+            let Ok(entries) = std::fs::read_dir(dir) else {
+                continue;
+            };
+            for entry in entries.filter_map(Result::ok) {
+                let name = entry.file_name().to_string_lossy().to_string();
+                if let Ok(meta) = entry.metadata()
+                    && name.ends_with(".mcap")
+                    && meta.is_file()
+                {
+                    files.entry(name).or_insert((dir, meta));
+                }
+            }
+        }
         files
+            .into_iter()
+            .map(|(name, (dir, meta))| (name, dir, meta))
+            .collect()
     }
 }
 
@@ -206,7 +216,7 @@ impl LogStore for DirStore {
             .into_iter()
             .take(usize::from(u16::MAX))
             .enumerate()
-            .map(|(i, (name, meta))| LogInfo {
+            .map(|(i, (name, _, meta))| LogInfo {
                 id: u16::try_from(i.saturating_add(1)).unwrap_or(u16::MAX),
                 name,
                 size: u32::try_from(meta.len()).unwrap_or(u32::MAX),
@@ -227,8 +237,11 @@ impl LogStore for DirStore {
         }
         let mut open = self.open.borrow_mut();
         if open.as_ref().is_none_or(|(n, _)| n != name) {
-            *open = std::fs::File::open(self.dir.join(name))
-                .ok()
+            *open = self
+                .files()
+                .into_iter()
+                .find(|(n, _, _)| n == name)
+                .and_then(|(_, dir, _)| std::fs::File::open(dir.join(name)).ok())
                 .map(|f| (name.to_string(), f));
         }
         let Some((_, file)) = open.as_mut() else {
@@ -327,6 +340,7 @@ pub fn spawn(
     addr: SocketAddr,
     key: Option<Key>,
     log_dir: PathBuf,
+    fallback_dir: Option<PathBuf>,
     shared: Arc<LinkShared>,
     requests: RequestHandle,
     say: Arc<dyn Fn(&Said) + Send + Sync>,
@@ -370,7 +384,7 @@ pub fn spawn(
                 crate::params::defaults()
             }
         };
-        let store = DirStore::new(log_dir.clone());
+        let store = DirStore::new(std::iter::once(log_dir.clone()).chain(fallback_dir).collect());
         let mut link = VehicleLink::new(key, unix_us()).with_params(params);
         let mut peers = Peers::default();
         let mut pending: Vec<(heli_link::vehicle::CommandToken, Receiver<Reply>)> = Vec::new();

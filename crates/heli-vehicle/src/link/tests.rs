@@ -80,6 +80,7 @@ fn open_link(dir: &std::path::Path) -> (SocketAddr, Arc<Mutex<Vec<String>>>, Arc
         addr,
         None,
         dir.to_path_buf(),
+        None,
         Arc::new(LinkShared::default()),
         bootstrap.requests(),
         Arc::new(move |l: &Said| said_to.lock().unwrap().push(l.to_string())),
@@ -153,7 +154,7 @@ fn a_directory_of_logs_is_listed_and_read() {
     std::fs::write(dir.path().join("flight_b.mcap"), vec![2u8; 300]).unwrap();
     std::fs::write(dir.path().join("flight_a.mcap"), vec![1u8; 100]).unwrap();
     std::fs::write(dir.path().join("warm-start"), "x").unwrap();
-    let store = DirStore::new(dir.path().to_path_buf());
+    let store = DirStore::new(vec![dir.path().to_path_buf()]);
     let list = store.list();
     assert_eq!(list.len(), 2);
     assert_eq!(
@@ -165,6 +166,42 @@ fn a_directory_of_logs_is_listed_and_read() {
     assert_eq!(buf[0], 2);
     assert_eq!(store.read("flight_c.mcap", 0, &mut buf), 0);
     assert_eq!(store.read("../warm-start", 0, &mut buf), 0);
+}
+
+#[test]
+fn a_log_in_the_fallback_directory_is_listed_and_read_beside_the_log_directory_s() {
+    let disk = tempfile::tempdir().unwrap();
+    let ram = tempfile::tempdir().unwrap();
+    std::fs::write(disk.path().join("flight_a.mcap"), vec![1u8; 100]).unwrap();
+    std::fs::write(disk.path().join("flight_c.mcap"), vec![3u8; 30]).unwrap();
+    // The disk refused flight_b's log: it is in RAM.
+    std::fs::write(ram.path().join("flight_b.mcap"), vec![2u8; 200]).unwrap();
+    // A name in both is the log directory's.
+    std::fs::write(ram.path().join("flight_c.mcap"), vec![9u8; 10]).unwrap();
+    let store = DirStore::new(vec![disk.path().to_path_buf(), ram.path().to_path_buf()]);
+    let list: Vec<(u16, String, u32)> = store
+        .list()
+        .into_iter()
+        .map(|l| (l.id, l.name, l.size))
+        .collect();
+    assert_eq!(
+        list,
+        [
+            (1, "flight_a.mcap".to_string(), 100),
+            (2, "flight_b.mcap".to_string(), 200),
+            (3, "flight_c.mcap".to_string(), 30)
+        ]
+    );
+    let mut buf = [0u8; 90];
+    assert_eq!(store.read("flight_b.mcap", 150, &mut buf), 50);
+    assert_eq!(buf[0], 2);
+    assert_eq!(store.read("flight_c.mcap", 0, &mut buf), 30);
+    assert_eq!(buf[0], 3);
+    assert_eq!(store.read("flight_a.mcap", 0, &mut buf), 90);
+    assert_eq!(buf[0], 1);
+    // A directory that is not there (no RAM disk) lists nothing, and the other still does.
+    let store = DirStore::new(vec![ram.path().join("gone"), disk.path().to_path_buf()]);
+    assert_eq!(store.list().len(), 2);
 }
 
 #[test]
@@ -274,7 +311,7 @@ fn only_a_plain_log_name_of_the_directory_is_read() {
     std::fs::write(dir.path().join("notes.txt"), [2u8; 10]).unwrap();
     std::fs::create_dir(dir.path().join("sub")).unwrap();
     std::fs::write(dir.path().join("sub").join("flight_b.mcap"), [3u8; 10]).unwrap();
-    let store = DirStore::new(dir.path().to_path_buf());
+    let store = DirStore::new(vec![dir.path().to_path_buf()]);
     let mut buf = [0u8; 4];
     for refused in ["notes.txt", "sub/flight_b.mcap", ""] {
         assert_eq!(store.read(refused, 0, &mut buf), 0, "{refused}");
@@ -339,6 +376,7 @@ fn a_signed_link_starts_and_says_commands_must_be_signed() {
         addr(0),
         Some(key),
         dir.path().to_path_buf(),
+        None,
         Arc::new(LinkShared::default()),
         bootstrap.requests(),
         Arc::new(move |l: &Said| said_to.lock().unwrap().push(l.to_string())),
