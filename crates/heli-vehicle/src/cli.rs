@@ -343,8 +343,7 @@ pub fn bootstrap(args: &BootstrapArgs) -> Result<ExitCode> {
         crate::link::spawn(
             addr,
             key,
-            flight.log_dir.clone(),
-            flight.fallback_dir(),
+            (flight.log_dir.clone(), flight.fallback_dir()),
             shared,
             bootstrap.requests(),
             to_ground,

@@ -334,13 +334,13 @@ fn receive_pass(
     taken
 }
 
-/// Starts the link thread on `addr`. `say` prints a line of the link's own (it is also sent
-/// to the ground).
+/// Starts the link thread on `addr`, serving the parameters of `log_dir` and the logs of it
+/// and of `fallback_dir`. `say` prints a line of the link's own (it is also sent to the
+/// ground).
 pub fn spawn(
     addr: SocketAddr,
     key: Option<Key>,
-    log_dir: PathBuf,
-    fallback_dir: Option<PathBuf>,
+    (log_dir, fallback_dir): (PathBuf, Option<PathBuf>),
     shared: Arc<LinkShared>,
     requests: RequestHandle,
     say: Arc<dyn Fn(&Said) + Send + Sync>,

@@ -79,8 +79,7 @@ fn open_link(dir: &std::path::Path) -> (SocketAddr, Arc<Mutex<Vec<String>>>, Arc
     spawn(
         addr,
         None,
-        dir.to_path_buf(),
-        None,
+        (dir.to_path_buf(), None),
         Arc::new(LinkShared::default()),
         bootstrap.requests(),
         Arc::new(move |l: &Said| said_to.lock().unwrap().push(l.to_string())),
@@ -375,8 +374,7 @@ fn a_signed_link_starts_and_says_commands_must_be_signed() {
     let thread = spawn(
         addr(0),
         Some(key),
-        dir.path().to_path_buf(),
-        None,
+        (dir.path().to_path_buf(), None),
         Arc::new(LinkShared::default()),
         bootstrap.requests(),
         Arc::new(move |l: &Said| said_to.lock().unwrap().push(l.to_string())),
