@@ -387,6 +387,7 @@ pub fn spawn(
         let store = DirStore::new(std::iter::once(log_dir.clone()).chain(fallback_dir).collect());
         let mut link = VehicleLink::new(key, unix_us()).with_params(params);
         let mut peers = Peers::default();
+        let mut held = held::Held::default();
         let mut pending: Vec<(heli_link::vehicle::CommandToken, Receiver<Reply>)> = Vec::new();
         let mut buf = [0u8; 2048];
         let mut last_unsigned_warning: Option<Instant> = None;
@@ -426,8 +427,15 @@ pub fn spawn(
                 link.set_mission(items);
             }
             shared.set_ground_fresh(link.ground_fresh(unix_us()));
-            for (severity, text) in texts {
-                link.status_text(severity, &text, unix_us());
+            // No ground heard: the warnings wait for one (a crash during a link outage is
+            // told when the link comes back); a ground heard gets them first.
+            peers.expire(Instant::now());
+            if peers.addrs().next().is_none() {
+                held.keep(texts);
+            } else {
+                for (severity, text) in held.release().into_iter().chain(texts) {
+                    link.status_text(severity, &text, unix_us());
+                }
             }
             if !signed && due_again(last_unsigned_warning, Instant::now(), UNSIGNED_WARNING_EVERY) {
                 link.status_text(
@@ -522,6 +530,8 @@ pub fn spawn(
         }
     })
 }
+
+mod held;
 
 #[cfg(test)]
 mod tests;
