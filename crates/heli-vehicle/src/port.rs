@@ -114,9 +114,14 @@ pub fn write_all(port: &mut TTYPort, bytes: &[u8]) -> io::Result<()> {
     io::Write::write_all(port, bytes)
 }
 
-/// A second handle on the same port (for the loop's writes while a driver thread reads).
-pub fn clone(port: &TTYPort) -> io::Result<TTYPort> {
-    port.try_clone_native().map_err(io::Error::other)
+/// A second handle on the same port at `path` (for the loop's writes while a driver thread
+/// reads); where it cannot be made, an error naming the port.
+pub fn clone(port: &TTYPort, path: &Path) -> Result<TTYPort, PortError> {
+    port.try_clone_native().map_err(|e| PortError {
+        path: path.to_path_buf(),
+        reason: format!("open, but its write half could not be made ({e})"),
+        hint: "no file descriptor left? the port is opened again",
+    })
 }
 
 #[cfg(test)]

@@ -191,13 +191,14 @@ pub fn spawn_port(
         let mut generation = 0u32;
         let mut first = true;
         while !stop.load(Ordering::Acquire) {
-            let attempt = port::open(&path, baud(port));
-            if attempt.is_ok() {
-                writers.set(
-                    port,
-                    attempt.as_ref().ok().and_then(|p| port::clone(p).ok()),
-                );
-            }
+            // A port whose write half cannot be made is a port not opened: said, and
+            // opened again (not read with every write to it lost as "port not open").
+            let attempt = port::open(&path, baud(port))
+                .and_then(|p| port::clone(&p, &path).map(|w| (p, w)))
+                .map(|(p, w)| {
+                    writers.set(port, Some(w));
+                    p
+                });
             if std::mem::take(&mut first) {
                 writers.attempted();
             }
