@@ -266,7 +266,9 @@ pub fn run(
     // The first commands (the board's check, the altimeter's reset) go out at start: give
     // every port its first try at opening before the loop starts (up to 2 s).
     writers.wait_for_first_attempts(Duration::from_secs(2));
-    report(Report::Started { log: log_path });
+    report(Report::Started {
+        log: log_path.clone(),
+    });
 
     let keeper = setup
         .warm_file
@@ -312,7 +314,16 @@ pub fn run(
     }
     let log_dropped = log.as_ref().map_or(0, LogSender::dropped);
     drop(log);
-    let log_report = log_thread.and_then(|h| h.join().ok());
+    // A logger that panicked still has an account: its file, and why it ends early.
+    let log_report = log_thread.map(|h| {
+        h.join().unwrap_or_else(|_| LogReport {
+            path: log_path.unwrap_or_default(),
+            error: Some(
+                "the logger thread panicked: the log ends where it stopped, unclosed".into(),
+            ),
+            ..LogReport::default()
+        })
+    });
     let (stats, inputs) = outcome.map_err(|_| VehicleError::Panicked("control loop"))?;
     Ok(FlightSummary {
         stats,

@@ -25,12 +25,14 @@ use crate::supervisor::{FromFlight, ToFlight, VERSION};
 /// answered, and skipped.
 fn next_message(input: &mut dyn BufRead, say: &dyn Fn(FromFlight)) -> Option<ToFlight> {
     loop {
-        let mut line = String::new();
-        // A line longer than the protocol's is read whole and refused by the parser.
-        match input.read_line(&mut line) {
+        let mut bytes = Vec::new();
+        // A line longer than the protocol's is read whole and refused by the parser; one
+        // that is not UTF-8 is refused as well, not taken for the bootstrap's end.
+        match input.read_until(b'\n', &mut bytes) {
             Ok(0) | Err(_) => return None,
             Ok(_) => {}
         }
+        let line = String::from_utf8_lossy(&bytes);
         match ToFlight::parse(&line) {
             Ok(message) => return Some(message),
             Err(e) => say(FromFlight::Refused(format!(
@@ -360,6 +362,8 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
         "inputs": summary.inputs,
         "log_messages": summary.log.as_ref().map(|l| l.messages),
         "log_error": summary.log.as_ref().and_then(|l| l.error.clone()),
+        "log_storage_dropped": summary.log.as_ref().map(|l| l.dropped),
+        "log_failed_writes": summary.log.as_ref().map(|l| l.failed_writes),
         "log_dropped": summary.log_dropped,
     });
     say(FromFlight::Stopped(json));

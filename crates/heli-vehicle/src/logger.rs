@@ -68,6 +68,8 @@ impl LogItem {
 pub struct LogSender {
     tx: SyncSender<LogItem>,
     dropped: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    /// The logger thread is gone (it panicked): nothing sent reaches the log any more.
+    gone: std::sync::Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl LogSender {
@@ -76,12 +78,20 @@ impl LogSender {
     pub fn send(&self, item: LogItem) -> bool {
         match self.tx.try_send(item) {
             Ok(()) => true,
-            Err(TrySendError::Full(_)) | Err(TrySendError::Disconnected(_)) => {
+            Err(e) => {
+                if matches!(e, TrySendError::Disconnected(_)) {
+                    self.gone.store(true, std::sync::atomic::Ordering::Relaxed);
+                }
                 self.dropped
                     .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 false
             }
         }
+    }
+
+    /// Whether the logger thread is gone (an item found no one to take it).
+    pub fn gone(&self) -> bool {
+        self.gone.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Items dropped so far.
@@ -93,6 +103,10 @@ impl LogSender {
 /// What is said when the first item is dropped: from there the log has a gap.
 pub const GAP_NOTE: &str =
     "the logger fell behind and dropped items: the log has a gap and cannot be replayed past it";
+
+/// What is said when the first item is dropped because the logger thread is gone.
+pub const LOGGER_GONE_NOTE: &str =
+    "the logger thread has stopped (it panicked): the log ends here; the flight goes on";
 
 /// The control loop's side of the log: each input handed to the logger, and the first one
 /// dropped said once (the sender counts them all).
@@ -111,14 +125,19 @@ impl<'a> InputLog<'a> {
     }
 
     /// Hands the item `make` builds to the logger (nothing is built without a logger).
-    /// Returns [`GAP_NOTE`] when this is the first item dropped.
+    /// Returns [`GAP_NOTE`] when this is the first item dropped ([`LOGGER_GONE_NOTE`] when
+    /// it was dropped because the logger is gone).
     pub fn record(&mut self, make: impl FnOnce() -> LogItem) -> Option<&'static str> {
         let sender = self.sender?;
         if sender.send(make()) || self.gap_said {
             return None;
         }
         self.gap_said = true;
-        Some(GAP_NOTE)
+        Some(if sender.gone() {
+            LOGGER_GONE_NOTE
+        } else {
+            GAP_NOTE
+        })
     }
 }
 
@@ -127,10 +146,33 @@ impl<'a> InputLog<'a> {
 pub struct LogReport {
     /// The file.
     pub path: PathBuf,
-    /// Messages written.
+    /// Messages written (where `error` says the log could not be closed, those held in
+    /// memory for a refusing storage among them may not be in the file).
     pub messages: u64,
-    /// Why it stopped early, if it did.
+    /// Messages dropped because the storage refused writes for longer than the memory
+    /// held for it lasts.
+    pub dropped: u64,
+    /// Writes to the file that failed (each undone, and tried again).
+    pub failed_writes: u64,
+    /// What went wrong, if anything did: the first storage failure, and a failure to close.
     pub error: Option<String>,
+}
+
+/// Closes `log` and completes `report` with the writer's account.
+fn close<F: heli_log::LogFile>(log: FlightLog<F>, report: &mut LogReport) {
+    let stats = log.stats();
+    report.messages = log.messages();
+    report.dropped = stats.dropped;
+    report.failed_writes = stats.failed_writes;
+    if let Err(e) = log.finish() {
+        let closing = format!(
+            "the log could not be closed ({e}): what was held in memory for it is not in the file"
+        );
+        report.error = Some(match report.error.take() {
+            Some(first) => format!("{first}; then {closing}"),
+            None => closing,
+        });
+    }
 }
 
 /// Creates the log at `path`, writes `metadata` (MCAP metadata named `flight`) and starts the
@@ -170,6 +212,7 @@ pub fn spawn(
         LogSender {
             tx,
             dropped: Default::default(),
+            gone: Default::default(),
         },
         handle,
     ))
@@ -199,10 +242,7 @@ fn run(
         // write must not end the flight's record.
         storage.after(&mut log, result, &mut report, note);
     }
-    report.messages = log.messages();
-    if let Err(e) = log.finish() {
-        report.error.get_or_insert(e.to_string());
-    }
+    close(log, &mut report);
     report
 }
 
@@ -298,6 +338,7 @@ mod tests {
         let sender = LogSender {
             tx,
             dropped: Default::default(),
+            gone: Default::default(),
         };
         (sender, rx)
     }
@@ -388,6 +429,40 @@ mod tests {
     }
 
     #[test]
+    fn the_closing_account_has_the_drops_the_failed_writes_and_a_failure_to_close() {
+        let disk = Disk::default();
+        let mut log = FlightLog::new(disk.clone()).unwrap();
+        log.write("imu", 0, &json!({"k": 0})).unwrap();
+        disk.full.set(true);
+        assert!(log.flush().is_err());
+        let mut report = LogReport {
+            error: Some("the storage is full".into()),
+            ..LogReport::default()
+        };
+        // The storage never comes back: the close fails, after the first failure.
+        close(log, &mut report);
+        assert_eq!(report.messages, 1);
+        assert_eq!(report.failed_writes, 1, "the flush refused: {report:?}");
+        let error = report.error.unwrap_or_default();
+        assert!(
+            error.starts_with("the storage is full; then the log could not be closed (")
+                && error.ends_with("what was held in memory for it is not in the file"),
+            "{error}"
+        );
+        // A storage that came back: the account has no error, and the file all.
+        let disk = Disk::default();
+        let mut log = FlightLog::new(disk.clone()).unwrap();
+        log.write("imu", 0, &json!({"k": 0})).unwrap();
+        let mut report = LogReport::default();
+        close(log, &mut report);
+        assert_eq!(
+            (report.messages, report.dropped, report.failed_writes),
+            (1, 0, 0)
+        );
+        assert_eq!(report.error, None);
+    }
+
+    #[test]
     fn each_item_says_its_time_where_it_has_one() {
         assert_eq!(LogItem::Start(5).t_us(), Some(5));
         assert_eq!(LogItem::Battery(6, 12.0).t_us(), Some(6));
@@ -448,5 +523,16 @@ mod tests {
         };
         assert_eq!(none.record(item), None);
         assert!(!built.get(), "nothing built without a logger");
+        // A logger that is gone is said as gone, not as behind.
+        let (sender, rx) = stalled();
+        drop(rx);
+        let mut log = InputLog::new(Some(&sender));
+        assert!(!sender.gone());
+        assert_eq!(
+            log.record(|| LogItem::Battery(0, 12.0)),
+            Some(LOGGER_GONE_NOTE)
+        );
+        assert!(sender.gone());
+        assert_eq!(sender.dropped(), 1);
     }
 }

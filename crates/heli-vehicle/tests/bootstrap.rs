@@ -125,6 +125,23 @@ fn polite_child(told: &Path) -> Vec<std::ffi::OsString> {
 }
 
 #[test]
+fn a_line_of_the_flight_process_that_is_not_utf8_is_said_and_the_next_ones_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = "echo ready 4; printf 'tele\\377metry\\n'; while read line; do case \"$line\" in \
+                  start*) echo started /logs/flight_a.mcap ;; stop) exit 0 ;; esac; done";
+    let boot = Running::start(
+        dir.path(),
+        vec!["sh".into(), "-c".into(), script.into()],
+        None,
+    );
+    assert!(boot.ctl("connect").unwrap().starts_with("ok connected"));
+    boot.wait_count("not the protocol", 1, Duration::from_secs(5));
+    let reply = boot.ctl("start-logging a autonomous hover").unwrap();
+    assert_eq!(reply, "ok flying, logging to /logs/flight_a.mcap");
+    assert_eq!(boot.ctl("stop").unwrap(), "ok stopped (exit code 0)");
+}
+
+#[test]
 fn the_status_follows_the_flight_from_idle_to_flying_and_back() {
     let dir = tempfile::tempdir().unwrap();
     let told = dir.path().join("told");

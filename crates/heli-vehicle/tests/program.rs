@@ -568,6 +568,23 @@ fn a_flight_process_whose_bootstrap_is_gone_in_the_air_flies_on_and_is_taken_bac
         "error not understood: 'hello'",
         Duration::from_secs(5),
     );
+    // A line that is not UTF-8 is answered too, and the lines after it are read: it is
+    // not the bootstrap's end (which would end the flight on the ground, or fly on deaf).
+    to_flight.write_all(b"st\xffop\n").unwrap();
+    wait_in(&said, "error not understood: 'st", Duration::from_secs(5));
+    writeln!(to_flight, "start again manual").unwrap();
+    let end = Instant::now() + Duration::from_secs(5);
+    while said
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|l| l.contains("error already started"))
+        .count()
+        < 2
+    {
+        assert!(Instant::now() < end, "the line after it was not read");
+        std::thread::sleep(Duration::from_millis(10));
+    }
     // While it lives, a second flight process on the same socket refuses to start.
     let second = dir.path().join("second");
     std::fs::create_dir_all(&second).unwrap();

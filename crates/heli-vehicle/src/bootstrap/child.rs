@@ -10,8 +10,12 @@ use crate::error::ChildProblem;
 /// thread: the bootstrap's loop sees only messages. Whether it said `stopped`.
 fn read_lines(from: impl BufRead, generation: u32, tx: &Sender<Msg>) -> bool {
     let mut said_stopped = false;
-    for line in from.lines() {
-        let Ok(line) = line else { break };
+    // Bytes, not text: a line that is not UTF-8 is said as not the protocol, and the lines
+    // after it are read (stopping here would leave the process's pipe to fill).
+    for line in from.split(b'\n') {
+        let Ok(bytes) = line else { break };
+        let line = String::from_utf8_lossy(&bytes);
+        let line = line.strip_suffix('\r').unwrap_or(&line).to_string();
         let said = match FromFlight::parse(&line) {
             Ok(message) => {
                 said_stopped |= matches!(message, FromFlight::Stopped(_));
