@@ -71,6 +71,16 @@ pub(crate) fn certify(args: &CertifyArgs) -> Result<ExitCode> {
         Some(p) => p.clone(),
         None => crate::onboard_program(" (or name one with --vehicle)")?,
     };
+    // Both directories are checked before anything is flown (the replays take minutes);
+    // the defaults are the repository's, relative to where the command runs.
+    for (option, dir) in [("--library", &args.library), ("--suite", &args.suite)] {
+        if !dir.is_dir() {
+            bail!(
+                "{option} {}: not a directory (the default is the repository's: run from its root, or name the directory)",
+                dir.display()
+            );
+        }
+    }
     let identity = heli_vehicle::lab::identity(&vehicle, &args.log_dir).map_err(|e| anyhow!(e))?;
     let table = if heli_vehicle::params::path_in(&args.log_dir).exists() {
         heli_vehicle::params::load(&args.log_dir)?

@@ -312,6 +312,11 @@ fn replay(args: &HilsimArgs, flight: &Path, json: Option<JsonOut>) -> Result<Exi
             "played      {} device inputs over {:.1} s",
             report.inputs_played, report.played_s
         );
+        if let Some(stop_s) = report.operator_stop_s {
+            println!(
+                "stopped     the recorded flight's operator pressed Stop at t={stop_s:.1} s: commands compared up to it (a replay plays the devices, not the operator: the flight computer flies on past it: end it with ctl stop, or ctl kill confirmed on the ground bench if it refuses)"
+            );
+        }
         println!(
             "compared    {} of {} recorded servo commands paired ({} sent), largest time offset {:.1} ms, {} on the other IMU samples",
             c.paired,

@@ -185,6 +185,22 @@ fn the_lab_tools_say_how_to_build_the_onboard_program_where_it_is_missing() {
             && certify.contains("--vehicle"),
         "{certify}"
     );
+    // With the onboard program there, directories that are not are said before anything
+    // is flown: the defaults are the repository's, relative to where heli runs.
+    let onboard = dir.path().join("heli-vehicle");
+    std::fs::write(&onboard, b"#!/bin/sh\nexit 1\n").unwrap();
+    let suite = run(&["certify", "--log-dir", ".", "--key", "link.key"]);
+    assert!(
+        suite.contains("--library flights: not a directory") && suite.contains("run from its root"),
+        "{suite}"
+    );
+    std::fs::create_dir(dir.path().join("flights")).unwrap();
+    let suite = run(&["certify", "--log-dir", ".", "--key", "link.key"]);
+    assert!(
+        suite.contains("--suite campaigns/robustness: not a directory"),
+        "{suite}"
+    );
+    std::fs::remove_file(&onboard).unwrap();
     let field_day = run(&["field-day", "--out", "fd"]);
     assert!(
         field_day.contains(&format!("the onboard program {missing} is not built"))

@@ -42,6 +42,31 @@ pub struct Recording {
 }
 
 impl Recording {
+    /// When the recorded flight's operator asked it to Stop (its clock, µs), if it was
+    /// asked: the replay plays device inputs, not the operator, so the flight computer
+    /// fed them flies on past it, and its commands after it are not the recording's.
+    pub fn operator_stop_us(&self) -> Option<u64> {
+        self.inputs
+            .iter()
+            .find(|(_, i)| matches!(i, RecordedInput::StopRequested))
+            .map(|(t, _)| *t)
+    }
+
+    /// The recorded commands a replay played to `last_us` is compared with: from the
+    /// start to the last input played, and not past the operator's Stop.
+    fn compared(&self, last_us: u64) -> Vec<(u64, Pulses)> {
+        let end_us = self
+            .operator_stop_us()
+            .map_or(last_us, |stop_us| stop_us.min(last_us));
+        self.servo
+            .iter()
+            .copied()
+            .filter(|(t, _)| *t >= self.start_us && *t < end_us.saturating_add(1))
+            .collect()
+    }
+}
+
+impl Recording {
     /// Reads the `device` and `servo` channels of a log. Errors name the message that is
     /// malformed, or say that the log has no device inputs.
     pub fn from_log(contents: &LogContents) -> Result<Self, ReplayError> {
@@ -115,6 +140,9 @@ pub struct ReplayReport {
     pub dropped_writes: u64,
     /// Seconds of recorded flight played.
     pub played_s: f64,
+    /// Seconds into the recorded flight at which its operator asked it to Stop, if it did:
+    /// the commands are compared up to it (the replay does not press Stop).
+    pub operator_stop_s: Option<f64>,
     /// The servo commands compared.
     pub comparison: Comparison,
 }
@@ -270,16 +298,18 @@ pub fn run(
         std::thread::sleep(Duration::from_millis(5));
         collect(&mut framer, &mut replayed);
     }
-    let window: Vec<(u64, Pulses)> = rec
-        .servo
-        .iter()
-        .copied()
-        .filter(|(t, _)| *t >= rec.start_us && *t <= last_t)
-        .collect();
+    let window = rec.compared(last_t);
+    // The replayed computer's commands past the operator's Stop are not compared either.
+    if let Some(stop_us) = rec.operator_stop_us() {
+        replayed.retain(|(t, _)| *t <= stop_us);
+    }
     Ok(ReplayReport {
         inputs_played: played,
         dropped_writes: dropped,
         played_s: last_t.saturating_sub(rec.start_us) as f64 * 1e-6,
+        operator_stop_s: rec
+            .operator_stop_us()
+            .map(|t| t.saturating_sub(rec.start_us) as f64 * 1e-6),
         comparison: compare(&window, &replayed, options.tolerance),
     })
 }
@@ -289,6 +319,35 @@ mod tests {
     use super::*;
     use heli_proto::battery::BatteryAdc;
     use heli_proto::compass::CompassAdc;
+
+    #[test]
+    fn the_commands_are_compared_up_to_the_operator_s_stop_and_the_last_input_played() {
+        let command = Pulses::from_controls(&Controls::default());
+        let mut rec = Recording {
+            start_us: 100,
+            inputs: vec![
+                (150, RecordedInput::Tick),
+                (300, RecordedInput::StopRequested),
+                (400, RecordedInput::StopRequested),
+            ],
+            servo: [50, 100, 200, 300, 301, 500]
+                .into_iter()
+                .map(|t| (t, command))
+                .collect(),
+        };
+        let times = |v: Vec<(u64, Pulses)>| v.into_iter().map(|(t, _)| t).collect::<Vec<_>>();
+        assert_eq!(rec.operator_stop_us(), Some(300), "the first Stop");
+        assert_eq!(times(rec.compared(600)), [100, 200, 300]);
+        assert_eq!(
+            times(rec.compared(200)),
+            [100, 200],
+            "not past the inputs played"
+        );
+        rec.inputs
+            .retain(|(_, i)| !matches!(i, RecordedInput::StopRequested));
+        assert_eq!(rec.operator_stop_us(), None);
+        assert_eq!(times(rec.compared(600)), [100, 200, 300, 301, 500]);
+    }
 
     #[test]
     fn the_files_hold_the_recorded_first_readings_before_the_computer_starts() {
