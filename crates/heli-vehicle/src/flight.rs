@@ -316,13 +316,8 @@ pub fn run(
     drop(log);
     // A logger that panicked still has an account: its file, and why it ends early.
     let log_report = log_thread.map(|h| {
-        h.join().unwrap_or_else(|_| LogReport {
-            path: log_path.unwrap_or_default(),
-            error: Some(
-                "the logger thread panicked: the log ends where it stopped, unclosed".into(),
-            ),
-            ..LogReport::default()
-        })
+        h.join()
+            .unwrap_or_else(|_| LogReport::panicked(log_path.unwrap_or_default()))
     });
     let (stats, inputs) = outcome.map_err(|_| VehicleError::Panicked("control loop"))?;
     Ok(FlightSummary {

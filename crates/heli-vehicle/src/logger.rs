@@ -158,6 +158,19 @@ pub struct LogReport {
     pub error: Option<String>,
 }
 
+impl LogReport {
+    /// The account of a logger thread that panicked: its file, and why the log ends early.
+    pub fn panicked(path: PathBuf) -> Self {
+        Self {
+            path,
+            error: Some(
+                "the logger thread panicked: the log ends where it stopped, unclosed".into(),
+            ),
+            ..Self::default()
+        }
+    }
+}
+
 /// Closes `log` and completes `report` with the writer's account.
 fn close<F: heli_log::LogFile>(log: FlightLog<F>, report: &mut LogReport) {
     let stats = log.stats();
@@ -460,6 +473,18 @@ mod tests {
             (1, 0, 0)
         );
         assert_eq!(report.error, None);
+    }
+
+    #[test]
+    fn a_logger_that_panicked_has_an_account_naming_its_file_and_why() {
+        let report = LogReport::panicked(PathBuf::from("/var/heli/flight_t1.mcap"));
+        assert_eq!(report.path, PathBuf::from("/var/heli/flight_t1.mcap"));
+        assert!(
+            report
+                .error
+                .is_some_and(|e| e.starts_with("the logger thread panicked")),
+            "read as no log otherwise"
+        );
     }
 
     #[test]
