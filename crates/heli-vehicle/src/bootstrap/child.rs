@@ -440,6 +440,15 @@ mod tests {
             Ok(None),
             "no record, nothing to say"
         );
+        // A record whose time cannot be read (here a path through a file: not a
+        // directory, not a missing file) is said.
+        let blocker = dir.path().join("a-file");
+        std::fs::write(&blocker, "").unwrap();
+        let unreadable = record_age(&blocker.join("warm-start"), now).unwrap_err();
+        assert!(
+            unreadable.contains("its time cannot be read") && unreadable.contains("a-file"),
+            "{unreadable}"
+        );
         std::fs::write(&path, "airborne = true\n").unwrap();
         let file = std::fs::File::options().write(true).open(&path).unwrap();
         file.set_modified(now - Duration::from_secs(5)).unwrap();
