@@ -57,16 +57,22 @@ fn a_crash_before_start_logging_is_not_restarted() {
     assert!(!told.exists());
 }
 
+/// A warm-start record in `dir` of the flight `bo1`, airborne or not.
+fn warm_record(dir: &Path, airborne: bool) -> std::path::PathBuf {
+    let warm = dir.join("warm-start");
+    std::fs::write(
+        &warm,
+        format!("start = bo1 autonomous hover\nairborne = {airborne}\ngyro_bias_rps = 0 0 0\n"),
+    )
+    .unwrap();
+    warm
+}
+
 #[test]
 fn power_on_with_a_fresh_record_of_a_flying_helicopter_resumes_the_flight() {
     let dir = tempfile::tempdir().unwrap();
     let told = dir.path().join("told");
-    let warm = dir.path().join("warm-start");
-    std::fs::write(
-        &warm,
-        "start = bo1 autonomous hover\nairborne = true\ngyro_bias_rps = 0 0 0\n",
-    )
-    .unwrap();
+    let warm = warm_record(dir.path(), true);
     let boot = Running::start(dir.path(), crashing_child(&told), Some(&warm));
     boot.wait_count("resuming the flight in the air", 1, Duration::from_secs(5));
     boot.wait_count("CRASHED", 1, Duration::from_secs(5));
@@ -75,12 +81,7 @@ fn power_on_with_a_fresh_record_of_a_flying_helicopter_resumes_the_flight() {
     drop(boot);
     // A record of a helicopter on the ground is no reason to start anything.
     let dir = tempfile::tempdir().unwrap();
-    let warm = dir.path().join("warm-start");
-    std::fs::write(
-        &warm,
-        "start = bo1 autonomous hover\nairborne = false\ngyro_bias_rps = 0 0 0\n",
-    )
-    .unwrap();
+    let warm = warm_record(dir.path(), false);
     let boot = Running::start(dir.path(), crashing_child(&told), Some(&warm));
     boot.wait_count("not resuming", 1, Duration::from_secs(5));
     assert_eq!(boot.count("flight process started"), 0);
@@ -92,12 +93,7 @@ fn power_on_with_a_record_dated_after_the_clock_says_so_and_does_not_resume() {
     // written before the power failed is dated after "now", and its age is unknown.
     let dir = tempfile::tempdir().unwrap();
     let told = dir.path().join("told");
-    let warm = dir.path().join("warm-start");
-    std::fs::write(
-        &warm,
-        "start = bo1 autonomous hover\nairborne = true\ngyro_bias_rps = 0 0 0\n",
-    )
-    .unwrap();
+    let warm = warm_record(dir.path(), true);
     std::fs::File::options()
         .write(true)
         .open(&warm)
