@@ -52,6 +52,23 @@ impl AcceptErrors {
         let run = std::mem::take(&mut self.run);
         (run > 0).then(|| format!("accepts again, after {run} failed"))
     }
+
+    /// The outcome of an accept on `socket` (its name, for what is said on standard
+    /// error): the connection, or `None` after saying a spell's first failure and waiting
+    /// [`ACCEPT_BACK_OFF`].
+    pub fn take<T>(&mut self, socket: &str, outcome: io::Result<T>) -> Option<T> {
+        let (said, taken) = match outcome {
+            Ok(connection) => (self.accepted(), Some(connection)),
+            Err(e) => (self.failed(&e), None),
+        };
+        if let Some(note) = said {
+            eprintln!("{socket}: {note}");
+        }
+        if taken.is_none() {
+            std::thread::sleep(ACCEPT_BACK_OFF);
+        }
+        taken
+    }
 }
 
 /// The name of the socket in its directory.

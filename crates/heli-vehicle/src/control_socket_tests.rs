@@ -358,4 +358,19 @@ fn a_spell_of_failed_accepts_is_said_once_and_its_end_with_the_count() {
     );
     assert_eq!(errors.accepted(), None);
     assert!(errors.failed(&e).is_some(), "a new spell");
+    // An accept's outcome: the connection taken, a failure counted (and waited out).
+    let mut errors = AcceptErrors::default();
+    assert_eq!(errors.take("test socket", Ok(7)), Some(7));
+    assert_eq!(
+        errors.take::<u8>("test socket", Err(io::Error::from_raw_os_error(24))),
+        None
+    );
+    assert_eq!(
+        errors.take::<u8>("test socket", Err(io::Error::from_raw_os_error(24))),
+        None
+    );
+    assert_eq!(
+        errors.accepted().as_deref(),
+        Some("accepts again, after 2 failed")
+    );
 }

@@ -298,20 +298,8 @@ pub fn serve(
     let live = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
     let mut errors = control_socket::AcceptErrors::default();
     for stream in listener.incoming() {
-        let mut stream = match stream {
-            Ok(stream) => {
-                if let Some(note) = errors.accepted() {
-                    eprintln!("control socket: {note}");
-                }
-                stream
-            }
-            Err(e) => {
-                if let Some(note) = errors.failed(&e) {
-                    eprintln!("control socket: {note}");
-                }
-                std::thread::sleep(control_socket::ACCEPT_BACK_OFF);
-                continue;
-            }
+        let Some(mut stream) = errors.take("control socket", stream) else {
+            continue;
         };
         let _ = stream.set_write_timeout(Some(Duration::from_secs(1)));
         let refusal = match control_socket::peer_allowed(&stream) {

@@ -450,21 +450,9 @@ impl BootstrapLines {
         let listener = self.listener.as_ref()?;
         let mut errors = crate::control_socket::AcceptErrors::default();
         loop {
-            let mut stream = match listener.accept() {
-                Ok((stream, _)) => {
-                    if let Some(note) = errors.accepted() {
-                        eprintln!("adoption socket: {note}");
-                    }
-                    stream
-                }
-                Err(e) => {
-                    // Said on standard error: no bootstrap hears this process now.
-                    if let Some(note) = errors.failed(&e) {
-                        eprintln!("adoption socket: {note}");
-                    }
-                    std::thread::sleep(crate::control_socket::ACCEPT_BACK_OFF);
-                    continue;
-                }
+            // Said on standard error: no bootstrap hears this process now.
+            let Some((mut stream, _)) = errors.take("adoption socket", listener.accept()) else {
+                continue;
             };
             let log = self
                 .log_name
