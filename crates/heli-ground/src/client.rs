@@ -44,6 +44,9 @@ pub enum ClientError {
         heard: bool,
         /// The vehicle's word on refusing this ground's frames, which names the cause.
         refused: Option<String>,
+        /// Why the last frame sent could not go out, when it could not (no route, the
+        /// interface down): then the vehicle never heard the question.
+        send_failed: Option<String>,
     },
     /// The vehicle has no parameter of that name.
     NoSuchParameter(String),
@@ -71,12 +74,18 @@ impl fmt::Display for ClientError {
                 seconds,
                 heard,
                 refused,
-            } => match refused {
-                Some(refusal) => write!(
+                send_failed,
+            } => match (refused, send_failed) {
+                (Some(refusal), _) => write!(
                     f,
                     "{what}: the vehicle at {vehicle} refused this ground's frames: {refusal}"
                 ),
-                None => write!(
+                (None, Some(e)) => write!(
+                    f,
+                    "{what}: no answer from the vehicle at {vehicle} within {seconds:.0} s: \
+                     sending to it failed ({e})"
+                ),
+                (None, None) => write!(
                     f,
                     "{what}: no answer from the vehicle at {vehicle} within {seconds:.0} s{}",
                     if *heard {
@@ -110,6 +119,8 @@ pub struct Client {
     last_heartbeat: Option<Instant>,
     texts_shown: usize,
     on_text: TextSink,
+    /// Why the last send failed, while sends fail.
+    send_failed: Option<String>,
 }
 
 impl Client {
@@ -141,11 +152,14 @@ impl Client {
             last_heartbeat: None,
             texts_shown: 0,
             on_text,
+            send_failed: None,
         })
     }
 
-    fn send(&self, datagram: &[u8]) {
-        let _ = self.socket.send(datagram);
+    /// Sends `datagram` to the vehicle; a failure is kept for the error that says there was
+    /// no answer.
+    fn send(&mut self, datagram: &[u8]) {
+        self.send_failed = self.socket.send(datagram).err().map(|e| e.to_string());
     }
 
     fn no_answer(&self, what: impl Into<String>) -> ClientError {
@@ -155,6 +169,7 @@ impl Client {
             seconds: self.timeout.as_secs_f64(),
             heard: self.link.heartbeat.is_some(),
             refused: self.link.refusal_of_ours().map(str::to_string),
+            send_failed: self.send_failed.clone(),
         }
     }
 
@@ -334,5 +349,42 @@ impl Client {
                 return Err(ClientError::Transfer(why));
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn no_answer(refused: Option<&str>, send_failed: Option<&str>, heard: bool) -> String {
+        ClientError::NoAnswer {
+            what: "arm".into(),
+            vehicle: "10.0.0.2:14550".parse().unwrap(),
+            seconds: 5.0,
+            heard,
+            refused: refused.map(str::to_string),
+            send_failed: send_failed.map(str::to_string),
+        }
+        .to_string()
+    }
+
+    #[test]
+    fn no_answer_names_the_cause_it_knows() {
+        let silent = no_answer(None, None, false);
+        assert!(
+            silent.starts_with("arm: no answer from the vehicle at 10.0.0.2:14550 within 5 s")
+                && silent.contains("no heartbeat either"),
+            "{silent}"
+        );
+        let unsent = no_answer(None, Some("Network is unreachable (os error 101)"), false);
+        assert!(
+            unsent.ends_with("sending to it failed (Network is unreachable (os error 101))"),
+            "{unsent}"
+        );
+        let refused = no_answer(Some("unsigned"), Some("x"), true);
+        assert!(
+            refused.contains("refused this ground's frames: unsigned"),
+            "{refused}"
+        );
     }
 }

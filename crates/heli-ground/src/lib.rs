@@ -9,7 +9,8 @@
 //!   operators' control token ([`operators`]), the log transfer after Stop ([`transfer`]),
 //!   and the [`view::View`] a page draws;
 //! - its I/O, [`server`]: a UDP socket to the vehicle and an HTTP server with a WebSocket
-//!   (axum on tokio) serving the page, whose files are embedded in the binary (`web/`).
+//!   (axum on tokio) serving the page, whose files are embedded in the binary (`web/`);
+//!   what it says when the network fails its datagrams is [`datagrams`].
 //!
 //! What it is not: flight code. The ground station never links the flight software; it only
 //! speaks the link protocol (`heli-link`) and shares the safety rule (`heli-control`).
@@ -29,6 +30,7 @@ pub mod bench;
 pub mod checks;
 pub mod client;
 pub mod command;
+pub mod datagrams;
 pub mod display;
 pub mod facts;
 pub mod lab;

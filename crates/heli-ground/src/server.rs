@@ -25,6 +25,7 @@ use tokio::sync::broadcast;
 
 use heli_web::gate::Role;
 
+use crate::datagrams::Datagrams;
 use crate::refusal::SaveError;
 use crate::station::{Output, Station, StationConfig};
 
@@ -171,8 +172,13 @@ async fn serve(config: ServerConfig, ready: impl FnOnce(Served)) -> Result<(), S
         views: views.clone(),
         frames: frames.clone(),
     };
-    tokio::spawn(receive(Arc::clone(&udp), Arc::clone(&station)));
-    tokio::spawn(send(Arc::clone(&udp), outgoing));
+    let said = Datagrams::new(config.vehicle);
+    tokio::spawn(receive(
+        Arc::clone(&udp),
+        Arc::clone(&station),
+        said.clone(),
+    ));
+    tokio::spawn(send(Arc::clone(&udp), outgoing, Arc::clone(&station), said));
     tokio::spawn(step(frames, Arc::clone(&station), views));
     let app = Router::new()
         .route("/ws", get(ws))
@@ -210,22 +216,36 @@ async fn shutdown() {
     let _ = tokio::signal::ctrl_c().await;
 }
 
-/// Datagrams from the vehicle into the station.
-async fn receive(udp: Arc<UdpSocket>, station: Shared) {
+/// Datagrams from the vehicle into the station. A receive that fails (nothing listening
+/// at the vehicle's address yet: ICMP refused) is said once, and again when one comes.
+async fn receive(udp: Arc<UdpSocket>, station: Shared, mut said: Datagrams) {
     let mut buf = vec![0u8; 65_536];
     loop {
-        match udp.recv(&mut buf).await {
+        let outcome = udp.recv(&mut buf).await;
+        let note = said.received(&outcome);
+        if let Some((severity, text)) = note {
+            lock(&station).note(severity, text);
+        }
+        match outcome {
             Ok(n) => lock(&station).receive(buf.get(..n).unwrap_or(&[]), unix_us()),
-            // Nothing listening at the vehicle's address yet (ICMP refused): keep going.
             Err(_) => tokio::time::sleep(TICK).await,
         }
     }
 }
 
-/// Frames to the vehicle, in the order they were queued.
-async fn send(udp: Arc<UdpSocket>, mut outgoing: tokio::sync::mpsc::UnboundedReceiver<Vec<u8>>) {
+/// Frames to the vehicle, in the order they were queued. A send that fails is said once,
+/// and again when one goes out.
+async fn send(
+    udp: Arc<UdpSocket>,
+    mut outgoing: tokio::sync::mpsc::UnboundedReceiver<Vec<u8>>,
+    station: Shared,
+    mut said: Datagrams,
+) {
     while let Some(frame) = outgoing.recv().await {
-        let _ = udp.send(&frame).await;
+        let outcome = udp.send(&frame).await;
+        if let Some((severity, text)) = said.sent(&outcome) {
+            lock(&station).note(severity, text);
+        }
     }
 }
 
@@ -237,9 +257,10 @@ async fn step(frames: Frames, station: Shared, views: broadcast::Sender<Arc<str>
     loop {
         ticker.tick().await;
         let now = unix_us();
-        let (saves, view) = {
+        let (saves, writes, view) = {
             let mut s = lock(&station);
             let mut saves = Vec::new();
+            let mut writes = Vec::new();
             for out in s.tick(now) {
                 match out {
                     // Queued under the lock: in signing order.
@@ -247,17 +268,33 @@ async fn step(frames: Frames, station: Shared, views: broadcast::Sender<Arc<str>
                         let _ = frames.send(frame);
                     }
                     Output::Save(path, bytes) => saves.push((path, bytes)),
-                    Output::Write(path, bytes) => {
-                        if let Err(e) = std::fs::write(&path, &bytes) {
-                            s.note("error", format!("{}: {e}", path.display()));
-                        }
-                    }
+                    Output::Write(path, bytes) => writes.push((path, bytes)),
                 }
             }
             n = n.wrapping_add(1);
             let view = n.is_multiple_of(VIEW_EVERY_TICKS).then(|| s.view(now));
-            (saves, view)
+            (saves, writes, view)
         };
+        if !writes.is_empty() {
+            // In order, off the runtime's threads and outside the station's lock (a sync
+            // can take the storage's time), before the next step.
+            let failed = tokio::task::spawn_blocking(move || {
+                writes
+                    .into_iter()
+                    .filter_map(|(path, bytes)| {
+                        replace(&path, &bytes)
+                            .err()
+                            .map(|e| format!("{}: {e}", path.display()))
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .await
+            .unwrap_or_else(|e| vec![format!("the file writer stopped: {e}")]);
+            let mut s = lock(&station);
+            for text in failed {
+                s.note("error", text);
+            }
+        }
         for (path, bytes) in saves {
             let station = Arc::clone(&station);
             tokio::task::spawn_blocking(move || {
@@ -272,6 +309,15 @@ async fn step(frames: Frames, station: Shared, views: broadcast::Sender<Arc<str>
             let _ = views.send(Arc::from(json));
         }
     }
+}
+
+/// Writes `bytes` over the file at `path` whole (a temporary file beside it, synced,
+/// renamed over it): a crash of the ground computer leaves the old totals or the new ones.
+fn replace(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let name = path
+        .file_name()
+        .map_or_else(|| "file".to_string(), |n| n.to_string_lossy().to_string());
+    heli_log::replace::replace_file(path, &path.with_file_name(format!(".{name}.tmp")), bytes)
 }
 
 /// Saves a transferred log at `path`, or next to it as `NAME-2.mcap`, `NAME-3.mcap`… when

@@ -3,8 +3,12 @@
 //! logs are numbered from 1 in the order of their names; a data request streams 90-byte
 //! `LOG_DATA` packets from an offset, paced by [`LogServer::next_packets`]; the ground asks
 //! again for what it did not receive (a lost packet costs only itself). The files are read
-//! through [`LogStore`], so this side has no file I/O of its own.
+//! through [`LogStore`], so this side has no file I/O of its own. What the store cannot do —
+//! a directory it cannot list, a log it cannot read — comes back as text for the vehicle to
+//! say to the ground (a `STATUSTEXT`), since the log protocol has no word for it: a read
+//! that fails is said once, with its cause, until a read works again.
 
+use heli_types::Spell;
 use mavlink::dialects::common::*;
 
 /// Bytes of log per `LOG_DATA` packet.
@@ -23,14 +27,25 @@ pub struct LogInfo {
     pub time_utc: u32,
 }
 
+/// The logs a store holds, and what it could not look at.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Listing {
+    /// The logs, by id.
+    pub logs: Vec<LogInfo>,
+    /// What could not be listed (a directory or a file the store could not read), each
+    /// with where and why: the logs there are missing from `logs`.
+    pub problems: Vec<String>,
+}
+
 /// Where the logs are.
 pub trait LogStore {
-    /// The logs, by id.
-    fn list(&self) -> Vec<LogInfo>;
+    /// The logs, by id, and what could not be listed.
+    fn list(&self) -> Listing;
     /// Reads up to `buf.len()` bytes of the log named `name` (as [`LogStore::list`] gave it)
-    /// from `ofs`; the count read (0 at the end or for an unknown log). By name, so that a
-    /// new log appearing during a transfer cannot change which file is read.
-    fn read(&self, name: &str, ofs: u32, buf: &mut [u8]) -> usize;
+    /// from `ofs`: the count read (0 at the end), or why it could not be read (where and
+    /// what the system said; a log that is gone). By name, so that a new log appearing
+    /// during a transfer cannot change which file is read.
+    fn read(&self, name: &str, ofs: u32, buf: &mut [u8]) -> Result<usize, String>;
 }
 
 /// A data request being served.
@@ -49,12 +64,14 @@ pub struct LogServer {
     transfer: Option<Transfer>,
     /// Packets sent.
     pub packets_sent: u64,
+    /// Reads of the store that failed, since the last one that worked.
+    read_failures: Spell,
 }
 
 impl LogServer {
-    /// The `LOG_ENTRY` answers to a list request for ids `start..=end` (0xFFFF: the last).
-    pub fn entries(store: &dyn LogStore, start: u16, end: u16) -> Vec<MavMessage> {
-        let logs = store.list();
+    /// The `LOG_ENTRY` answers to a list request for ids `start..=end` (0xFFFF: the last),
+    /// of the store's `logs`.
+    pub fn entries(logs: &[LogInfo], start: u16, end: u16) -> Vec<MavMessage> {
         let num_logs = u16::try_from(logs.len()).unwrap_or(u16::MAX);
         let last = logs.iter().map(|l| l.id).max().unwrap_or(0);
         if logs.is_empty() {
@@ -75,13 +92,14 @@ impl LogServer {
             .collect()
     }
 
-    /// Starts serving `count` bytes of log `id` from `ofs` (a later request replaces it).
-    pub fn request(&mut self, store: &dyn LogStore, id: u16, ofs: u32, count: u32) {
-        let (name, size) = store
-            .list()
-            .into_iter()
-            .find(|l| l.id == id)
-            .map_or((String::new(), 0), |l| (l.name, l.size));
+    /// Starts serving `count` bytes of log `id` of the store's `logs` from `ofs` (a later
+    /// request replaces it). A log that is not there is served as an empty one, and said.
+    pub fn request(&mut self, logs: &[LogInfo], id: u16, ofs: u32, count: u32) -> Option<String> {
+        let found = logs.iter().find(|l| l.id == id);
+        let said = found
+            .is_none()
+            .then(|| format!("log {id}: no such log (the vehicle has {})", logs.len()));
+        let (name, size) = found.map_or((String::new(), 0), |l| (l.name.clone(), l.size));
         let end = ofs.saturating_add(count).min(size);
         self.transfer = Some(Transfer {
             id,
@@ -90,6 +108,7 @@ impl LogServer {
             end,
             size,
         });
+        said
     }
 
     /// Stops the transfer under way.
@@ -104,9 +123,16 @@ impl LogServer {
 
     /// Up to `max` packets of the transfer under way. The end of the file is told by a short
     /// packet (an empty one when the file ends on a packet boundary), as ArduPilot does; a
-    /// request that ends before the end of the file simply stops.
-    pub fn next_packets(&mut self, store: &dyn LogStore, max: usize) -> Vec<MavMessage> {
+    /// request that ends before the end of the file simply stops. A read that fails ends the
+    /// transfer without a packet (the ground asks again for what it lacks) and gives what to
+    /// say, for the first failure of a spell and the first read that works after it.
+    pub fn next_packets(
+        &mut self,
+        store: &dyn LogStore,
+        max: usize,
+    ) -> (Vec<MavMessage>, Option<String>) {
         let mut out = Vec::new();
+        let mut said = None;
         while out.len() < max {
             let Some(t) = self.transfer.as_mut() else {
                 break;
@@ -118,7 +144,24 @@ impl LogServer {
             let got = if want == 0 {
                 0
             } else {
-                store.read(&t.name, t.next, data.get_mut(..want).unwrap_or(&mut []))
+                match store.read(&t.name, t.next, data.get_mut(..want).unwrap_or(&mut [])) {
+                    Ok(n) => {
+                        if let Some(n) = self.read_failures.worked() {
+                            said = Some(format!("log {}: read again, after {n} failed", t.id));
+                        }
+                        n
+                    }
+                    Err(e) => {
+                        if self.read_failures.failed() {
+                            said = Some(format!(
+                                "log {} ({}) cannot be read at byte {}: {e}",
+                                t.id, t.name, t.next
+                            ));
+                        }
+                        self.transfer = None;
+                        break;
+                    }
+                }
             };
             let at_eof = t.next.saturating_add(u32::try_from(got).unwrap_or(0)) >= t.size;
             if got > 0 || at_eof {
@@ -144,7 +187,7 @@ impl LogServer {
                 self.transfer = None;
             }
         }
-        out
+        (out, said)
     }
 }
 
@@ -156,8 +199,9 @@ pub struct MemoryStore {
 }
 
 impl LogStore for MemoryStore {
-    fn list(&self) -> Vec<LogInfo> {
-        self.logs
+    fn list(&self) -> Listing {
+        let logs = self
+            .logs
             .iter()
             .enumerate()
             .map(|(i, (name, bytes))| LogInfo {
@@ -166,12 +210,16 @@ impl LogStore for MemoryStore {
                 size: u32::try_from(bytes.len()).unwrap_or(u32::MAX),
                 time_utc: 0,
             })
-            .collect()
+            .collect();
+        Listing {
+            logs,
+            problems: Vec::new(),
+        }
     }
 
-    fn read(&self, name: &str, ofs: u32, buf: &mut [u8]) -> usize {
+    fn read(&self, name: &str, ofs: u32, buf: &mut [u8]) -> Result<usize, String> {
         let Some((_, bytes)) = self.logs.iter().find(|(n, _)| n == name) else {
-            return 0;
+            return Err(format!("no log named {name}"));
         };
         let from = usize::try_from(ofs).unwrap_or(usize::MAX).min(bytes.len());
         let rest = bytes.get(from..).unwrap_or(&[]);
@@ -179,7 +227,7 @@ impl LogStore for MemoryStore {
         if let (Some(dst), Some(src)) = (buf.get_mut(..n), rest.get(..n)) {
             dst.copy_from_slice(src);
         }
-        n
+        Ok(n)
     }
 }
 
@@ -198,13 +246,13 @@ mod tests {
 
     #[test]
     fn the_list_names_every_log_and_an_empty_store_says_so() {
-        let entries = LogServer::entries(&store(), 0, 0xFFFF);
+        let entries = LogServer::entries(&store().list().logs, 0, 0xFFFF);
         assert_eq!(entries.len(), 2);
         let MavMessage::LOG_ENTRY(e) = &entries[1] else {
             panic!()
         };
         assert_eq!((e.id, e.size, e.num_logs, e.last_log_num), (2, 180, 2, 2));
-        let none = LogServer::entries(&MemoryStore::default(), 0, 0xFFFF);
+        let none = LogServer::entries(&MemoryStore::default().list().logs, 0, 0xFFFF);
         let MavMessage::LOG_ENTRY(e) = &none[0] else {
             panic!()
         };
@@ -214,7 +262,7 @@ mod tests {
     fn fetch(server: &mut LogServer, s: &MemoryStore) -> Vec<u8> {
         let mut bytes = Vec::new();
         while server.busy() {
-            for p in server.next_packets(s, 7) {
+            for p in server.next_packets(s, 7).0 {
                 let MavMessage::LOG_DATA(d) = p else { panic!() };
                 assert_eq!(d.ofs as usize, bytes.len());
                 bytes.extend_from_slice(&d.data[..usize::from(d.count)]);
@@ -227,10 +275,10 @@ mod tests {
     fn a_whole_log_is_served_in_order_and_ends_short() {
         let s = store();
         let mut server = LogServer::default();
-        server.request(&s, 1, 0, u32::MAX);
+        server.request(&s.list().logs, 1, 0, u32::MAX);
         assert_eq!(fetch(&mut server, &s), s.logs[0].1);
         // 180 bytes end on a packet boundary: an empty packet ends the request.
-        server.request(&s, 2, 0, u32::MAX);
+        server.request(&s.list().logs, 2, 0, u32::MAX);
         assert_eq!(fetch(&mut server, &s), s.logs[1].1);
     }
 
@@ -238,13 +286,13 @@ mod tests {
     fn a_gap_is_served_again_from_its_offset() {
         let s = store();
         let mut server = LogServer::default();
-        server.request(&s, 1, 450, 100);
-        let MavMessage::LOG_DATA(first) = &server.next_packets(&s, 1)[0] else {
+        server.request(&s.list().logs, 1, 450, 100);
+        let MavMessage::LOG_DATA(first) = &server.next_packets(&s, 1).0[0] else {
             panic!()
         };
         assert_eq!((first.ofs, first.count), (450, 90));
         assert_eq!(first.data[0], s.logs[0].1[450]);
-        let rest = server.next_packets(&s, 10);
+        let rest = server.next_packets(&s, 10).0;
         let MavMessage::LOG_DATA(last) = rest.last().unwrap() else {
             panic!()
         };
@@ -256,9 +304,68 @@ mod tests {
     fn an_unknown_log_ends_at_once() {
         let s = store();
         let mut server = LogServer::default();
-        server.request(&s, 9, 0, 100);
-        let packets = server.next_packets(&s, 10);
+        let said = server.request(&s.list().logs, 9, 0, 100);
+        assert_eq!(
+            said.as_deref(),
+            Some("log 9: no such log (the vehicle has 2)")
+        );
+        let (packets, said) = server.next_packets(&s, 10);
         assert_eq!(packets.len(), 1);
+        assert_eq!(said, None);
         assert!(!server.busy());
+    }
+
+    /// A store whose reads fail while `failing` is set.
+    struct Flaky {
+        inner: MemoryStore,
+        failing: std::cell::Cell<bool>,
+    }
+
+    impl LogStore for Flaky {
+        fn list(&self) -> Listing {
+            self.inner.list()
+        }
+        fn read(&self, name: &str, ofs: u32, buf: &mut [u8]) -> Result<usize, String> {
+            if self.failing.get() {
+                return Err("/var/heli/a.mcap: Input/output error (os error 5)".into());
+            }
+            self.inner.read(name, ofs, buf)
+        }
+    }
+
+    #[test]
+    fn a_read_that_fails_ends_the_transfer_and_is_said_once_a_spell() {
+        let s = Flaky {
+            inner: store(),
+            failing: std::cell::Cell::new(false),
+        };
+        let logs = s.list().logs;
+        let mut server = LogServer::default();
+        assert_eq!(server.request(&logs, 1, 0, u32::MAX), None);
+        let (first, said) = server.next_packets(&s, 2);
+        assert_eq!((first.len(), said), (2, None));
+        s.failing.set(true);
+        let (packets, said) = server.next_packets(&s, 5);
+        assert!(packets.is_empty(), "no packet for what was not read");
+        assert_eq!(
+            said.as_deref(),
+            Some(
+                "log 1 (a.mcap) cannot be read at byte 180: /var/heli/a.mcap: Input/output error (os error 5)"
+            )
+        );
+        assert!(
+            !server.busy(),
+            "the transfer is over: the ground asks again"
+        );
+        // The ground asks again; the read fails again: counted, not said again.
+        server.request(&logs, 1, 180, u32::MAX);
+        assert_eq!(server.next_packets(&s, 5), (Vec::new(), None));
+        s.failing.set(false);
+        server.request(&logs, 1, 180, u32::MAX);
+        let (packets, said) = server.next_packets(&s, 1);
+        assert_eq!(packets.len(), 1);
+        assert_eq!(said.as_deref(), Some("log 1: read again, after 2 failed"));
+        let (_, said) = server.next_packets(&s, 1);
+        assert_eq!(said, None);
     }
 }

@@ -343,12 +343,24 @@ impl VehicleLink {
                 self.command(&cmd, now_us, events);
             }
             MavMessage::LOG_REQUEST_LIST(r) if for_us(r.target_system) => {
-                for entry in LogServer::entries(store, r.start, r.end) {
+                let listing = store.list();
+                for entry in LogServer::entries(&listing.logs, r.start, r.end) {
                     self.send(&entry, now_us);
+                }
+                // What the list lacks, and why, after it.
+                for problem in &listing.problems {
+                    self.status_text(
+                        MavSeverity::MAV_SEVERITY_ERROR,
+                        &format!("log list: {problem}"),
+                        now_us,
+                    );
                 }
             }
             MavMessage::LOG_REQUEST_DATA(r) if for_us(r.target_system) => {
-                self.logs.request(store, r.id, r.ofs, r.count)
+                let listing = store.list();
+                if let Some(said) = self.logs.request(&listing.logs, r.id, r.ofs, r.count) {
+                    self.status_text(MavSeverity::MAV_SEVERITY_ERROR, &said, now_us);
+                }
             }
             MavMessage::LOG_REQUEST_END(r) if for_us(r.target_system) => self.logs.end(),
             MavMessage::PARAM_REQUEST_LIST(r) if for_us(r.target_system) => {
@@ -610,8 +622,12 @@ impl VehicleLink {
                 }
             }
         }
-        for packet in self.logs.next_packets(store, LOG_PACKETS_PER_TICK) {
+        let (packets, said) = self.logs.next_packets(store, LOG_PACKETS_PER_TICK);
+        for packet in packets {
             self.send(&packet, now_us);
+        }
+        if let Some(text) = said {
+            self.status_text(MavSeverity::MAV_SEVERITY_ERROR, &text, now_us);
         }
         let silent = self
             .heard_us

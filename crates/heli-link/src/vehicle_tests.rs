@@ -233,6 +233,95 @@ fn a_log_downloads_byte_exact_with_a_fifth_of_the_datagrams_lost_both_ways() {
     assert!(steps * 10 < 10_000, "{} ms", steps * 10);
 }
 
+/// A store that cannot read one of its directories, and whose reads fail while `failing`.
+struct Troubled {
+    inner: MemoryStore,
+    failing: std::cell::Cell<bool>,
+}
+
+impl LogStore for Troubled {
+    fn list(&self) -> crate::logs::Listing {
+        let mut listing = self.inner.list();
+        listing
+            .problems
+            .push("/dev/shm/heli-0: Permission denied (os error 13)".into());
+        listing
+    }
+    fn read(&self, name: &str, ofs: u32, buf: &mut [u8]) -> Result<usize, String> {
+        if self.failing.get() {
+            return Err(format!("{name}: Input/output error (os error 5)"));
+        }
+        self.inner.read(name, ofs, buf)
+    }
+}
+
+#[test]
+fn what_the_log_store_cannot_do_reaches_the_ground_once_a_spell() {
+    let mut v = VehicleLink::new(None, T0);
+    let mut g = GroundLink::new(None);
+    let mut t = T0;
+    let s = Troubled {
+        inner: store(),
+        failing: std::cell::Cell::new(true),
+    };
+    let carry = |v: &mut VehicleLink, g: &mut GroundLink, t: u64| {
+        for d in v.take_outgoing() {
+            g.receive(&d, t);
+        }
+    };
+    // 10 ms of both ends: the vehicle's tick, its datagrams, the ground's asking again.
+    let step = |v: &mut VehicleLink, g: &mut GroundLink, t: &mut u64| {
+        *t += 10_000;
+        v.tick(*t, VehicleStatus::default(), None, &s);
+        carry(v, g, *t);
+        if let Some(again) = g.download_tick(*t) {
+            v.receive(&again, *t, &s);
+        }
+    };
+    v.receive(&g.log_list_frame(t), t, &s);
+    carry(&mut v, &mut g, t);
+    assert_eq!(g.log_entries.len(), 1, "the logs it could list are listed");
+    assert!(
+        g.texts
+            .iter()
+            .any(|(sev, text)| *sev == MavSeverity::MAV_SEVERITY_ERROR
+                && text == "log list: /dev/shm/heli-0: Permission denied (os error 13)"),
+        "{:?}",
+        g.texts
+    );
+    let req = g.start_download(1, 20_000, t);
+    v.receive(&req, t, &s);
+    // The ground asks again and again (every 0.3 s without progress): one text.
+    for _ in 0..200 {
+        step(&mut v, &mut g, &mut t);
+    }
+    let failed: Vec<_> = g
+        .texts
+        .iter()
+        .filter(|(_, text)| text.contains("cannot be read"))
+        .collect();
+    assert_eq!(failed.len(), 1, "{:?}", g.texts);
+    assert_eq!(
+        failed[0].1,
+        "log 1 (flight_a.mcap) cannot be read at byte 0: flight_a.mcap: Input/output error (os error 5)"
+    );
+    assert!(g.download.as_ref().is_some_and(|d| d.received() == 0));
+    // The storage reads again: said, and the log comes whole.
+    s.failing.set(false);
+    for _ in 0..2000 {
+        step(&mut v, &mut g, &mut t);
+        if g.download.as_ref().is_some_and(|d| d.complete()) {
+            break;
+        }
+    }
+    assert!(
+        g.texts
+            .iter()
+            .any(|(_, text)| text.starts_with("log 1: read again, after "))
+    );
+    assert_eq!(g.download.as_ref().unwrap().bytes, s.inner.logs[0].1);
+}
+
 #[test]
 fn the_ground_falling_silent_is_an_event_and_its_return_too() {
     let mut v = VehicleLink::new(None, T0);

@@ -22,6 +22,8 @@
 //! - Conversion ([`records`], [`events`]): the flight software's stream records and core
 //!   events as log messages, shared by the simulator's logger and the vehicle runtime.
 //! - Export ([`to_csv`]) flattens one channel's messages into CSV for plotting elsewhere.
+//! - Small files kept beside the logs ([`replace`]) are replaced whole and synced, so that a
+//!   power loss leaves the old one or the new one.
 //!
 //! What it is not: the stream buffers themselves (heli-fsw), or plots of a log (the
 //! workstation's `heli-campaign`): the onboard program links this crate.
@@ -35,6 +37,7 @@ pub mod inputs;
 pub mod metadata;
 pub mod reader;
 pub mod records;
+pub mod replace;
 pub mod scene;
 pub mod schema;
 pub mod stats;
@@ -65,6 +68,9 @@ pub fn file_name(stream: &str, suffix: &str, extension: &str) -> String {
 pub enum LogError {
     /// The file could not be created, written or read.
     Io(std::io::Error),
+    /// The file's data could not be synced to the storage (`sync_data`): what was written
+    /// since the last sync that worked may not survive a power loss.
+    Sync(std::io::Error),
     /// The MCAP layer refused.
     Mcap(mcap::McapError),
     /// A message could not be encoded.
@@ -83,6 +89,11 @@ impl fmt::Display for LogError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             LogError::Io(e) => write!(f, "flight log: {e}"),
+            LogError::Sync(e) => write!(
+                f,
+                "flight log: sync to the storage failed ({e}): what was written since the last \
+                 sync that worked may not survive a power loss"
+            ),
             LogError::Mcap(e) => write!(f, "flight log (MCAP): {e}"),
             LogError::Encode(e) => write!(f, "flight log message: {e}"),
             LogError::Finished => write!(f, "flight log: already finished"),

@@ -21,6 +21,8 @@ pub struct FileState {
     pub syncs: u64,
     /// Fail this many coming writes.
     pub fail_writes: u32,
+    /// Fail this many coming `sync_data` calls.
+    pub fail_syncs: u32,
     /// A full disk: the file cannot grow past this many bytes; a write that would is short,
     /// and the next one fails.
     pub capacity: Option<u64>,
@@ -74,7 +76,12 @@ impl Seek for SharedFile {
 
 impl LogFile for SharedFile {
     fn sync_data(&mut self) -> io::Result<()> {
-        self.0.borrow_mut().syncs += 1;
+        let mut state = self.0.borrow_mut();
+        state.syncs += 1;
+        if state.fail_syncs > 0 {
+            state.fail_syncs -= 1;
+            return Err(io::Error::other("I/O error (test)"));
+        }
         Ok(())
     }
 

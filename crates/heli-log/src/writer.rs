@@ -157,6 +157,9 @@ pub struct WriterStats {
     /// Messages dropped because the file refused writes for longer than
     /// [`MAX_BACKLOG_BYTES`] of records lasts.
     pub dropped: u64,
+    /// `sync_data` calls that failed: what was written since the last one that worked may
+    /// not be on the storage.
+    pub failed_syncs: u64,
 }
 
 /// The bytes mcap has produced and the file has not yet received.
@@ -218,6 +221,8 @@ pub struct FlightLog<F: LogFile> {
     last_flush_wall: Instant,
     /// Set while the file refuses writes: when it was last tried.
     failing_since: Option<Instant>,
+    /// Set while the file refuses to sync: since when.
+    sync_failing_since: Option<Instant>,
     last_attempt_wall: Instant,
     last_sync_wall: Option<Instant>,
     unsynced: bool,
@@ -283,6 +288,7 @@ impl<F: LogFile> FlightLog<F> {
             chunk_start_us: None,
             last_flush_wall: Instant::now(),
             failing_since: None,
+            sync_failing_since: None,
             last_attempt_wall: Instant::now(),
             last_sync_wall: None,
             unsynced: false,
@@ -381,9 +387,13 @@ impl<F: LogFile> FlightLog<F> {
         }
     }
 
-    /// Since when the file has refused writes (`None` while it takes them).
+    /// Since when the file has refused writes or syncs (`None` while it takes both): a
+    /// failed sync counts until a sync works, as data it did not sync may be lost.
     pub fn failing_since(&self) -> Option<Instant> {
-        self.failing_since
+        match (self.failing_since, self.sync_failing_since) {
+            (Some(w), Some(s)) => Some(w.min(s)),
+            (w, s) => w.or(s),
+        }
     }
 
     /// Records a named set of key–value pairs (an MCAP Metadata record) and flushes, so that it
@@ -477,10 +487,17 @@ impl<F: LogFile> FlightLog<F> {
             .is_none_or(|t| t.elapsed() >= SYNC_EVERY_WALL);
         if self.unsynced && (always || due) {
             let file = self.file.as_mut().ok_or(LogError::Finished)?;
-            file.sync_data()?;
-            self.unsynced = false;
+            let synced = file.sync_data();
+            // A failed sync is tried again after the same wait as a sync that worked.
             self.last_sync_wall = Some(Instant::now());
             self.stats.syncs += 1;
+            if let Err(e) = synced {
+                self.stats.failed_syncs += 1;
+                self.sync_failing_since.get_or_insert(Instant::now());
+                return Err(LogError::Sync(e));
+            }
+            self.unsynced = false;
+            self.sync_failing_since = None;
         }
         Ok(())
     }

@@ -31,15 +31,14 @@ pub const ACCEPT_BACK_OFF: Duration = Duration::from_millis(100);
 /// accept after it with how many failed; every failure is counted.
 #[derive(Debug, Default)]
 pub struct AcceptErrors {
-    /// Failures since the last accept that worked.
-    run: u64,
+    /// The failures since the last accept that worked.
+    spell: heli_types::Spell,
 }
 
 impl AcceptErrors {
     /// An accept failed with `e`: what to say, for the first failure of a spell.
     pub fn failed(&mut self, e: &io::Error) -> Option<String> {
-        self.run = self.run.saturating_add(1);
-        (self.run == 1).then(|| {
+        self.spell.failed().then(|| {
             format!(
                 "accept failed ({e}): trying again every {} ms",
                 ACCEPT_BACK_OFF.as_millis()
@@ -49,8 +48,9 @@ impl AcceptErrors {
 
     /// An accept worked: what to say, after a spell of failures.
     pub fn accepted(&mut self) -> Option<String> {
-        let run = std::mem::take(&mut self.run);
-        (run > 0).then(|| format!("accepts again, after {run} failed"))
+        self.spell
+            .worked()
+            .map(|run| format!("accepts again, after {run} failed"))
     }
 
     /// The outcome of an accept on `socket` (its name, for what is said on standard

@@ -364,6 +364,7 @@ pub fn run(process: &FlightProcessArgs) -> Result<ExitCode> {
         "log_error": summary.log.as_ref().and_then(|l| l.error.clone()),
         "log_storage_dropped": summary.log.as_ref().map(|l| l.dropped),
         "log_failed_writes": summary.log.as_ref().map(|l| l.failed_writes),
+        "log_failed_syncs": summary.log.as_ref().map(|l| l.failed_syncs),
         "log_dropped": summary.log_dropped,
     });
     say(FromFlight::Stopped(json));

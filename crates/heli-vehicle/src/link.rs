@@ -15,7 +15,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use heli_link::logs::{LogInfo, LogStore};
+use heli_link::logs::{Listing, LogInfo, LogStore};
 use heli_link::signing::Key;
 use heli_link::telemetry::Telemetry;
 use heli_link::vehicle::{BootstrapState, LinkEvent, VehicleLink, VehicleStatus};
@@ -186,33 +186,54 @@ impl DirStore {
         }
     }
 
-    /// Every log's name, directory and metadata, by name.
-    fn files(&self) -> Vec<(String, &PathBuf, std::fs::Metadata)> {
+    /// Every log's name, directory and metadata, by name, and what could not be looked at
+    /// (a directory that is not there is not a problem: the fallback directory exists only
+    /// once a flight has fallen back to it).
+    fn files(&self) -> (Vec<(String, &PathBuf, std::fs::Metadata)>, Vec<String>) {
         let mut files: BTreeMap<String, (&PathBuf, std::fs::Metadata)> = BTreeMap::new();
+        let mut problems = Vec::new();
         for dir in &self.dirs {
-            let Ok(entries) = std::fs::read_dir(dir) else {
-                continue;
+            let entries = match std::fs::read_dir(dir) {
+                Ok(entries) => entries,
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+                Err(e) => {
+                    problems.push(format!("{}: {e}", dir.display()));
+                    continue;
+                }
             };
-            for entry in entries.filter_map(Result::ok) {
+            for entry in entries {
+                let entry = match entry {
+                    Ok(entry) => entry,
+                    Err(e) => {
+                        problems.push(format!("{}: {e}", dir.display()));
+                        continue;
+                    }
+                };
                 let name = entry.file_name().to_string_lossy().to_string();
-                if let Ok(meta) = entry.metadata()
-                    && name.ends_with(".mcap")
-                    && meta.is_file()
-                {
-                    files.entry(name).or_insert((dir, meta));
+                if !name.ends_with(".mcap") {
+                    continue;
+                }
+                match entry.metadata() {
+                    Ok(meta) if meta.is_file() => {
+                        files.entry(name).or_insert((dir, meta));
+                    }
+                    Ok(_) => {}
+                    Err(e) => problems.push(format!("{}: {e}", dir.join(&name).display())),
                 }
             }
         }
-        files
+        let files = files
             .into_iter()
             .map(|(name, (dir, meta))| (name, dir, meta))
-            .collect()
+            .collect();
+        (files, problems)
     }
 }
 
 impl LogStore for DirStore {
-    fn list(&self) -> Vec<LogInfo> {
-        self.files()
+    fn list(&self) -> Listing {
+        let (files, problems) = self.files();
+        let logs = files
             .into_iter()
             .take(usize::from(u16::MAX))
             .enumerate()
@@ -226,38 +247,47 @@ impl LogStore for DirStore {
                     .and_then(|m| m.duration_since(UNIX_EPOCH).ok())
                     .map_or(0, |d| u32::try_from(d.as_secs()).unwrap_or(u32::MAX)),
             })
-            .collect()
+            .collect();
+        Listing { logs, problems }
     }
 
-    fn read(&self, name: &str, ofs: u32, buf: &mut [u8]) -> usize {
+    fn read(&self, name: &str, ofs: u32, buf: &mut [u8]) -> Result<usize, String> {
         use std::io::{Read, Seek, SeekFrom};
-        // Only a log of the directory, by its plain name.
+        // Only a log of the directories, by its plain name.
         if name.is_empty() || name.contains('/') || !name.ends_with(".mcap") {
-            return 0;
+            return Err(format!("{name:?} is not a log's name"));
         }
         let mut open = self.open.borrow_mut();
         if open.as_ref().is_none_or(|(n, _)| n != name) {
-            *open = self
-                .files()
-                .into_iter()
-                .find(|(n, _, _)| n == name)
-                .and_then(|(_, dir, _)| std::fs::File::open(dir.join(name)).ok())
-                .map(|f| (name.to_string(), f));
+            *open = None;
+            let (files, _) = self.files();
+            let Some((_, dir, _)) = files.into_iter().find(|(n, _, _)| n == name) else {
+                return Err(format!("{name}: no longer in the log directories"));
+            };
+            let path = dir.join(name);
+            let file =
+                std::fs::File::open(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+            *open = Some((name.to_string(), file));
         }
         let Some((_, file)) = open.as_mut() else {
-            return 0;
+            return Err(format!("{name}: not open"));
         };
-        if file.seek(SeekFrom::Start(u64::from(ofs))).is_err() {
-            return 0;
-        }
+        let failed = |e: std::io::Error| format!("{name}: {e}");
+        file.seek(SeekFrom::Start(u64::from(ofs))).map_err(failed)?;
         let mut n = 0;
         while n < buf.len() {
             match file.read(buf.get_mut(n..).unwrap_or(&mut [])) {
-                Ok(0) | Err(_) => break,
+                Ok(0) => break,
                 Ok(k) => n = n.saturating_add(k),
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    // The file is opened afresh for the next read.
+                    *open = None;
+                    return Err(failed(e));
+                }
             }
         }
-        n
+        Ok(n)
     }
 }
 

@@ -154,6 +154,9 @@ pub struct LogReport {
     pub dropped: u64,
     /// Writes to the file that failed (each undone, and tried again).
     pub failed_writes: u64,
+    /// Syncs of the file to the storage that failed (each tried again; what they left
+    /// unsynced may not have survived a power loss).
+    pub failed_syncs: u64,
     /// What went wrong, if anything did: the first storage failure, and a failure to close.
     pub error: Option<String>,
 }
@@ -177,6 +180,7 @@ fn close<F: heli_log::LogFile>(log: FlightLog<F>, report: &mut LogReport) {
     report.messages = log.messages();
     report.dropped = stats.dropped;
     report.failed_writes = stats.failed_writes;
+    report.failed_syncs = stats.failed_syncs;
     if let Err(e) = log.finish() {
         let closing = format!(
             "the log could not be closed ({e}): what was held in memory for it is not in the file"
@@ -282,12 +286,18 @@ impl StorageWatch {
         let path = report.path.display().to_string();
         if let Err(e) = result {
             if self.failing.is_none() && !matches!(e, heli_log::LogError::Dropped { .. }) {
-                note(format!(
-                    "flight log {path}: {e}; up to {} MiB kept in memory for it, \
-                     messages past that dropped and counted, retried every {} s",
-                    heli_log::writer::MAX_BACKLOG_BYTES >> 20,
-                    heli_log::writer::RETRY_EVERY_WALL.as_secs()
-                ));
+                note(match e {
+                    heli_log::LogError::Sync(_) => format!(
+                        "flight log {path}: {e}; the sync is tried again every {} ms",
+                        heli_log::SYNC_EVERY_WALL.as_millis()
+                    ),
+                    _ => format!(
+                        "flight log {path}: {e}; up to {} MiB kept in memory for it, \
+                         messages past that dropped and counted, retried every {} s",
+                        heli_log::writer::MAX_BACKLOG_BYTES >> 20,
+                        heli_log::writer::RETRY_EVERY_WALL.as_secs()
+                    ),
+                });
                 self.failing = Some(log.stats().dropped);
             }
             report.error.get_or_insert(e.to_string());
@@ -356,11 +366,13 @@ mod tests {
         (sender, rx)
     }
 
-    /// A log file in memory whose writes fail while `full` is set.
+    /// A log file in memory whose writes fail while `full` is set, and whose syncs fail
+    /// while `unsyncable` is.
     #[derive(Clone, Default)]
     struct Disk {
         bytes: std::rc::Rc<std::cell::RefCell<std::io::Cursor<Vec<u8>>>>,
         full: std::rc::Rc<std::cell::Cell<bool>>,
+        unsyncable: std::rc::Rc<std::cell::Cell<bool>>,
     }
 
     impl std::io::Write for Disk {
@@ -382,22 +394,34 @@ mod tests {
     }
 
     impl heli_log::LogFile for Disk {
+        fn sync_data(&mut self) -> std::io::Result<()> {
+            if self.unsyncable.get() {
+                return Err(std::io::Error::other("I/O error (test)"));
+            }
+            Ok(())
+        }
         fn set_len(&mut self, len: u64) -> std::io::Result<()> {
             self.bytes.borrow_mut().get_mut().truncate(len as usize);
             Ok(())
         }
     }
 
-    #[test]
-    fn a_storage_failure_is_said_once_when_it_begins_and_again_with_the_drops_when_it_ends() {
+    /// A log on a [`Disk`], and the report of a flight's logger writing it.
+    fn on_disk() -> (Disk, FlightLog<Disk>, LogReport) {
         let disk = Disk::default();
-        let mut log = FlightLog::new(disk.clone()).unwrap();
-        let said = std::sync::Mutex::new(Vec::<String>::new());
-        let note = |text: String| said.lock().unwrap().push(text);
-        let mut report = LogReport {
+        let log = FlightLog::new(disk.clone()).unwrap();
+        let report = LogReport {
             path: PathBuf::from("/var/heli/flight_t1.mcap"),
             ..LogReport::default()
         };
+        (disk, log, report)
+    }
+
+    #[test]
+    fn a_storage_failure_is_said_once_when_it_begins_and_again_with_the_drops_when_it_ends() {
+        let (disk, mut log, mut report) = on_disk();
+        let said = std::sync::Mutex::new(Vec::<String>::new());
+        let note = |text: String| said.lock().unwrap().push(text);
         let mut storage = StorageWatch {
             t_us: 7_000_000,
             ..StorageWatch::default()
@@ -439,6 +463,42 @@ mod tests {
             .collect();
         assert_eq!(notes.len(), 1);
         assert_eq!(notes[0].t_us, 7_000_000, "at the time of the last item");
+    }
+
+    #[test]
+    fn a_storage_that_will_not_sync_is_said_once_and_again_when_it_syncs() {
+        let (disk, mut log, mut report) = on_disk();
+        let said = std::sync::Mutex::new(Vec::<String>::new());
+        let note = |text: String| said.lock().unwrap().push(text);
+        let mut storage = StorageWatch::default();
+        let result = log.write("imu", 0, &json!({"k": 0}));
+        storage.after(&mut log, result, &mut report, &note);
+        disk.unsyncable.set(true);
+        for k in 1..4u64 {
+            std::thread::sleep(heli_log::SYNC_EVERY_WALL + Duration::from_millis(5));
+            let result = log
+                .write("imu", k * 10_000, &json!({"k": k}))
+                .and_then(|()| log.flush());
+            storage.after(&mut log, result, &mut report, &note);
+        }
+        {
+            let said = said.lock().unwrap();
+            assert_eq!(said.len(), 1, "once: {said:?}");
+            assert!(
+                said[0].contains("sync to the storage failed")
+                    && said[0].contains("may not survive a power loss")
+                    && said[0].contains("tried again every 50 ms"),
+                "{said:?}"
+            );
+        }
+        disk.unsyncable.set(false);
+        std::thread::sleep(heli_log::SYNC_EVERY_WALL + Duration::from_millis(5));
+        let result = log.flush_if_due().map(|_| ());
+        storage.after(&mut log, result, &mut report, &note);
+        assert_eq!(said.lock().unwrap().len(), 2, "{:?}", said.lock().unwrap());
+        close(log, &mut report);
+        assert_eq!(report.failed_syncs, 3, "{report:?}");
+        assert_eq!(report.failed_writes, 0, "{report:?}");
     }
 
     #[test]

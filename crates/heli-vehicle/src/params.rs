@@ -130,12 +130,11 @@ pub fn load_file(path: &Path) -> Result<ParamTable, VehicleError> {
     Ok(table)
 }
 
-/// Writes the table's text to `log_dir`'s file, whole (a temporary file renamed over it).
+/// Writes the table's text to `log_dir`'s file, whole (a temporary file, synced, renamed
+/// over it: a parameter the operator set survives a power loss).
 pub fn save(log_dir: &Path, text: &str) -> Result<(), VehicleError> {
     let path = path_in(log_dir);
-    let tmp = log_dir.join(".params.tmp");
-    std::fs::write(&tmp, text)
-        .and_then(|()| std::fs::rename(&tmp, &path))
+    heli_log::replace::replace_file(&path, &log_dir.join(".params.tmp"), text.as_bytes())
         .map_err(|e| VehicleError::file(path, e))
 }
 

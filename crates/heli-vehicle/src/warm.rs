@@ -284,11 +284,14 @@ impl WarmFile {
         })
     }
 
-    /// Writes the file atomically: a temporary file beside it, then a rename.
+    /// Writes the file whole: a temporary file beside it, synced, then renamed over it
+    /// (a power loss leaves the old record or this one, never an empty file).
     pub fn write(&self, path: &Path) -> std::io::Result<()> {
-        let tmp = path.with_extension("tmp");
-        std::fs::write(&tmp, self.to_text())?;
-        std::fs::rename(&tmp, path)
+        heli_log::replace::replace_file(
+            path,
+            &path.with_extension("tmp"),
+            self.to_text().as_bytes(),
+        )
     }
 
     /// Reads the file; `Ok(None)` when there is none.

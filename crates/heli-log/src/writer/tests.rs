@@ -144,6 +144,44 @@ fn flushes_are_synced_at_most_every_50_ms_and_always_at_the_end() {
 }
 
 #[test]
+fn a_failed_sync_is_an_error_and_the_log_fails_until_a_sync_works() {
+    let file = SharedFile::default();
+    let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));
+    log.write("imu", 0, &json!({"k": 0}))
+        .unwrap_or_else(|e| panic!("{e}"));
+    std::thread::sleep(SYNC_EVERY_WALL + Duration::from_millis(5));
+    file.0.borrow_mut().fail_syncs = 2;
+    let e = log.flush().expect_err("the sync failed");
+    assert!(matches!(e, LogError::Sync(_)), "{e}");
+    assert!(
+        e.to_string().contains("may not survive a power loss"),
+        "{e}"
+    );
+    let failing = log.failing_since().expect("failing after a failed sync");
+    assert_eq!(log.stats().failed_syncs, 1);
+    // The next write goes out, but the data is still not synced: the log still fails, and
+    // the sync is tried again (once its wait is over) without a new write needing it.
+    log.write("imu", 10_000, &json!({"k": 1}))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(log.failing_since(), Some(failing));
+    std::thread::sleep(SYNC_EVERY_WALL + Duration::from_millis(5));
+    assert!(matches!(log.flush_if_due(), Err(LogError::Sync(_))));
+    assert_eq!(log.stats().failed_syncs, 2);
+    assert_eq!(
+        log.failing_since(),
+        Some(failing),
+        "the spell's start is kept"
+    );
+    std::thread::sleep(SYNC_EVERY_WALL + Duration::from_millis(5));
+    log.flush_if_due().unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(log.failing_since(), None, "a sync that works ends it");
+    log.finish().unwrap_or_else(|e| panic!("{e}"));
+    let contents = read(&file.bytes());
+    assert_eq!((contents.stopped, contents.closed), (None, true));
+    assert_eq!(contents.messages.len(), 2, "nothing written was lost");
+}
+
+#[test]
 fn a_failed_write_is_retried_and_nothing_is_lost() {
     let file = SharedFile::default();
     let mut log = FlightLog::new(file.clone()).unwrap_or_else(|e| panic!("{e}"));

@@ -154,17 +154,49 @@ fn a_directory_of_logs_is_listed_and_read() {
     std::fs::write(dir.path().join("flight_a.mcap"), vec![1u8; 100]).unwrap();
     std::fs::write(dir.path().join("warm-start"), "x").unwrap();
     let store = DirStore::new(vec![dir.path().to_path_buf()]);
-    let list = store.list();
+    let listing = store.list();
+    assert!(listing.problems.is_empty(), "{:?}", listing.problems);
+    let list = listing.logs;
     assert_eq!(list.len(), 2);
     assert_eq!(
         (list[0].id, list[0].name.as_str(), list[0].size),
         (1, "flight_a.mcap", 100)
     );
     let mut buf = [0u8; 90];
-    assert_eq!(store.read("flight_b.mcap", 250, &mut buf), 50);
+    assert_eq!(store.read("flight_b.mcap", 250, &mut buf), Ok(50));
     assert_eq!(buf[0], 2);
-    assert_eq!(store.read("flight_c.mcap", 0, &mut buf), 0);
-    assert_eq!(store.read("../warm-start", 0, &mut buf), 0);
+    assert_eq!(store.read("flight_b.mcap", 300, &mut buf), Ok(0), "the end");
+    // A log that is gone, and a name that is not a log's: said, not read as an end.
+    assert_eq!(
+        store.read("flight_c.mcap", 0, &mut buf),
+        Err("flight_c.mcap: no longer in the log directories".into())
+    );
+    assert!(store.read("../warm-start", 0, &mut buf).is_err());
+}
+
+#[test]
+fn what_the_log_directories_refuse_is_said_not_listed_as_no_logs() {
+    let disk = tempfile::tempdir().unwrap();
+    let ram = tempfile::tempdir().unwrap();
+    std::fs::write(ram.path().join("flight_b.mcap"), vec![2u8; 100]).unwrap();
+    // A log directory that cannot be read (here: a file where the directory should be,
+    // which even root cannot list).
+    let not_a_dir = disk.path().join("logs");
+    std::fs::write(&not_a_dir, "x").unwrap();
+    let store = DirStore::new(vec![not_a_dir.clone(), ram.path().to_path_buf()]);
+    let listing = store.list();
+    assert_eq!(
+        listing.logs.len(),
+        1,
+        "the readable directory's log is listed"
+    );
+    assert_eq!(listing.problems.len(), 1, "{:?}", listing.problems);
+    assert!(
+        listing.problems[0].starts_with(&format!("{}: ", not_a_dir.display()))
+            && listing.problems[0].contains("directory"),
+        "{:?}",
+        listing.problems
+    );
 }
 
 #[test]
@@ -180,6 +212,7 @@ fn a_log_in_the_fallback_directory_is_listed_and_read_beside_the_log_directory_s
     let store = DirStore::new(vec![disk.path().to_path_buf(), ram.path().to_path_buf()]);
     let list: Vec<(u16, String, u32)> = store
         .list()
+        .logs
         .into_iter()
         .map(|l| (l.id, l.name, l.size))
         .collect();
@@ -192,15 +225,17 @@ fn a_log_in_the_fallback_directory_is_listed_and_read_beside_the_log_directory_s
         ]
     );
     let mut buf = [0u8; 90];
-    assert_eq!(store.read("flight_b.mcap", 150, &mut buf), 50);
+    assert_eq!(store.read("flight_b.mcap", 150, &mut buf), Ok(50));
     assert_eq!(buf[0], 2);
-    assert_eq!(store.read("flight_c.mcap", 0, &mut buf), 30);
+    assert_eq!(store.read("flight_c.mcap", 0, &mut buf), Ok(30));
     assert_eq!(buf[0], 3);
-    assert_eq!(store.read("flight_a.mcap", 0, &mut buf), 90);
+    assert_eq!(store.read("flight_a.mcap", 0, &mut buf), Ok(90));
     assert_eq!(buf[0], 1);
     // A directory that is not there (no RAM disk) lists nothing, and the other still does.
     let store = DirStore::new(vec![ram.path().join("gone"), disk.path().to_path_buf()]);
-    assert_eq!(store.list().len(), 2);
+    let listing = store.list();
+    assert_eq!(listing.logs.len(), 2);
+    assert!(listing.problems.is_empty(), "{:?}", listing.problems);
 }
 
 #[test]
@@ -313,9 +348,10 @@ fn only_a_plain_log_name_of_the_directory_is_read() {
     let store = DirStore::new(vec![dir.path().to_path_buf()]);
     let mut buf = [0u8; 4];
     for refused in ["notes.txt", "sub/flight_b.mcap", ""] {
-        assert_eq!(store.read(refused, 0, &mut buf), 0, "{refused}");
+        let e = store.read(refused, 0, &mut buf).unwrap_err();
+        assert!(e.contains("is not a log's name"), "{refused}: {e}");
     }
-    assert_eq!(store.read("flight_a.mcap", 8, &mut buf), 2);
+    assert_eq!(store.read("flight_a.mcap", 8, &mut buf), Ok(2));
     assert_eq!(buf[..2], [1, 1]);
 }
 
