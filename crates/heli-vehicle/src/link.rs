@@ -274,18 +274,18 @@ impl LogStore for DirStore {
         };
         let failed = |e: std::io::Error| format!("{name}: {e}");
         file.seek(SeekFrom::Start(u64::from(ofs))).map_err(failed)?;
-        let mut n = 0;
-        while n < buf.len() {
-            match file.read(buf.get_mut(n..).unwrap_or(&mut [])) {
-                Ok(0) => break,
-                Ok(k) => n = n.saturating_add(k),
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) => {
-                    // The file is opened afresh for the next read.
-                    *open = None;
-                    return Err(failed(e));
-                }
-            }
+        // Up to the buffer's length or the end of the file (an interrupted read is taken up
+        // again by read_to_end).
+        let mut bytes = Vec::with_capacity(buf.len());
+        let limit = u64::try_from(buf.len()).unwrap_or(u64::MAX);
+        if let Err(e) = file.by_ref().take(limit).read_to_end(&mut bytes) {
+            // The file is opened afresh for the next read.
+            *open = None;
+            return Err(failed(e));
+        }
+        let n = bytes.len().min(buf.len());
+        if let (Some(dst), Some(src)) = (buf.get_mut(..n), bytes.get(..n)) {
+            dst.copy_from_slice(src);
         }
         Ok(n)
     }
