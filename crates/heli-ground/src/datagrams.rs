@@ -3,7 +3,10 @@
 //! commands and the station's heartbeats are not going out; a receive that fails (the
 //! vehicle's address refusing them: nothing listening there) means nothing comes back.
 //! Each is a [`Spell`]: its first failure is said with the cause, the rest are counted, and
-//! the first datagram through after them is said with the count. Sans-I/O: the server
+//! the first datagram through after them is said with the count. "Connection refused" is
+//! the vehicle's address refusing (the ICMP answer to an earlier datagram, handed by the
+//! system to whichever call on the socket comes next): the receiving side's failure, even
+//! when a send is the call that gets it. Sans-I/O: the server
 //! hands in the outcomes and puts what comes back in the message area.
 
 use std::net::SocketAddr;
@@ -32,8 +35,9 @@ impl Datagrams {
     }
 
     /// The outcome of sending a frame: what to say, at a spell's beginning or end.
-    pub fn sent<E: std::fmt::Display>(&mut self, outcome: &Result<usize, E>) -> Option<Said> {
+    pub fn sent(&mut self, outcome: &std::io::Result<usize>) -> Option<Said> {
         match outcome {
+            Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => self.received(outcome),
             Err(e) => self.sending.failed().then(|| {
                 (
                     "error",
@@ -57,7 +61,7 @@ impl Datagrams {
     }
 
     /// The outcome of a receive: what to say, at a spell's beginning or end.
-    pub fn received<E: std::fmt::Display>(&mut self, outcome: &Result<usize, E>) -> Option<Said> {
+    pub fn received(&mut self, outcome: &std::io::Result<usize>) -> Option<Said> {
         match outcome {
             Err(e) => self.receiving.failed().then(|| {
                 (
@@ -93,7 +97,7 @@ mod tests {
     #[test]
     fn a_failing_send_is_said_once_with_its_cause_and_its_end_with_the_count() {
         let mut d = Datagrams::new("127.0.0.1:14550".parse().unwrap());
-        assert_eq!(d.sent::<std::io::Error>(&Ok(20)), None);
+        assert_eq!(d.sent(&Ok(20)), None);
         let unreachable = Err(std::io::Error::other("network is unreachable"));
         let (severity, text) = d.sent(&unreachable).unwrap();
         assert_eq!(severity, "error");
@@ -103,10 +107,10 @@ mod tests {
         );
         assert_eq!(d.sent(&unreachable), None, "counted, not said again");
         assert_eq!(d.sent(&unreachable), None);
-        let (severity, text) = d.sent::<std::io::Error>(&Ok(20)).unwrap();
+        let (severity, text) = d.sent(&Ok(20)).unwrap();
         assert_eq!(severity, "info");
         assert!(text.contains("after 3 frames were lost"), "{text}");
-        assert_eq!(d.sent::<std::io::Error>(&Ok(20)), None);
+        assert_eq!(d.sent(&Ok(20)), None);
     }
 
     #[test]
@@ -116,10 +120,21 @@ mod tests {
         assert_eq!(severity, "warning");
         assert!(text.contains("10.0.0.2:14550"), "{text}");
         assert_eq!(d.received(&refused()), None);
-        let (_, text) = d.received::<std::io::Error>(&Ok(100)).unwrap();
+        let (_, text) = d.received(&Ok(100)).unwrap();
         assert!(text.contains("after 2 failed receives"), "{text}");
         // The two directions are separate spells.
-        assert!(d.sent(&refused()).is_some());
+        let unreachable = Err(std::io::Error::other("network is unreachable"));
+        assert!(d.sent(&unreachable).is_some());
         assert!(d.received(&refused()).is_some());
+    }
+
+    #[test]
+    fn a_refusal_handed_to_a_send_is_the_vehicle_not_listening_not_a_lost_send() {
+        let mut d = Datagrams::new("127.0.0.1:14550".parse().unwrap());
+        let (severity, text) = d.sent(&refused()).unwrap();
+        assert_eq!(severity, "warning");
+        assert!(text.starts_with("no datagrams from the vehicle"), "{text}");
+        assert_eq!(d.received(&refused()), None, "the same spell");
+        assert_eq!(d.sent(&Ok(20)), None, "no send was lost");
     }
 }

@@ -109,6 +109,9 @@ fn failed(doing: impl Into<String>) -> impl FnOnce(std::io::Error) -> ServerErro
     move |source| ServerError { doing, source }
 }
 
+/// What the network did with the link's datagrams, shared by the tasks that send and receive.
+type Said = Arc<Mutex<Datagrams>>;
+
 fn lock(station: &Shared) -> std::sync::MutexGuard<'_, Station> {
     station.lock().unwrap_or_else(PoisonError::into_inner)
 }
@@ -172,11 +175,12 @@ async fn serve(config: ServerConfig, ready: impl FnOnce(Served)) -> Result<(), S
         views: views.clone(),
         frames: frames.clone(),
     };
-    let said = Datagrams::new(config.vehicle);
+    // One account for both tasks: the system hands a refusal to whichever call comes next.
+    let said: Said = Arc::new(Mutex::new(Datagrams::new(config.vehicle)));
     tokio::spawn(receive(
         Arc::clone(&udp),
         Arc::clone(&station),
-        said.clone(),
+        Arc::clone(&said),
     ));
     tokio::spawn(send(Arc::clone(&udp), outgoing, Arc::clone(&station), said));
     tokio::spawn(step(frames, Arc::clone(&station), views));
@@ -218,11 +222,14 @@ async fn shutdown() {
 
 /// Datagrams from the vehicle into the station. A receive that fails (nothing listening
 /// at the vehicle's address yet: ICMP refused) is said once, and again when one comes.
-async fn receive(udp: Arc<UdpSocket>, station: Shared, mut said: Datagrams) {
+async fn receive(udp: Arc<UdpSocket>, station: Shared, said: Said) {
     let mut buf = vec![0u8; 65_536];
     loop {
         let outcome = udp.recv(&mut buf).await;
-        let note = said.received(&outcome);
+        let note = said
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .received(&outcome);
         if let Some((severity, text)) = note {
             lock(&station).note(severity, text);
         }
@@ -239,11 +246,15 @@ async fn send(
     udp: Arc<UdpSocket>,
     mut outgoing: tokio::sync::mpsc::UnboundedReceiver<Vec<u8>>,
     station: Shared,
-    mut said: Datagrams,
+    said: Said,
 ) {
     while let Some(frame) = outgoing.recv().await {
         let outcome = udp.send(&frame).await;
-        if let Some((severity, text)) = said.sent(&outcome) {
+        let note = said
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .sent(&outcome);
+        if let Some((severity, text)) = note {
             lock(&station).note(severity, text);
         }
     }
@@ -251,6 +262,8 @@ async fn send(
 
 /// The station's steps, its frames queued, its logs saved, the view to every page.
 async fn step(frames: Frames, station: Shared, views: broadcast::Sender<Arc<str>>) {
+    let (files, to_write) = tokio::sync::mpsc::unbounded_channel();
+    tokio::spawn(write_files(to_write, Arc::clone(&station)));
     let mut ticker = tokio::time::interval(TICK);
     ticker.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut n: u32 = 0;
@@ -275,25 +288,10 @@ async fn step(frames: Frames, station: Shared, views: broadcast::Sender<Arc<str>
             let view = n.is_multiple_of(VIEW_EVERY_TICKS).then(|| s.view(now));
             (saves, writes, view)
         };
-        if !writes.is_empty() {
-            // In order, off the runtime's threads and outside the station's lock (a sync
-            // can take the storage's time), before the next step.
-            let failed = tokio::task::spawn_blocking(move || {
-                writes
-                    .into_iter()
-                    .filter_map(|(path, bytes)| {
-                        replace(&path, &bytes)
-                            .err()
-                            .map(|e| format!("{}: {e}", path.display()))
-                    })
-                    .collect::<Vec<_>>()
-            })
-            .await
-            .unwrap_or_else(|e| vec![format!("the file writer stopped: {e}")]);
-            let mut s = lock(&station);
-            for text in failed {
-                s.note("error", text);
-            }
+        for write in writes {
+            // To the writer task: in order, outside the station's lock, and never holding
+            // the steps up (a storage that hangs must not stop the heartbeats).
+            let _ = files.send(write);
         }
         for (path, bytes) in saves {
             let station = Arc::clone(&station);
@@ -311,9 +309,29 @@ async fn step(frames: Frames, station: Shared, views: broadcast::Sender<Arc<str>
     }
 }
 
+/// Writes the station's files (the packs' totals) in the order they come, each whole, off the
+/// runtime's threads; a write that fails, or whose directory cannot be synced, is said.
+async fn write_files(
+    mut to_write: tokio::sync::mpsc::UnboundedReceiver<(PathBuf, Vec<u8>)>,
+    station: Shared,
+) {
+    while let Some((path, bytes)) = to_write.recv().await {
+        let shown = path.display().to_string();
+        let said = tokio::task::spawn_blocking(move || match replace(&path, &bytes) {
+            Ok(replaced) => replaced.warning().map(|w| ("warning", w)),
+            Err(e) => Some(("error", e.to_string())),
+        })
+        .await
+        .unwrap_or_else(|e| Some(("error", format!("the writer stopped: {e}"))));
+        if let Some((severity, text)) = said {
+            lock(&station).note(severity, format!("{shown}: {text}"));
+        }
+    }
+}
+
 /// Writes `bytes` over the file at `path` whole (a temporary file beside it, synced,
 /// renamed over it): a crash of the ground computer leaves the old totals or the new ones.
-fn replace(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+fn replace(path: &Path, bytes: &[u8]) -> std::io::Result<heli_log::replace::Replaced> {
     let name = path
         .file_name()
         .map_or_else(|| "file".to_string(), |n| n.to_string_lossy().to_string());
@@ -347,11 +365,18 @@ fn save(path: &Path, bytes: &[u8]) -> Result<PathBuf, SaveError> {
             .open(&candidate)
         {
             Ok(mut file) => {
-                return file
+                // Synced with its directory entry: a saved log survives the ground
+                // computer's power loss. A log that could not be written whole is removed
+                // (the vehicle still has it), never left as a part that looks saved.
+                let written = file
                     .write_all(bytes)
                     .and_then(|()| file.sync_all())
-                    .map(|()| candidate)
-                    .map_err(SaveError::Write);
+                    .and_then(|()| heli_log::replace::sync_dir(&candidate));
+                if let Err(e) = written {
+                    let _ = std::fs::remove_file(&candidate);
+                    return Err(SaveError::Write(e));
+                }
+                return Ok(candidate);
             }
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
             Err(e) => return Err(SaveError::Write(e)),

@@ -5,8 +5,10 @@
 //! again for what it did not receive (a lost packet costs only itself). The files are read
 //! through [`LogStore`], so this side has no file I/O of its own. What the store cannot do —
 //! a directory it cannot list, a log it cannot read — comes back as text for the vehicle to
-//! say to the ground (a `STATUSTEXT`), since the log protocol has no word for it: a read
-//! that fails is said once, with its cause, until a read works again.
+//! say to the ground (a `STATUSTEXT`), since the log protocol has no word for it: a log that
+//! cannot be read (a read that fails, an id the vehicle does not have) is said once, with its
+//! cause, however often the ground asks again, until a read of it works again; a failing log
+//! after another is said anew.
 
 use heli_types::Spell;
 use mavlink::dialects::common::*;
@@ -64,8 +66,44 @@ pub struct LogServer {
     transfer: Option<Transfer>,
     /// Packets sent.
     pub packets_sent: u64,
-    /// Reads of the store that failed, since the last one that worked.
-    read_failures: Spell,
+    /// The reads that fail.
+    failing: Failing,
+}
+
+/// The reads of the store that fail: the log failing now and its spell, and a count of
+/// every failure.
+#[derive(Clone, Debug, Default)]
+struct Failing {
+    log: Option<(u16, Spell)>,
+    total: u64,
+}
+
+impl Failing {
+    /// A read of log `id` failed: true when it is the first of a spell (to say) — the
+    /// first failure, or the first of another log than the one failing so far.
+    fn failed(&mut self, id: u16) -> bool {
+        self.total = self.total.saturating_add(1);
+        match &mut self.log {
+            Some((failing, spell)) if *failing == id => spell.failed(),
+            _ => {
+                let mut spell = Spell::default();
+                let first = spell.failed();
+                self.log = Some((id, spell));
+                first
+            }
+        }
+    }
+
+    /// A read of log `id` worked: the failures of its spell, if it ends one (to say).
+    fn worked(&mut self, id: u16) -> Option<u64> {
+        match self.log.take() {
+            Some((failing, mut spell)) if failing == id => spell.worked(),
+            other => {
+                self.log = other;
+                None
+            }
+        }
+    }
 }
 
 impl LogServer {
@@ -96,9 +134,14 @@ impl LogServer {
     /// request replaces it). A log that is not there is served as an empty one, and said.
     pub fn request(&mut self, logs: &[LogInfo], id: u16, ofs: u32, count: u32) -> Option<String> {
         let found = logs.iter().find(|l| l.id == id);
-        let said = found
-            .is_none()
-            .then(|| format!("log {id}: no such log (the vehicle has {})", logs.len()));
+        let said = if found.is_none() && self.failing.failed(id) {
+            Some(format!(
+                "log {id}: no such log (the vehicle has {})",
+                logs.len()
+            ))
+        } else {
+            None
+        };
         let (name, size) = found.map_or((String::new(), 0), |l| (l.name.clone(), l.size));
         let end = ofs.saturating_add(count).min(size);
         self.transfer = Some(Transfer {
@@ -146,17 +189,18 @@ impl LogServer {
             } else {
                 match store.read(&t.name, t.next, data.get_mut(..want).unwrap_or(&mut [])) {
                     Ok(n) => {
-                        if let Some(n) = self.read_failures.worked() {
+                        if let Some(n) = self.failing.worked(t.id) {
                             said = Some(format!("log {}: read again, after {n} failed", t.id));
                         }
                         n
                     }
                     Err(e) => {
-                        if self.read_failures.failed() {
-                            said = Some(format!(
-                                "log {} ({}) cannot be read at byte {}: {e}",
-                                t.id, t.name, t.next
-                            ));
+                        let text = format!(
+                            "log {} ({}) cannot be read at byte {}: {e}",
+                            t.id, t.name, t.next
+                        );
+                        if self.failing.failed(t.id) {
+                            said = Some(text);
                         }
                         self.transfer = None;
                         break;
@@ -188,6 +232,11 @@ impl LogServer {
             }
         }
         (out, said)
+    }
+
+    /// Reads of the store that failed (every log, every request).
+    pub fn read_failures(&self) -> u64 {
+        self.failing.total
     }
 }
 
@@ -313,6 +362,14 @@ mod tests {
         assert_eq!(packets.len(), 1);
         assert_eq!(said, None);
         assert!(!server.busy());
+        // The ground asks again at once (an empty packet ends its request): said once.
+        for _ in 0..50 {
+            assert_eq!(server.request(&s.list().logs, 9, 0, 100), None);
+            server.next_packets(&s, 10);
+        }
+        // Another log that is not there is said anew.
+        assert!(server.request(&s.list().logs, 8, 0, 100).is_some());
+        assert_eq!(server.read_failures(), 52);
     }
 
     /// A store whose reads fail while `failing` is set.
@@ -367,5 +424,19 @@ mod tests {
         assert_eq!(said.as_deref(), Some("log 1: read again, after 2 failed"));
         let (_, said) = server.next_packets(&s, 1);
         assert_eq!(said, None);
+        // Log 1 fails, then log 2: each is said (one log's spell does not hide another's),
+        // and a read of log 2 that works says nothing of log 1.
+        s.failing.set(true);
+        server.request(&logs, 1, 0, u32::MAX);
+        assert!(server.next_packets(&s, 1).1.is_some());
+        server.request(&logs, 2, 0, u32::MAX);
+        let (_, said) = server.next_packets(&s, 1);
+        assert!(said.is_some_and(|t| t.starts_with("log 2 (b.mcap) cannot be read")));
+        s.failing.set(false);
+        server.request(&logs, 2, 0, u32::MAX);
+        assert_eq!(
+            server.next_packets(&s, 1).1.as_deref(),
+            Some("log 2: read again, after 1 failed")
+        );
     }
 }

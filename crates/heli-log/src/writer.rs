@@ -238,17 +238,24 @@ impl FlightLog<File> {
     }
 
     /// Creates a log file at `path`, refusing to replace one that is there (a flight's log
-    /// is never overwritten by the next flight that reuses its name).
-    /// A file it made but could not start (a full disk takes the name, not the bytes) is
-    /// removed again: the name stays free and no empty log is left behind.
+    /// is never overwritten by the next flight that reuses its name). Its directory is
+    /// synced once the file is started, so that the log's name, not only its bytes, survives
+    /// a power loss. A file it made but could not start (a full disk takes the name, not the
+    /// bytes), or whose directory cannot be synced, is removed again: the name stays free
+    /// and no empty log is left behind.
     pub fn create_new(path: &Path) -> Result<Self, LogError> {
         let file = std::fs::OpenOptions::new()
             .write(true)
             .create_new(true)
             .open(path)?;
-        Self::new(file).inspect_err(|_| {
-            let _ = std::fs::remove_file(path);
-        })
+        Self::new(file)
+            .and_then(|log| {
+                crate::replace::sync_dir(path).map_err(LogError::Sync)?;
+                Ok(log)
+            })
+            .inspect_err(|_| {
+                let _ = std::fs::remove_file(path);
+            })
     }
 }
 
@@ -387,13 +394,15 @@ impl<F: LogFile> FlightLog<F> {
         }
     }
 
-    /// Since when the file has refused writes or syncs (`None` while it takes both): a
-    /// failed sync counts until a sync works, as data it did not sync may be lost.
+    /// Since when the file has refused writes (`None` while it takes them).
     pub fn failing_since(&self) -> Option<Instant> {
-        match (self.failing_since, self.sync_failing_since) {
-            (Some(w), Some(s)) => Some(w.min(s)),
-            (w, s) => w.or(s),
-        }
+        self.failing_since
+    }
+
+    /// Since when the file has refused to sync (`None` once a sync works): data it did not
+    /// sync may be lost, even after a later sync works.
+    pub fn sync_failing_since(&self) -> Option<Instant> {
+        self.sync_failing_since
     }
 
     /// Records a named set of key–value pairs (an MCAP Metadata record) and flushes, so that it

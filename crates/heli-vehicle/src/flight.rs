@@ -573,27 +573,39 @@ impl WarmKeeper {
         let thread = rt::thread("warm-start", rt::HELPER_STACK_BYTES)
             .spawn(move || {
                 let mut failing = vec![false; paths.len()];
-                for record in rx {
-                    for (path, failing) in paths.iter().zip(failing.iter_mut()) {
+                while let Ok(mut record) = rx.recv() {
+                    // Newest wins: records that queued up while the storage was slow (each
+                    // write is synced) are passed over for the last one.
+                    while let Ok(newer) = rx.try_recv() {
+                        record = newer;
+                    }
+                    // The last path first: the fallback directory, in RAM, is written at
+                    // once, whatever the log directory's storage takes.
+                    for (path, failing) in paths.iter().zip(failing.iter_mut()).rev() {
                         let result = match record {
                             Some(warm) => {
                                 crate::warm::WarmFile::for_successor(warm, start.clone(), &clock)
                                     .write(path)
                             }
-                            None => crate::warm::remove(path),
+                            None => crate::warm::remove(path)
+                                .map(|()| heli_log::replace::Replaced::Durably),
                         };
-                        let text = match (&result, *failing) {
-                            (Err(e), false) => format!(
-                                "warm-start record {}: {e}: a restart now resumes from an older \
-                                 record or none",
-                                path.display()
-                            ),
-                            (Ok(()), true) => {
+                        let problem = match &result {
+                            Err(e) => Some(format!(
+                                "{e}: a restart now resumes from an older record or none"
+                            )),
+                            Ok(replaced) => replaced.warning(),
+                        };
+                        let text = match (problem, *failing) {
+                            (Some(problem), false) => {
+                                format!("warm-start record {}: {problem}", path.display())
+                            }
+                            (None, true) => {
                                 format!("warm-start record {}: written again", path.display())
                             }
                             _ => continue,
                         };
-                        *failing = result.is_err();
+                        *failing = !*failing;
                         report(Report::Event {
                             t_us: clock.now_us(),
                             severity: if *failing {

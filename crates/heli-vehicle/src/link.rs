@@ -174,7 +174,7 @@ fn mav_severity(said: &Said) -> MavSeverity {
 pub struct DirStore {
     dirs: Vec<PathBuf>,
     /// The log being read, kept open between packets (a transfer reads it 90 bytes at a time).
-    open: std::cell::RefCell<Option<(String, std::fs::File)>>,
+    open: std::cell::RefCell<Option<(String, PathBuf, std::fs::File)>>,
 }
 
 impl DirStore {
@@ -258,7 +258,7 @@ impl LogStore for DirStore {
             return Err(format!("{name:?} is not a log's name"));
         }
         let mut open = self.open.borrow_mut();
-        if open.as_ref().is_none_or(|(n, _)| n != name) {
+        if open.as_ref().is_none_or(|(n, _, _)| n != name) {
             *open = None;
             let (files, _) = self.files();
             let Some((_, dir, _)) = files.into_iter().find(|(n, _, _)| n == name) else {
@@ -267,21 +267,24 @@ impl LogStore for DirStore {
             let path = dir.join(name);
             let file =
                 std::fs::File::open(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-            *open = Some((name.to_string(), file));
+            *open = Some((name.to_string(), path, file));
         }
-        let Some((_, file)) = open.as_mut() else {
+        let Some((_, path, file)) = open.as_mut() else {
             return Err(format!("{name}: not open"));
         };
-        let failed = |e: std::io::Error| format!("{name}: {e}");
-        file.seek(SeekFrom::Start(u64::from(ofs))).map_err(failed)?;
+        let failed = format!("{}: ", path.display());
+        if let Err(e) = file.seek(SeekFrom::Start(u64::from(ofs))) {
+            // The file is opened afresh for the next read.
+            *open = None;
+            return Err(format!("{failed}{e}"));
+        }
         // Up to the buffer's length or the end of the file (an interrupted read is taken up
         // again by read_to_end).
         let mut bytes = Vec::with_capacity(buf.len());
         let limit = u64::try_from(buf.len()).unwrap_or(u64::MAX);
         if let Err(e) = file.by_ref().take(limit).read_to_end(&mut bytes) {
-            // The file is opened afresh for the next read.
             *open = None;
-            return Err(failed(e));
+            return Err(format!("{failed}{e}"));
         }
         let n = bytes.len().min(buf.len());
         if let (Some(dst), Some(src)) = (buf.get_mut(..n), bytes.get(..n)) {
@@ -500,11 +503,22 @@ pub fn spawn(
                     }
                     LinkEvent::ParamSet { table_text } => {
                         match crate::params::save(&log_dir, &table_text) {
-                            Ok(()) => link.status_text(
+                            Ok(None) => link.status_text(
                                 MavSeverity::MAV_SEVERITY_INFO,
                                 "param saved; a flight process takes it when it starts",
                                 unix_us(),
                             ),
+                            Ok(Some(warning)) => {
+                                link.status_text(
+                                    MavSeverity::MAV_SEVERITY_WARNING,
+                                    &format!("param saved, but {warning}"),
+                                    unix_us(),
+                                );
+                                say(&note(
+                                    Severity::WarningHi,
+                                    format!("parameter saved, but {warning}"),
+                                ));
+                            }
                             Err(e) => {
                                 // Not kept on disk: not kept at all, and the ground is told.
                                 let kept = crate::params::load(&log_dir)

@@ -182,9 +182,17 @@ fn close<F: heli_log::LogFile>(log: FlightLog<F>, report: &mut LogReport) {
     report.failed_writes = stats.failed_writes;
     report.failed_syncs = stats.failed_syncs;
     if let Err(e) = log.finish() {
-        let closing = format!(
-            "the log could not be closed ({e}): what was held in memory for it is not in the file"
-        );
+        let closing = match e {
+            // Closed, but its last sync failed (counted here: the writer is gone).
+            heli_log::LogError::Sync(_) => {
+                report.failed_syncs = report.failed_syncs.saturating_add(1);
+                format!("the log was closed but its last sync failed ({e})")
+            }
+            _ => format!(
+                "the log could not be closed ({e}): what was held in memory for it is not in \
+                 the file"
+            ),
+        };
         report.error = Some(match report.error.take() {
             Some(first) => format!("{first}; then {closing}"),
             None => closing,
@@ -269,13 +277,18 @@ fn run(
 /// itself records too.
 #[derive(Default)]
 struct StorageWatch {
-    /// The failure said, and the writer's drop count when it began.
+    /// The write failure said, and the writer's drop count when it began.
     failing: Option<u64>,
+    /// The sync failure said, and the writer's failed syncs when it began.
+    sync_failing: Option<u64>,
     /// The vehicle's time of the latest item that had one (µs).
     t_us: u64,
 }
 
 impl StorageWatch {
+    /// Says a spell of failures of the storage when it begins, and again when it ends: one
+    /// for writes the storage refuses, one for syncs it refuses (a sync can fail while
+    /// writes go on, and the other way round).
     fn after<F: heli_log::LogFile>(
         &mut self,
         log: &mut FlightLog<F>,
@@ -284,41 +297,77 @@ impl StorageWatch {
         note: &(dyn Fn(String) + Send + Sync),
     ) {
         let path = report.path.display().to_string();
-        if let Err(e) = result {
-            if self.failing.is_none() && !matches!(e, heli_log::LogError::Dropped { .. }) {
-                note(match e {
-                    heli_log::LogError::Sync(_) => format!(
-                        "flight log {path}: {e}; the sync is tried again every {} ms",
+        match &result {
+            Err(e @ heli_log::LogError::Sync(_)) => {
+                if self.sync_failing.is_none() {
+                    note(format!(
+                        "flight log {path}: {e}; the sync is tried again with the next flush \
+                         (at most every {} ms)",
                         heli_log::SYNC_EVERY_WALL.as_millis()
-                    ),
-                    _ => format!(
+                    ));
+                    self.sync_failing = Some(log.stats().failed_syncs.saturating_sub(1));
+                }
+            }
+            Err(heli_log::LogError::Dropped { .. }) => {}
+            Err(e) => {
+                if self.failing.is_none() {
+                    note(format!(
                         "flight log {path}: {e}; up to {} MiB kept in memory for it, \
                          messages past that dropped and counted, retried every {} s",
                         heli_log::writer::MAX_BACKLOG_BYTES >> 20,
                         heli_log::writer::RETRY_EVERY_WALL.as_secs()
-                    ),
-                });
-                self.failing = Some(log.stats().dropped);
+                    ));
+                    self.failing = Some(log.stats().dropped);
+                }
             }
+            Ok(()) => {}
+        }
+        if let Err(e) = result {
             report.error.get_or_insert(e.to_string());
-            return;
         }
         if let Some(dropped_before) = self.failing
             && log.failing_since().is_none()
         {
             self.failing = None;
             let dropped = log.stats().dropped.saturating_sub(dropped_before);
-            let text = format!(
-                "flight log {path}: the storage takes writes again; {dropped} messages \
-                 were dropped while it refused them"
+            self.say_and_log(
+                log,
+                format!(
+                    "flight log {path}: the storage takes writes again; {dropped} messages \
+                     were dropped while it refused them"
+                ),
+                note,
             );
-            let _ = log.write(
-                "notes",
-                self.t_us,
-                &json!({ "text": text.clone(), "level": "warning" }),
-            );
-            note(text);
         }
+        if let Some(syncs_before) = self.sync_failing
+            && log.sync_failing_since().is_none()
+        {
+            self.sync_failing = None;
+            let failed = log.stats().failed_syncs.saturating_sub(syncs_before);
+            self.say_and_log(
+                log,
+                format!(
+                    "flight log {path}: the storage syncs again, after {failed} failed syncs; \
+                     what they left unsynced may not have survived a power loss"
+                ),
+                note,
+            );
+        }
+    }
+
+    /// Says `text`, and writes it in the log's notes.
+    fn say_and_log<F: heli_log::LogFile>(
+        &self,
+        log: &mut FlightLog<F>,
+        text: String,
+        note: &(dyn Fn(String) + Send + Sync),
+    ) {
+        let _ = log.write(
+            "notes",
+            self.t_us,
+            &json!({ "text": text.clone(), "level": "warning" }),
+        );
+        note(text);
     }
 }
 
@@ -487,18 +536,41 @@ mod tests {
             assert!(
                 said[0].contains("sync to the storage failed")
                     && said[0].contains("may not survive a power loss")
-                    && said[0].contains("tried again every 50 ms"),
+                    && said[0].contains("tried again with the next flush (at most every 50 ms)"),
                 "{said:?}"
             );
         }
-        disk.unsyncable.set(false);
-        std::thread::sleep(heli_log::SYNC_EVERY_WALL + Duration::from_millis(5));
-        let result = log.flush_if_due().map(|_| ());
+        // While syncs fail, writes fail too: said as well (one spell does not hide the other).
+        disk.full.set(true);
+        let result = log.flush();
         storage.after(&mut log, result, &mut report, &note);
         assert_eq!(said.lock().unwrap().len(), 2, "{:?}", said.lock().unwrap());
+        assert!(said.lock().unwrap()[1].contains("kept in memory"));
+        disk.full.set(false);
+        disk.unsyncable.set(false);
+        std::thread::sleep(heli_log::SYNC_EVERY_WALL + Duration::from_millis(5));
+        let result = log.flush();
+        storage.after(&mut log, result, &mut report, &note);
+        let said = said.lock().unwrap().clone();
+        assert_eq!(said.len(), 4, "{said:?}");
+        assert!(said[2].contains("takes writes again"), "{said:?}");
+        assert!(
+            said[3].ends_with(
+                "the storage syncs again, after 3 failed syncs; what they left unsynced may \
+                 not have survived a power loss"
+            ),
+            "{said:?}"
+        );
+        // The last sync, at the close, fails: counted, and said as what it is.
+        disk.unsyncable.set(true);
         close(log, &mut report);
-        assert_eq!(report.failed_syncs, 3, "{report:?}");
-        assert_eq!(report.failed_writes, 0, "{report:?}");
+        assert_eq!(report.failed_syncs, 4, "{report:?}");
+        assert_eq!(report.failed_writes, 1, "{report:?}");
+        let error = report.error.unwrap_or_default();
+        assert!(
+            error.contains("then the log was closed but its last sync failed"),
+            "{error}"
+        );
     }
 
     #[test]

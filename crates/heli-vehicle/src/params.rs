@@ -131,10 +131,16 @@ pub fn load_file(path: &Path) -> Result<ParamTable, VehicleError> {
 }
 
 /// Writes the table's text to `log_dir`'s file, whole (a temporary file, synced, renamed
-/// over it: a parameter the operator set survives a power loss).
-pub fn save(log_dir: &Path, text: &str) -> Result<(), VehicleError> {
+/// over it: a parameter the operator set survives a power loss). Saved, the file may still
+/// have something to say: a directory that could not be synced.
+pub fn save(log_dir: &Path, text: &str) -> Result<Option<String>, VehicleError> {
     let path = path_in(log_dir);
     heli_log::replace::replace_file(&path, &log_dir.join(".params.tmp"), text.as_bytes())
+        .map(|replaced| {
+            replaced
+                .warning()
+                .map(|w| format!("{}: {w}", path.display()))
+        })
         .map_err(|e| VehicleError::file(path, e))
 }
 

@@ -286,7 +286,7 @@ impl WarmFile {
 
     /// Writes the file whole: a temporary file beside it, synced, then renamed over it
     /// (a power loss leaves the old record or this one, never an empty file).
-    pub fn write(&self, path: &Path) -> std::io::Result<()> {
+    pub fn write(&self, path: &Path) -> std::io::Result<heli_log::replace::Replaced> {
         heli_log::replace::replace_file(
             path,
             &path.with_extension("tmp"),
@@ -355,8 +355,11 @@ fn missing(key: &str) -> VehicleError {
 /// Removes the file (a clean end of the flight); a missing file is no error.
 pub fn remove(path: &Path) -> std::io::Result<()> {
     match std::fs::remove_file(path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
-        _ => Ok(()),
+        // Its directory synced: a record removed at a clean Stop does not come back after a
+        // power loss.
+        Ok(()) => heli_log::replace::sync_dir(path),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(e),
     }
 }
 
@@ -377,8 +380,8 @@ mod tests {
         let old = sample();
         let mut fresh = sample();
         fresh.warm.gyro_bias_rps = [0.5, 0.5, 0.5];
-        old.write(&disk).unwrap();
-        fresh.write(&ram).unwrap();
+        assert!(old.write(&disk).unwrap().warning().is_none());
+        assert!(fresh.write(&ram).unwrap().warning().is_none());
         let then = std::time::SystemTime::now() - std::time::Duration::from_secs(30);
         std::fs::File::options()
             .write(true)
@@ -488,7 +491,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = path_in(dir.path());
         assert_eq!(WarmFile::read(&path).ok(), Some(None));
-        sample().write(&path).unwrap();
+        assert!(sample().write(&path).unwrap().warning().is_none());
         assert_eq!(WarmFile::read(&path).ok(), Some(Some(sample())));
         let bare = WarmFile {
             warm: WarmStart {

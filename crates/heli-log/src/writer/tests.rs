@@ -157,24 +157,27 @@ fn a_failed_sync_is_an_error_and_the_log_fails_until_a_sync_works() {
         e.to_string().contains("may not survive a power loss"),
         "{e}"
     );
-    let failing = log.failing_since().expect("failing after a failed sync");
+    let failing = log
+        .sync_failing_since()
+        .expect("failing after a failed sync");
+    assert_eq!(log.failing_since(), None, "the write went out");
     assert_eq!(log.stats().failed_syncs, 1);
     // The next write goes out, but the data is still not synced: the log still fails, and
     // the sync is tried again (once its wait is over) without a new write needing it.
     log.write("imu", 10_000, &json!({"k": 1}))
         .unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(log.failing_since(), Some(failing));
+    assert_eq!(log.sync_failing_since(), Some(failing));
     std::thread::sleep(SYNC_EVERY_WALL + Duration::from_millis(5));
     assert!(matches!(log.flush_if_due(), Err(LogError::Sync(_))));
     assert_eq!(log.stats().failed_syncs, 2);
     assert_eq!(
-        log.failing_since(),
+        log.sync_failing_since(),
         Some(failing),
         "the spell's start is kept"
     );
     std::thread::sleep(SYNC_EVERY_WALL + Duration::from_millis(5));
     log.flush_if_due().unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(log.failing_since(), None, "a sync that works ends it");
+    assert_eq!(log.sync_failing_since(), None, "a sync that works ends it");
     log.finish().unwrap_or_else(|e| panic!("{e}"));
     let contents = read(&file.bytes());
     assert_eq!((contents.stopped, contents.closed), (None, true));
