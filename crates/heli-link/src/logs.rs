@@ -166,9 +166,10 @@ impl LogServer {
 
     /// Up to `max` packets of the transfer under way. The end of the file is told by a short
     /// packet (an empty one when the file ends on a packet boundary), as ArduPilot does; a
-    /// request that ends before the end of the file simply stops. A read that fails ends the
-    /// transfer without a packet (the ground asks again for what it lacks) and gives what to
-    /// say, for the first failure of a spell and the first read that works after it.
+    /// request that ends before the end of the file simply stops. A read that fails, or a
+    /// file that ends before the size it was listed with, ends the transfer without a packet
+    /// (the ground asks again for what it lacks) and gives what to say, for the first failure
+    /// of a spell and the first read that works after it.
     pub fn next_packets(
         &mut self,
         store: &dyn LogStore,
@@ -188,6 +189,26 @@ impl LogServer {
                 0
             } else {
                 match store.read(&t.name, t.next, data.get_mut(..want).unwrap_or(&mut [])) {
+                    // The file ends before the size it was listed with (cut since): what is
+                    // missing cannot be sent; said as a failure, not sent as an end.
+                    Ok(n)
+                        if n < want
+                            && t.next.saturating_add(u32::try_from(n).unwrap_or(0)) < t.size =>
+                    {
+                        let text = format!(
+                            "log {} ({}) ends at byte {}, before its listed size {}: it was \
+                             cut after it was listed",
+                            t.id,
+                            t.name,
+                            t.next.saturating_add(u32::try_from(n).unwrap_or(0)),
+                            t.size
+                        );
+                        if self.failing.failed(t.id) {
+                            said = Some(text);
+                        }
+                        self.transfer = None;
+                        break;
+                    }
                     Ok(n) => {
                         if let Some(n) = self.failing.worked(t.id) {
                             said = Some(format!("log {}: read again, after {n} failed", t.id));
@@ -388,6 +409,30 @@ mod tests {
             }
             self.inner.read(name, ofs, buf)
         }
+    }
+
+    #[test]
+    fn a_log_cut_after_it_was_listed_is_said_not_sent_as_its_end() {
+        let mut s = store();
+        let logs = s.list().logs;
+        s.logs[0].1.truncate(500);
+        let mut server = LogServer::default();
+        server.request(&logs, 1, 450, u32::MAX);
+        let (packets, said) = server.next_packets(&s, 10);
+        assert!(packets.is_empty(), "{packets:?}");
+        assert_eq!(
+            said.as_deref(),
+            Some(
+                "log 1 (a.mcap) ends at byte 500, before its listed size 1000: it was cut after it was listed"
+            )
+        );
+        assert!(!server.busy());
+        // Listed again, it is served whole to its new end.
+        let logs = s.list().logs;
+        server.request(&logs, 1, 450, u32::MAX);
+        let (packets, said) = server.next_packets(&s, 10);
+        assert_eq!(packets.len(), 1);
+        assert_eq!(said.as_deref(), Some("log 1: read again, after 1 failed"));
     }
 
     #[test]
