@@ -18,6 +18,11 @@ use heli_link::ground::GroundLink;
 
 /// A transfer with nothing new for this long (µs) is given up.
 pub const TRANSFER_TIMEOUT_US: u64 = 30_000_000;
+/// A transfer whose log the vehicle has said it cannot serve (a read that fails, no such
+/// log, a file cut since it was listed) is given up, with the vehicle's words, after this
+/// long (µs) without progress: the vehicle asks the storage again at every request, so a
+/// failure that passes lets the transfer go on.
+pub const UNSERVABLE_GRACE_US: u64 = 3_000_000;
 /// The log list is asked for again this often (µs) until it is whole.
 const LIST_RETRY_US: u64 = 1_000_000;
 
@@ -226,6 +231,18 @@ impl Transfer {
             self.last_bytes = received;
             self.progress_us = now_us;
         }
+        if let Some((said_us, said)) = dl.vehicle_said()
+            && now_us.saturating_sub((*said_us).max(self.progress_us)) >= UNSERVABLE_GRACE_US
+        {
+            step.notes.push(format!(
+                "log transfer to {} given up: the vehicle says {said}",
+                self.dest.display()
+            ));
+            step.done = true;
+            step.failed = true;
+            link.download = None;
+            return;
+        }
         let tenths = received
             .saturating_mul(10)
             .checked_div(u64::from(size))
@@ -368,6 +385,54 @@ pub(crate) mod tests {
         damaged[middle] ^= 0x40;
         let e = check(&damaged, size, None).unwrap_err();
         assert!(e.contains("damaged or cut off"), "{e}");
+    }
+
+    #[test]
+    fn a_log_the_vehicle_cannot_serve_is_given_up_with_its_words_not_after_the_timeout() {
+        use heli_link::logs::MemoryStore;
+        use heli_link::vehicle::{VehicleLink, VehicleStatus};
+        let mut vehicle = VehicleLink::new(None, 0);
+        let mut ground = GroundLink::new(None);
+        let mut store = MemoryStore {
+            logs: vec![("flight_a.mcap".into(), vec![7; 5000])],
+        };
+        let mut t = Transfer::new(PathBuf::from("/x.mcap"), 0);
+        let mut notes = Vec::new();
+        let mut now_us = 0u64;
+        let mut outcome = None;
+        while now_us < 20_000_000 && outcome.is_none() {
+            now_us += 20_000;
+            if t.progress(&ground).is_some() {
+                // Listed and asked for: the log is gone from the storage since.
+                store.logs.clear();
+            }
+            let step = t.tick(&mut ground, now_us);
+            for frame in &step.frames {
+                vehicle.receive(frame, now_us, &store);
+            }
+            vehicle.tick(now_us, VehicleStatus::default(), None, &store);
+            for d in vehicle.take_outgoing() {
+                ground.receive(&d, now_us);
+            }
+            notes.extend(step.notes);
+            if step.done {
+                outcome = Some((now_us, step.failed));
+            }
+        }
+        let (at_us, failed) = outcome.expect("the transfer ended");
+        assert!(failed);
+        assert!(
+            at_us < 5_000_000,
+            "given up after {at_us} µs, not the 30 s timeout"
+        );
+        let last = notes.last().unwrap();
+        assert!(
+            last.starts_with(
+                "log transfer to /x.mcap given up: the vehicle says log 1 (flight_a.mcap) \
+                 cannot be read at byte "
+            ) && last.ends_with(": no log named flight_a.mcap"),
+            "{notes:?}"
+        );
     }
 
     #[test]

@@ -38,6 +38,8 @@ pub struct Download {
     request_done: bool,
     /// Requests sent (the first and each ask for a missing part).
     pub requests: u64,
+    /// The vehicle's word that it cannot serve this log, and when it came (µs).
+    vehicle_said: Option<(u64, String)>,
 }
 
 impl Download {
@@ -52,7 +54,14 @@ impl Download {
             request_end: size,
             request_done: false,
             requests: 0,
+            vehicle_said: None,
         }
+    }
+
+    /// The vehicle's word that it cannot serve this log (a read that fails, no such log, a
+    /// file cut since it was listed), and when it came (µs).
+    pub fn vehicle_said(&self) -> Option<&(u64, String)> {
+        self.vehicle_said.as_ref()
     }
 
     /// Bytes received.
@@ -312,15 +321,26 @@ impl GroundLink {
         if text.ends_with(' ') || text.len() >= 50 {
             self.partial_text = Some((severity, whole, now_us));
         } else {
-            self.texts.push((severity, whole));
+            self.text_whole(severity, whole, now_us);
         }
+    }
+
+    /// A whole status text: kept, and, when it says the log being downloaded cannot be
+    /// served, noted on the download.
+    fn text_whole(&mut self, severity: MavSeverity, text: String, now_us: u64) {
+        if let Some(dl) = self.download.as_mut()
+            && crate::logs::unservable(&text) == Some(dl.id)
+        {
+            dl.vehicle_said = Some((now_us, text.clone()));
+        }
+        self.texts.push((severity, text));
     }
 
     /// Keeps a status text whose continuation has not come within [`TEXT_JOIN_US`].
     pub fn flush_texts(&mut self, now_us: u64) {
         if let Some((severity, text, at)) = self.partial_text.take() {
             if now_us.saturating_sub(at) >= TEXT_JOIN_US {
-                self.texts.push((severity, text.trim_end().to_string()));
+                self.text_whole(severity, text.trim_end().to_string(), now_us);
             } else {
                 self.partial_text = Some((severity, text, at));
             }

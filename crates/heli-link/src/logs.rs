@@ -50,6 +50,23 @@ pub trait LogStore {
     fn read(&self, name: &str, ofs: u32, buf: &mut [u8]) -> Result<usize, String>;
 }
 
+/// The log a status text of the vehicle says it cannot serve (a read that fails, an id it
+/// does not have, a file cut since it was listed), if the text is one of those
+/// [`LogServer`] says: for the ground to stop waiting for that log.
+pub fn unservable(text: &str) -> Option<u16> {
+    let rest = text.strip_prefix("log ")?;
+    let (id, rest) = rest.split_once([' ', ':'])?;
+    let id = id.parse().ok()?;
+    [
+        " cannot be read at byte ",
+        " no such log ",
+        ", before its listed size ",
+    ]
+    .iter()
+    .any(|words| rest.contains(words))
+    .then_some(id)
+}
+
 /// A data request being served.
 #[derive(Clone, Debug, PartialEq, Eq)]
 struct Transfer {
@@ -408,6 +425,38 @@ mod tests {
                 return Err("/var/heli/a.mcap: Input/output error (os error 5)".into());
             }
             self.inner.read(name, ofs, buf)
+        }
+    }
+
+    #[test]
+    fn the_texts_of_a_log_that_cannot_be_served_name_it_and_no_other_does() {
+        let s = Flaky {
+            inner: store(),
+            failing: std::cell::Cell::new(true),
+        };
+        let logs = s.list().logs;
+        let mut server = LogServer::default();
+        let unknown = server.request(&logs, 9, 0, 10).unwrap();
+        assert_eq!(unservable(&unknown), Some(9));
+        server.request(&logs, 2, 0, 10);
+        let failed = server.next_packets(&s, 1).1.unwrap();
+        assert_eq!(unservable(&failed), Some(2));
+        s.failing.set(false);
+        server.request(&logs, 2, 0, 10);
+        let again = server.next_packets(&s, 1).1.unwrap();
+        assert_eq!(unservable(&again), None, "{again}");
+        let mut cut = store();
+        cut.logs[0].1.truncate(10);
+        server.request(&logs, 1, 0, 100);
+        let ended = server.next_packets(&cut, 1).1.unwrap();
+        assert_eq!(unservable(&ended), Some(1), "{ended}");
+        for other in [
+            "log saved",
+            "log list: /x: denied",
+            "log 3 saved",
+            "logx 3: no such log (y)",
+        ] {
+            assert_eq!(unservable(other), None, "{other}");
         }
     }
 

@@ -306,6 +306,14 @@ fn what_the_log_store_cannot_do_reaches_the_ground_once_a_spell() {
         "log 1 (flight_a.mcap) cannot be read at byte 0: flight_a.mcap: Input/output error (os error 5)"
     );
     assert!(g.download.as_ref().is_some_and(|d| d.received() == 0));
+    // The ground's download knows the vehicle's word, for its transfer to stop waiting.
+    assert_eq!(
+        g.download
+            .as_ref()
+            .and_then(|d| d.vehicle_said())
+            .map(|(_, t)| t.as_str()),
+        Some(failed[0].1.as_str())
+    );
     // The storage reads again: said, and the log comes whole.
     s.failing.set(false);
     for _ in 0..2000 {
