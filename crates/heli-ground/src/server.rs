@@ -226,13 +226,7 @@ async fn receive(udp: Arc<UdpSocket>, station: Shared, said: Said) {
     let mut buf = vec![0u8; 65_536];
     loop {
         let outcome = udp.recv(&mut buf).await;
-        let note = said
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .received(&outcome);
-        if let Some((severity, text)) = note {
-            lock(&station).note(severity, text);
-        }
+        say(&said, &station, |d| d.received(&outcome));
         match outcome {
             Ok(n) => lock(&station).receive(buf.get(..n).unwrap_or(&[]), unix_us()),
             Err(_) => tokio::time::sleep(TICK).await,
@@ -250,13 +244,19 @@ async fn send(
 ) {
     while let Some(frame) = outgoing.recv().await {
         let outcome = udp.send(&frame).await;
-        let note = said
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .sent(&outcome);
-        if let Some((severity, text)) = note {
-            lock(&station).note(severity, text);
-        }
+        say(&said, &station, |d| d.sent(&outcome));
+    }
+}
+
+/// Puts in the message area what the account of the datagrams has to say of an outcome.
+fn say(
+    said: &Said,
+    station: &Shared,
+    of: impl FnOnce(&mut Datagrams) -> Option<crate::datagrams::Said>,
+) {
+    let note = of(&mut said.lock().unwrap_or_else(PoisonError::into_inner));
+    if let Some((severity, text)) = note {
+        lock(station).note(severity, text);
     }
 }
 

@@ -205,40 +205,33 @@ impl LogServer {
             let got = if want == 0 {
                 0
             } else {
-                match store.read(&t.name, t.next, data.get_mut(..want).unwrap_or(&mut [])) {
-                    // The file ends before the size it was listed with (cut since): what is
-                    // missing cannot be sent; said as a failure, not sent as an end.
-                    Ok(n)
-                        if n < want
-                            && t.next.saturating_add(u32::try_from(n).unwrap_or(0)) < t.size =>
-                    {
-                        let text = format!(
-                            "log {} ({}) ends at byte {}, before its listed size {}: it was \
-                             cut after it was listed",
-                            t.id,
-                            t.name,
-                            t.next.saturating_add(u32::try_from(n).unwrap_or(0)),
-                            t.size
-                        );
-                        if self.failing.failed(t.id) {
-                            said = Some(text);
+                // A read that fails, or a file that ends before the size it was listed with
+                // (cut since): what is missing cannot be sent; said, not sent as an end.
+                let read = store
+                    .read(&t.name, t.next, data.get_mut(..want).unwrap_or(&mut []))
+                    .map_err(|e| format!("cannot be read at byte {}: {e}", t.next))
+                    .and_then(|n| {
+                        let end = t.next.saturating_add(u32::try_from(n).unwrap_or(0));
+                        if n < want && end < t.size {
+                            Err(format!(
+                                "ends at byte {end}, before its listed size {}: it was cut \
+                                 after it was listed",
+                                t.size
+                            ))
+                        } else {
+                            Ok(n)
                         }
-                        self.transfer = None;
-                        break;
-                    }
+                    });
+                match read {
                     Ok(n) => {
                         if let Some(n) = self.failing.worked(t.id) {
                             said = Some(format!("log {}: read again, after {n} failed", t.id));
                         }
                         n
                     }
-                    Err(e) => {
-                        let text = format!(
-                            "log {} ({}) cannot be read at byte {}: {e}",
-                            t.id, t.name, t.next
-                        );
+                    Err(why) => {
                         if self.failing.failed(t.id) {
-                            said = Some(text);
+                            said = Some(format!("log {} ({}) {why}", t.id, t.name));
                         }
                         self.transfer = None;
                         break;

@@ -22,16 +22,6 @@ impl Spell {
         let failures = std::mem::take(&mut self.failures);
         (failures > 0).then_some(failures)
     }
-
-    /// Whether a spell is on.
-    pub fn on(&self) -> bool {
-        self.failures > 0
-    }
-
-    /// Failures in the spell so far (0 when none is on).
-    pub fn failures(&self) -> u64 {
-        self.failures
-    }
 }
 
 #[cfg(test)]
@@ -42,16 +32,11 @@ mod tests {
     fn a_spell_is_said_when_it_begins_and_counted_when_it_ends() {
         let mut spell = Spell::default();
         assert_eq!(spell.worked(), None, "no spell, nothing to say");
-        assert!(!spell.on());
         assert!(spell.failed(), "the first failure begins one");
         assert!(!spell.failed(), "the next ones are counted");
         assert!(!spell.failed());
-        assert!(spell.on());
-        assert_eq!(spell.failures(), 3);
         assert_eq!(spell.worked(), Some(3));
-        assert!(!spell.on());
-        assert_eq!(spell.failures(), 0);
-        assert_eq!(spell.worked(), None);
+        assert_eq!(spell.worked(), None, "the spell is over");
         assert!(spell.failed(), "a new spell");
     }
 }
