@@ -10,6 +10,7 @@ use std::process::Command;
 #[test]
 fn every_engine_failure_campaign_lands_softly_on_95_percent_of_100_seeds() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("campaigns/autorotation");
+    let mut passed = 0;
     for name in ["hover", "low-hover", "forward", "roll", "quarter-roll"] {
         let file = dir.join(format!("{name}.toml"));
         let out = Command::new(env!("CARGO_BIN_EXE_heli"))
@@ -31,5 +32,17 @@ fn every_engine_failure_campaign_lands_softly_on_95_percent_of_100_seeds() {
         );
         let pass = totals["pass"].as_u64().unwrap_or(0);
         assert!(pass >= 95, "{name}: {totals}\n{:#}", report["worst"]);
+        passed += pass;
     }
+    // The requirement above leaves room for 25 hard landings; the suite lands every one of
+    // its 500 flights softly (docs/autorotation.md). A change that costs more than two of
+    // them is a regression to look at, not noise: the flights are deterministic. (Home's
+    // height taken from one of the estimate's readings on the skids cost five.)
+    assert!(
+        passed >= REGRESSION_FLOOR,
+        "{passed} of 500 landed softly: fewer than the {REGRESSION_FLOOR} measured less two"
+    );
 }
+
+/// Soft landings of the suite's 500 below which a change is a regression.
+const REGRESSION_FLOOR: u64 = 498;

@@ -124,6 +124,17 @@ impl Sequencer {
         self.home_ned_m.map_or(0.0, |home| home.z - est.pos_ned_m.z)
     }
 
+    /// Whether the computer holds the helicopter on its skids, never flown: the pre-flight
+    /// check, a refused take-off, the ground's failsafe. Home's height follows the ground
+    /// then, and the helicopter is not airborne.
+    pub(super) fn held_on_skids(&self) -> bool {
+        !self.airborne_once
+            && matches!(
+                self.phase,
+                Phase::PreflightCheck { .. } | Phase::TakeoffRefused | Phase::GroundFailsafe
+            )
+    }
+
     /// The safety rule's conditions as the core sees them now.
     fn facts(&self, crew: &Crew<'_>) -> heli_control::safety::Facts {
         safety_facts(
@@ -322,7 +333,10 @@ impl Sequencer {
         let horizontal_vel = Vector3::new(est.vel_ned_mps.x, est.vel_ned_mps.y, 0.0);
         let stop = horizontal_vel * (0.5 * horizontal_vel.norm() / brake::BRAKE_DECEL_MPS2);
         let here = Target::hold(est.pos_ned_m + stop, yaw);
-        let on_ground = self.height_above_home(est) < crew.config.airborne_height_m;
+        // Held on its skids by the computer, never flown, the helicopter is on the ground
+        // whatever the estimate's noise says of the height.
+        let on_ground =
+            self.held_on_skids() || self.height_above_home(est) < crew.config.airborne_height_m;
         let bypass = !crew.devices.uplink_lost() && pilot.is_some_and(|p| p.bypass);
         let wants_auto =
             !bypass && (signal_lost || (self.params.mode != FlightMode::Manual && auto_switch));

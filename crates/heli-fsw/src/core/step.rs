@@ -16,6 +16,24 @@ use super::{Action, BLIND_DESCENT_COLLECTIVE_MARGIN, CoreEvent, FlightCore};
 use crate::phase::{Phase, RollStage};
 use crate::streams::{ImuRecord, Record, ServoRecord, Stamped, StateRecord};
 
+/// Time constant (s) of home's height following the estimate on the skids: long against
+/// the estimate's wander (tenths of a metre from one altimeter or GPS update to the next,
+/// and for seconds after the calibration), short against the weather's drift of the
+/// altimeter (some 0.3 m in minutes). Measured over the autorotation campaigns: following
+/// with 10 s cost a flight in 500 and one of the 100 hardest (docs/autorotation.md).
+pub(super) const HOME_FOLLOW_S: f64 = 60.0;
+
+/// Home's height `home_z_m` (NED z) after `dt_s` more on the skids with the estimate at
+/// `est_z_m`: a first-order low-pass with [`HOME_FOLLOW_S`]. A step that is not a time
+/// forward, or an estimate that is not finite, leaves it.
+pub(super) fn follow_ground(home_z_m: f64, est_z_m: f64, dt_s: f64) -> f64 {
+    if !est_z_m.is_finite() || !(f64::MIN_POSITIVE..=f64::MAX).contains(&dt_s) {
+        return home_z_m;
+    }
+    let gain = dt_s / (HOME_FOLLOW_S + dt_s);
+    home_z_m + gain * (est_z_m - home_z_m)
+}
+
 /// Control steps between zero-velocity updates on the skids: 10 Hz at the 50 Hz step.
 pub const STILL_EVERY_STEPS: u32 = 5;
 
@@ -115,12 +133,21 @@ impl FlightCore {
             // transmitter is lost (as autopilots take the ground's pressure again while
             // disarmed). Not in the pilot's phases: there only the rotor's speed says the
             // helicopter is down, and a wrong reading must not carry home up with it.
-            if self.held_on_skids()
-                && let Some(home) = self.seq.home_ned_m.as_mut()
-            {
-                home.z = est.pos_ned_m.z;
+            // It follows the estimate's average, not its reading of the moment: the estimate
+            // on the ground wanders by tenths of a metre from one altimeter or GPS update to
+            // the next, and home's height taken from one of them is that much wrong for the
+            // whole flight (an autorotation's flare, judged by the height above home,
+            // came too late or too early by it).
+            if self.held_on_skids() {
+                if let Some(home) = self.seq.home_ned_m.as_mut() {
+                    home.z = follow_ground(home.z, est.pos_ned_m.z, dt_s);
+                }
+            } else {
+                // Held down by the computer, the helicopter is not airborne, whatever the
+                // estimate's noise says.
+                self.seq.airborne_once |=
+                    self.height_above_home(est) > self.config.airborne_height_m;
             }
-            self.seq.airborne_once |= self.height_above_home(est) > self.config.airborne_height_m;
         }
         let previous_phase = self.seq.phase;
         let next_phase = self.next_phase(estimate.as_ref(), now_us, dt_s, out);
@@ -334,11 +361,7 @@ impl FlightCore {
     /// On its skids because the computer holds it there (the pre-flight check, a refused
     /// take-off, the ground failsafe) and never flown: down whatever the sensors say.
     fn held_on_skids(&self) -> bool {
-        !self.seq.airborne_once
-            && matches!(
-                self.seq.phase,
-                Phase::PreflightCheck { .. } | Phase::TakeoffRefused | Phase::GroundFailsafe
-            )
+        self.seq.held_on_skids()
     }
 
     pub(super) fn height_above_home(&self, est: &NavState) -> f64 {
