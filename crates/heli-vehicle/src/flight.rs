@@ -26,6 +26,7 @@ use crate::rt;
 use crate::streams::LiveStreams;
 use crate::telemetry;
 use crate::threads::{self, Clock, LoopMsg, Writers};
+use crate::warm_keeper::WarmKeeper;
 
 /// Longest the loop sleeps without looking at the stop flag.
 const LOOP_WAKE: Duration = Duration::from_millis(20);
@@ -518,28 +519,6 @@ fn control_loop(
     (computer.core().stats(), inputs)
 }
 
-/// Whether the warm-start record `warm` at `t_us` must be written, the last one written
-/// being `last` (its time and record): the first, one that says something new (airborne or
-/// not, another origin, a roll begun or ended), one a [`crate::warm::REWRITE_S`] after the
-/// last, or in a roll one a [`crate::warm::ROLL_REWRITE_S`] after it.
-fn rewrite_due(
-    last: Option<&(u64, heli_fsw::core::WarmStart)>,
-    t_us: u64,
-    warm: &heli_fsw::core::WarmStart,
-) -> bool {
-    match last {
-        None => true,
-        Some((at, last)) => {
-            let since_s = heli_nav::seconds_between(*at, t_us);
-            last.airborne != warm.airborne
-                || last.origin != warm.origin
-                || last.roll.is_some() != warm.roll.is_some()
-                || since_s >= crate::warm::REWRITE_S
-                || (warm.roll.is_some() && since_s >= crate::warm::ROLL_REWRITE_S)
-        }
-    }
-}
-
 /// Whether the helicopter may be in the air: it has been up in this flight, and is not in
 /// a phase only a helicopter on the ground is in.
 fn may_be_in_air(warm: Option<&heli_fsw::core::WarmStart>, phase: Phase) -> bool {
@@ -548,107 +527,6 @@ fn may_be_in_air(warm: Option<&heli_fsw::core::WarmStart>, phase: Phase) -> bool
         Phase::Landed | Phase::Calibrating | Phase::PreflightCheck { .. } | Phase::TakeoffRefused
     );
     warm.is_some_and(|w| w.airborne) && !on_ground
-}
-
-/// Keeps the warm-start file up to date from the control loop without doing file I/O in
-/// it: records go to a thread of their own, newest wins.
-struct WarmKeeper {
-    tx: Option<std::sync::mpsc::SyncSender<Option<heli_fsw::core::WarmStart>>>,
-    thread: Option<std::thread::JoinHandle<()>>,
-    last: Option<(u64, heli_fsw::core::WarmStart)>,
-}
-
-impl WarmKeeper {
-    /// Keeps the record at every one of `paths`. A path that cannot be written is raised
-    /// at once (and again when it can be written again): a successor may have to resume
-    /// from the other one.
-    fn spawn(
-        paths: Vec<PathBuf>,
-        start: heli_link::StartParameters,
-        clock: Clock,
-        report: &Arc<dyn Fn(Report) + Send + Sync>,
-    ) -> Self {
-        let (tx, rx) = std::sync::mpsc::sync_channel::<Option<heli_fsw::core::WarmStart>>(4);
-        let report = Arc::clone(report);
-        let thread = rt::thread("warm-start", rt::HELPER_STACK_BYTES)
-            .spawn(move || {
-                let mut failing = vec![false; paths.len()];
-                while let Ok(mut record) = rx.recv() {
-                    // Newest wins: records that queued up while the storage was slow (each
-                    // write is synced) are passed over for the last one.
-                    while let Ok(newer) = rx.try_recv() {
-                        record = newer;
-                    }
-                    // The last path first: the fallback directory, in RAM, is written at
-                    // once, whatever the log directory's storage takes.
-                    for (path, failing) in paths.iter().zip(failing.iter_mut()).rev() {
-                        let result = match record {
-                            Some(warm) => {
-                                crate::warm::WarmFile::for_successor(warm, start.clone(), &clock)
-                                    .write(path)
-                            }
-                            None => crate::warm::remove(path)
-                                .map(|()| heli_log::replace::Replaced::Durably),
-                        };
-                        let problem = match &result {
-                            Err(e) => Some(format!(
-                                "{e}: a restart now resumes from an older record or none"
-                            )),
-                            Ok(replaced) => replaced.warning(),
-                        };
-                        let text = match (problem, *failing) {
-                            (Some(problem), false) => {
-                                format!("warm-start record {}: {problem}", path.display())
-                            }
-                            (None, true) => {
-                                format!("warm-start record {}: written again", path.display())
-                            }
-                            _ => continue,
-                        };
-                        *failing = !*failing;
-                        report(Report::Event {
-                            t_us: clock.now_us(),
-                            severity: if *failing {
-                                Severity::WarningHi
-                            } else {
-                                Severity::ActivityHi
-                            },
-                            text,
-                        });
-                    }
-                }
-            })
-            .ok();
-        Self {
-            tx: Some(tx),
-            thread,
-            last: None,
-        }
-    }
-
-    /// The record now: written when it says something new (airborne, an origin) or once a
-    /// [`crate::warm::REWRITE_S`] has passed.
-    fn offer(&mut self, t_us: u64, warm: Option<heli_fsw::core::WarmStart>) {
-        let Some(warm) = warm else { return };
-        if rewrite_due(self.last.as_ref(), t_us, &warm)
-            && let Some(tx) = &self.tx
-        {
-            // A full queue skips one rewrite; the next one carries newer values anyway.
-            if tx.try_send(Some(warm)).is_ok() {
-                self.last = Some((t_us, warm));
-            }
-        }
-    }
-
-    /// The flight ended cleanly: the files are removed.
-    fn finish(mut self) {
-        if let Some(tx) = self.tx.take() {
-            let _ = tx.send(None);
-        }
-        if let Some(thread) = self.thread.take() {
-            let _ = thread.join();
-        }
-    }
 }
 
 #[cfg(test)]
@@ -684,64 +562,5 @@ mod tests {
         ] {
             assert!(!may_be_in_air(Some(&up), ground), "{ground:?}");
         }
-    }
-
-    #[test]
-    fn the_warm_start_record_is_rewritten_when_it_says_something_new_or_is_old() {
-        let warm = WarmStart {
-            gyro_bias_rps: [0.001, 0.0, 0.0],
-            origin: None,
-            home_ned_m: None,
-            airborne: false,
-            trim: None,
-            references: heli_nav::GroundReferences::default(),
-            roll: None,
-        };
-        assert!(rewrite_due(None, 0, &warm), "the first");
-        let last = (10_000_000, warm);
-        // The biases drift a little: not worth a write until the record is old.
-        let drifted = WarmStart {
-            gyro_bias_rps: [0.0011, 0.0, 0.0],
-            ..warm
-        };
-        let rewrite_us = 10_000_000 + (crate::warm::REWRITE_S * 1e6) as u64;
-        assert!(!rewrite_due(Some(&last), 10_500_000, &drifted));
-        assert!(!rewrite_due(Some(&last), rewrite_us - 1, &drifted));
-        assert!(rewrite_due(Some(&last), rewrite_us, &drifted));
-        // Taking off, or an origin found: at once.
-        let flying = WarmStart {
-            airborne: true,
-            ..warm
-        };
-        assert!(rewrite_due(Some(&last), 10_000_001, &flying));
-        let located = WarmStart {
-            origin: Some(heli_nav::GeoOrigin {
-                lat_deg: 42.0,
-                lon_deg: -71.0,
-                alt_m: 3.0,
-            }),
-            ..warm
-        };
-        assert!(rewrite_due(Some(&last), 10_000_001, &located));
-        // A roll begun: at once; in the roll, every control step; the roll over: at once.
-        let rolling = WarmStart {
-            roll: Some(heli_fsw::core::RollRecord {
-                at_us: 10_000_000,
-                angle_rad: 0.1,
-                rate_rps: [3.0, 0.0, 0.0],
-                att: [1.0, 0.0, 0.0, 0.0],
-                elapsed_s: 0.02,
-                rolls_done: 0,
-                pos_ned_m: [0.0; 3],
-                yaw_rad: 0.0,
-            }),
-            ..warm
-        };
-        assert!(rewrite_due(Some(&last), 10_000_001, &rolling));
-        let in_roll = (10_000_000, rolling);
-        let step_us = 10_000_000 + (crate::warm::ROLL_REWRITE_S * 1e6) as u64;
-        assert!(!rewrite_due(Some(&in_roll), step_us - 1, &rolling));
-        assert!(rewrite_due(Some(&in_roll), step_us, &rolling));
-        assert!(rewrite_due(Some(&in_roll), 10_000_001, &warm));
     }
 }

@@ -70,3 +70,4 @@ pub mod supervisor;
 pub mod telemetry;
 pub mod threads;
 pub mod warm;
+mod warm_keeper;
