@@ -177,6 +177,10 @@ mod tests {
         }
     }
 
+    /// Longest a test waits for the keeper's thread (a keeper that writes nothing fails the
+    /// test instead of hanging it).
+    const WAIT: std::time::Duration = std::time::Duration::from_secs(10);
+
     /// What the keeper's writer was asked, in order: the path and the record's x bias
     /// (`None`: a removal).
     type Writes = Arc<Mutex<Vec<(PathBuf, Option<f64>)>>>;
@@ -205,7 +209,9 @@ mod tests {
         };
         let mut keeper = WarmKeeper::spawn_with(paths(), write, |_, _| {});
         keeper.offer(0, Some(record(0.1)));
-        entered.recv().expect("the keeper writes the first record");
+        entered
+            .recv_timeout(WAIT)
+            .expect("the keeper writes the first record");
         // While the storage is slow, three records queue up: only the newest is written.
         for (i, bias) in [0.2, 0.3, 0.4].into_iter().enumerate() {
             let t_us = 20_000_000 * (i as u64 + 1);
@@ -262,7 +268,7 @@ mod tests {
             keeper.offer(20_000_000 * i as u64, Some(record(bias)));
             // Both places written before the next record (else the newest would win).
             for _ in 0..2 {
-                wrote.recv().expect("the keeper writes");
+                wrote.recv_timeout(WAIT).expect("the keeper writes");
             }
         }
         keeper.finish();

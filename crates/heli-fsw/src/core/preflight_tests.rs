@@ -339,14 +339,18 @@ fn home_s_height_is_the_estimate_s_average_on_the_skids_not_one_reading() {
         home_z = follow_ground(home_z, est_z, dt_s);
         assert!((home_z - 1.0).abs() < 0.02, "step {step}: {home_z}");
     }
-    // A step of the ground's height is followed with the time constant: 63 % of it after
-    // HOME_FOLLOW_S, nearly all of it after five.
+    // A step of the ground's height is followed with the time constant: 1 − 1/e of it after
+    // HOME_FOLLOW_S in control steps, nearly all of it after five. In one step as long as
+    // the time constant, half of it (the implicit form: never past the estimate).
+    let one_tau = 1.0 - (-1.0f64).exp();
     let mut home_z = 0.0;
     let steps = (HOME_FOLLOW_S / dt_s).round() as u32;
     for _ in 0..steps {
         home_z = follow_ground(home_z, 1.0, dt_s);
     }
-    assert!((home_z - (1.0 - (-1.0f64).exp())).abs() < 0.01, "{home_z}");
+    assert!((home_z - one_tau).abs() < 1e-3, "{home_z}");
+    assert!((follow_ground(0.0, 1.0, HOME_FOLLOW_S) - 0.5).abs() < 1e-12);
+    assert!((follow_ground(2.0, 1.0, 3.0 * HOME_FOLLOW_S) - 1.25).abs() < 1e-12);
     for _ in 0..4 * steps {
         home_z = follow_ground(home_z, 1.0, dt_s);
     }

@@ -19,13 +19,14 @@ use crate::streams::{ImuRecord, Record, ServoRecord, Stamped, StateRecord};
 /// Time constant (s) of home's height following the estimate on the skids: long against
 /// the estimate's wander (tenths of a metre from one altimeter or GPS update to the next,
 /// and for seconds after the calibration), short against the weather's drift of the
-/// altimeter (some 0.3 m in minutes). Measured over the autorotation campaigns: following
-/// with 10 s cost a flight in 500 and one of the 100 hardest (docs/autorotation.md).
+/// altimeter (some 0.3 m in minutes). The campaigns cannot choose it: 10 s and 60 s move a
+/// flight or two at their limits either way (docs/robustness.md).
 pub(super) const HOME_FOLLOW_S: f64 = 60.0;
 
 /// Home's height `home_z_m` (NED z) after `dt_s` more on the skids with the estimate at
-/// `est_z_m`: a first-order low-pass with [`HOME_FOLLOW_S`]. A step that is not a time
-/// forward, or an estimate that is not finite, leaves it.
+/// `est_z_m`: a first-order low-pass with [`HOME_FOLLOW_S`], in its implicit (backward Euler)
+/// form, which moves home part of the way to the estimate for any step, however long. A step
+/// that is not a time forward, or an estimate that is not finite, leaves it.
 pub(super) fn follow_ground(home_z_m: f64, est_z_m: f64, dt_s: f64) -> f64 {
     if !est_z_m.is_finite() || !(f64::MIN_POSITIVE..=f64::MAX).contains(&dt_s) {
         return home_z_m;
