@@ -271,10 +271,17 @@ pub fn run(
         log: log_path.clone(),
     });
 
-    let keeper = setup
-        .warm_file
-        .clone()
-        .map(|(paths, start)| WarmKeeper::spawn(paths, start, clock, &report));
+    let keeper = setup.warm_file.clone().map(|(paths, start)| {
+        let report = Arc::clone(&report);
+        let say = move |severity, text| {
+            report(Report::Event {
+                t_us: clock.now_us(),
+                severity,
+                text,
+            });
+        };
+        WarmKeeper::spawn(paths, start, clock, say)
+    });
     let control = {
         let stop = Arc::clone(&stop);
         let report = Arc::clone(&report);

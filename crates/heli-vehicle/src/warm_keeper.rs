@@ -7,13 +7,11 @@
 //! It is not the record's format or its reading at a restart (`crate::warm`).
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
 use heli_fsw::core::{Severity, WarmStart};
 use heli_log::replace::Replaced;
 
-use crate::flight::Report;
 use crate::rt;
 use crate::threads::Clock;
 
@@ -47,28 +45,20 @@ pub(crate) struct WarmKeeper {
 }
 
 impl WarmKeeper {
-    /// Keeps the record at every one of `paths`. A path that cannot be written is raised
-    /// at once (and again when it can be written again): a successor may have to resume
-    /// from the other one.
+    /// Keeps the record of flight `start` at every one of `paths`, stamped on `clock`. A
+    /// path that cannot be written is raised with `say` at once (and again when it can be
+    /// written again): a successor may have to resume from the other one.
     pub(crate) fn spawn(
         paths: Vec<PathBuf>,
         start: heli_link::StartParameters,
         clock: Clock,
-        report: &Arc<dyn Fn(Report) + Send + Sync>,
+        say: impl FnMut(Severity, String) + Send + 'static,
     ) -> Self {
-        let report = Arc::clone(report);
         let write = move |path: &Path, record: Option<WarmStart>| match record {
             Some(warm) => {
                 crate::warm::WarmFile::for_successor(warm, start.clone(), &clock).write(path)
             }
             None => crate::warm::remove(path).map(|()| Replaced::Durably),
-        };
-        let say = move |severity, text| {
-            report(Report::Event {
-                t_us: clock.now_us(),
-                severity,
-                text,
-            });
         };
         Self::spawn_with(paths, write, say)
     }
@@ -162,8 +152,8 @@ fn keep(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::sync::Mutex;
     use std::sync::mpsc::channel;
+    use std::sync::{Arc, Mutex};
 
     fn record(bias_rps: f64) -> WarmStart {
         WarmStart {
