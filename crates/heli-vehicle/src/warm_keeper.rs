@@ -282,15 +282,7 @@ mod tests {
 
     #[test]
     fn the_warm_start_record_is_rewritten_when_it_says_something_new_or_is_old() {
-        let warm = WarmStart {
-            gyro_bias_rps: [0.001, 0.0, 0.0],
-            origin: None,
-            home_ned_m: None,
-            airborne: false,
-            trim: None,
-            references: heli_nav::GroundReferences::default(),
-            roll: None,
-        };
+        let warm = record(0.001);
         assert!(rewrite_due(None, 0, &warm), "the first");
         let last = (10_000_000, warm);
         // The biases drift a little: not worth a write until the record is old.
