@@ -363,3 +363,28 @@ fn home_s_height_is_the_estimate_s_average_on_the_skids_not_one_reading() {
     // A step far longer than the time constant does not overshoot.
     assert!(follow_ground(0.0, 1.0, 1e9) <= 1.0);
 }
+
+#[test]
+fn during_the_restarted_calibration_the_switch_off_asks_again_but_a_lost_signal_does_not() {
+    // Off and on again within the calibration: the pilot's request, taken at its end.
+    let (before, warm) = refused_then_record();
+    let mut skids = Skids::restarted(warm, before.t + 500_000);
+    skids.run(0.3, true, on(), Some(8));
+    skids.run(0.2, true, uplink(false, false), Some(8));
+    skids.run(0.2, true, on(), Some(8));
+    assert_eq!(skids.core.phase(), Phase::Calibrating);
+    skids.run(5.0, true, on(), Some(8));
+    skids.assert_taking_off();
+    assert_eq!(skids.refusals(), []);
+    // A receiver's failsafe packet (every channel zero, the auto flag with them) in the
+    // calibration is no switch the pilot moved: a switch left on is still refused.
+    let (before, warm) = refused_then_record();
+    let mut skids = Skids::restarted(warm, before.t + 500_000);
+    skids.run(0.3, true, on(), Some(8));
+    skids.run(0.2, true, uplink(false, true), Some(8));
+    skids.run(0.2, true, on(), Some(8));
+    assert_eq!(skids.core.phase(), Phase::Calibrating);
+    skids.run(5.0, true, on(), Some(8));
+    assert_eq!(skids.core.phase(), Phase::TakeoffRefused);
+    assert_eq!(skids.refusals(), [Refusal::Restarted]);
+}
