@@ -127,25 +127,22 @@ impl FlightCore {
             self.watch_engine(est, now_us, out);
         }
         if let Some(est) = estimate.as_ref() {
-            // Held on the skids by the computer, never flown: home's height follows the
-            // estimate's, so that the altimeter's drift through a long wait on the ground
-            // (the weather's pressure: some 0.3 m in minutes) is no climb — neither
-            // "airborne" to the engine watch nor a hover to take off into when the
-            // transmitter is lost (as autopilots take the ground's pressure again while
-            // disarmed). Not in the pilot's phases: there only the rotor's speed says the
-            // helicopter is down, and a wrong reading must not carry home up with it.
-            // It follows the estimate's average, not its reading of the moment: the estimate
-            // on the ground wanders by tenths of a metre from one altimeter or GPS update to
-            // the next, and home's height taken from one of them is that much wrong for the
-            // whole flight (an autorotation's flare, judged by the height above home,
-            // came too late or too early by it).
-            if self.held_on_skids() {
+            // Held on the skids by the computer, never flown, the helicopter is down whatever
+            // the estimate says: it is not "airborne" (the engine watch, a hover to lift into
+            // when the transmitter is lost), and home's height follows the ground, as
+            // autopilots take the ground's pressure again while disarmed. It follows the
+            // estimate's average (`follow_ground`), not its reading of the moment: the
+            // altimeter's drift through a long wait (the weather: some 0.3 m in minutes) is
+            // taken up, the estimate's wander from one altimeter or GPS update to the next
+            // (tenths of a metre) is not, since home's height is the reference of every
+            // height in the flight (the autorotation's flare among them). Not in the pilot's
+            // phases: there only the rotor's speed says the helicopter is down, and a wrong
+            // reading must not carry home up with it.
+            if self.seq.held_on_skids() {
                 if let Some(home) = self.seq.home_ned_m.as_mut() {
                     home.z = follow_ground(home.z, est.pos_ned_m.z, dt_s);
                 }
             } else {
-                // Held down by the computer, the helicopter is not airborne, whatever the
-                // estimate's noise says.
                 self.seq.airborne_once |=
                     self.height_above_home(est) > self.config.airborne_height_m;
             }
@@ -347,7 +344,7 @@ impl FlightCore {
         match self.seq.phase {
             Phase::Landed => true,
             Phase::PreflightCheck { .. } | Phase::TakeoffRefused | Phase::GroundFailsafe => {
-                self.held_on_skids()
+                self.seq.held_on_skids()
             }
             Phase::Manual | Phase::Augmented(_) => {
                 !self.seq.airborne_once
@@ -357,12 +354,6 @@ impl FlightCore {
             }
             _ => false,
         }
-    }
-
-    /// On its skids because the computer holds it there (the pre-flight check, a refused
-    /// take-off, the ground failsafe) and never flown: down whatever the sensors say.
-    fn held_on_skids(&self) -> bool {
-        self.seq.held_on_skids()
     }
 
     pub(super) fn height_above_home(&self, est: &NavState) -> f64 {
