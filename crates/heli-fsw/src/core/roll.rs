@@ -221,9 +221,19 @@ pub fn step(
         vel_ned_mps,
         ..carried
     };
-    if let RollStage::Rolling { .. } = stage {
+    match stage {
         // While rolling the trajectory only keeps up with the helicopter.
-        target.pos_ned_m = est.pos_ned_m;
+        RollStage::Rolling { .. } => target.pos_ned_m = est.pos_ned_m,
+        // Recovering, it flies the trim velocity from where the roll left it, at the
+        // trajectory's height: the way a roll lost to the air is not raced back. (In 8 m/s
+        // of crosswind a roll ends 6 m downwind of the line and 5 m behind the trajectory's
+        // point; chased, the speed overshot the trim by 3 m/s across and along, and the
+        // next roll began that far out of trim.)
+        RollStage::Recover { .. } => {
+            target.pos_ned_m.x = est.pos_ned_m.x;
+            target.pos_ned_m.y = est.pos_ned_m.y;
+        }
+        _ => {}
     }
     (
         RollStep::Fly(Phase::Maneuver {

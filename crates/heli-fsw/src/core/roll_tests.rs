@@ -241,6 +241,45 @@ fn a_roll_taking_twice_its_time_is_abandoned() {
 }
 
 #[test]
+fn recovering_it_flies_the_trim_velocity_from_where_the_roll_left_it_at_the_trajectory_s_height() {
+    let mut core = rolling_core();
+    // The line flown is east (yaw 90 deg) at the trim's 5 m/s; the helicopter came out of
+    // its roll 6 m behind the trajectory's point, 3 m downwind of the line and 1.5 m low.
+    let line = Target {
+        pos_ned_m: Vector3::new(4.0, 20.0, -20.0),
+        vel_ned_mps: Vector3::new(0.0, 5.0, 0.0),
+        yaw_rad: core::f64::consts::FRAC_PI_2,
+    };
+    let mut e = est(Vector3::new(2.0, 3.0, 0.0), 0.0);
+    e.pos_ned_m = Vector3::new(7.0, 14.0, -18.5);
+    let fly = |core: &mut FlightCore, stage: RollStage| {
+        let mut out = Vec::new();
+        match core.maneuver(&e, S, 0.02, line, stage, 1, &mut out) {
+            Phase::Maneuver { target, .. } => target,
+            other => panic!("{other:?}"),
+        }
+    };
+    // Recovering: the trim velocity from where the helicopter is, not a race back to the
+    // trajectory's point; the height is the trajectory's.
+    let t = fly(&mut core, RollStage::Recover { since_us: 0 });
+    assert!(
+        (t.pos_ned_m - Vector3::new(7.0, 14.0, -20.0)).norm() < 1e-9,
+        "{t:?}"
+    );
+    assert!(
+        (t.vel_ned_mps - Vector3::new(0.0, 5.0, 0.0)).norm() < 1e-9,
+        "{t:?}"
+    );
+    // The pull-up into the next roll flies the trajectory as it is, carried at the trim
+    // speed (0.1 m in 0.02 s).
+    let t = fly(&mut core, RollStage::PullUp { since_us: S });
+    assert!(
+        (t.pos_ned_m - Vector3::new(4.0, 20.1, -20.0)).norm() < 1e-9,
+        "{t:?}"
+    );
+}
+
+#[test]
 fn after_recovering_it_rolls_again_until_the_count_then_flies_the_next_leg() {
     let mut core = rolling_core();
     let g = core.config.roll;
