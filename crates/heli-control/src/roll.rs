@@ -36,6 +36,11 @@ pub struct RollGains {
     pub pull_up_s: f64,
     /// Time the trim-trajectory controller gets after each roll before the next (s).
     pub recover_s: f64,
+    /// In the recovery the trajectory's point is kept at most this far ahead of the
+    /// helicopter, horizontally (m): a roll drifts with the air (in a crosswind by metres),
+    /// and what it lost is made up at no more than the hover controller's position gain
+    /// times this (0.5/s · 2 m = 1 m/s) on top of the trim velocity.
+    pub recover_lead_m: f64,
     /// Time constant of the body roll rate's response to a step of lateral cyclic (s): the
     /// rotor's flapping and the fuselage's damping together. A process started again in a
     /// roll uses it to reckon how far the helicopter turned while nobody saw it.
@@ -56,6 +61,7 @@ impl Default for RollGains {
             pull_up_climb_mps: 5.0,
             pull_up_s: 1.5,
             recover_s: 4.0,
+            recover_lead_m: 2.0,
             rate_response_s: 0.1,
         }
     }

@@ -315,7 +315,8 @@ fn the_rolls_in_a_crosswind_recover_their_trim_speed_through_the_air() {
     // chased that point and, 4 s after the last roll, flew up to 2.8 m/s faster through the
     // air than when the rolls began on these seeds (3.2 on the wind campaign's, against its
     // limit of 3); each roll after the first began as far out of trim. Now the recovery
-    // flies the trim velocity from where the roll left it: 0.8-1.0 m/s (2026-11-29).
+    // keeps the trajectory's point within 2 m of the helicopter and makes the rest up at
+    // no more than 1 m/s: 0.9-1.5 m/s (2026-11-29).
     let mut worst_mps = 0.0_f64;
     for seed in 0..3 {
         let mut s = scenario::demo();

@@ -241,8 +241,10 @@ fn a_roll_taking_twice_its_time_is_abandoned() {
 }
 
 #[test]
-fn recovering_it_flies_the_trim_velocity_from_where_the_roll_left_it_at_the_trajectory_s_height() {
+fn recovering_the_trajectory_s_point_is_kept_within_its_lead_of_the_helicopter() {
     let mut core = rolling_core();
+    let lead_m = core.config.roll.recover_lead_m;
+    assert!(lead_m > 0.5 && lead_m < 5.0, "{lead_m}");
     // The line flown is east (yaw 90 deg) at the trim's 5 m/s; the helicopter came out of
     // its roll 6 m behind the trajectory's point, 3 m downwind of the line and 1.5 m low.
     let line = Target {
@@ -252,27 +254,34 @@ fn recovering_it_flies_the_trim_velocity_from_where_the_roll_left_it_at_the_traj
     };
     let mut e = est(Vector3::new(2.0, 3.0, 0.0), 0.0);
     e.pos_ned_m = Vector3::new(7.0, 14.0, -18.5);
-    let fly = |core: &mut FlightCore, stage: RollStage| {
+    let fly = |core: &mut FlightCore, e: &NavState, stage: RollStage| {
         let mut out = Vec::new();
-        match core.maneuver(&e, S, 0.02, line, stage, 1, &mut out) {
+        match core.maneuver(e, S, 0.02, line, stage, 1, &mut out) {
             Phase::Maneuver { target, .. } => target,
             other => panic!("{other:?}"),
         }
     };
-    // Recovering: the trim velocity from where the helicopter is, not a race back to the
-    // trajectory's point; the height is the trajectory's.
-    let t = fly(&mut core, RollStage::Recover { since_us: 0 });
-    assert!(
-        (t.pos_ned_m - Vector3::new(7.0, 14.0, -20.0)).norm() < 1e-9,
-        "{t:?}"
-    );
+    // Recovering: the point (carried on to 4, 20.1) is brought back towards the helicopter
+    // to within the lead, on the line between them, not raced back to; the height is the
+    // trajectory's, the velocity the trim's.
+    let t = fly(&mut core, &e, RollStage::Recover { since_us: 0 });
+    let ahead = Vector3::new(-3.0, 6.1, 0.0_f64);
+    let kept: Vector3<f64> = Vector3::new(7.0, 14.0, -20.0) + ahead * (lead_m / ahead.norm());
+    assert!((t.pos_ned_m - kept).norm() < 1e-9, "{t:?} not {kept:?}");
     assert!(
         (t.vel_ned_mps - Vector3::new(0.0, 5.0, 0.0)).norm() < 1e-9,
         "{t:?}"
     );
-    // The pull-up into the next roll flies the trajectory as it is, carried at the trim
-    // speed (0.1 m in 0.02 s).
-    let t = fly(&mut core, RollStage::PullUp { since_us: S });
+    // Within the lead, the trajectory is flown as it is, carried at the trim speed (0.1 m
+    // in 0.02 s); so is the pull-up into the next roll, however far behind.
+    let mut near = e;
+    near.pos_ned_m = Vector3::new(4.5, 19.0, -18.5);
+    let t = fly(&mut core, &near, RollStage::Recover { since_us: 0 });
+    assert!(
+        (t.pos_ned_m - Vector3::new(4.0, 20.1, -20.0)).norm() < 1e-9,
+        "{t:?}"
+    );
+    let t = fly(&mut core, &e, RollStage::PullUp { since_us: S });
     assert!(
         (t.pos_ned_m - Vector3::new(4.0, 20.1, -20.0)).norm() < 1e-9,
         "{t:?}"
