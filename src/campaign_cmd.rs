@@ -47,6 +47,10 @@ pub(crate) struct RunArgs {
     /// With --flight: write its flight log (MCAP) here, as `heli sim --log`.
     #[arg(long, requires = "flight", value_name = "PATH")]
     log: Option<PathBuf>,
+    /// With --flight: write the simulator's truth beside the estimate here (CSV), as
+    /// `heli sim --truth`.
+    #[arg(long, requires = "flight", value_name = "PATH")]
+    truth: Option<PathBuf>,
     /// With --flight: write its whole scenario here, so that `heli sim --scenario PATH`
     /// flies it.
     #[arg(long, requires = "flight", value_name = "PATH")]
@@ -216,6 +220,7 @@ fn one_flight(campaign: &Campaign, index: u64, args: &RunArgs) -> Result<ExitCod
         list: false,
         library: None,
         log: args.log.clone(),
+        truth: args.truth.clone(),
         ui: false,
         http: std::net::SocketAddr::from(([127, 0, 0, 1], 0)),
         calibration_s: 0.0,

@@ -239,6 +239,10 @@ struct SimArgs {
     /// Write the flight log (MCAP: the seven streams and the events) to this file.
     #[arg(long)]
     log: Option<std::path::PathBuf>,
+    /// Write the simulator's truth beside the flight software's estimate to this file (CSV,
+    /// one row per 20 ms control period, with the attitude error between them).
+    #[arg(long, value_name = "FILE")]
+    truth: Option<std::path::PathBuf>,
     /// The whole system instead, in real time, as separate processes: the HILSim (default
     /// scenario demo), the vehicle on its pseudo-terminals and the ground station's display
     /// in the browser (its URL is printed). Ctrl-C stops everything.
@@ -360,7 +364,13 @@ fn fly(scenario: scenario::Scenario, args: &SimArgs) -> Result<ExitCode> {
         duration_s: args.duration,
     };
     let show_progress = !args.json && std::io::stderr().is_terminal();
-    let summary = run_flight(scenario, options, args.log.as_deref(), show_progress)?;
+    let summary = run_flight(
+        scenario,
+        options,
+        args.log.as_deref(),
+        args.truth.as_deref(),
+        show_progress,
+    )?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
@@ -373,11 +383,13 @@ fn fly(scenario: scenario::Scenario, args: &SimArgs) -> Result<ExitCode> {
     })
 }
 
-/// Flies `scenario` in lockstep, logging to `log` when given, with a progress bar.
+/// Flies `scenario` in lockstep, logging to `log` and tracing the truth to `truth` when
+/// given, with a progress bar.
 pub(crate) fn run_flight(
     scenario: heli_scenario::Scenario,
     options: RunOptions,
     log: Option<&std::path::Path>,
+    truth: Option<&std::path::Path>,
     show_progress: bool,
 ) -> Result<heli_sim::Summary> {
     let bar = show_progress.then(|| {
@@ -389,7 +401,7 @@ pub(crate) fn run_flight(
         bar
     });
     let name = scenario.name.clone();
-    let summary = heli_sim::logging::fly(scenario, options, log, |t, total| {
+    let summary = heli_sim::logging::fly(scenario, options, log, truth, |t, total| {
         if let Some(bar) = &bar {
             bar.set_position((t / total * 1000.0) as u64);
             bar.set_message(format!("{name} t={t:>6.1} s"));

@@ -11,7 +11,9 @@
 //! flight computer outside, and the comparison of what it commands ([`replay`]); the page that
 //! shows the simulator's truth in 3D and lets a pilot fly it ([`view`]); and the
 //! simulator's benchmarks ([`bench`]); and the whole system as separate processes, the
-//! HILSim, the vehicle and the ground station's display ([`system`], `heli sim --ui`).
+//! HILSim, the vehicle and the ground station's display ([`system`], `heli sim --ui`); and the
+//! truth beside the estimate, as CSV, for the engineer who asks why a flight failed
+//! ([`truth_trace`], `heli sim --truth`).
 //!
 //! What it is not: flight software, the model, or the scenarios. It drives `heli-fsw` from
 //! the outside, through device bytes only; the flight code never knows it is simulated.
@@ -25,6 +27,7 @@ pub mod logging;
 pub mod replay;
 pub mod summary;
 pub mod system;
+pub mod truth_trace;
 pub mod view;
 
 pub use heli_scenario::Scenario;

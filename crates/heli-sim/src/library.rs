@@ -51,8 +51,8 @@ pub fn record(dir: &Path, say: &mut dyn FnMut(&str)) -> Result<bool, LibraryErro
     for s in scenario::builtins() {
         let (name, seed) = (s.name.clone(), s.seed);
         let file = dir.join(format!("{name}.mcap"));
-        let summary =
-            fly(s, RunOptions::default(), Some(&file), |_, _| {}).map_err(LibraryError::Fly)?;
+        let summary = fly(s, RunOptions::default(), Some(&file), None, |_, _| {})
+            .map_err(LibraryError::Fly)?;
         let outcome = if summary.outcome == Outcome::Pass {
             "pass"
         } else {

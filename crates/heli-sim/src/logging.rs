@@ -12,6 +12,7 @@ use heli_scenario::{Scenario, ScenarioError};
 
 use crate::lockstep::{RunOptions, Simulation};
 use crate::summary::Summary;
+use crate::truth_trace::TruthTrace;
 
 /// Why a flight could not be flown or its log begun.
 #[derive(Debug)]
@@ -27,6 +28,13 @@ pub enum FlyError {
         /// What went wrong.
         error: LogError,
     },
+    /// The truth trace could not be created.
+    Truth {
+        /// The trace's file.
+        path: std::path::PathBuf,
+        /// What went wrong.
+        error: std::io::Error,
+    },
 }
 
 impl std::fmt::Display for FlyError {
@@ -37,6 +45,9 @@ impl std::fmt::Display for FlyError {
             FlyError::Log { path, error } => {
                 write!(f, "the flight log {}: {error}", path.display())
             }
+            FlyError::Truth { path, error } => {
+                write!(f, "the truth trace {}: {error}", path.display())
+            }
         }
     }
 }
@@ -45,13 +56,15 @@ impl std::error::Error for FlyError {}
 
 /// Flies `scenario` in lockstep, logging to `log` when given — with the device inputs, so
 /// that `heli log replay` and `heli hilsim --replay` can play it again, and the whole
-/// scenario in the metadata, so that the flight can be flown again. `progress` is told the
-/// simulated time and the scenario's length as it goes. A log that fails part-way is said
-/// on standard error and left out of the summary; the flight goes on.
+/// scenario in the metadata, so that the flight can be flown again; and the truth beside
+/// the estimate to `truth` when given ([`crate::truth_trace`]). `progress` is told the
+/// simulated time and the scenario's length as it goes. A log or trace that fails part-way
+/// is said on standard error (the log is left out of the summary); the flight goes on.
 pub fn fly(
     scenario: Scenario,
     options: RunOptions,
     log: Option<&Path>,
+    truth: Option<&Path>,
     mut progress: impl FnMut(f64, f64),
 ) -> Result<Summary, FlyError> {
     let mut logger = match log {
@@ -77,7 +90,15 @@ pub fn fly(
         }
         None => None,
     };
+    let mut trace = match truth {
+        Some(path) => Some(TruthTrace::create(path).map_err(|error| FlyError::Truth {
+            path: path.to_path_buf(),
+            error,
+        })?),
+        None => None,
+    };
     let mut log_error = None;
+    let mut trace_error = None;
     let mut simulation = Simulation::new(scenario).map_err(FlyError::Scenario)?;
     if logger.is_some() {
         // So that the log can be replayed (`heli log replay`).
@@ -87,7 +108,18 @@ pub fn fly(
         if let (Some(l), None) = (logger.as_mut(), &log_error) {
             log_error = l.drain(sim).err();
         }
+        if let (Some(t), None) = (trace.as_mut(), &trace_error) {
+            trace_error = t.observe(sim).err();
+        }
     });
+    if let (Some(t), Some(path)) = (trace, truth)
+        && let Err(e) = trace_error.map_or_else(|| t.finish().map(|_| ()), Err)
+    {
+        eprintln!(
+            "heli: the truth trace {} is incomplete: {e}",
+            path.display()
+        );
+    }
     if let (Some(l), Some(path)) = (logger, log) {
         match log_error.map_or_else(|| l.finish().map(|_| ()), Err) {
             Ok(()) => summary.log = Some(path.display().to_string()),
