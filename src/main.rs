@@ -241,7 +241,7 @@ struct SimArgs {
     log: Option<std::path::PathBuf>,
     /// Write the simulator's truth beside the flight software's estimate to this file (CSV,
     /// one row per 20 ms control period, with the attitude error between them).
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["library", "ui", "list"])]
     truth: Option<std::path::PathBuf>,
     /// The whole system instead, in real time, as separate processes: the HILSim (default
     /// scenario demo), the vehicle on its pseudo-terminals and the ground station's display

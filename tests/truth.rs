@@ -102,3 +102,44 @@ fn a_campaign_s_flight_writes_its_truth_trace_too() {
     assert_eq!(out.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn while_the_computer_is_browned_out_the_trace_shows_no_estimate() {
+    let dir = scratch("brownout");
+    let path = dir.join("truth.csv");
+    let out = heli(&[
+        "sim",
+        "--scenario",
+        "brownout",
+        "--json",
+        "--truth",
+        &path.to_string_lossy(),
+    ]);
+    assert!(
+        out.status.code().is_some_and(|c| c <= 1),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{e}"));
+    let off: Vec<&str> = text
+        .lines()
+        .filter(|l| l.contains(",browned-out,"))
+        .collect();
+    assert!(!off.is_empty(), "no browned-out row");
+    // No phase and no estimate while nothing runs: the last ones in memory are nobody's.
+    for row in &off {
+        let cells: Vec<&str> = row.split(',').collect();
+        assert!(cells[11..21].iter().all(|c| c.is_empty()), "{row}");
+    }
+    // The truth goes on: the helicopter is in the air through it.
+    let down: f64 = off[0]
+        .split(',')
+        .nth(4)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0.0);
+    assert!(down < -2.0, "{}", off[0]);
+    // And --truth where there is no one flight to trace is refused.
+    let out = heli(&["sim", "--list", "--truth", &path.to_string_lossy()]);
+    assert_eq!(out.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(dir);
+}

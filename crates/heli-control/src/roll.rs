@@ -37,9 +37,10 @@ pub struct RollGains {
     /// Time the trim-trajectory controller gets after each roll before the next (s).
     pub recover_s: f64,
     /// In the recovery the trajectory's point is kept at most this far ahead of the
-    /// helicopter, horizontally (m): a roll drifts with the air (in a crosswind by metres),
-    /// and what it lost is made up at no more than the hover controller's position gain
-    /// times this (0.5/s · 2 m = 1 m/s) on top of the trim velocity.
+    /// helicopter, horizontally (m). A roll leaves the helicopter below the trim speed and
+    /// drifting with the air (in a crosswind by metres): the distance beyond this is given
+    /// up, and this much is made up at no more than the hover controller's position gain
+    /// times it (0.5/s · 2 m = 1 m/s) on top of the trim velocity.
     pub recover_lead_m: f64,
     /// Time constant of the body roll rate's response to a step of lateral cyclic (s): the
     /// rotor's flapping and the fuselage's damping together. A process started again in a

@@ -67,6 +67,14 @@ pub fn fly(
     truth: Option<&Path>,
     mut progress: impl FnMut(f64, f64),
 ) -> Result<Summary, FlyError> {
+    // The trace first: a path it cannot take leaves no half-begun log behind.
+    let mut trace = match truth {
+        Some(path) => Some(TruthTrace::create(path).map_err(|error| FlyError::Truth {
+            path: path.to_path_buf(),
+            error,
+        })?),
+        None => None,
+    };
     let mut logger = match log {
         Some(path) => {
             let error = |error| FlyError::Log {
@@ -88,13 +96,6 @@ pub fn fly(
                 .map_err(error)?;
             Some(StreamLogger::new(log))
         }
-        None => None,
-    };
-    let mut trace = match truth {
-        Some(path) => Some(TruthTrace::create(path).map_err(|error| FlyError::Truth {
-            path: path.to_path_buf(),
-            error,
-        })?),
         None => None,
     };
     let mut log_error = None;

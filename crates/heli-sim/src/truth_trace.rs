@@ -18,7 +18,8 @@ use crate::lockstep::Simulation;
 pub const PERIOD_US: u64 = 20_000;
 
 /// The CSV's header: the truth (`true_*`), the estimate (`est_*`, empty before the estimate
-/// runs), the angle between the true and the estimated attitude, the flight phase and the
+/// runs and while the flight computer is browned out), the angle between the true and the
+/// estimated attitude, the flight phase (`browned-out` while it has no power) and the
 /// rotor's speed. SI units, named in each column.
 pub const HEADER: &str = "t_s,phase,\
 true_pos_n_m,true_pos_e_m,true_pos_d_m,true_vel_n_mps,true_vel_e_mps,true_vel_d_mps,\
@@ -63,7 +64,15 @@ impl<W: Write> TruthTrace<W> {
         let row = &mut self.row;
         row.clear();
         // Writing into a String cannot fail.
-        let _ = write!(row, "{:.3},{}", truth.t_s, core.phase().name());
+        // Browned out, no flight process runs: the phase and the estimate left in memory are
+        // nobody's.
+        let running = !sim.browned_out();
+        let phase = if running {
+            core.phase().name()
+        } else {
+            "browned-out"
+        };
+        let _ = write!(row, "{:.3},{phase}", truth.t_s);
         for x in truth
             .pos_ned_m
             .iter()
@@ -72,7 +81,7 @@ impl<W: Write> TruthTrace<W> {
         {
             let _ = write!(row, ",{x:.5}");
         }
-        match core.navigator().state() {
+        match core.navigator().state().filter(|_| running) {
             Some(est) => {
                 let (roll, pitch, yaw) = est.att.euler_angles();
                 for x in est

@@ -308,15 +308,18 @@ fn a_stall_in_the_hover_realigns_without_breaking_the_invariants() {
 }
 
 #[test]
-fn the_rolls_in_a_crosswind_recover_their_trim_speed_through_the_air() {
-    // 8 m/s of wind across the demonstration flight's roll line (it rolls heading 307 deg),
-    // from its left, with turbulence. A roll, flown on its feedforward, drifts with the air:
-    // 6 m downwind of the line and 5 m behind the trajectory's point. Before, the recovery
-    // chased that point and, 4 s after the last roll, flew up to 2.8 m/s faster through the
-    // air than when the rolls began on these seeds (3.2 on the wind campaign's, against its
-    // limit of 3); each roll after the first began as far out of trim. Now the recovery
-    // keeps the trajectory's point within 2 m of the helicopter and makes the rest up at
-    // no more than 1 m/s: 0.9-1.5 m/s (2026-11-29).
+fn the_rolls_in_an_8_mps_wind_recover_their_trim_speed_through_the_air() {
+    // 8 m/s of wind (6.4 north, 4.8 east) with turbulence; the line the demonstration flight
+    // rolls along is the heading its hold took, so the wind meets it from the side and
+    // behind (seeds 0 and 1, rolling north) or from the side and ahead (seed 2, rolling
+    // west-south-west). A roll, flown on its feedforward, leaves the helicopter below the
+    // trim speed and drifting with the air, and the trajectory's point, carried at the trim
+    // velocity, runs metres ahead. Before, the recovery chased that point and, 4 s after the
+    // last roll, flew up to 2.8 m/s faster through the air than when the rolls began on
+    // these seeds (3.2 in the wind campaign, against its limit of 3); each roll after the
+    // first began as far out of trim. Now the point is kept within 2 m of the helicopter:
+    // 0.9-1.5 m/s (2026-11-29). The bar of 2.0 is for these three seeds (others in the same
+    // wind reach 1.9-2.1; the criterion's limit is 3).
     let mut worst_mps = 0.0_f64;
     for seed in 0..3 {
         let mut s = scenario::demo();

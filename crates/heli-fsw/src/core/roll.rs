@@ -122,11 +122,13 @@ pub fn turned_unseen(g: &RollGains, rate_then_rps: f64, rate_now_rps: f64, unsee
 }
 
 /// The trajectory's point `target_ned_m` brought to within `lead_m` of the helicopter at
-/// `pos_ned_m`, horizontally, along the line between them; its height is kept.
+/// `pos_ned_m`, horizontally, along the line between them; its height is kept. A position
+/// that is not a number leaves the point where it is (carried into the next step, a point
+/// made of it would stay NaN after the estimate came back).
 fn within_lead(target_ned_m: Vector3<f64>, pos_ned_m: Vector3<f64>, lead_m: f64) -> Vector3<f64> {
     let ahead = target_ned_m - pos_ned_m;
     let ahead_m = ahead.xy().norm();
-    if ahead_m <= lead_m.max(0.0) {
+    if !ahead_m.is_finite() || ahead_m <= lead_m.max(0.0) {
         return target_ned_m;
     }
     let kept = pos_ned_m.xy() + ahead.xy() * (lead_m.max(0.0) / ahead_m);
@@ -237,11 +239,15 @@ pub fn step(
         // While rolling the trajectory only keeps up with the helicopter.
         RollStage::Rolling { .. } => target.pos_ned_m = est.pos_ned_m,
         // Recovering, the trajectory's point is kept within the recovery's lead of the
-        // helicopter, at its own height: the way a roll lost to the air is made up slowly,
-        // not raced back. (In 8 m/s of crosswind a roll ends 6 m downwind of the line and
-        // 5 m behind the point; chased, the speed overshot the trim by 3 m/s, and the next
-        // roll began that far out of trim. Kept at the helicopter, with no lead at all, the
-        // velocity's own error was never made up: 1.2 m/s fast after each roll in calm air.)
+        // helicopter, at its own height. A roll ends with the point on the helicopter, but
+        // the helicopter well below the trim speed and drifting with the air; the point,
+        // carried at the trim velocity, runs ahead. Beyond the lead that distance is given
+        // up (the line moves with the helicopter); within it, it is made up at no more than
+        // the hover's position gain times the lead. (In 8 m/s of crosswind the point ran
+        // 5 m ahead and 6 m upwind within a second; chased, the speed overshot the trim by
+        // 3 m/s, and the next roll began that far out of trim. Kept at the helicopter, with
+        // no lead at all, the velocity's own error was never made up: 1.2 m/s fast after
+        // each roll in calm air.)
         RollStage::Recover { .. } => {
             target.pos_ned_m = within_lead(target.pos_ned_m, est.pos_ned_m, g.recover_lead_m);
         }

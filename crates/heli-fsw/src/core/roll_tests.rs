@@ -286,6 +286,15 @@ fn recovering_the_trajectory_s_point_is_kept_within_its_lead_of_the_helicopter()
         (t.pos_ned_m - Vector3::new(4.0, 20.1, -20.0)).norm() < 1e-9,
         "{t:?}"
     );
+    // A position that is not a number leaves the point as it was carried: never a NaN
+    // point, which the next steps would carry on after the estimate came back.
+    let mut lost = e;
+    lost.pos_ned_m = Vector3::new(f64::NAN, 14.0, -18.5);
+    let t = fly(&mut core, &lost, RollStage::Recover { since_us: 0 });
+    assert!(
+        (t.pos_ned_m - Vector3::new(4.0, 20.1, -20.0)).norm() < 1e-9,
+        "{t:?}"
+    );
 }
 
 #[test]

@@ -500,6 +500,11 @@ impl Simulation {
         &self.streams
     }
 
+    /// The flight computer has no power (a brown-out): no flight process runs.
+    pub fn browned_out(&self) -> bool {
+        self.browned_out.is_some()
+    }
+
     fn plan_complete(&self) -> bool {
         self.computer.core().plan_complete()
     }
