@@ -16,6 +16,21 @@ fn scratch(name: &str) -> std::path::PathBuf {
     dir
 }
 
+/// Flies `args` with `--json --truth path` (a pass or a fail, never an error) and reads the
+/// trace it wrote.
+fn traced(args: &[&str], path: &std::path::Path) -> String {
+    let path_s = path.to_string_lossy();
+    let mut all = args.to_vec();
+    all.extend(["--json", "--truth", &path_s]);
+    let out = heli(&all);
+    assert!(
+        out.status.code().is_some_and(|c| c <= 1),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{e}"))
+}
+
 #[test]
 fn sim_writes_the_truth_beside_the_estimate_and_names_a_file_it_cannot_write() {
     let dir = scratch("sim");
@@ -79,21 +94,7 @@ fn a_campaign_s_flight_writes_its_truth_trace_too() {
     let dir = scratch("campaign");
     let path = dir.join("truth.csv");
     let campaign = concat!(env!("CARGO_MANIFEST_DIR"), "/campaigns/example.toml");
-    let out = heli(&[
-        "campaign",
-        campaign,
-        "--flight",
-        "0",
-        "--json",
-        "--truth",
-        &path.to_string_lossy(),
-    ]);
-    assert!(
-        out.status.code().is_some_and(|c| c <= 1),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{e}"));
+    let text = traced(&["campaign", campaign, "--flight", "0"], &path);
     // The hover's take-off and hold: rows with the estimate running and the helicopter up.
     let flying = text.lines().filter(|l| l.contains(",hold,")).count();
     assert!(flying > 100, "{flying} rows in the hold");
@@ -107,20 +108,7 @@ fn a_campaign_s_flight_writes_its_truth_trace_too() {
 fn while_the_computer_is_browned_out_the_trace_shows_no_estimate() {
     let dir = scratch("brownout");
     let path = dir.join("truth.csv");
-    let out = heli(&[
-        "sim",
-        "--scenario",
-        "brownout",
-        "--json",
-        "--truth",
-        &path.to_string_lossy(),
-    ]);
-    assert!(
-        out.status.code().is_some_and(|c| c <= 1),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{e}"));
+    let text = traced(&["sim", "--scenario", "brownout"], &path);
     let off: Vec<&str> = text
         .lines()
         .filter(|l| l.contains(",browned-out,"))
