@@ -63,7 +63,6 @@ impl<W: Write> TruthTrace<W> {
         let core = sim.core();
         let row = &mut self.row;
         row.clear();
-        // Writing into a String cannot fail.
         // Browned out, no flight process runs: the phase and the estimate left in memory are
         // nobody's.
         let running = !sim.browned_out();
@@ -72,6 +71,7 @@ impl<W: Write> TruthTrace<W> {
         } else {
             "browned-out"
         };
+        // Writing into a String cannot fail.
         let _ = write!(row, "{:.3},{phase}", truth.t_s);
         for x in truth
             .pos_ned_m
@@ -94,6 +94,7 @@ impl<W: Write> TruthTrace<W> {
                 }
                 let _ = write!(row, ",{:.5}", est.att.angle_to(&true_att));
             }
+            // The nine `est_*` columns and `att_err_rad`, empty.
             None => row.push_str(",,,,,,,,,,"),
         }
         let _ = write!(row, ",{:.0}", truth.rotor_rpm);
