@@ -21,6 +21,8 @@ use crate::telemetry::{self, DEFAULT_INTERVAL_US, TELEMETRY_MESSAGES, Telemetry}
 pub use crate::status::{BootstrapState, VehicleStatus, chunks, heartbeat};
 
 pub use crate::frame::VEHICLE;
+
+mod commands;
 /// Heartbeat period (µs).
 pub const HEARTBEAT_US: u64 = 1_000_000;
 /// A ground silent this long (µs) has lost the link.
@@ -408,144 +410,6 @@ impl VehicleLink {
     /// The plan of the flight under way, served over the mission protocol (empty: none).
     pub fn set_mission(&mut self, items: Vec<MISSION_ITEM_INT_DATA>) {
         self.mission.set(items);
-    }
-
-    fn command(&mut self, cmd: &COMMAND_LONG_DATA, now_us: u64, events: &mut Vec<LinkEvent>) {
-        if cmd.command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL {
-            let result = self.set_interval(cmd.param1, cmd.param2);
-            self.ack(cmd.command, result, now_us);
-            return;
-        }
-        match ground_command(cmd) {
-            Ok(command) => {
-                // A retry of a command under way, or of one just answered (its ack was
-                // lost), is answered again, never carried out twice.
-                if self.pending == Some(cmd.command) {
-                    self.ack(cmd.command, MavResult::MAV_RESULT_IN_PROGRESS, now_us);
-                    return;
-                }
-                let answered = self.last_result.filter(|(c, _, at)| {
-                    *c == cmd.command && now_us.saturating_sub(*at) < RESULT_KEPT_US
-                });
-                if let Some((_, result, _)) = answered.filter(|_| cmd.confirmation > 0) {
-                    self.ack(cmd.command, result, now_us);
-                    return;
-                }
-                // Connect starts a fresh flight process and kills a running one: over the
-                // link, never while a flight is under way.
-                let flying = matches!(
-                    self.status.state,
-                    BootstrapState::Starting | BootstrapState::Flying | BootstrapState::Stopping
-                );
-                if command == GroundCommand::Connect && flying {
-                    self.status_text(
-                        MavSeverity::MAV_SEVERITY_ERROR,
-                        "connect refused: a flight is under way (stop it first)",
-                        now_us,
-                    );
-                    self.ack(cmd.command, MavResult::MAV_RESULT_DENIED, now_us);
-                    return;
-                }
-                // These take time (a process starts or stops): say so at once.
-                self.ack(cmd.command, MavResult::MAV_RESULT_IN_PROGRESS, now_us);
-                self.pending = Some(cmd.command);
-                events.push(LinkEvent::Command {
-                    token: CommandToken {
-                        command: cmd.command,
-                    },
-                    command,
-                });
-            }
-            Err(crate::command::CommandError::Unsupported(_)) => {
-                self.ack(cmd.command, MavResult::MAV_RESULT_UNSUPPORTED, now_us);
-            }
-            Err(e) => {
-                self.status_text(
-                    MavSeverity::MAV_SEVERITY_ERROR,
-                    &format!("command refused: {e}"),
-                    now_us,
-                );
-                self.ack(cmd.command, MavResult::MAV_RESULT_DENIED, now_us);
-            }
-        }
-    }
-
-    fn param_set(&mut self, name: &str, value: f32, now_us: u64, events: &mut Vec<LinkEvent>) {
-        match self.params.set(name, value) {
-            Ok(()) => events.push(LinkEvent::ParamSet {
-                table_text: self.params.to_text(),
-            }),
-            Err(e) => self.status_text(MavSeverity::MAV_SEVERITY_ERROR, &e.to_string(), now_us),
-        }
-        // The value kept, changed or not, as the protocol asks.
-        if let Some(m) = self.params.value_message_named(name) {
-            self.send(&m, now_us);
-        }
-    }
-
-    fn set_interval(&mut self, message_id: f32, interval_us: f32) -> MavResult {
-        let id = message_id as u32;
-        if !self.intervals.contains_key(&id) || !message_id.is_finite() {
-            return MavResult::MAV_RESULT_DENIED;
-        }
-        let interval = if interval_us < -0.5 {
-            None
-        } else if interval_us.abs() < 0.5 {
-            Some(DEFAULT_INTERVAL_US)
-        } else if interval_us.is_finite() && interval_us >= 10_000.0 {
-            Some(interval_us as u64)
-        } else {
-            // Faster than 100 Hz is more than the telemetry has.
-            return MavResult::MAV_RESULT_DENIED;
-        };
-        self.intervals.insert(id, interval);
-        self.next_due.remove(&id);
-        MavResult::MAV_RESULT_ACCEPTED
-    }
-
-    fn ack(&mut self, command: MavCmd, result: MavResult, now_us: u64) {
-        self.send(
-            &MavMessage::COMMAND_ACK(COMMAND_ACK_DATA { command, result }),
-            now_us,
-        );
-    }
-
-    /// The final acknowledgement of a command, with a status text saying what was done or
-    /// why it failed.
-    pub fn finish(&mut self, token: CommandToken, result: CommandOutcome, now_us: u64) {
-        if self.pending == Some(token.command) {
-            self.pending = None;
-        }
-        let code = if matches!(result, CommandOutcome::Accepted(_)) {
-            MavResult::MAV_RESULT_ACCEPTED
-        } else {
-            MavResult::MAV_RESULT_FAILED
-        };
-        self.last_result = Some((token.command, code, now_us));
-        let name = match token.command {
-            CMD_CONNECT => "connect",
-            CMD_START_LOGGING => "start logging",
-            CMD_STOP => "stop",
-            _ => "command",
-        };
-        match result {
-            CommandOutcome::Accepted(text) => {
-                self.status_text(
-                    MavSeverity::MAV_SEVERITY_INFO,
-                    &format!("{name}: {text}"),
-                    now_us,
-                );
-                self.ack(token.command, MavResult::MAV_RESULT_ACCEPTED, now_us);
-            }
-            CommandOutcome::Failed(why) => {
-                self.status_text(
-                    MavSeverity::MAV_SEVERITY_ERROR,
-                    &format!("{name}: {why}"),
-                    now_us,
-                );
-                self.ack(token.command, MavResult::MAV_RESULT_FAILED, now_us);
-            }
-        }
     }
 
     /// Time passes: heartbeat, telemetry due, log packets, link-loss check.
