@@ -90,6 +90,59 @@ fn a_lockstep_log_replays_exactly_and_a_corrupted_byte_is_located() {
 }
 
 #[test]
+fn a_lockstep_log_with_a_brown_out_replays_exactly_through_the_restart() {
+    // The brown-out scenario's flight computer is powered off in the hover and a new one
+    // resumes from its predecessor's record: the one log holds both, and the replay must
+    // start a new computer from that record where the flight did.
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("brownout.mcap");
+    let log_s = log.display().to_string();
+    let out = heli(&["sim", "--scenario", "brownout", "--log", &log_s]);
+    assert!(out.status.success() || out.status.code() == Some(1));
+    let contents = heli_log::read(&std::fs::read(&log).unwrap());
+    let restarts: Vec<&serde_json::Value> = contents
+        .messages
+        .iter()
+        .filter(|m| m.topic == "device" && m.value["kind"] == "restart")
+        .map(|m| &m.value)
+        .collect();
+    assert_eq!(restarts.len(), 1, "one brown-out, one restart marker");
+    let record = restarts[0]["warm_start"].as_str().unwrap_or_default();
+    assert!(
+        record.contains("airborne = true") && record.contains("trim = "),
+        "the record the new process resumed from: {record}"
+    );
+
+    let out = heli(&["log", "replay", &log_s]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("EXACT MATCH"),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+
+    // Without the marker the replay flies on with the first computer, and differs.
+    let cut = dir.path().join("no-marker.mcap");
+    let mut copy = heli_log::FlightLog::create(&cut).unwrap();
+    for m in &contents.metadata {
+        copy.write_metadata(&m.name, &m.entries).unwrap();
+    }
+    for m in &contents.messages {
+        if !(m.topic == "device" && m.value["kind"] == "restart") {
+            copy.write(&m.topic, m.t_us, &m.value).unwrap();
+        }
+    }
+    copy.finish().unwrap();
+    let out = heli(&["log", "replay", &cut.display().to_string()]);
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+}
+
+#[test]
 fn replay_of_a_log_without_device_inputs_or_not_a_log_fails_clearly() {
     let dir = tempfile::tempdir().unwrap();
     let junk = dir.path().join("junk.mcap");

@@ -2,7 +2,7 @@
 //! replayed from its log: every byte each port delivered, every compass reading and every
 //! timer tick, with the time the flight computer took it and in the order it took them.
 //!
-//! Message fields: `kind` (`start`, `bytes`, `compass`, `port_failed`, `tick`), and for bytes `port`
+//! Message fields: `kind` (`start`, `restart`, `bytes`, `compass`, `port_failed`, `tick`, …), and for bytes `port`
 //! (`imu`, `scb`, `gps`, `baro`) and `hex` (the bytes, two lowercase hex digits each); for a
 //! compass reading `counts` (x, y, z); for a failed port `port`.
 
@@ -20,6 +20,14 @@ pub const CHANNEL: &str = "device";
 pub enum Logged {
     /// [`heli_fsw::FlightComputer::start`] was called at this message's time.
     Start,
+    /// A new flight computer was started at this message's time in place of the one before
+    /// (a simulated brown-out's end: the lockstep's one log holds both processes), from the
+    /// record its predecessor left — the text of the vehicle's warm-start file — or, `None`,
+    /// from nothing (a cold start).
+    Restart {
+        /// The warm-start record, in the vehicle's warm-start file format.
+        warm_start: Option<String>,
+    },
     /// An input.
     Input(RecordedInput),
 }
@@ -63,10 +71,26 @@ pub fn start_json() -> Value {
     json!({"kind": "start"})
 }
 
+/// The message that marks a new flight computer started in place of the one before, from
+/// `warm_start` (the warm-start file's text) or from nothing.
+pub fn restart_json(warm_start: Option<&str>) -> Value {
+    json!({"kind": "restart", "warm_start": warm_start})
+}
+
 /// A message of the channel back; `Err` says what is wrong with it.
 pub fn logged_from_json(value: &Value) -> Result<Logged, InputError> {
     match value.get("kind").and_then(Value::as_str) {
         Some("start") => Ok(Logged::Start),
+        Some("restart") => match value.get("warm_start") {
+            None | Some(Value::Null) => Ok(Logged::Restart { warm_start: None }),
+            Some(Value::String(text)) => Ok(Logged::Restart {
+                warm_start: Some(text.clone()),
+            }),
+            Some(_) => Err(InputError::Field {
+                kind: "restart",
+                needs: "'warm_start' text or null",
+            }),
+        },
         _ => input_from_json(value).map(Logged::Input),
     }
 }
@@ -257,5 +281,29 @@ mod tests {
         assert!(input_from_json(&json!({"kind": "x"})).is_err());
         assert!(input_from_json(&json!(3)).is_err());
         assert_eq!(logged_from_json(&start_json()), Ok(Logged::Start));
+    }
+
+    #[test]
+    fn a_restart_marker_carries_its_record_or_none_and_conforms_to_the_schema() {
+        let schema = crate::schema::for_topic(CHANNEL).json;
+        for warm in [Some("start = sim autonomous\nairborne = true\n"), None] {
+            let message = restart_json(warm);
+            assert_eq!(
+                logged_from_json(&message),
+                Ok(Logged::Restart {
+                    warm_start: warm.map(str::to_string)
+                })
+            );
+            assert_eq!(crate::schema::validate(&schema, &message, CHANNEL), Ok(()));
+        }
+        let bad = json!({"kind": "restart", "warm_start": 3});
+        let why = logged_from_json(&bad).unwrap_err().to_string();
+        assert!(
+            why.contains("restart") && why.contains("warm_start"),
+            "{why}"
+        );
+        // A restart that is not one of the channel's kinds would be refused by the schema.
+        let wrong = json!({"kind": "reboot"});
+        assert!(crate::schema::validate(&schema, &wrong, CHANNEL).is_err());
     }
 }

@@ -318,11 +318,15 @@ fn device_schema() -> ChannelSchema {
             "type": "object",
             "properties": {
                 "kind": {
-                    "type": "string", "enum": ["start", "bytes", "compass", "port_failed", "tick", "battery", "ground_link", "power_line", "stop_requested"],
-                    "description": "the flight computer started (the origin of a replay), bytes read from a port, a compass reading, a port that failed, a timer tick, a battery reading, whether the bootstrap hears a ground station, the hot-swap's power line, or the operator's Stop",
+                    "type": "string", "enum": ["start", "restart", "bytes", "compass", "port_failed", "tick", "battery", "ground_link", "power_line", "stop_requested"],
+                    "description": "the flight computer started (the origin of a replay), a new one started in place of the one before (a simulated brown-out's end), bytes read from a port, a compass reading, a port that failed, a timer tick, a battery reading, whether the bootstrap hears a ground station, the hot-swap's power line, or the operator's Stop",
                 },
                 "port": { "type": "string", "enum": ports, "description": "serial port (kinds bytes and port_failed)" },
                 "hex": string("the bytes read, two lowercase hex digits per byte (kind bytes)"),
+                "warm_start": {
+                    "type": ["string", "null"],
+                    "description": "the record the new flight computer started from, in the vehicle's warm-start file format, or null for a cold start (kind restart)",
+                },
                 "counts": {
                     "type": "array", "items": { "type": "integer", "minimum": 0, "maximum": 65535 },
                     "minItems": 3, "maxItems": 3,

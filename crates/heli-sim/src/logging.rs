@@ -140,6 +140,8 @@ pub struct StreamLogger<W: LogFile> {
     events: usize,
     /// Device inputs written so far (`None` until the start marker is written).
     inputs: Option<usize>,
+    /// Restart markers written so far ([`Simulation::restarts`]).
+    restarts: usize,
     /// Records the streams had overwritten before the logger read them.
     pub missed: u64,
 }
@@ -152,8 +154,39 @@ impl<W: LogFile> StreamLogger<W> {
             cursors: [0; 7],
             events: 0,
             inputs: None,
+            restarts: 0,
             missed: 0,
         }
+    }
+
+    /// Writes the markers of the flight computers started again before the `index`th device
+    /// input that are not written yet, each with the record it started from in the warm-start
+    /// file's format (a replay starts a new computer there from it).
+    fn write_restarts(&mut self, sim: &crate::Simulation, index: usize) -> Result<(), LogError> {
+        while let Some(r) = sim
+            .restarts()
+            .get(self.restarts)
+            .filter(|r| r.inputs_before <= index)
+        {
+            let text = r.warm.map(|warm| {
+                heli_vehicle::warm::WarmFile {
+                    warm,
+                    // What the lockstep flies; the record's own lines are what a replay reads.
+                    start: heli_link::StartParameters {
+                        file_suffix: "sim".to_string(),
+                        controller: sim.flight_software_setup().1.mode,
+                        plan: None,
+                        override_untested: false,
+                    },
+                    unix_times: false,
+                }
+                .to_text()
+            });
+            let value = heli_log::inputs::restart_json(text.as_deref());
+            self.log.write(heli_log::inputs::CHANNEL, r.t_us, &value)?;
+            self.restarts = self.restarts.saturating_add(1);
+        }
+        Ok(())
     }
 
     /// Appends everything published since the last call, and the device inputs when the
@@ -170,10 +203,12 @@ impl<W: LogFile> StreamLogger<W> {
             self.inputs = Some(0);
         }
         if let Some(done) = self.inputs {
-            for (t_us, input) in inputs.iter().skip(done) {
+            for (i, (t_us, input)) in inputs.iter().enumerate().skip(done) {
+                self.write_restarts(sim, i)?;
                 let value = heli_log::inputs::input_json(input);
                 self.log.write(heli_log::inputs::CHANNEL, *t_us, &value)?;
             }
+            self.write_restarts(sim, inputs.len())?;
             self.inputs = Some(inputs.len());
         }
         let streams = sim.streams();

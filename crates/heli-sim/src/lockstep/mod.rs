@@ -25,6 +25,7 @@ use hil::Hil;
 pub use hil::{HIL_BATTERY_CHANNEL, HilOut};
 use inject::Injector;
 use metrics::Metrics;
+pub use power::Restarted;
 pub use setup::{FIELD_ORIGIN, calibrate_compass, field_earth_field_gauss};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -214,6 +215,8 @@ pub struct Simulation {
     core_events: Vec<heli_fsw::Stamped<CoreEvent>>,
     /// Every device input, kept for the flight log when asked for.
     input_log: Option<Vec<(u64, RecordedInput)>>,
+    /// The flight computers started again while the inputs were kept.
+    restarts: Vec<Restarted>,
     /// Faults timed from a phase of the flight, waiting for it.
     fault_clock: fault_clock::FaultClock,
 }
@@ -290,6 +293,12 @@ impl Simulation {
     /// The device inputs kept since [`Simulation::log_device_inputs`].
     pub fn device_inputs(&self) -> &[(u64, RecordedInput)] {
         self.input_log.as_deref().unwrap_or_default()
+    }
+
+    /// The flight computers started in place of the one before (brown-outs' ends) since
+    /// [`Simulation::log_device_inputs`], in order, each placed among the device inputs.
+    pub fn restarts(&self) -> &[Restarted] {
+        &self.restarts
     }
 
     /// The flight software's events so far, with their times.

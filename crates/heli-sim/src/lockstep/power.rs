@@ -4,6 +4,18 @@
 
 use super::*;
 
+/// A flight computer started in place of the one before (a brown-out's end), as the device
+/// inputs' log must say so that a replay starts a new one there too.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Restarted {
+    /// How many device inputs the log had kept before it ([`Simulation::device_inputs`]).
+    pub inputs_before: usize,
+    /// When (µs).
+    pub t_us: u64,
+    /// The record it started from (`None`: a cold start).
+    pub warm: Option<heli_fsw::core::WarmStart>,
+}
+
 impl Simulation {
     /// The flight software arms its watchdogs, checks the servo board and starts its
     /// altimeter handshake.
@@ -52,6 +64,13 @@ impl Simulation {
                     Some(warm) => FlightComputer::restarted(config, params, rate, warm),
                     None => FlightComputer::new(config, params, rate),
                 };
+                if let Some(log) = self.input_log.as_ref() {
+                    self.restarts.push(Restarted {
+                        inputs_before: log.len(),
+                        t_us: self.now_us,
+                        warm,
+                    });
+                }
                 self.tick_at = None;
                 self.start_flight_computer();
             }

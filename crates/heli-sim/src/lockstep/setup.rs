@@ -122,6 +122,7 @@ impl Simulation {
             hil: None,
             core_events: Vec::new(),
             input_log: None,
+            restarts: Vec::new(),
             fault_clock,
             scenario,
             heli,

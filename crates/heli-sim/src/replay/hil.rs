@@ -39,6 +39,10 @@ pub struct Recording {
     pub inputs: Vec<(u64, RecordedInput)>,
     /// The servo commands it sent, as pulse widths.
     pub servo: Vec<(u64, Pulses)>,
+    /// When a new flight computer was started in place of the recorded one (a simulated
+    /// brown-out's end, its clock, µs): the flight computer played to is not restarted by
+    /// the playback, so its commands after it are not the recording's.
+    pub restart_us: Option<u64>,
 }
 
 impl Recording {
@@ -53,11 +57,12 @@ impl Recording {
     }
 
     /// The recorded commands a replay played to `last_us` is compared with: from the
-    /// start to the last input played, and not past the operator's Stop.
+    /// start to the last input played, and not past the operator's Stop or a restart.
     fn compared(&self, last_us: u64) -> Vec<(u64, Pulses)> {
-        let end_us = self
-            .operator_stop_us()
-            .map_or(last_us, |stop_us| stop_us.min(last_us));
+        let end_us = [self.operator_stop_us(), self.restart_us]
+            .into_iter()
+            .flatten()
+            .fold(last_us, u64::min);
         self.servo
             .iter()
             .copied()
@@ -72,6 +77,7 @@ impl Recording {
     pub fn from_log(contents: &LogContents) -> Result<Self, ReplayError> {
         let mut rec = Recording::default();
         let mut started = None;
+        let mut restarted = None;
         for m in &contents.messages {
             if m.topic == inputs::CHANNEL {
                 match inputs::logged_from_json(&m.value).map_err(|why| ReplayError::BadInput {
@@ -80,6 +86,9 @@ impl Recording {
                 })? {
                     Logged::Start => {
                         started.get_or_insert(m.t_us);
+                    }
+                    Logged::Restart { .. } => {
+                        restarted.get_or_insert(m.t_us);
                     }
                     Logged::Input(input) => rec.inputs.push((m.t_us, input)),
                 }
@@ -109,6 +118,7 @@ impl Recording {
         rec.inputs.sort_by_key(|(t, _)| *t);
         rec.servo.sort_by_key(|(t, _)| *t);
         rec.start_us = started.unwrap_or_else(|| rec.inputs.first().map_or(0, |(t, _)| *t));
+        rec.restart_us = restarted;
         Ok(rec)
     }
 

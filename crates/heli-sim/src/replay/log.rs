@@ -127,6 +127,29 @@ pub fn replay(setup: &ReplaySetup, contents: &LogContents) -> Result<ReplayOutco
                 started = true;
                 computer.start(m.t_us, &mut |_, _| {});
             }
+            Logged::Restart { warm_start } => {
+                // A new computer in place of the one before (a brown-out's end in a lockstep
+                // flight), from the record it started from, as the flight did.
+                computer = match warm_start {
+                    Some(text) => {
+                        let warm = heli_vehicle::warm::WarmFile::parse(&text)
+                            .map_err(|e| ReplayError::BadInput {
+                                t_s: m.t_us as f64 * 1e-6,
+                                why: format!("restart's warm_start: {e}"),
+                            })?
+                            .warm;
+                        FlightComputer::restarted(
+                            setup.config,
+                            setup.params,
+                            setup.baro_rate_hz,
+                            warm,
+                        )
+                    }
+                    None => FlightComputer::new(setup.config, setup.params, setup.baro_rate_hz),
+                };
+                started = true;
+                computer.start(m.t_us, &mut |_, _| {});
+            }
             Logged::Input(input) => {
                 computer.receive(m.t_us, input.as_input(), &mut |_, _| {}, &mut actions);
                 outcome.inputs = outcome.inputs.saturating_add(1);
