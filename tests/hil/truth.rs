@@ -83,8 +83,10 @@ fn truth_of(asked_ms: u64, t_ms: u64, status: &Value, lapsed: &[String]) -> Trut
     let state = status["state"].as_str().unwrap_or("?").to_string();
     let tel = &status["telemetry"];
     let flying = state == "flying" && tel.is_object();
-    let phase = tel["state"]["phase"]
+    // The flight core's phase now (the heartbeat's), whether or not an estimate is current.
+    let phase = tel["phase"]
         .as_str()
+        .or_else(|| tel["state"]["phase"].as_str())
         .filter(|_| flying)
         .map(str::to_string);
     let health = |device: &str| {
@@ -206,7 +208,7 @@ fn phase_story(answers: &str) -> String {
         let now = (
             v["pid"].clone(),
             v["state"].clone(),
-            telemetry["state"]["phase"].clone(),
+            telemetry["phase"].clone(),
         );
         if last.as_ref() != Some(&now) {
             story.push_str(&format!(

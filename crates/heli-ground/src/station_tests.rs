@@ -50,6 +50,7 @@ pub(crate) fn flying_telemetry(phase: &str) -> Telemetry {
     };
     Telemetry {
         t_us: 1,
+        phase: None,
         imu: Some(ImuRow {
             rate_rps: [0.0; 3],
             accel_mps2: [0.0, 0.0, -9.81],

@@ -149,9 +149,16 @@ pub struct PowerRow {
 pub struct Telemetry {
     /// When the snapshot was taken (µs of the flight clock).
     pub t_us: u64,
+    /// The flight phase now, as the flight core has it after its latest input — whether or
+    /// not an estimate is current (`calibrating` before the first, `blind-descent` or
+    /// `ground-failsafe` after one was lost). `None`: no flight core has spoken yet; the
+    /// state row's phase is then the one to go by.
+    #[serde(default)]
+    pub phase: Option<String>,
     /// IMU.
     pub imu: Option<ImuRow>,
-    /// State estimate.
+    /// State estimate: only while it is current (`None` before the first, and once it has
+    /// stopped coming: a lost estimate is never sent on as if it were new).
     pub state: Option<StateRow>,
     /// Pilot uplink.
     pub uplink: Option<UplinkRow>,
@@ -176,6 +183,13 @@ pub struct Telemetry {
     /// the navigation has one: the frame of the positions north and east.
     #[serde(default)]
     pub origin: Option<[f64; 3]>,
+}
+
+/// The flight phase now: the flight core's, or without it the current estimate's.
+pub fn phase_now(t: &Telemetry) -> Option<&str> {
+    t.phase
+        .as_deref()
+        .or_else(|| t.state.as_ref().map(|s| s.phase.as_str()))
 }
 
 /// The messages of the telemetry, in the order they are offered, by message id.
@@ -391,10 +405,13 @@ pub fn message(id: u32, t: &Telemetry, time_boot_ms: u32) -> Option<MavMessage> 
             if t.imu.is_some() || t.state.is_some() {
                 present |= ahrs;
             }
-            // Healthy once calibrated, and not once the estimate is lost (the blind failsafe).
-            if t.state
-                .as_ref()
-                .is_some_and(|s| !matches!(s.phase.as_str(), "calibrating" | "blind-descent"))
+            // Healthy once calibrated and while the estimate is current, and not once it is
+            // lost (the blind failsafe, the ground failsafe after it).
+            if t.state.is_some()
+                && !matches!(
+                    phase_now(t),
+                    Some("calibrating" | "blind-descent" | "ground-failsafe")
+                )
             {
                 healthy |= ahrs;
             }

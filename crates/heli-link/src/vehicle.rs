@@ -421,11 +421,12 @@ impl VehicleLink {
         store: &dyn LogStore,
     ) -> Vec<LinkEvent> {
         let mut events = Vec::new();
-        // The phase flown, from the flight process's telemetry (none without a flight).
+        // The phase flown, from the flight process's telemetry (none without a flight): the
+        // flight core's now, whether or not its estimate is current.
         let status = VehicleStatus {
             phase: telemetry
-                .and_then(|t| t.state.as_ref())
-                .map_or(0, |s| crate::status::phase_code(&s.phase)),
+                .and_then(telemetry::phase_now)
+                .map_or(0, crate::status::phase_code),
             ..status
         };
         // A change of state, mode or phase goes out at once, not at the next beat: the

@@ -695,6 +695,44 @@ fn messages_for_another_system_change_nothing() {
 }
 
 #[test]
+fn the_heartbeat_s_phase_is_the_flight_core_s_now_without_a_current_estimate() {
+    let mut v = VehicleLink::new(None, T0);
+    let beat_phase = |v: &mut VehicleLink, t_us: u64, telemetry: &Telemetry| {
+        let status = VehicleStatus {
+            state: BootstrapState::Flying,
+            mode: 2,
+            ..VehicleStatus::default()
+        };
+        v.tick(t_us, status, Some(telemetry), &store());
+        v.status.phase
+    };
+    // Calibrating: no estimate yet, the phase all the same.
+    let calibrating = Telemetry {
+        phase: Some("calibrating".into()),
+        state: None,
+        ..telemetry()
+    };
+    assert_eq!(
+        beat_phase(&mut v, T0, &calibrating),
+        crate::status::phase_code("calibrating")
+    );
+    // The estimate lost: its last row says hold, the core says blind descent.
+    let lost = Telemetry {
+        phase: Some("blind-descent".into()),
+        state: Some(StateRow {
+            phase: "hold".into(),
+            ..StateRow::default()
+        }),
+        ..telemetry()
+    };
+    assert_eq!(
+        beat_phase(&mut v, T0 + 100_000, &lost),
+        crate::status::phase_code("blind-descent")
+    );
+    assert_ne!(crate::status::phase_code("blind-descent"), 0);
+}
+
+#[test]
 fn the_heartbeat_carries_the_phase_flown_beside_the_mode_asked() {
     for (k, name) in crate::status::PHASES.iter().enumerate() {
         let status = VehicleStatus {

@@ -428,6 +428,10 @@ fn control_loop(
             }
         }
         streams.health.publish(*computer.core().health());
+        let phase = computer.core().phase();
+        if streams.phase.latest().is_none_or(|p| *p != phase) {
+            streams.phase.publish(phase);
+        }
         if matches!(
             input,
             RecordedInput::Battery(_) | RecordedInput::PowerLine(_)

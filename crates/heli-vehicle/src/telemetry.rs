@@ -108,25 +108,38 @@ pub fn ask_battery(server: &Sender<BatteryRequest>) -> Option<Stamped<f64>> {
     rx.recv_timeout(Duration::from_millis(200)).ok().flatten()
 }
 
+/// How long an estimate stays current after its stamp (µs): the control loop publishes one
+/// every 20 ms, so one half a second old has stopped coming (the estimate lost, the IMU
+/// silent) and is not reported as the helicopter's state.
+pub const STATE_CURRENT_US: u64 = 500_000;
+
 /// One telemetry report: the freshest value of each stream, as the ground display's rows
 /// and the link's telemetry messages.
 pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u64) -> Value {
     use heli_link::telemetry as t;
-    let state = streams.state.latest().map(|s| {
-        let nav = &s.value.nav;
-        let (roll, pitch, yaw) = nav.euler_rad();
-        t::StateRow {
-            phase: s.value.phase.name().to_string(),
-            euler_rad: [roll, pitch, yaw],
-            rate_rps: [
-                nav.rate_body_rps.x,
-                nav.rate_body_rps.y,
-                nav.rate_body_rps.z,
-            ],
-            pos_ned_m: [nav.pos_ned_m.x, nav.pos_ned_m.y, nav.pos_ned_m.z],
-            vel_ned_mps: [nav.vel_ned_mps.x, nav.vel_ned_mps.y, nav.vel_ned_mps.z],
-        }
-    });
+    // The flight software's clock now: the records are stamped on it as their inputs came,
+    // and none is later than now.
+    let newest_us = streams.state.latest().map_or(0, |s| s.t_us);
+    let core_now_us = now_us.max(newest_us);
+    let state = streams
+        .state
+        .latest()
+        .filter(|s| core_now_us.saturating_sub(s.t_us) <= STATE_CURRENT_US)
+        .map(|s| {
+            let nav = &s.value.nav;
+            let (roll, pitch, yaw) = nav.euler_rad();
+            t::StateRow {
+                phase: s.value.phase.name().to_string(),
+                euler_rad: [roll, pitch, yaw],
+                rate_rps: [
+                    nav.rate_body_rps.x,
+                    nav.rate_body_rps.y,
+                    nav.rate_body_rps.z,
+                ],
+                pos_ned_m: [nav.pos_ned_m.x, nav.pos_ned_m.y, nav.pos_ned_m.z],
+                vel_ned_mps: [nav.vel_ned_mps.x, nav.vel_ned_mps.y, nav.vel_ned_mps.z],
+            }
+        });
     let servo = streams.servo.latest().map(|s| {
         let c = s.value.controls;
         t::ServoRow {
@@ -150,9 +163,8 @@ pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u6
             servo_batt_v: u.value.servo_batt_v,
         }
     });
-    // The flight software's clock now (its newest estimate's stamp; the records are stamped
-    // on it, not on the wall clock): the GPS fix's age is measured on it.
-    let core_now_us = streams.state.latest().map_or(now_us, |s| s.t_us);
+    // The GPS fix's age on the flight software's clock: it grows while the GPS is silent,
+    // whether or not the estimate goes on.
     let gps = streams.gps.latest().map(|g| t::GpsRow {
         lat_deg: g.value.lat_deg,
         lon_deg: g.value.lon_deg,
@@ -191,6 +203,7 @@ pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u6
     let power = streams.power.latest().map(|p| (*p).clone());
     let telemetry = t::Telemetry {
         t_us: now_us,
+        phase: streams.phase.latest().map(|p| p.name().to_string()),
         imu,
         state,
         uplink,
@@ -465,6 +478,47 @@ mod tests {
             v["published"],
             json!({"imu": 1, "state": 1, "servo": 1, "uplink": 1, "gps": 1, "baro": 1, "compass": 1})
         );
+    }
+
+    #[test]
+    fn an_estimate_that_stopped_coming_is_not_sent_on_but_the_phase_now_is() {
+        let streams = LiveStreams::default();
+        let nav = heli_nav::NavState {
+            t_us: 1_000_000,
+            att: UnitQuaternion::identity(),
+            vel_ned_mps: Vector3::new(9.9, 0.0, 0.0),
+            pos_ned_m: Vector3::zeros(),
+            rate_body_rps: Vector3::zeros(),
+            accel_body_mps2: Vector3::zeros(),
+            gyro_bias_rps: Vector3::zeros(),
+            accel_bias_mps2: Vector3::zeros(),
+        };
+        streams.state.publish(Stamped::new(
+            1_000_000,
+            StateRecord {
+                nav,
+                phase: Phase::Landed,
+                target: None,
+            },
+        ));
+        streams
+            .gps
+            .publish(Stamped::new(1_000_000, GpsNav::default()));
+        streams.phase.publish(Phase::BlindDescent);
+        let at = |now_us: u64| snapshot(&streams, None, now_us);
+        // Half a second on, the estimate is still the helicopter's state.
+        let v = at(1_000_000 + STATE_CURRENT_US);
+        assert_eq!(v["state"]["vel_ned_mps"][0], 9.9);
+        assert_eq!(v["phase"], "blind-descent");
+        // Beyond, it is not sent on; the phase and the GPS's growing age are.
+        let v = at(1_000_001 + STATE_CURRENT_US);
+        assert!(v["state"].is_null(), "{}", v["state"]);
+        assert_eq!(v["phase"], "blind-descent");
+        let v = at(56_000_000);
+        assert!(v["state"].is_null());
+        close(&v["gps"]["age_s"], 55.0);
+        // Before any flight core has spoken: no phase.
+        assert!(snapshot(&LiveStreams::default(), None, 1)["phase"].is_null());
     }
 
     #[test]

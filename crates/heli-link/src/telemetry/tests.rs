@@ -3,6 +3,7 @@ use super::*;
 fn full() -> Telemetry {
     Telemetry {
         t_us: 1,
+        phase: None,
         imu: Some(ImuRow {
             rate_rps: [0.1, 0.0, 0.0],
             accel_mps2: [0.0, 0.0, -9.80665],
@@ -79,6 +80,38 @@ fn nothing_is_made_before_its_stream_has_data() {
             assert!(message(id, &empty, 0).is_none(), "message {id}");
         }
     }
+}
+
+#[test]
+fn the_estimate_is_healthy_only_while_current_and_flown_on() {
+    let ahrs = MavSysStatusSensor::MAV_SYS_STATUS_AHRS;
+    let health = |t: &Telemetry| match message(SYS_STATUS_DATA::ID, t, 0) {
+        Some(MavMessage::SYS_STATUS(s)) => (
+            s.onboard_control_sensors_present.contains(ahrs),
+            s.onboard_control_sensors_health.contains(ahrs),
+        ),
+        other => panic!("no SYS_STATUS: {other:?}"),
+    };
+    // Current and holding: present and healthy.
+    assert_eq!(health(&full()), (true, true));
+    // The flight core's phase now rules over the last estimate's.
+    for lost in ["calibrating", "blind-descent", "ground-failsafe"] {
+        let t = Telemetry {
+            phase: Some(lost.into()),
+            ..full()
+        };
+        assert_eq!(health(&t), (true, false), "{lost}");
+    }
+    // An estimate that stopped coming (no state row) is not healthy, though the IMU is there.
+    let t = Telemetry {
+        phase: Some("hold".into()),
+        state: None,
+        ..full()
+    };
+    assert_eq!(health(&t), (true, false));
+    assert_eq!(phase_now(&t), Some("hold"));
+    assert_eq!(phase_now(&full()), Some("hold"), "from the state row");
+    assert_eq!(phase_now(&Telemetry::default()), None);
 }
 
 #[test]
