@@ -48,6 +48,12 @@ pub fn open(path: &Path, baud: u32) -> Result<TTYPort, PortError> {
         let (reason, hint) = lookup_failure(&e);
         error(reason, hint)
     })?;
+    let in_use = || {
+        error(
+            format!("in use by {}", holder(path)),
+            "another flight process or stand-alone driver has this device: stop it first",
+        )
+    };
     if !meta.file_type().is_char_device() {
         return Err(error(
             "not a terminal device".into(),
@@ -56,19 +62,69 @@ pub fn open(path: &Path, baud: u32) -> Result<TTYPort, PortError> {
     }
     // Not TIOCEXCL: the flag outlives a killed process on a terminal someone else holds
     // open (the HILSim's), and would refuse the next flight process. serialport takes a
-    // shared flock instead.
+    // shared flock; it is made exclusive below.
     let port = serialport::new(path.to_string_lossy(), baud)
         .timeout(READ_TIMEOUT)
         .exclusive(false)
         .open_native()
-        .map_err(|e| {
-            let hint = open_hint(e.kind());
-            error(e.to_string(), hint)
+        .map_err(|e| match e.kind() {
+            // Its lock refused: another program holds the device.
+            serialport::ErrorKind::NoDevice => in_use(),
+            kind => error(e.to_string(), open_hint(kind)),
         })?;
+    // One program per device: a second flight process reading the same IMU and writing the
+    // same servo board fights the first for the helicopter. The lock is the port's own (its
+    // write half shares it) and goes with its last handle, or with a killed process.
+    if lock_exclusive(&port).is_err() {
+        return Err(in_use());
+    }
     // Whatever waited in the line's buffer before the flight began is stale: a driver stamps
     // bytes when it reads them, so old bytes would arrive as a burst of "new" samples.
     let _ = port.clear(serialport::ClearBuffer::Input);
     Ok(port)
+}
+
+/// Makes the port's shared lock exclusive, without waiting.
+// nix's `Flock` owns a descriptor of its own; this lock must live and die with the port's.
+#[allow(deprecated)]
+fn lock_exclusive(port: &TTYPort) -> nix::Result<()> {
+    use std::os::fd::AsRawFd;
+    nix::fcntl::flock(
+        port.as_raw_fd(),
+        nix::fcntl::FlockArg::LockExclusiveNonblock,
+    )
+}
+
+/// Who holds a lock on the device at `path`, as `/proc/locks` and the holder's
+/// `/proc/PID/comm` say (`process 1234 (heli-vehicle)`), or `another program`.
+fn holder(path: &Path) -> String {
+    use std::os::unix::fs::MetadataExt;
+    let Ok(meta) = std::fs::metadata(path) else {
+        return "another program".into();
+    };
+    let dev = meta.dev();
+    // glibc's encoding of a device number.
+    let major = ((dev >> 8) & 0xfff) | ((dev >> 32) & !0xfff);
+    let minor = (dev & 0xff) | ((dev >> 12) & !0xff);
+    let id = format!("{major:02x}:{minor:02x}:{}", meta.ino());
+    let pid = std::fs::read_to_string("/proc/locks")
+        .ok()
+        .and_then(|locks| {
+            locks.lines().find_map(|line| {
+                let fields: Vec<&str> = line.split_whitespace().collect();
+                // `1: FLOCK  ADVISORY  READ  1234 00:19:7 0 EOF`
+                let at = fields.iter().position(|f| *f == id)?;
+                let pid = fields.get(at.checked_sub(1)?)?;
+                (pid.parse::<u32>().ok()? != std::process::id()).then(|| pid.to_string())
+            })
+        });
+    match pid {
+        Some(pid) => {
+            let comm = std::fs::read_to_string(format!("/proc/{pid}/comm")).unwrap_or_default();
+            format!("process {pid} ({})", comm.trim())
+        }
+        None => "another program".into(),
+    }
 }
 
 /// What to do about a permission refused.
@@ -160,6 +216,26 @@ mod tests {
             open_hint(serialport::ErrorKind::InvalidInput),
             "is it a serial device?"
         );
+    }
+
+    #[test]
+    fn a_device_one_program_holds_is_refused_to_another_and_free_once_it_lets_go() {
+        let (_master, slave) = TTYPort::pair().unwrap();
+        let path = PathBuf::from(slave.name().unwrap());
+        let first = open(&path, 115_200).unwrap();
+        // Its write half shares the lock.
+        let half = clone(&first, &path).unwrap();
+        // In this process the holder is not named (it is this one); the hint says what to do.
+        let e = open(&path, 115_200).unwrap_err();
+        assert!(e.to_string().contains("in use by"), "{e}");
+        assert!(e.hint.contains("stop it first"), "{e}");
+        drop(first);
+        assert!(
+            open(&path, 115_200).is_err(),
+            "the write half still holds it"
+        );
+        drop(half);
+        open(&path, 115_200).unwrap();
     }
 
     #[test]
