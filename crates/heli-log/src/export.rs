@@ -31,12 +31,22 @@ pub fn for_each_leaf(prefix: &str, value: &Value, leaf: &mut dyn FnMut(String, &
 fn flatten(prefix: &str, value: &Value, out: &mut Vec<(String, String)>) {
     for_each_leaf(prefix, value, &mut |name, v| {
         let text = match v {
-            Value::String(s) => s.replace([',', '\n'], " "),
+            Value::String(s) => quoted(s),
             Value::Null => String::new(),
             other => other.to_string(),
         };
         out.push((name, text));
     });
+}
+
+/// A text cell as CSV (RFC 4180): as it is, or in double quotes with its quotes doubled
+/// when it holds a comma, a quote or a line break — the text comes back whole.
+fn quoted(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
 }
 
 /// The top-level field a flattened name belongs to (`target_ned_m` of `target_ned_m[2]`).
@@ -62,11 +72,25 @@ fn columns(rows: &[(u64, Vec<(String, String)>)]) -> Vec<String> {
             columns.insert(at, name.clone());
         }
     }
+    // A field that was null until it became a vector (the state's target before a plan
+    // gives one) is its components' columns, not an empty column of its own too.
+    let empty = |c: &str| {
+        rows.iter()
+            .all(|(_, fields)| fields.iter().all(|(n, v)| n != c || v.is_empty()))
+    };
+    let split: Vec<String> = columns
+        .iter()
+        .filter(|c| root(c) == c.as_str() && empty(c))
+        .filter(|c| columns.iter().any(|o| o != *c && root(o) == c.as_str()))
+        .cloned()
+        .collect();
+    columns.retain(|c| !split.contains(c));
     columns
 }
 
 /// One channel's messages as CSV: a `t_s` column, then one column per (flattened) field of
-/// any of its messages; a message without a field leaves its cell empty.
+/// any of its messages; a message without a field leaves its cell empty. Text is quoted as
+/// RFC 4180 asks where it must be, so a spreadsheet or Python's `csv` reads it back whole.
 pub fn to_csv(contents: &LogContents, topic: &str) -> String {
     let rows: Vec<(u64, Vec<(String, String)>)> = contents
         .messages
@@ -135,6 +159,30 @@ mod tests {
     }
 
     #[test]
+    fn text_with_commas_quotes_or_lines_comes_back_whole() {
+        let text = "calibration done, gyro bias [0.0029, -0.0135] \"rad/s\"\nnext";
+        let contents = LogContents {
+            messages: vec![LoggedMessage {
+                topic: "events".into(),
+                t_us: 85_000_000,
+                sequence: 0,
+                value: json!({"level": "info", "text": text, "plain": "hold"}),
+            }],
+            ..Default::default()
+        };
+        let csv = to_csv(&contents, "events");
+        assert!(csv.contains(",hold,"), "{csv}");
+        // Read back as a CSV reader does: the quoted cell, its doubled quotes undone.
+        let start = csv
+            .find(",\"")
+            .map(|i| i + 2)
+            .unwrap_or_else(|| panic!("{csv}"));
+        let end = csv.rfind('"').unwrap_or(0);
+        assert_eq!(csv[start..end].replace("\"\"", "\""), text);
+        assert_eq!(quoted("plain"), "plain");
+    }
+
+    #[test]
     fn a_field_the_first_message_lacks_is_exported_too() {
         // The state's target is null until a plan gives one; a list grows.
         let values = [
@@ -160,9 +208,9 @@ mod tests {
         assert_eq!(
             lines,
             [
-                "t_s,alt_m,sats[0],sats[1],target_ned_m,target_ned_m[0],target_ned_m[1],target_ned_m[2]",
-                "0.000000,0.5,1,,,,,",
-                "1.000000,0.75,1,2,,1.0,2.0,-3.0",
+                "t_s,alt_m,sats[0],sats[1],target_ned_m[0],target_ned_m[1],target_ned_m[2]",
+                "0.000000,0.5,1,,,,",
+                "1.000000,0.75,1,2,1.0,2.0,-3.0",
             ]
         );
     }
