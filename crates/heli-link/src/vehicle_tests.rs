@@ -109,6 +109,45 @@ fn a_message_interval_is_set_and_a_message_can_be_stopped() {
 }
 
 #[test]
+fn a_message_interval_refused_is_denied_with_a_text_naming_why() {
+    for (id, us, says) in [
+        (SCALED_IMU_DATA::ID as f32, 1000.0, "10000 us"),
+        (SCALED_IMU_DATA::ID as f32, -5.0, "-1 (off)"),
+        (
+            9999.0,
+            100_000.0,
+            "message 9999 is not one of the telemetry's",
+        ),
+        (f32::NAN, 100_000.0, "is not one of the telemetry's"),
+    ] {
+        let mut v = VehicleLink::new(None, T0);
+        let mut g = GroundLink::new(None);
+        let cmd = COMMAND_LONG_DATA {
+            command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+            param1: id,
+            param2: us,
+            ..Default::default()
+        };
+        v.receive(&g.command_frame(cmd, T0), T0, &store());
+        for d in v.take_outgoing() {
+            g.receive(&d, T0);
+        }
+        assert_eq!(
+            g.final_ack(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL),
+            Some(MavResult::MAV_RESULT_DENIED),
+            "{id} {us}"
+        );
+        assert!(
+            g.texts
+                .iter()
+                .any(|(_, t)| t.contains("message interval refused") && t.contains(says)),
+            "{id} {us}: {:?}",
+            g.texts
+        );
+    }
+}
+
+#[test]
 fn a_thesis_command_is_handed_on_and_acknowledged_twice() {
     let mut v = VehicleLink::new(None, T0);
     let mut g = GroundLink::new(None);

@@ -14,7 +14,17 @@ impl VehicleLink {
         events: &mut Vec<LinkEvent>,
     ) {
         if cmd.command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL {
-            let result = self.set_interval(cmd.param1, cmd.param2);
+            let result = match self.set_interval(cmd.param1, cmd.param2) {
+                Ok(()) => MavResult::MAV_RESULT_ACCEPTED,
+                Err(why) => {
+                    self.status_text(
+                        MavSeverity::MAV_SEVERITY_ERROR,
+                        &format!("message interval refused: {why}"),
+                        now_us,
+                    );
+                    MavResult::MAV_RESULT_DENIED
+                }
+            };
             self.ack(cmd.command, result, now_us);
             return;
         }
@@ -92,13 +102,21 @@ impl VehicleLink {
         }
     }
 
-    /// MAV_CMD_SET_MESSAGE_INTERVAL for one telemetry message (µs; −1 off, 0 the default).
-    fn set_interval(&mut self, message_id: f32, interval_us: f32) -> MavResult {
+    /// MAV_CMD_SET_MESSAGE_INTERVAL for one telemetry message (µs; −1 off, 0 the default);
+    /// `Err` says why it is refused.
+    fn set_interval(&mut self, message_id: f32, interval_us: f32) -> Result<(), String> {
         let id = message_id as u32;
         if !self.intervals.contains_key(&id) || !message_id.is_finite() {
-            return MavResult::MAV_RESULT_DENIED;
+            return Err(format!(
+                "message {message_id} is not one of the telemetry's ({})",
+                telemetry::TELEMETRY_MESSAGES
+                    .iter()
+                    .map(u32::to_string)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
         }
-        let interval = if interval_us < -0.5 {
+        let interval = if (interval_us + 1.0).abs() < 0.5 {
             None
         } else if interval_us.abs() < 0.5 {
             Some(DEFAULT_INTERVAL_US)
@@ -106,11 +124,13 @@ impl VehicleLink {
             Some(interval_us as u64)
         } else {
             // Faster than 100 Hz is more than the telemetry has.
-            return MavResult::MAV_RESULT_DENIED;
+            return Err(format!(
+                "interval {interval_us} us for message {id}: -1 (off), 0 (the default) or 10000 us (100 Hz) and more"
+            ));
         };
         self.intervals.insert(id, interval);
         self.next_due.remove(&id);
-        MavResult::MAV_RESULT_ACCEPTED
+        Ok(())
     }
 
     /// A COMMAND_ACK for `command`.
