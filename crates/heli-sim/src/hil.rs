@@ -209,11 +209,54 @@ pub(crate) struct PtyPort {
     /// Held open so the terminal exists (and reads on the master never fail) while no
     /// flight computer has it open.
     _slave: TTYPort,
+    /// The directory's lock ([`hold_directory`]), held while any terminal is.
+    _lock: Arc<std::fs::File>,
+}
+
+/// The lock file of a `--ptys` directory: one HILSim per directory.
+pub const LOCK_FILE: &str = ".hilsim.lock";
+
+/// Locks `dir` for this HILSim ([`LOCK_FILE`], with its process id): a second HILSim on the
+/// same directory would point the device links at its own terminals under the first one's
+/// flight computer, and leave them dangling when it ends. It is refused, naming the holder.
+fn hold_directory(dir: &Path) -> Result<std::fs::File, HilError> {
+    use std::io::Write;
+    let path = dir.join(LOCK_FILE);
+    let mut file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .read(true)
+        .write(true)
+        .open(&path)
+        .map_err(device(path.display()))?;
+    match file.try_lock() {
+        Ok(()) => {}
+        Err(std::fs::TryLockError::WouldBlock) => {
+            let pid = std::fs::read_to_string(&path).unwrap_or_default();
+            return Err(device(format!("--ptys {}", dir.display()))(
+                std::io::Error::other(format!(
+                    "in use by another heli hilsim (process {}): stop it, or give another directory",
+                    pid.trim()
+                )),
+            ));
+        }
+        Err(std::fs::TryLockError::Error(e)) => return Err(device(path.display())(e)),
+    }
+    file.set_len(0)
+        .and_then(|()| writeln!(file, "{}", std::process::id()))
+        .map_err(device(path.display()))?;
+    Ok(file)
 }
 
 /// Creates the pseudo-terminals and the ADC directory under `dir`.
 pub(crate) fn expose(dir: &Path) -> Result<(Vec<PtyPort>, HilDevices), HilError> {
-    std::fs::create_dir_all(dir).map_err(device(dir.display()))?;
+    if dir.exists() && !dir.is_dir() {
+        return Err(device(format!("--ptys {}", dir.display()))(
+            std::io::Error::other("not a directory: give a directory for the devices' links"),
+        ));
+    }
+    std::fs::create_dir_all(dir).map_err(device(format!("--ptys {}", dir.display())))?;
+    let lock = Arc::new(hold_directory(dir)?);
     let adc = dir.join("adc");
     std::fs::create_dir_all(&adc).map_err(device(adc.display()))?;
     let mut ptys = Vec::new();
@@ -239,6 +282,7 @@ pub(crate) fn expose(dir: &Path) -> Result<(Vec<PtyPort>, HilDevices), HilError>
             port,
             master,
             _slave: slave,
+            _lock: Arc::clone(&lock),
         });
     }
     Ok((
@@ -467,6 +511,28 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn one_hilsim_per_directory_and_a_file_is_no_directory() {
+        let dir = tempfile::tempdir().unwrap();
+        let ptys = dir.path().join("dev");
+        let first = expose(&ptys).unwrap();
+        let why = expose(&ptys).map(|_| ()).unwrap_err().to_string();
+        assert!(
+            why.contains("in use by another heli hilsim")
+                && why.contains(&std::process::id().to_string()),
+            "{why}"
+        );
+        // The first one's links are left as they were.
+        let imu = std::fs::read_link(ptys.join("imu")).unwrap();
+        assert_eq!(imu, first.1.ports[0].2);
+        drop(first);
+        expose(&ptys).unwrap();
+        let file = dir.path().join("plain");
+        std::fs::write(&file, b"x").unwrap();
+        let why = expose(&file).map(|_| ()).unwrap_err().to_string();
+        assert!(why.contains("not a directory"), "{why}");
+    }
 
     #[test]
     fn writes_starved_past_the_imu_silence_limit_make_stretches() {

@@ -61,7 +61,7 @@ impl Lab {
             "the bench's standing override (--fly-untested)"
         } else {
             return Err(format!(
-                "{line}: {} flight needs the operator's override (start-logging SUFFIX MODE [PLAN] override-untested; the display asks for it)",
+                "{line}: {} flight needs the operator's override (the display asks for it; `heli ground start … --override-untested`; `heli vehicle ctl start-logging SUFFIX MODE [PLAN] override-untested`)",
                 start.controller.name()
             ));
         };
@@ -188,6 +188,12 @@ mod tests {
             .unwrap_err();
         assert!(
             refused.contains("autonomous flight needs the operator's override"),
+            "{refused}"
+        );
+        // How to give it, from each of the operator's tools.
+        assert!(
+            refused.contains("heli ground start … --override-untested")
+                && refused.contains("ctl start-logging SUFFIX MODE [PLAN] override-untested"),
             "{refused}"
         );
         assert!(

@@ -344,6 +344,7 @@ mod tests {
                 .into_iter()
                 .map(|t| (t, command))
                 .collect(),
+            restart_us: None,
         };
         let times = |v: Vec<(u64, Pulses)>| v.into_iter().map(|(t, _)| t).collect::<Vec<_>>();
         assert_eq!(rec.operator_stop_us(), Some(300), "the first Stop");
@@ -357,6 +358,15 @@ mod tests {
             .retain(|(_, i)| !matches!(i, RecordedInput::StopRequested));
         assert_eq!(rec.operator_stop_us(), None);
         assert_eq!(times(rec.compared(600)), [100, 200, 300, 301, 500]);
+        // A new flight computer in the recording: the one played to is not restarted.
+        rec.restart_us = Some(301);
+        assert_eq!(times(rec.compared(600)), [100, 200, 300, 301]);
+        rec.inputs.push((250, RecordedInput::StopRequested));
+        assert_eq!(
+            times(rec.compared(600)),
+            [100, 200],
+            "the earlier of the two"
+        );
     }
 
     #[test]
@@ -386,6 +396,7 @@ mod tests {
                 (60, RecordedInput::PowerLine(false)),
             ],
             servo: Vec::new(),
+            restart_us: None,
         };
         seed_files(&rec, &devices).unwrap();
         let read = |name: &str| std::fs::read_to_string(adc.join(name)).unwrap();
