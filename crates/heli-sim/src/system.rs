@@ -42,6 +42,9 @@ struct Proc {
     /// The lines read until it was ready.
     seen: Vec<String>,
     log: PathBuf,
+    /// The thread copying its error output to the log (joined to read an ended one's last
+    /// words).
+    err_copier: Option<std::thread::JoinHandle<()>>,
 }
 
 impl Proc {
@@ -85,7 +88,7 @@ impl Proc {
                 }
             }
         });
-        std::thread::spawn(move || {
+        let err_copier = std::thread::spawn(move || {
             if let Some(err) = err {
                 for line in BufReader::new(err).lines().map_while(Result::ok) {
                     let _ = writeln!(err_file, "{line}");
@@ -98,6 +101,7 @@ impl Proc {
             lines: Some(lines),
             seen: Vec::new(),
             log,
+            err_copier: Some(err_copier),
         })
     }
 
@@ -123,8 +127,9 @@ impl Proc {
                 Ok(line) => self.seen.push(line),
                 Err(_) => {
                     if let Some(status) = self.child.try_wait()? {
+                        let said = self.last_words();
                         return Err(Error::other(format!(
-                            "heli {} ended ({status}) before it was ready: see {}",
+                            "heli {} ended ({status}) before it was ready{said}: see {}",
                             self.name,
                             self.log.display()
                         )));
@@ -137,6 +142,25 @@ impl Proc {
             self.name,
             self.log.display()
         )))
+    }
+
+    /// The last lines an ended process wrote to its error output (`: …`), once its copying
+    /// thread has written them to the log; nothing if it said nothing.
+    fn last_words(&mut self) -> String {
+        if let Some(copier) = self.err_copier.take() {
+            let _ = copier.join();
+        }
+        let text = std::fs::read_to_string(&self.log).unwrap_or_default();
+        let said: Vec<&str> = text
+            .lines()
+            .filter(|l| !l.trim().is_empty() && !self.seen.iter().any(|s| s == l))
+            .collect();
+        let last = said.get(said.len().saturating_sub(3)..).unwrap_or_default();
+        if last.is_empty() {
+            String::new()
+        } else {
+            format!(": {}", last.join(" / "))
+        }
     }
 
     /// Sends SIGTERM and waits up to `grace` before killing it.
@@ -223,7 +247,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
             "--pilot",
         ])
     };
-    let started = (|| -> Result<(String, String)> {
+    let started = (|| -> Result<(String, String, String)> {
         let mut hil = Proc::spawn(program, "hilsim", &dir, &hil_args("127.0.0.1:0"), &keys)?;
         hil.wait_for("hilsim: ready", Duration::from_secs(20), &stop)?;
         // Printed before "ready".
@@ -278,7 +302,14 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
             ]),
             &keys,
         )?;
-        let line = ground.wait_for("ground: display at", Duration::from_secs(20), &stop)?;
+        // The operator's address, then the observers' (the line after it).
+        let observers = ground.wait_for("ground: observers", Duration::from_secs(20), &stop)?;
+        let line = ground
+            .seen
+            .iter()
+            .find(|l| l.contains("ground: display at"))
+            .cloned()
+            .unwrap_or_default();
         procs.push(ground);
         let url_in = |line: &str, log: &str| {
             line.split_whitespace()
@@ -288,10 +319,11 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
         };
         Ok((
             url_in(&line, "(see ground.log)"),
+            url_in(&observers, "(see ground.log)"),
             url_in(&view, "(see hilsim.log)"),
         ))
     })();
-    let (url, view_url) = match started {
+    let (url, observer_url, view_url) = match started {
         Ok(urls) => urls,
         Err(e) => {
             shut_down(program, &mut procs, &dir_s);
@@ -299,6 +331,7 @@ pub fn run(options: &UiOptions) -> Result<ExitCode> {
         }
     };
     println!("heli sim --ui: the display is at {url}");
+    println!("  observers (watch only, another key) at {observer_url}");
     println!("  open it, Take control, Connect, then Start Logging (autonomous, plan demo):");
     println!(
         "  the vehicle calibrates for {} s, takes off, hovers, rolls, flies home and lands",
