@@ -239,6 +239,41 @@ mod tests {
     }
 
     #[test]
+    fn the_holder_of_a_device_is_named_by_its_process() {
+        let (_master, slave) = TTYPort::pair().unwrap();
+        let path = PathBuf::from(slave.name().unwrap());
+        // flock(1) holds the device as another program would.
+        let Ok(mut holder_process) = std::process::Command::new("flock")
+            .arg("--nonblock")
+            .arg(&path)
+            .args(["sleep", "30"])
+            .spawn()
+        else {
+            eprintln!("no flock(1) here: the holder's name is not checked");
+            return;
+        };
+        let pid = holder_process.id();
+        let mut named = String::new();
+        for _ in 0..200 {
+            named = holder(&path);
+            if named != "another program" {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let e = open(&path, 115_200).unwrap_err();
+        let _ = holder_process.kill();
+        let _ = holder_process.wait();
+        assert!(named.starts_with(&format!("process {pid} (")), "{named}");
+        assert!(
+            e.to_string()
+                .contains(&format!("in use by process {pid} (")),
+            "{e}"
+        );
+        assert_eq!(holder(Path::new("/nonexistent/tty")), "another program");
+    }
+
+    #[test]
     fn a_pseudo_terminal_opens_and_carries_bytes_unchanged() {
         let (mut master, slave) = TTYPort::pair().unwrap();
         let path = PathBuf::from(slave.name().unwrap());
