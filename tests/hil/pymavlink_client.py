@@ -72,6 +72,14 @@ assert hb.type == C.MAV_TYPE_HELICOPTER, hb
 assert m.mav.signing.goodsig_count > 0, "the vehicle's frames are signed"
 print("heartbeat ok: helicopter, signed")
 
+# Who it is, as QGroundControl asks at connection.
+assert command(C.MAV_CMD_REQUEST_MESSAGE, float(C.MAVLINK_MSG_ID_AUTOPILOT_VERSION)) \
+    == C.MAV_RESULT_ACCEPTED
+_, v = pump(5.0, lambda x: x.get_type() == "AUTOPILOT_VERSION")
+assert v is not None, "no AUTOPILOT_VERSION"
+assert v.capabilities & C.MAV_PROTOCOL_CAPABILITY_MAVLINK2, v
+print(f"autopilot version ok: {v.flight_sw_version >> 24}.{(v.flight_sw_version >> 16) & 0xff}")
+
 mav.param_request_read_send(1, 1, b"YAW_RATE_P", -1)
 _, p = pump(5.0, lambda x: x.get_type() == "PARAM_VALUE" and x.param_id == "YAW_RATE_P")
 assert p is not None and abs(p.param_value - 0.3) < 1e-6, p

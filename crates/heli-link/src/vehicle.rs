@@ -23,6 +23,7 @@ pub use crate::status::{BootstrapState, VehicleStatus, chunks, heartbeat};
 pub use crate::frame::VEHICLE;
 
 mod commands;
+pub use commands::autopilot_version;
 /// Heartbeat period (µs).
 pub const HEARTBEAT_US: u64 = 1_000_000;
 /// A ground silent this long (µs) has lost the link.

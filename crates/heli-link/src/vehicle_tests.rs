@@ -109,6 +109,64 @@ fn a_message_interval_is_set_and_a_message_can_be_stopped() {
 }
 
 #[test]
+fn the_autopilot_version_is_given_when_asked_as_ground_stations_ask() {
+    #[allow(deprecated)]
+    let old = MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES;
+    for (command, param1, given) in [
+        (
+            MavCmd::MAV_CMD_REQUEST_MESSAGE,
+            AUTOPILOT_VERSION_DATA::ID as f32,
+            true,
+        ),
+        (old, 1.0, true),
+        (MavCmd::MAV_CMD_REQUEST_MESSAGE, 300.0, false),
+    ] {
+        let mut v = VehicleLink::new(None, T0);
+        let mut g = GroundLink::new(None);
+        let cmd = COMMAND_LONG_DATA {
+            command,
+            param1,
+            ..Default::default()
+        };
+        v.receive(&g.command_frame(cmd, T0), T0, &store());
+        for d in v.take_outgoing() {
+            g.receive(&d, T0);
+        }
+        let ack = g.final_ack(command);
+        let sent = g
+            .counts
+            .get(&AUTOPILOT_VERSION_DATA::ID)
+            .copied()
+            .unwrap_or(0);
+        if given {
+            assert_eq!(ack, Some(MavResult::MAV_RESULT_ACCEPTED), "{command:?}");
+            assert_eq!(sent, 1, "{command:?}");
+        } else {
+            assert_ne!(ack, Some(MavResult::MAV_RESULT_ACCEPTED), "{param1}");
+            assert_eq!(sent, 0);
+        }
+    }
+    let MavMessage::AUTOPILOT_VERSION(version) = crate::vehicle::autopilot_version() else {
+        panic!("not an AUTOPILOT_VERSION")
+    };
+    assert!(
+        version
+            .capabilities
+            .contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2)
+    );
+    let [major, minor, patch] = [
+        env!("CARGO_PKG_VERSION_MAJOR"),
+        env!("CARGO_PKG_VERSION_MINOR"),
+        env!("CARGO_PKG_VERSION_PATCH"),
+    ]
+    .map(|s| s.parse::<u32>().unwrap());
+    assert_eq!(
+        version.flight_sw_version,
+        major << 24 | minor << 16 | patch << 8
+    );
+}
+
+#[test]
 fn a_message_interval_refused_is_denied_with_a_text_naming_why() {
     for (id, us, says) in [
         (SCALED_IMU_DATA::ID as f32, 1000.0, "10000 us"),

@@ -5,6 +5,30 @@
 
 use super::*;
 
+/// The vehicle's `AUTOPILOT_VERSION`: MAVLink 2, parameter values as C casts to float, the mission protocol
+/// with integer positions; the software's version (this crate's) as MAVLink encodes it
+/// (major, minor, patch, and the type: development).
+pub fn autopilot_version() -> MavMessage {
+    let number = |s: &str| s.parse::<u32>().unwrap_or(0) & 0xff;
+    let version = env!("CARGO_PKG_VERSION_MAJOR").parse::<u32>().unwrap_or(0) << 24
+        | number(env!("CARGO_PKG_VERSION_MINOR")) << 16
+        | number(env!("CARGO_PKG_VERSION_PATCH")) << 8;
+    MavMessage::AUTOPILOT_VERSION(AUTOPILOT_VERSION_DATA {
+        capabilities: MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
+            | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST
+            | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT,
+        flight_sw_version: version,
+        ..Default::default()
+    })
+}
+
+/// `MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES`: superseded by `REQUEST_MESSAGE`, but ground
+/// stations still send it.
+#[allow(deprecated)]
+fn asks_capabilities(command: MavCmd) -> bool {
+    command == MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES
+}
+
 impl VehicleLink {
     /// A COMMAND_LONG addressed to this vehicle: answered, refused or handed to the bootstrap.
     pub(super) fn command(
@@ -13,6 +37,15 @@ impl VehicleLink {
         now_us: u64,
         events: &mut Vec<LinkEvent>,
     ) {
+        // Who it is and what it speaks, as QGroundControl and MAVSDK ask at connection.
+        let version_asked = asks_capabilities(cmd.command)
+            || (cmd.command == MavCmd::MAV_CMD_REQUEST_MESSAGE
+                && cmd.param1 == AUTOPILOT_VERSION_DATA::ID as f32);
+        if version_asked {
+            self.ack(cmd.command, MavResult::MAV_RESULT_ACCEPTED, now_us);
+            self.send(&autopilot_version(), now_us);
+            return;
+        }
         if cmd.command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL {
             let result = match self.set_interval(cmd.param1, cmd.param2) {
                 Ok(()) => MavResult::MAV_RESULT_ACCEPTED,
