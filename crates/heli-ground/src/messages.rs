@@ -232,10 +232,12 @@ impl MessageArea {
             .collect()
     }
 
-    /// The pinned entries, oldest first.
+    /// The pinned entries, the newest change first: the box's top line, above the fold
+    /// whatever came before, is the latest error (a long list scrolls its oldest away).
     pub fn pinned(&self) -> Vec<Message> {
         self.entries
             .iter()
+            .rev()
             .filter(|e| e.message.pinned)
             .map(|e| e.message.clone())
             .collect()
@@ -341,6 +343,15 @@ mod tests {
         );
         let pinned = area.pinned();
         assert_eq!((pinned.len(), pinned[0].count), (1, 2));
+        // The newest first: an older error stays below a newer one.
+        area.push("error", "vehicle", "param X refused".into(), 30.0);
+        area.push("critical", "vehicle", "event fatal imu silent".into(), 31.0);
+        let texts: Vec<String> = area.pinned().into_iter().map(|m| m.text).collect();
+        assert_eq!(
+            texts.first().map(String::as_str),
+            Some("event fatal imu silent")
+        );
+        assert_eq!(texts.get(1).map(String::as_str), Some("param X refused"));
         assert_eq!(
             area.acknowledge(seen),
             0,
