@@ -829,6 +829,22 @@ fn the_header_shows_the_phase_flown_not_only_the_mode_asked() {
     b.telemetry = Some(flying_telemetry("hold"));
     b.run(2.0);
     assert_eq!(b.station.view(b.t).vehicle.phase, Some("hold"));
+    // The estimate lost (in calibration, say): the flight core's phase, no estimate, and the
+    // verdict says why the helicopter will not go, not "still calibrating".
+    b.telemetry = Some(Telemetry {
+        phase: Some("ground-failsafe".into()),
+        state: None,
+        ..flying_telemetry("hold")
+    });
+    b.run(3.0);
+    let v = b.station.view(b.t);
+    assert_eq!(v.vehicle.phase, Some("ground-failsafe"));
+    assert!(
+        v.safety.automatic.failing.contains("the estimate was lost")
+            && !v.safety.automatic.failing.contains("still calibrating"),
+        "{}",
+        v.safety.automatic.failing
+    );
     // No flight process: no phase.
     b.telemetry = None;
     b.run(2.0);

@@ -363,8 +363,21 @@ impl Station {
         row(C::Compass, &rows.cmps, "compass");
         // Not calibrated yet, the rule's own words say it ("still calibrating": no estimate
         // is sent before); an estimate that stopped coming says so.
-        if phase != Some("calibrating") && rows.state.as_ref().is_some_and(|r| r.stale) {
-            row(C::Calibrated, &rows.state, "state");
+        match phase {
+            // An estimate lost: the helicopter will not go on this flight process, whatever
+            // the calibration did.
+            Some("ground-failsafe") => why.push((
+                C::Calibrated,
+                "the estimate was lost: the vehicle holds its ground failsafe (Stop, then Connect for a new flight process)".into(),
+            )),
+            Some("blind-descent") => why.push((
+                C::Calibrated,
+                "the estimate was lost: the vehicle descends blind".into(),
+            )),
+            _ if phase != Some("calibrating") && rows.state.as_ref().is_some_and(|r| r.stale) => {
+                row(C::Calibrated, &rows.state, "state");
+            }
+            _ => {}
         }
         match &rows.gps {
             None => why.push((
