@@ -52,8 +52,9 @@ pub(crate) fn log(action: LogAction) -> Result<ExitCode> {
             let csv = heli_log::to_csv(&contents, &channel);
             if csv.is_empty() {
                 bail!(
-                    "no messages on channel '{channel}' in {} (see `heli log info`)",
-                    file.display()
+                    "no messages on channel '{channel}' in {}; its channels: {}",
+                    file.display(),
+                    channels_of(&contents)
                 );
             }
             match out {
@@ -71,6 +72,11 @@ pub(crate) fn log(action: LogAction) -> Result<ExitCode> {
             out,
         } => {
             use heli_campaign::log_plot as plot;
+            if let (Some(from_s), Some(to_s)) = (from, to)
+                && from_s > to_s
+            {
+                bail!("--from {from_s} is after --to {to_s}: the window would be empty");
+            }
             let out = out.unwrap_or_else(|| {
                 let stem = file.file_stem().and_then(|s| s.to_str()).unwrap_or("log");
                 let name: String = channel
@@ -181,9 +187,10 @@ fn print_log_info(file: &std::path::Path, contents: &heli_log::LogContents) -> R
     if faults.is_empty() {
         println!("  faults   none (no event at level warning or worse)");
     } else {
+        let n = faults.len();
         println!(
-            "  faults   {} events at level warning or worse",
-            faults.len()
+            "  faults   {n} event{} at level warning or worse",
+            if n == 1 { "" } else { "s" }
         );
         for f in faults.iter().take(FAULTS_LISTED) {
             println!("    {:<8} {}", f.level.name(), f.text);
@@ -209,4 +216,20 @@ fn print_log_info(file: &std::path::Path, contents: &heli_log::LogContents) -> R
         ),
     }
     Ok(())
+}
+
+/// The channels a log holds, in order of first appearance, for an error that names one it
+/// does not.
+fn channels_of(contents: &heli_log::LogContents) -> String {
+    let mut seen: Vec<&str> = Vec::new();
+    for m in &contents.messages {
+        if !seen.contains(&m.topic.as_str()) {
+            seen.push(&m.topic);
+        }
+    }
+    if seen.is_empty() {
+        "none".to_string()
+    } else {
+        seen.join(", ")
+    }
 }

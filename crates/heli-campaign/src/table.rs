@@ -46,8 +46,11 @@ pub fn report_table(r: &Report) -> String {
     if r.wall.jobs > 0 {
         let _ = writeln!(
             out,
-            "wall time  {:.1} s on {} threads ({:.1} s of flights)",
-            r.wall.elapsed_s, r.wall.jobs, r.wall.flights_s
+            "wall time  {:.1} s on {} thread{} ({:.1} s of flights)",
+            r.wall.elapsed_s,
+            r.wall.jobs,
+            if r.wall.jobs == 1 { "" } else { "s" },
+            r.wall.flights_s
         );
     }
     let t = &r.totals;

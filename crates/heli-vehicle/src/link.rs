@@ -492,7 +492,7 @@ pub fn spawn(
                             use std::io::Write;
                             let _ = writeln!(
                                 std::io::stdout().lock(),
-                                "link: refused a {} frame (message {message_id}) from {}/{}; {} refused so far",
+                                "link: refused a frame, {}: message {message_id} from {}/{}; {} refused so far",
                                 reason.text(),
                                 from.system,
                                 from.component,

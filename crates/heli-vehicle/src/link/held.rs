@@ -48,10 +48,14 @@ impl Held {
         let total = (held.len() as u64)
             .saturating_add(routine)
             .saturating_add(beyond);
-        let mut said = format!(
-            "while no ground was heard: {total} lines said, the {} warnings and worse follow",
-            held.len()
-        );
+        let lines = if total == 1 { "line" } else { "lines" };
+        let mut said = match held.len() {
+            0 => format!("while no ground was heard: {total} {lines} said, none a warning"),
+            1 => format!("while no ground was heard: {total} {lines} said, the warning follows"),
+            n => format!(
+                "while no ground was heard: {total} {lines} said, the {n} warnings and worse follow"
+            ),
+        };
         if beyond > 0 {
             said.push_str(&format!(" ({beyond} more not kept)"));
         }
@@ -104,6 +108,14 @@ mod tests {
             ]
         );
         assert!(held.release().is_empty(), "sent once");
+        held.keep([
+            (MavSeverity::MAV_SEVERITY_INFO, "i".to_string()),
+            (MavSeverity::MAV_SEVERITY_ERROR, "e".to_string()),
+        ]);
+        assert_eq!(
+            held.release()[0].1,
+            "while no ground was heard: 2 lines said, the warning follows"
+        );
     }
 
     #[test]
@@ -128,8 +140,7 @@ mod tests {
             held.release(),
             [(
                 MavSeverity::MAV_SEVERITY_NOTICE,
-                "while no ground was heard: 1 lines said, the 0 warnings and worse follow"
-                    .to_string()
+                "while no ground was heard: 1 line said, none a warning".to_string()
             )]
         );
     }
