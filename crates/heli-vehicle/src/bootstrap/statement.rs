@@ -2,8 +2,8 @@
 //! flight would fly — the program that runs the flight process and the parameter file — is
 //! what the lab tested. Judged again every [`JUDGE_EVERY`] (a parameter set over the link
 //! changes the file), said when it changes and, while not lab-tested, every
-//! [`REPEAT_NOT_TESTED`] for a ground that joined since; the heartbeat carries it and
-//! `status` gives the line.
+//! [`REPEAT_NOT_TESTED`] and as soon as a ground is heard again (a ground that joins does not
+//! wait a minute for the reason); the heartbeat carries it and `status` gives the line.
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -30,6 +30,10 @@ pub struct LabStatement {
     tested: Tested,
     judged_at: Option<Instant>,
     said_at: Option<Instant>,
+    /// A ground was heard at the last tick.
+    ground_heard: bool,
+    /// A ground was heard again since the statement was last judged.
+    ground_joined: bool,
 }
 
 impl LabStatement {
@@ -45,6 +49,8 @@ impl LabStatement {
             tested: Tested::Unknown,
             judged_at: None,
             said_at: None,
+            ground_heard: false,
+            ground_joined: false,
         }
     }
 
@@ -78,11 +84,14 @@ impl LabStatement {
     }
 
     /// Judges again when due; what to say (and the heartbeat's value) when the statement
-    /// changed, or is a not-tested one due to be repeated.
-    fn tick(&mut self, now: Instant) -> Option<(Severity, String, Tested)> {
+    /// changed, or is a not-tested one due to be repeated (a minute on, or a ground heard
+    /// again: `ground_heard` is whether one is heard now).
+    fn tick(&mut self, now: Instant, ground_heard: bool) -> Option<(Severity, String, Tested)> {
         let due = |at: Option<Instant>, every: Duration| {
             at.is_none_or(|t| now.saturating_duration_since(t) >= every)
         };
+        self.ground_joined |= ground_heard && !self.ground_heard;
+        self.ground_heard = ground_heard;
         if !due(self.judged_at, JUDGE_EVERY) {
             return None;
         }
@@ -100,7 +109,9 @@ impl LabStatement {
             tested => (verdict.line(), tested),
         };
         let changed = self.line.as_deref() != Some(line.as_str());
-        let repeat = tested != Tested::LabTested && due(self.said_at, REPEAT_NOT_TESTED);
+        let repeat = tested != Tested::LabTested
+            && (due(self.said_at, REPEAT_NOT_TESTED) || self.ground_joined);
+        self.ground_joined = false;
         self.tested = tested;
         self.line = Some(line.clone());
         if !(changed || repeat) {
@@ -124,7 +135,12 @@ impl Bootstrap {
 
     /// The statement judged again when due, said and put in the heartbeat on a change.
     pub(super) fn state_lab(&mut self) {
-        let Some(said) = self.lab.as_mut().and_then(|l| l.tick(Instant::now())) else {
+        let heard = self.link.as_ref().is_some_and(|l| l.ground_fresh());
+        let Some(said) = self
+            .lab
+            .as_mut()
+            .and_then(|l| l.tick(Instant::now(), heard))
+        else {
             return;
         };
         let (severity, line, tested) = said;
@@ -161,7 +177,7 @@ mod tests {
         let t0 = Instant::now();
         let at = |secs: f64| t0 + Duration::from_secs_f64(secs);
         assert_eq!(s.line(), None);
-        let (severity, line, tested) = s.tick(at(0.0)).unwrap();
+        let (severity, line, tested) = s.tick(at(0.0), false).unwrap();
         assert_eq!((severity, tested), (Severity::WarningLo, Tested::NotTested));
         assert!(
             line.starts_with("NOT lab-tested: no lab attestation"),
@@ -173,27 +189,43 @@ mod tests {
             dir.path(),
             crate::lab::identity(&program, dir.path()).unwrap(),
         );
-        assert_eq!(s.tick(at(0.5)), None);
+        assert_eq!(s.tick(at(0.5), false), None);
         assert_eq!(s.line(), Some(line.as_str()), "not judged yet");
         // Judged again: lab-tested now, said at once.
-        let (severity, line, tested) = s.tick(at(1.0)).unwrap();
+        let (severity, line, tested) = s.tick(at(1.0), false).unwrap();
         assert_eq!(
             (severity, tested),
             (Severity::ActivityHi, Tested::LabTested)
         );
         assert!(line.starts_with("lab-tested: build"), "{line}");
         // A lab-tested statement is not repeated.
-        assert_eq!(s.tick(at(2.0)), None);
-        assert_eq!(s.tick(at(200.0)), None);
+        assert_eq!(s.tick(at(2.0), false), None);
+        assert_eq!(s.tick(at(200.0), false), None);
         // A gain changed: said at the next judgement, then once a minute.
         std::fs::write(dir.path().join("params"), "HOV_VEL_P = 1.6\n").unwrap();
-        let (_, line, tested) = s.tick(at(201.0)).unwrap();
+        let (_, line, tested) = s.tick(at(201.0), false).unwrap();
         assert_eq!(tested, Tested::NotTested);
         assert!(line.contains("HOV_VEL_P 1.6 (tested 1.4)"), "{line}");
-        assert_eq!(s.tick(at(202.0)), None);
-        assert_eq!(s.tick(at(260.5)), None);
-        assert!(s.tick(at(261.5)).is_some(), "repeated after a minute");
-        assert_eq!(s.tick(at(262.5)), None);
+        assert_eq!(s.tick(at(202.0), false), None);
+        assert_eq!(s.tick(at(260.5), false), None);
+        assert!(
+            s.tick(at(261.5), false).is_some(),
+            "repeated after a minute"
+        );
+        assert_eq!(s.tick(at(262.5), false), None);
+        // A ground heard again: said at the next judgement, not a minute on; once.
+        assert_eq!(s.tick(at(263.5), false), None);
+        assert!(s.tick(at(263.7), true).is_none(), "not judged yet");
+        assert!(
+            s.tick(at(264.5), true).is_some(),
+            "said to the ground that joined"
+        );
+        assert_eq!(s.tick(at(265.5), true), None);
+        assert_eq!(
+            s.tick(at(266.5), false),
+            None,
+            "a ground lost is not a ground joined"
+        );
     }
 
     #[test]
@@ -202,7 +234,7 @@ mod tests {
         let program = dir.path().join("p");
         std::fs::write(&program, b"x").unwrap();
         let mut s = LabStatement::new(lab(dir.path(), true), &program, dir.path().to_path_buf());
-        let (_, line, tested) = s.tick(Instant::now()).unwrap();
+        let (_, line, tested) = s.tick(Instant::now(), false).unwrap();
         assert_eq!(tested, Tested::BenchOverride);
         assert!(
             line.starts_with("NOT lab-tested: no lab attestation")
@@ -220,14 +252,14 @@ mod tests {
             crate::lab::identity(&program, dir.path()).unwrap(),
         );
         std::fs::write(dir.path().join("params"), "NOPE = 1\n").unwrap();
-        let (_, line, _) = s.tick(Instant::now()).unwrap();
+        let (_, line, _) = s.tick(Instant::now(), false).unwrap();
         assert!(
             line.starts_with("NOT lab-tested:") && line.contains("NOPE"),
             "{line}"
         );
         let lab = s.lab.clone();
         let mut gone = LabStatement::new(lab, &dir.path().join("none"), dir.path().to_path_buf());
-        let (_, line, _) = gone.tick(Instant::now()).unwrap();
+        let (_, line, _) = gone.tick(Instant::now(), false).unwrap();
         assert!(line.contains("the flight software's program"), "{line}");
     }
 }
