@@ -208,10 +208,17 @@ pub struct MissionClient {
     items: Vec<MISSION_ITEM_INT_DATA>,
     asked_us: Option<u64>,
     done: bool,
+    /// The vehicle said it has no plan (yet): asked again every [`MISSION_EMPTY_RETRY_US`].
+    empty: bool,
 }
 
 /// A mission request with no answer for this long (µs) is sent again.
 pub const MISSION_RETRY_US: u64 = 500_000;
+
+/// How often a vehicle that said it has no plan is asked again (µs): a flight process
+/// reports its plan a moment after the heartbeat says it flies, and a ground that asked in
+/// that moment would otherwise show no plan for the whole flight.
+pub const MISSION_EMPTY_RETRY_US: u64 = 2_000_000;
 
 impl MissionClient {
     /// Starts again from nothing (a new flight's plan).
@@ -219,18 +226,23 @@ impl MissionClient {
         *self = Self::default();
     }
 
-    /// The whole plan, once every item has come.
+    /// The whole plan, once every item has come (empty while the vehicle says it has none).
     pub fn plan(&self) -> Option<&[MISSION_ITEM_INT_DATA]> {
-        self.done.then_some(self.items.as_slice())
+        (self.done || self.empty).then_some(self.items.as_slice())
     }
 
     /// Takes a message from the vehicle.
     pub fn receive(&mut self, message: &MavMessage) {
         match message {
             MavMessage::MISSION_COUNT(c) if self.count.is_none() && !self.done => {
-                self.count = Some(c.count);
-                self.asked_us = None;
-                self.done = c.count == 0;
+                if c.count == 0 {
+                    // None yet: asked again in a while (the request's time is kept).
+                    self.empty = true;
+                } else {
+                    self.empty = false;
+                    self.count = Some(c.count);
+                    self.asked_us = None;
+                }
             }
             MavMessage::MISSION_ITEM_INT(i)
                 if !self.done && usize::from(i.seq) == self.items.len() =>
@@ -247,10 +259,15 @@ impl MissionClient {
 
     /// The next request to send, if one is due.
     pub fn request(&mut self, now_us: u64) -> Option<MavMessage> {
+        let wait_us = if self.empty {
+            MISSION_EMPTY_RETRY_US
+        } else {
+            MISSION_RETRY_US
+        };
         if self.done
             || self
                 .asked_us
-                .is_some_and(|t| now_us.saturating_sub(t) < MISSION_RETRY_US)
+                .is_some_and(|t| now_us.saturating_sub(t) < wait_us)
         {
             return None;
         }
@@ -351,5 +368,32 @@ mod tests {
             server.answer(&past),
             Some(MavMessage::MISSION_ACK(a)) if a.mavtype == MavMissionResult::MAV_MISSION_INVALID_SEQUENCE
         ));
+    }
+
+    #[test]
+    fn a_plan_the_vehicle_has_not_yet_is_asked_for_again_until_it_comes() {
+        let mut server = MissionServer::default();
+        let mut client = MissionClient::default();
+        let mut exchange = |client: &mut MissionClient, server: &MissionServer, t: u64| {
+            let req = client.request(t);
+            if let Some(answer) = req.as_ref().and_then(|r| server.answer(r)) {
+                client.receive(&answer);
+            }
+            req.is_some()
+        };
+        // Asked as the flight begins, before the flight process has told its plan.
+        assert!(exchange(&mut client, &server, 0));
+        assert_eq!(client.plan().map(<[_]>::len), Some(0), "none yet");
+        assert!(!exchange(&mut client, &server, MISSION_RETRY_US));
+        assert!(!exchange(&mut client, &server, MISSION_EMPTY_RETRY_US - 1));
+        server.set(mission_items(&parse_plan(DEMO).unwrap()));
+        let mut t = MISSION_EMPTY_RETRY_US;
+        while client.plan().map(<[_]>::len) != Some(7) && t < 10_000_000 {
+            exchange(&mut client, &server, t);
+            t += 100_000;
+        }
+        assert_eq!(client.plan().unwrap(), server.items());
+        // Fetched: not asked again.
+        assert!(!exchange(&mut client, &server, t + 60_000_000));
     }
 }
