@@ -157,12 +157,20 @@ fn download(s: &mut Client, which: Which, out: &Path) -> Result<()> {
         Which::Id(id) => id.to_string(),
     };
     bar.set_message(name.clone());
-    let bytes = s.download(which, out, &mut |received, size| {
+    let (at, bytes) = s.download(which, out, &mut |received, size| {
         bar.set_length(u64::from(size));
         bar.set_position(received);
     })?;
     bar.finish();
-    println!("log {name}: {bytes} bytes to {}", out.display());
+    if at == out {
+        println!("log {name}: {bytes} bytes to {}", at.display());
+    } else {
+        println!(
+            "log {name}: {bytes} bytes to {} ({} exists already, not overwritten)",
+            at.display(),
+            out.display()
+        );
+    }
     Ok(())
 }
 
@@ -295,7 +303,12 @@ pub fn ground(args: &GroundArgs) -> Result<ExitCode> {
                 println!("no logs on the vehicle");
             }
             for e in logs {
-                println!("{:>4}  {:>10} bytes  time {}", e.id, e.size, e.time_utc);
+                let time = if e.time_utc == 0 {
+                    "time not known".to_string()
+                } else {
+                    heli_link::attest::utc_text(u64::from(e.time_utc))
+                };
+                println!("{:>4}  {:>10} bytes  {time}", e.id, e.size);
             }
             Ok(ExitCode::SUCCESS)
         }

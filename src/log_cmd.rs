@@ -145,8 +145,19 @@ fn print_log_info(file: &std::path::Path, contents: &heli_log::LogContents) -> R
             last as f64 * 1e-6
         );
     }
-    println!("  channel       messages            rate  largest interval        sequence");
-    for c in heli_log::stats::channels(contents) {
+    let channels = heli_log::stats::channels(contents);
+    // The channels' column as wide as the longest name (`foxglove/scene`).
+    let w = channels
+        .iter()
+        .map(|c| c.topic.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max("channel".len());
+    println!(
+        "  {:<w$} {:>6} messages {:>10}  {:<22}  sequence",
+        "channel", "", "rate", "largest interval"
+    );
+    for c in channels {
         let rate = c.rate_hz.map_or("-".to_string(), |hz| {
             if hz >= 1.0 {
                 format!("{hz:.1} Hz")
@@ -165,7 +176,7 @@ fn print_log_info(file: &std::path::Path, contents: &heli_log::LogContents) -> R
             (gaps, breaks) => format!("{gaps} gaps, {} missing, {breaks} restarts", c.missing),
         };
         println!(
-            "  {:<12} {:>6} messages {:>10}  {interval:<22}  {sequence}  [{}]",
+            "  {:<w$} {:>6} messages {:>10}  {interval:<22}  {sequence}  [{}]",
             c.topic,
             c.messages,
             rate,

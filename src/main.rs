@@ -226,7 +226,7 @@ struct SimArgs {
     /// Seed for every noise source (overrides the scenario's).
     #[arg(long)]
     seed: Option<u64>,
-    /// Print the JSON summary on stdout instead of the table.
+    /// Print the JSON summary on stdout instead of the table (with --list: the scenarios).
     #[arg(long)]
     json: bool,
     /// List the built-in scenarios and exit.
@@ -333,8 +333,23 @@ fn sim(args: SimArgs) -> Result<ExitCode> {
         });
     }
     if args.list {
-        for s in scenario::builtins() {
-            println!("{:<16} {}", s.name, s.description);
+        let all = scenario::builtins();
+        if args.json {
+            let list: Vec<serde_json::Value> = all
+                .iter()
+                .map(|s| serde_json::json!({"name": s.name, "description": s.description}))
+                .collect();
+            println!("{}", serde_json::Value::Array(list));
+        } else {
+            // The names' column as wide as the longest name.
+            let width = all
+                .iter()
+                .map(|s| s.name.chars().count())
+                .max()
+                .unwrap_or(0);
+            for s in &all {
+                println!("{:<width$}  {}", s.name, s.description);
+            }
         }
         return Ok(ExitCode::SUCCESS);
     }

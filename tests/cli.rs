@@ -64,7 +64,26 @@ fn sim_hover_json_passes_and_has_the_documented_fields() {
 fn sim_list_names_the_builtin_scenarios() {
     let out = heli(&["sim", "--list"]);
     assert!(out.status.success());
-    assert!(String::from_utf8_lossy(&out.stdout).contains("hover"));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("hover"));
+    // One column of names, as wide as the longest: every description starts at one place.
+    let starts: std::collections::BTreeSet<usize> = text
+        .lines()
+        .filter_map(|l| {
+            l.find("  ")
+                .map(|i| i + l[i..].len() - l[i..].trim_start().len())
+        })
+        .collect();
+    assert_eq!(starts.len(), 1, "{text}");
+    let out = heli(&["sim", "--list", "--json"]);
+    assert!(out.status.success());
+    let list: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        list.as_array().is_some_and(|a| a
+            .iter()
+            .any(|s| s["name"] == "hover" && s["description"].is_string())),
+        "{list}"
+    );
 }
 
 #[test]

@@ -105,10 +105,13 @@ fn truth_of(asked_ms: u64, t_ms: u64, status: &Value, lapsed: &[String]) -> Trut
         .and_then(|b| b.iter().find(|p| p["name"] == "flight"))
         .map(|p| p["level"] == "good")
         .filter(|_| flying);
-    // The estimate runs: calibrated, and not in the blind failsafe of a lost estimate.
-    let calibrated = phase
-        .as_deref()
-        .is_some_and(|p| !matches!(p, "calibrating" | "blind-descent"));
+    // The estimate runs: calibrated, current (the vehicle reports no estimate that has stopped
+    // coming: an IMU stall in manual flight on the ground loses it for the flight), and not in
+    // a failsafe of a lost estimate.
+    let calibrated = tel["state"].is_object()
+        && phase
+            .as_deref()
+            .is_some_and(|p| !matches!(p, "calibrating" | "blind-descent" | "ground-failsafe"));
     let refused = phase.as_deref() == Some("takeoff-refused");
     let facts = Facts::none()
         .with(Condition::Calibrated, calibrated)

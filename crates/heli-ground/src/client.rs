@@ -52,12 +52,12 @@ pub enum ClientError {
     NoSuchParameter(String),
     /// A log transfer failed; why.
     Transfer(String),
-    /// The downloaded log could not be written.
-    Write {
-        /// Where.
+    /// The downloaded log could not be saved.
+    Save {
+        /// Where it was to go.
         path: PathBuf,
-        /// The system's answer.
-        error: std::io::Error,
+        /// Why not.
+        why: crate::refusal::SaveError,
     },
 }
 
@@ -99,7 +99,7 @@ impl fmt::Display for ClientError {
                 write!(f, "param {name}: the vehicle has no such parameter")
             }
             ClientError::Transfer(why) => f.write_str(why),
-            ClientError::Write { path, error } => write!(f, "writing {}: {error}", path.display()),
+            ClientError::Save { path, why } => write!(f, "saving {}: {why}", path.display()),
         }
     }
 }
@@ -312,14 +312,15 @@ impl Client {
         Err(self.no_answer("the log list"))
     }
 
-    /// Downloads log `which` into `out` (replacing a file there), telling `progress` the
-    /// bytes received and the log's size as they come; returns the bytes written.
+    /// Downloads log `which` into `out` — or, when a file of that name exists, next to it as
+    /// `NAME-2.mcap` and so on: a log is never overwritten — telling `progress` the bytes
+    /// received and the log's size as they come; returns where it went and the bytes written.
     pub fn download(
         &mut self,
         which: Which,
         out: &Path,
         progress: &mut dyn FnMut(u64, u32),
-    ) -> Result<usize, ClientError> {
+    ) -> Result<(PathBuf, usize), ClientError> {
         let timeout_us = u64::try_from(self.timeout.as_micros()).unwrap_or(u64::MAX);
         let mut transfer = Transfer::of(which, out.to_path_buf(), timeout_us, unix_us());
         loop {
@@ -332,17 +333,9 @@ impl Client {
                 progress(received, size);
             }
             if let Some((path, bytes)) = step.save {
-                if let Some(dir) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-                    std::fs::create_dir_all(dir).map_err(|error| ClientError::Write {
-                        path: dir.to_path_buf(),
-                        error,
-                    })?;
-                }
-                std::fs::write(&path, &bytes).map_err(|error| ClientError::Write {
-                    path: path.clone(),
-                    error,
-                })?;
-                return Ok(bytes.len());
+                let at = crate::transfer::save_new(&path, &bytes)
+                    .map_err(|why| ClientError::Save { path, why })?;
+                return Ok((at, bytes.len()));
             }
             if step.done {
                 let why = step.notes.last().cloned().unwrap_or_default();

@@ -26,7 +26,6 @@ use tokio::sync::broadcast;
 use heli_web::gate::Role;
 
 use crate::datagrams::Datagrams;
-use crate::refusal::SaveError;
 use crate::station::{Output, Station, StationConfig};
 
 /// The page's files.
@@ -296,7 +295,7 @@ async fn step(frames: Frames, station: Shared, views: broadcast::Sender<Arc<str>
         for (path, bytes) in saves {
             let station = Arc::clone(&station);
             tokio::task::spawn_blocking(move || {
-                let result = save(&path, &bytes);
+                let result = crate::transfer::save_new(&path, &bytes);
                 lock(&station).saved(&path, result);
             });
         }
@@ -336,53 +335,6 @@ fn replace(path: &Path, bytes: &[u8]) -> std::io::Result<heli_log::replace::Repl
         .file_name()
         .map_or_else(|| "file".to_string(), |n| n.to_string_lossy().to_string());
     heli_log::replace::replace_file(path, &path.with_file_name(format!(".{name}.tmp")), bytes)
-}
-
-/// Saves a transferred log at `path`, or next to it as `NAME-2.mcap`, `NAME-3.mcap`… when
-/// a file of that name exists: an earlier flight's log is never overwritten. Returns where
-/// it went.
-fn save(path: &Path, bytes: &[u8]) -> Result<PathBuf, SaveError> {
-    use std::io::Write;
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|source| SaveError::Directory {
-            dir: dir.to_path_buf(),
-            source,
-        })?;
-    }
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().to_string())
-        .unwrap_or_default();
-    for n in 1..100u32 {
-        let candidate = if n == 1 {
-            path.to_path_buf()
-        } else {
-            path.with_file_name(format!("{stem}-{n}.mcap"))
-        };
-        match std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&candidate)
-        {
-            Ok(mut file) => {
-                // Synced with its directory entry: a saved log survives the ground
-                // computer's power loss. A log that could not be written whole is removed
-                // (the vehicle still has it), never left as a part that looks saved.
-                let written = file
-                    .write_all(bytes)
-                    .and_then(|()| file.sync_all())
-                    .and_then(|()| heli_log::replace::sync_dir(&candidate));
-                if let Err(e) = written {
-                    let _ = std::fs::remove_file(&candidate);
-                    return Err(SaveError::Write(e));
-                }
-                return Ok(candidate);
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
-            Err(e) => return Err(SaveError::Write(e)),
-        }
-    }
-    Err(SaveError::NamesTaken)
 }
 
 /// The display's files (its own, then the shared ones).

@@ -12,9 +12,11 @@
 //! CRCs (read whole, not cut or damaged), and — when the flight's suffix is known — the
 //! suffix the flight was started with, from the log's `flight` metadata.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use heli_link::ground::GroundLink;
+
+use crate::refusal::SaveError;
 
 /// A transfer with nothing new for this long (µs) is given up.
 pub const TRANSFER_TIMEOUT_US: u64 = 30_000_000;
@@ -337,6 +339,53 @@ pub fn check(bytes: &[u8], size: u32, suffix: Option<&str>) -> Result<String, St
     }
 }
 
+/// Saves a transferred log at `path`, or next to it as `NAME-2.mcap`, `NAME-3.mcap`… when
+/// a file of that name exists: an earlier flight's log is never overwritten. Returns where
+/// it went.
+pub fn save_new(path: &Path, bytes: &[u8]) -> Result<PathBuf, SaveError> {
+    use std::io::Write;
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|source| SaveError::Directory {
+            dir: dir.to_path_buf(),
+            source,
+        })?;
+    }
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_default();
+    for n in 1..100u32 {
+        let candidate = if n == 1 {
+            path.to_path_buf()
+        } else {
+            path.with_file_name(format!("{stem}-{n}.mcap"))
+        };
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&candidate)
+        {
+            Ok(mut file) => {
+                // Synced with its directory entry: a saved log survives the ground
+                // computer's power loss. A log that could not be written whole is removed
+                // (the vehicle still has it), never left as a part that looks saved.
+                let written = file
+                    .write_all(bytes)
+                    .and_then(|()| file.sync_all())
+                    .and_then(|()| heli_log::replace::sync_dir(&candidate));
+                if let Err(e) = written {
+                    let _ = std::fs::remove_file(&candidate);
+                    return Err(SaveError::Write(e));
+                }
+                return Ok(candidate);
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(SaveError::Write(e)),
+        }
+    }
+    Err(SaveError::NamesTaken)
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -360,6 +409,23 @@ pub(crate) mod tests {
             .unwrap();
         }
         log.finish().unwrap().into_inner()
+    }
+
+    #[test]
+    fn a_saved_log_never_overwrites_a_file_it_goes_next_to_it() {
+        let dir = std::env::temp_dir().join(format!("heli-save-new-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let path = dir.join("base").join("flight_a.mcap");
+        assert_eq!(save_new(&path, b"one").unwrap(), path);
+        let second = save_new(&path, b"two").unwrap();
+        assert_eq!(second, dir.join("base").join("flight_a-2.mcap"));
+        assert_eq!(std::fs::read(&path).unwrap(), b"one", "the first kept");
+        assert_eq!(std::fs::read(&second).unwrap(), b"two");
+        assert_eq!(
+            save_new(&path, b"three").unwrap(),
+            dir.join("base").join("flight_a-3.mcap")
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -374,8 +374,15 @@ impl Station {
                 C::Calibrated,
                 "the estimate was lost: the vehicle descends blind".into(),
             )),
+            // Calibrated once, the estimate has stopped coming (an IMU stall in manual flight
+            // on the ground, say): not "still calibrating".
             _ if phase != Some("calibrating") && rows.state.as_ref().is_some_and(|r| r.stale) => {
-                row(C::Calibrated, &rows.state, "state");
+                if let Some(r) = &rows.state {
+                    why.push((
+                        C::Calibrated,
+                        format!("no estimate running ({})", stale_for(r, "state")),
+                    ));
+                }
             }
             _ => {}
         }
