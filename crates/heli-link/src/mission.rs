@@ -374,7 +374,7 @@ mod tests {
     fn a_plan_the_vehicle_has_not_yet_is_asked_for_again_until_it_comes() {
         let mut server = MissionServer::default();
         let mut client = MissionClient::default();
-        let mut exchange = |client: &mut MissionClient, server: &MissionServer, t: u64| {
+        let exchange = |client: &mut MissionClient, server: &MissionServer, t: u64| {
             let req = client.request(t);
             if let Some(answer) = req.as_ref().and_then(|r| server.answer(r)) {
                 client.receive(&answer);
