@@ -317,6 +317,11 @@ fn replay(args: &HilsimArgs, flight: &Path, json: Option<JsonOut>) -> Result<Exi
                 "stopped     the recorded flight's operator pressed Stop at t={stop_s:.1} s: commands compared up to it (a replay plays the devices, not the operator: the flight computer flies on past it: end it with ctl stop, or ctl kill confirmed on the ground bench if it refuses)"
             );
         }
+        if let Some(restart_s) = report.restart_s {
+            println!(
+                "restarted   the recorded flight's computer was started again at t={restart_s:.1} s (a brown-out in the simulation): commands compared up to it (the replay does not restart the flight computer it plays to)"
+            );
+        }
         println!(
             "compared    {} of {} recorded servo commands paired ({} sent), largest time offset {:.1} ms, {} on the other IMU samples",
             c.paired,

@@ -111,7 +111,7 @@ fn truth_of(asked_ms: u64, t_ms: u64, status: &Value, lapsed: &[String]) -> Trut
     let calibrated = tel["state"].is_object()
         && phase
             .as_deref()
-            .is_some_and(|p| !matches!(p, "calibrating" | "blind-descent" | "ground-failsafe"));
+            .is_some_and(|p| !matches!(p, "calibrating" | "blind-descent"));
     let refused = phase.as_deref() == Some("takeoff-refused");
     let facts = Facts::none()
         .with(Condition::Calibrated, calibrated)

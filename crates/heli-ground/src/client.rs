@@ -333,9 +333,7 @@ impl Client {
                 progress(received, size);
             }
             if let Some((path, bytes)) = step.save {
-                let at = crate::transfer::save_new(&path, &bytes)
-                    .map_err(|why| ClientError::Save { path, why })?;
-                return Ok((at, bytes.len()));
+                return save_download(path, &bytes).map(|at| (at, bytes.len()));
             }
             if step.done {
                 let why = step.notes.last().cloned().unwrap_or_default();
@@ -345,9 +343,49 @@ impl Client {
     }
 }
 
+/// Where a download goes: a file never overwritten ([`crate::transfer::save_new`]); a device
+/// or pipe named (`/dev/stdout`) is written to as asked; a directory is refused.
+fn save_download(path: PathBuf, bytes: &[u8]) -> Result<PathBuf, ClientError> {
+    use crate::refusal::SaveError;
+    match std::fs::metadata(&path) {
+        Ok(m) if m.is_dir() => Err(ClientError::Save {
+            path,
+            why: SaveError::Write(std::io::Error::other(
+                "is a directory: give the log's file name",
+            )),
+        }),
+        Ok(m) if !m.is_file() => match std::fs::write(&path, bytes) {
+            Ok(()) => Ok(path),
+            Err(e) => Err(ClientError::Save {
+                path,
+                why: SaveError::Write(e),
+            }),
+        },
+        _ => crate::transfer::save_new(&path, bytes).map_err(|why| ClientError::Save { path, why }),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_download_goes_to_a_new_file_a_device_as_asked_and_never_to_a_directory() {
+        let dir = std::env::temp_dir().join(format!("heli-client-save-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("f.mcap");
+        assert_eq!(save_download(file.clone(), b"a").unwrap(), file);
+        assert_eq!(
+            save_download(file.clone(), b"b").unwrap(),
+            dir.join("f-2.mcap")
+        );
+        let null = PathBuf::from("/dev/null");
+        assert_eq!(save_download(null.clone(), b"c").unwrap(), null);
+        let e = save_download(dir.clone(), b"d").unwrap_err().to_string();
+        assert!(e.contains("is a directory"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     fn no_answer(refused: Option<&str>, send_failed: Option<&str>, heard: bool) -> String {
         ClientError::NoAnswer {

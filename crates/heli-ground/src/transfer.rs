@@ -339,9 +339,9 @@ pub fn check(bytes: &[u8], size: u32, suffix: Option<&str>) -> Result<String, St
     }
 }
 
-/// Saves a transferred log at `path`, or next to it as `NAME-2.mcap`, `NAME-3.mcap`… when
-/// a file of that name exists: an earlier flight's log is never overwritten. Returns where
-/// it went.
+/// Saves a transferred log at `path`, or next to it as `NAME-2.mcap`, `NAME-3.mcap`… (the
+/// path's own extension kept) when a file of that name exists: an earlier flight's log is
+/// never overwritten. Returns where it went.
 pub fn save_new(path: &Path, bytes: &[u8]) -> Result<PathBuf, SaveError> {
     use std::io::Write;
     if let Some(dir) = path.parent() {
@@ -354,11 +354,15 @@ pub fn save_new(path: &Path, bytes: &[u8]) -> Result<PathBuf, SaveError> {
         .file_stem()
         .map(|s| s.to_string_lossy().to_string())
         .unwrap_or_default();
+    let ext = path
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
     for n in 1..100u32 {
         let candidate = if n == 1 {
             path.to_path_buf()
         } else {
-            path.with_file_name(format!("{stem}-{n}.mcap"))
+            path.with_file_name(format!("{stem}-{n}{ext}"))
         };
         match std::fs::OpenOptions::new()
             .write(true)
@@ -425,6 +429,9 @@ pub(crate) mod tests {
             save_new(&path, b"three").unwrap(),
             dir.join("base").join("flight_a-3.mcap")
         );
+        let bin = dir.join("x.bin");
+        save_new(&bin, b"1").unwrap();
+        assert_eq!(save_new(&bin, b"2").unwrap(), dir.join("x-2.bin"));
         let _ = std::fs::remove_dir_all(&dir);
     }
 

@@ -363,10 +363,13 @@ impl Station {
         row(C::Compass, &rows.cmps, "compass");
         // Not calibrated yet, the rule's own words say it ("still calibrating": no estimate
         // is sent before); an estimate that stopped coming says so.
+        // No estimate coming (none since the flight process began, or stopped since).
+        let no_estimate = rows.state.as_ref().is_none_or(|r| r.stale);
         match phase {
             // An estimate lost: the helicopter will not go on this flight process, whatever
-            // the calibration did.
-            Some("ground-failsafe") => why.push((
+            // the calibration did. (The ground failsafe with an estimate running is the skids'
+            // answer to a lost transmitter: the transmitter's condition says so.)
+            Some("ground-failsafe") if no_estimate => why.push((
                 C::Calibrated,
                 "the estimate was lost: the vehicle holds its ground failsafe (Stop, then Connect for a new flight process)".into(),
             )),

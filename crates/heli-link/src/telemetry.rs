@@ -405,14 +405,10 @@ pub fn message(id: u32, t: &Telemetry, time_boot_ms: u32) -> Option<MavMessage> 
             if t.imu.is_some() || t.state.is_some() {
                 present |= ahrs;
             }
-            // Healthy once calibrated and while the estimate is current, and not once it is
-            // lost (the blind failsafe, the ground failsafe after it).
-            if t.state.is_some()
-                && !matches!(
-                    phase_now(t),
-                    Some("calibrating" | "blind-descent" | "ground-failsafe")
-                )
-            {
+            // Healthy once calibrated and while the estimate is current (a lost one is not
+            // sent on), and not in the blind failsafe of a lost estimate. (The ground failsafe
+            // is also the skids' answer to a lost transmitter, with the estimate running.)
+            if t.state.is_some() && !matches!(phase_now(t), Some("calibrating" | "blind-descent")) {
                 healthy |= ahrs;
             }
             MavMessage::SYS_STATUS(SYS_STATUS_DATA {

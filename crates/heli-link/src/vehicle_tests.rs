@@ -177,6 +177,11 @@ fn a_message_interval_refused_is_denied_with_a_text_naming_why() {
             "message 9999 is not one of the telemetry's",
         ),
         (f32::NAN, 100_000.0, "is not one of the telemetry's"),
+        (
+            ATTITUDE_DATA::ID as f32 + 0.7,
+            100_000.0,
+            "is not one of the telemetry's",
+        ),
     ] {
         let mut v = VehicleLink::new(None, T0);
         let mut g = GroundLink::new(None);

@@ -428,10 +428,7 @@ fn control_loop(
             }
         }
         streams.health.publish(*computer.core().health());
-        let phase = computer.core().phase();
-        if streams.phase.latest().is_none_or(|p| *p != phase) {
-            streams.phase.publish(phase);
-        }
+        streams.phase.publish(computer.core().phase());
         if matches!(
             input,
             RecordedInput::Battery(_) | RecordedInput::PowerLine(_)

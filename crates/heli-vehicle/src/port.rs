@@ -103,9 +103,7 @@ fn holder(path: &Path) -> String {
         return "another program".into();
     };
     let dev = meta.dev();
-    // glibc's encoding of a device number.
-    let major = ((dev >> 8) & 0xfff) | ((dev >> 32) & !0xfff);
-    let minor = (dev & 0xff) | ((dev >> 12) & !0xff);
+    let (major, minor) = (nix::sys::stat::major(dev), nix::sys::stat::minor(dev));
     let id = format!("{major:02x}:{minor:02x}:{}", meta.ino());
     let pid = std::fs::read_to_string("/proc/locks")
         .ok()
@@ -243,8 +241,9 @@ mod tests {
         let (_master, slave) = TTYPort::pair().unwrap();
         let path = PathBuf::from(slave.name().unwrap());
         // flock(1) holds the device as another program would.
+        // `--no-fork`: flock(1) becomes the command, so killing it lets the device go.
         let Ok(mut holder_process) = std::process::Command::new("flock")
-            .arg("--nonblock")
+            .args(["--nonblock", "--no-fork"])
             .arg(&path)
             .args(["sleep", "30"])
             .spawn()
@@ -271,6 +270,8 @@ mod tests {
             "{e}"
         );
         assert_eq!(holder(Path::new("/nonexistent/tty")), "another program");
+        // The holder gone, the device is free.
+        open(&path, 115_200).unwrap();
     }
 
     #[test]

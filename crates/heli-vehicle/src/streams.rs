@@ -106,8 +106,8 @@ pub struct LiveStreams {
     pub battery_v: Latest<Stamped<f64>>,
     /// Device watchdogs, written by the loop after every input.
     pub health: Latest<Health>,
-    /// The flight phase, written by the loop after an input that changed it: the phase now,
-    /// whether or not the estimate (and with it the state stream) goes on.
+    /// The flight phase, written by the loop after every input: the phase now, whether or not
+    /// the estimate (and with it the state stream) goes on.
     pub phase: Latest<heli_fsw::phase::Phase>,
     /// The batteries' gauges and the hot-swap, written by the loop after every input that
     /// changed them.

@@ -95,20 +95,34 @@ fn the_estimate_is_healthy_only_while_current_and_flown_on() {
     // Current and holding: present and healthy.
     assert_eq!(health(&full()), (true, true));
     // The flight core's phase now rules over the last estimate's.
-    for lost in ["calibrating", "blind-descent", "ground-failsafe"] {
+    for lost in ["calibrating", "blind-descent"] {
         let t = Telemetry {
             phase: Some(lost.into()),
             ..full()
         };
         assert_eq!(health(&t), (true, false), "{lost}");
     }
-    // An estimate that stopped coming (no state row) is not healthy, though the IMU is there.
+    // The ground failsafe of a transmitter lost on the skids, the estimate running: healthy.
+    let t = Telemetry {
+        phase: Some("ground-failsafe".into()),
+        ..full()
+    };
+    assert_eq!(health(&t), (true, true));
+    // An estimate that stopped coming (no state row) is not healthy, though the IMU is there:
+    // in the ground failsafe of a lost estimate too.
+    for phase in ["hold", "ground-failsafe"] {
+        let t = Telemetry {
+            phase: Some(phase.into()),
+            state: None,
+            ..full()
+        };
+        assert_eq!(health(&t), (true, false), "{phase}");
+    }
     let t = Telemetry {
         phase: Some("hold".into()),
         state: None,
         ..full()
     };
-    assert_eq!(health(&t), (true, false));
     assert_eq!(phase_now(&t), Some("hold"));
     assert_eq!(phase_now(&full()), Some("hold"), "from the state row");
     assert_eq!(phase_now(&Telemetry::default()), None);

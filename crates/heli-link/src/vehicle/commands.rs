@@ -139,7 +139,8 @@ impl VehicleLink {
     /// `Err` says why it is refused.
     fn set_interval(&mut self, message_id: f32, interval_us: f32) -> Result<(), String> {
         let id = message_id as u32;
-        if !self.intervals.contains_key(&id) || !message_id.is_finite() {
+        if !self.intervals.contains_key(&id) || !message_id.is_finite() || message_id.fract() != 0.0
+        {
             return Err(format!(
                 "message {message_id} is not one of the telemetry's ({})",
                 telemetry::TELEMETRY_MESSAGES

@@ -153,6 +153,10 @@ pub struct ReplayReport {
     /// Seconds into the recorded flight at which its operator asked it to Stop, if it did:
     /// the commands are compared up to it (the replay does not press Stop).
     pub operator_stop_s: Option<f64>,
+    /// Seconds into the recorded flight at which a new flight computer was started in place
+    /// of the recorded one (a simulated brown-out's end), if one was: the commands are
+    /// compared up to it (the replay does not restart the flight computer played to).
+    pub restart_s: Option<f64>,
     /// The servo commands compared.
     pub comparison: Comparison,
 }
@@ -309,9 +313,14 @@ pub fn run(
         collect(&mut framer, &mut replayed);
     }
     let window = rec.compared(last_t);
-    // The replayed computer's commands past the operator's Stop are not compared either.
-    if let Some(stop_us) = rec.operator_stop_us() {
-        replayed.retain(|(t, _)| *t <= stop_us);
+    // The replayed computer's commands past the operator's Stop, or a recorded restart, are
+    // not compared either.
+    if let Some(end_us) = [rec.operator_stop_us(), rec.restart_us]
+        .into_iter()
+        .flatten()
+        .min()
+    {
+        replayed.retain(|(t, _)| *t <= end_us);
     }
     Ok(ReplayReport {
         inputs_played: played,
@@ -319,6 +328,9 @@ pub fn run(
         played_s: last_t.saturating_sub(rec.start_us) as f64 * 1e-6,
         operator_stop_s: rec
             .operator_stop_us()
+            .map(|t| t.saturating_sub(rec.start_us) as f64 * 1e-6),
+        restart_s: rec
+            .restart_us
             .map(|t| t.saturating_sub(rec.start_us) as f64 * 1e-6),
         comparison: compare(&window, &replayed, options.tolerance),
     })
