@@ -42,6 +42,8 @@ struct Proc {
     /// The lines read until it was ready.
     seen: Vec<String>,
     log: PathBuf,
+    /// The log's length (bytes) when this run began.
+    log_from: u64,
     /// The thread copying its error output to the log (joined to read an ended one's last
     /// words).
     err_copier: Option<std::thread::JoinHandle<()>>,
@@ -66,6 +68,8 @@ impl Proc {
             .append(true)
             .open(&log)
             .map_err(context(format!("creating {}", log.display())))?;
+        // Where this run's lines begin (a process started again appends to its log).
+        let log_from = file.metadata().map_or(0, |m| m.len());
         let mut child = Command::new(program)
             .args(args)
             .env(heli_web::gate::KEY_ENV, &keys.operator)
@@ -101,6 +105,7 @@ impl Proc {
             lines: Some(lines),
             seen: Vec::new(),
             log,
+            log_from,
             err_copier: Some(err_copier),
         })
     }
@@ -150,7 +155,15 @@ impl Proc {
         if let Some(copier) = self.err_copier.take() {
             let _ = copier.join();
         }
-        let text = std::fs::read_to_string(&self.log).unwrap_or_default();
+        // This run's lines only: an earlier run's are in the same file before them.
+        let text = std::fs::read(&self.log)
+            .ok()
+            .and_then(|all| {
+                let from = usize::try_from(self.log_from).ok()?;
+                all.get(from..)
+                    .map(|b| String::from_utf8_lossy(b).into_owned())
+            })
+            .unwrap_or_default();
         let said: Vec<&str> = text
             .lines()
             .filter(|l| !l.trim().is_empty() && !self.seen.iter().any(|s| s == l))
