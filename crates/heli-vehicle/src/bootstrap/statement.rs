@@ -19,6 +19,9 @@ use heli_link::attest::{Identity, Verdict};
 pub const JUDGE_EVERY: Duration = Duration::from_secs(1);
 /// How often a configuration that is not lab-tested is said again.
 pub const REPEAT_NOT_TESTED: Duration = Duration::from_secs(60);
+/// How long after it was last said to a ground a ground heard again does not hear it again
+/// (a link that comes and goes would otherwise repeat it at every return).
+pub const JOINED_QUIET: Duration = Duration::from_secs(10);
 
 /// The statement and what it is judged on.
 pub struct LabStatement {
@@ -34,6 +37,8 @@ pub struct LabStatement {
     ground_heard: bool,
     /// A ground was heard again since the statement was last judged.
     ground_joined: bool,
+    /// When it was last said while a ground was heard.
+    said_to_ground_at: Option<Instant>,
 }
 
 impl LabStatement {
@@ -51,6 +56,7 @@ impl LabStatement {
             said_at: None,
             ground_heard: false,
             ground_joined: false,
+            said_to_ground_at: None,
         }
     }
 
@@ -110,7 +116,8 @@ impl LabStatement {
         };
         let changed = self.line.as_deref() != Some(line.as_str());
         let repeat = tested != Tested::LabTested
-            && (due(self.said_at, REPEAT_NOT_TESTED) || self.ground_joined);
+            && (due(self.said_at, REPEAT_NOT_TESTED)
+                || (self.ground_joined && due(self.said_to_ground_at, JOINED_QUIET)));
         self.ground_joined = false;
         self.tested = tested;
         self.line = Some(line.clone());
@@ -118,6 +125,9 @@ impl LabStatement {
             return None;
         }
         self.said_at = Some(now);
+        if ground_heard {
+            self.said_to_ground_at = Some(now);
+        }
         let severity = match verdict {
             Verdict::LabTested { .. } => Severity::ActivityHi,
             Verdict::NotTested { .. } => Severity::WarningLo,
@@ -226,6 +236,17 @@ mod tests {
             None,
             "a ground lost is not a ground joined"
         );
+        // A link that comes and goes: not said again within ten seconds of the last time a
+        // ground heard it.
+        assert_eq!(
+            s.tick(at(267.5), true),
+            None,
+            "3 s after the ground heard it"
+        );
+        assert_eq!(s.tick(at(268.5), false), None);
+        assert_eq!(s.tick(at(273.5), true), None, "9 s after");
+        assert_eq!(s.tick(at(274.5), false), None);
+        assert!(s.tick(at(275.5), true).is_some(), "11 s after");
     }
 
     #[test]
