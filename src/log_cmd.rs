@@ -54,7 +54,7 @@ pub(crate) fn log(action: LogAction) -> Result<ExitCode> {
                 bail!(
                     "no messages on channel '{channel}' in {}; its channels: {}",
                     file.display(),
-                    channels_of(&contents)
+                    contents.counts().into_keys().collect::<Vec<_>>().join(", ")
                 );
             }
             match out {
@@ -227,20 +227,4 @@ fn print_log_info(file: &std::path::Path, contents: &heli_log::LogContents) -> R
         ),
     }
     Ok(())
-}
-
-/// The channels a log holds, in order of first appearance, for an error that names one it
-/// does not.
-fn channels_of(contents: &heli_log::LogContents) -> String {
-    let mut seen: Vec<&str> = Vec::new();
-    for m in &contents.messages {
-        if !seen.contains(&m.topic.as_str()) {
-            seen.push(&m.topic);
-        }
-    }
-    if seen.is_empty() {
-        "none".to_string()
-    } else {
-        seen.join(", ")
-    }
 }

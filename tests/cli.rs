@@ -346,6 +346,19 @@ fn sim_writes_a_flight_log_that_reads_back_and_survives_being_cut_off() {
     ]);
     let csv = String::from_utf8_lossy(&csv.stdout);
     assert!(csv.starts_with("t_s,") && csv.contains("phase") && csv.lines().count() > 3000);
+    // A channel the log lacks: refused with the channels it has.
+    let none = heli(&[
+        "log",
+        "export",
+        log.to_str().unwrap_or_default(),
+        "--channel",
+        "nope",
+    ]);
+    let err = String::from_utf8_lossy(&none.stderr);
+    assert!(
+        !none.status.success() && err.contains("its channels: ") && err.contains("state"),
+        "{err}"
+    );
 
     // Plots: the default SVG beside the log, a PNG of chosen fields, a clear refusal of an
     // unknown field and of an unknown image format.

@@ -245,6 +245,12 @@ fn heli_sim_ui_brings_up_the_whole_system_and_ctrl_c_stops_it() {
                 .to_string()
         };
         let url = word_after("the display is at ");
+        // The observers' address: the same display, another key.
+        let observers = word_after("observers (watch only, another key) at ");
+        assert!(
+            observers.starts_with("http://") && observers.contains("key=") && observers != url,
+            "{said}"
+        );
         let link = word_after("vehicle link ");
         let key = word_after("(key ");
         let dir = word_after("saved flights in ");

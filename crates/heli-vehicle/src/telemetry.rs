@@ -119,11 +119,9 @@ pub fn snapshot(streams: &LiveStreams, battery: Option<Stamped<f64>>, now_us: u6
     use heli_link::telemetry as t;
     // The flight software's clock now: the records are stamped on it as their inputs came,
     // and none is later than now.
-    let newest_us = streams.state.latest().map_or(0, |s| s.t_us);
-    let core_now_us = now_us.max(newest_us);
-    let state = streams
-        .state
-        .latest()
+    let newest = streams.state.latest();
+    let core_now_us = now_us.max(newest.as_ref().map_or(0, |s| s.t_us));
+    let state = newest
         .filter(|s| core_now_us.saturating_sub(s.t_us) <= STATE_CURRENT_US)
         .map(|s| {
             let nav = &s.value.nav;

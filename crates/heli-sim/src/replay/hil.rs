@@ -56,13 +56,21 @@ impl Recording {
             .map(|(t, _)| *t)
     }
 
+    /// Where the comparison ends, if before the recording's end: the first of the
+    /// operator's Stop and a recorded restart (the replay does neither).
+    fn comparison_end_us(&self) -> Option<u64> {
+        [self.operator_stop_us(), self.restart_us]
+            .into_iter()
+            .flatten()
+            .min()
+    }
+
     /// The recorded commands a replay played to `last_us` is compared with: from the
     /// start to the last input played, and not past the operator's Stop or a restart.
     fn compared(&self, last_us: u64) -> Vec<(u64, Pulses)> {
-        let end_us = [self.operator_stop_us(), self.restart_us]
-            .into_iter()
-            .flatten()
-            .fold(last_us, u64::min);
+        let end_us = self
+            .comparison_end_us()
+            .map_or(last_us, |end| end.min(last_us));
         self.servo
             .iter()
             .copied()
@@ -315,11 +323,7 @@ pub fn run(
     let window = rec.compared(last_t);
     // The replayed computer's commands past the operator's Stop, or a recorded restart, are
     // not compared either.
-    if let Some(end_us) = [rec.operator_stop_us(), rec.restart_us]
-        .into_iter()
-        .flatten()
-        .min()
-    {
+    if let Some(end_us) = rec.comparison_end_us() {
         replayed.retain(|(t, _)| *t <= end_us);
     }
     Ok(ReplayReport {
