@@ -130,19 +130,37 @@ impl Navigator {
         let fused = self.update(&y, &h, &r);
         self.ratios.gps = self.last_test_ratio;
         if !fused {
-            self.state = live_state;
-            self.cov = live_cov;
             self.stats.gps_rejected = self.stats.gps_rejected.saturating_add(1);
             self.stats.gps_rejected_in_row = self.stats.gps_rejected_in_row.saturating_add(1);
-            self.reset_to_gps_if_due(t_arrival_us, t_valid, &gps_pos, &gps_vel);
+            if !self.gps_reset_due(t_arrival_us) {
+                self.state = live_state;
+                self.cov = live_cov;
+                return;
+            }
+            // The reset is made where the fix was valid, a latency ago, and the IMU carries
+            // it to the present in the replay: a helicopter pulling up or rolling out
+            // changes its velocity by metres a second in that latency.
+            self.reset_to_gps(dt_fix, &gps_pos, &gps_vel, t_arrival_us);
+            self.replay_since(split, true);
             return;
         }
         self.stats.gps_rejected_in_row = 0;
-        // Replay what happened since, from the corrected past to the present.
+        self.replay_since(split, false);
+        self.stats.gps_fused = self.stats.gps_fused.saturating_add(1);
+        self.stats.last_gps_fused_us = t_arrival_us;
+    }
+
+    /// Replays the history from `split` (the first step after a delayed fix was valid) to the
+    /// present, from the state corrected there; with `drop_past`, what is kept from before
+    /// `split` (the drifted solution a reset left) is dropped.
+    fn replay_since(&mut self, split: usize, drop_past: bool) {
         // The scratch buffer is taken out while the replay calls back into `self`, and put
         // back with its capacity: no allocation in the control step.
         let mut replay = std::mem::take(&mut self.replay);
         replay.extend(self.history.drain(split..));
+        if drop_past {
+            self.history.clear();
+        }
         for op in replay.drain(..) {
             match op {
                 Op::Propagate { t_us, a, b, .. } => self.propagate(t_us, &a, &b),
@@ -161,8 +179,6 @@ impl Navigator {
             }
         }
         self.replay = replay;
-        self.stats.gps_fused = self.stats.gps_fused.saturating_add(1);
-        self.stats.last_gps_fused_us = t_arrival_us;
     }
 
     /// Fuses a barometric pressure reading (before initialisation: accumulates the reference).

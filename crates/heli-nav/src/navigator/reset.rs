@@ -1,36 +1,40 @@
 //! The filter's way back from a long coast: when GPS fixes keep failing the innovation gate
 //! long after the last one was fused — the inertial solution drifted during a gap, and the
 //! gate, sized by a covariance that underestimates that drift, would refuse every later fix
-//! — the position and velocity are reset to the GPS and their uncertainty to the GPS's, as
+//! — the position and velocity are reset to the GPS (where the fix was valid, a latency ago,
+//! and carried to the present by the IMU) and their uncertainty to the GPS's, as
 //! PX4 resets on a timeout and ArduPilot beyond its glitch radius. The reset is counted;
 //! the flight core raises it.
 
 use super::*;
 
 impl Navigator {
-    /// Resets position and velocity to the fix valid at `t_valid_us` when the gate has
-    /// refused [`NavConfig::gps_reset_rejections`] fixes in a row and none was fused for
+    /// True when a fix refused by the gate is to reset the estimate: the gate has refused
+    /// [`NavConfig::gps_reset_rejections`] fixes in a row and none was fused for
     /// [`NavConfig::gps_reset_after_s`].
-    pub(super) fn reset_to_gps_if_due(
+    pub(super) fn gps_reset_due(&self, t_arrival_us: u64) -> bool {
+        let since = self.stats.last_gps_fused_us.max(self.initialised_us);
+        seconds_between(since, t_arrival_us) >= self.config.gps_reset_after_s
+            && self.stats.gps_rejected_in_row >= self.config.gps_reset_rejections
+    }
+
+    /// Resets the position and velocity of the state (the one the fix was valid at, rolled
+    /// back to, `dt_fix_s` before the fix's time of validity) to the fix's, and their
+    /// uncertainty to the GPS's; counted.
+    pub(super) fn reset_to_gps(
         &mut self,
-        t_arrival_us: u64,
-        t_valid_us: u64,
+        dt_fix_s: f64,
         gps_pos: &Vector3<f64>,
         gps_vel: &Vector3<f64>,
+        t_arrival_us: u64,
     ) {
-        let since = self.stats.last_gps_fused_us.max(self.initialised_us);
-        let long_coast = seconds_between(since, t_arrival_us) >= self.config.gps_reset_after_s;
-        if !long_coast || self.stats.gps_rejected_in_row < self.config.gps_reset_rejections {
-            return;
-        }
         let Some(state) = self.state.as_mut() else {
             return;
         };
-        // The fix was valid a latency ago: carried forward on its own velocity to now.
-        let ahead_s = seconds_between(t_valid_us, state.t_us);
-        let pos_now = gps_pos + gps_vel * ahead_s;
-        state.pos_ned_m.x = pos_now.x;
-        state.pos_ned_m.y = pos_now.y;
+        // The fix placed where the state is in time, on its own velocity.
+        let pos = gps_pos - gps_vel * dt_fix_s;
+        state.pos_ned_m.x = pos.x;
+        state.pos_ned_m.y = pos.y;
         state.vel_ned_mps = *gps_vel;
         // Position and velocity know nothing but the GPS now: no correlations, the GPS's own
         // variances.
@@ -52,8 +56,6 @@ impl Navigator {
                 *x = variance;
             }
         }
-        // The past kept for delayed fixes belongs to the drifted solution.
-        self.history.clear();
         self.stats.gps_resets = self.stats.gps_resets.saturating_add(1);
         self.stats.gps_rejected_in_row = 0;
         self.stats.last_gps_fused_us = t_arrival_us;
