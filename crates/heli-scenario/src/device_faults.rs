@@ -96,7 +96,7 @@ pub fn roll_rc_loss() -> Scenario {
     s.name = "roll-rc-loss".into();
     s.description =
         "transmitter lost in the middle of a roll: the roll ends upright, then a hover".into();
-    s.faults.transmitter_lost = vec![[121.0, 1000.0]];
+    s.faults.transmitter_lost = vec![[118.8, 1000.0]];
     s.limits = Limits {
         recovery_attitude_max_deg: Some(20.0),
         altitude_loss_max_m: Some(5.0),

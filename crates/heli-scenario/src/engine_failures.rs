@@ -97,6 +97,6 @@ pub fn engine_failure_roll() -> Scenario {
         "engine-failure-roll",
         "the engine quits in the first aileron roll at 80 m: righted, autorotation, soft touchdown",
         220.0,
-        155.6,
+        155.36,
     )
 }

@@ -61,12 +61,13 @@ pub fn begin(
                 to_ned_m,
             })
         }
-        Some(Leg::Rolls { speed_mps, .. }) => {
-            let dir = Vector3::new(yaw.cos(), yaw.sin(), 0.0);
+        Some(Leg::Rolls { .. }) => {
+            // The run-up's trajectory starts at rest where the last leg left it and speeds
+            // up along the heading ([`crate::core::roll`]).
             Begin::Fly(Phase::Maneuver {
                 target: Target {
                     pos_ned_m: from,
-                    vel_ned_mps: dir * speed_mps,
+                    vel_ned_mps: Vector3::zeros(),
                     yaw_rad: yaw,
                 },
                 stage: RollStage::Accelerate { since_us: now_us },
@@ -153,7 +154,8 @@ mod tests {
         else {
             panic!("rolls")
         };
-        assert_eq!(target.vel_ned_mps, Vector3::new(8.0, 0.0, 0.0));
+        assert_eq!(target.vel_ned_mps, Vector3::zeros());
+        assert_eq!(target.yaw_rad, 0.0);
         assert_eq!(
             (stage, rolls_done),
             (RollStage::Accelerate { since_us: 7 }, 0)

@@ -12,7 +12,18 @@ use heli_types::Leg;
 use nalgebra::Vector3;
 
 use super::ACCELERATE_TIMEOUT_S;
+use super::brake::BRAKE_DECEL_MPS2;
 use crate::phase::{Phase, RollStage};
+
+/// How fast the run-up's trajectory speeds up to the trim speed (m/s²): the hold's braking
+/// rate the other way. A trajectory at the trim speed from the start left the helicopter
+/// behind its point: it pitched down 30° to catch up, overshot the trim by half (12 m/s for
+/// 8), and was still pitching back (10–18° nose up) when the pull-up began.
+pub const RUN_UP_ACCEL_MPS2: f64 = BRAKE_DECEL_MPS2;
+
+/// How long the run-up holds the trim speed, at the least, before the pull-up (s): the
+/// helicopter settles on the trim it rolls from.
+pub const RUN_UP_SETTLE_S: f64 = 3.0;
 
 /// A roll that ended in this step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -162,7 +173,9 @@ pub fn step(
         RollStage::Accelerate { since_us } => {
             let settled = (est.vel_ned_mps - trim_vel).norm() < 1.0;
             let elapsed = seconds_between(since_us, now_us);
-            if settled && elapsed > 6.0 {
+            // The trajectory's ramp from rest, then the settling at the trim speed.
+            let run_up_s = (speed_mps / RUN_UP_ACCEL_MPS2 + RUN_UP_SETTLE_S).max(6.0);
+            if settled && elapsed > run_up_s {
                 RollStage::PullUp { since_us: now_us }
             } else if elapsed > ACCELERATE_TIMEOUT_S {
                 // Never settled on the trim (a headwind, a weak rotor): no rolls today.
@@ -229,6 +242,16 @@ pub fn step(
     };
     let vel_ned_mps = match stage {
         RollStage::PullUp { .. } => trim_vel + Vector3::new(0.0, 0.0, -g.pull_up_climb_mps),
+        // The run-up's trajectory speeds up from where it is to the trim at a steady rate.
+        RollStage::Accelerate { .. } => {
+            let to_go = trim_vel - target.vel_ned_mps;
+            let step_mps = RUN_UP_ACCEL_MPS2 * dt_s.max(0.0);
+            if to_go.norm() <= step_mps {
+                trim_vel
+            } else {
+                target.vel_ned_mps + to_go.normalize() * step_mps
+            }
+        }
         _ => trim_vel,
     };
     let mut target = Target {

@@ -101,13 +101,48 @@ fn it_accelerates_until_settled_on_the_trim_speed_for_six_seconds() {
         stage_of(step(&mut core, &off, 7 * S, accelerate, 0).0),
         accelerate
     );
-    // While accelerating the trajectory is carried along at its velocity, toward the trim.
+    // While accelerating the trajectory is carried along at its velocity, which speeds up
+    // toward the trim at the run-up's rate, and is the trim's once that close.
     let (phase, _) = step(&mut core, &off, 7 * S, accelerate, 0);
     let Phase::Maneuver { target: t, .. } = phase else {
         unreachable!()
     };
     assert!((t.pos_ned_m - Vector3::new(1.0 + 4.0 * 0.02, 2.0, -20.0)).norm() < 1e-12);
+    let sped_up = 4.0 + roll::RUN_UP_ACCEL_MPS2 * 0.02;
+    assert!((t.vel_ned_mps - Vector3::new(sped_up, 0.0, 0.0)).norm() < 1e-12);
+    let mut nearly = target();
+    nearly.vel_ned_mps.x = 5.0 - 0.5 * roll::RUN_UP_ACCEL_MPS2 * 0.02;
+    let Phase::Maneuver { target: t, .. } =
+        core.maneuver(&off, 7 * S, 0.02, nearly, accelerate, 0, &mut Vec::new())
+    else {
+        unreachable!()
+    };
     assert_eq!(t.vel_ned_mps, Vector3::new(5.0, 0.0, 0.0));
+}
+
+#[test]
+fn a_faster_trim_is_run_up_to_for_longer_then_settled_on() {
+    // 15 m/s at 2 m/s²: 7.5 s of speeding up and 3 s at the trim before the pull-up.
+    let mut core = rolling_core();
+    core.seq.params.plan = Plan::new(&[
+        Leg::Takeoff { alt_m: 20.0 },
+        Leg::Rolls {
+            count: 1,
+            speed_mps: 15.0,
+        },
+    ])
+    .unwrap();
+    let trim = est(Vector3::new(15.0, 0.0, 0.0), 0.0);
+    let accelerate = RollStage::Accelerate { since_us: 0 };
+    let run_up_us = ((15.0 / roll::RUN_UP_ACCEL_MPS2 + roll::RUN_UP_SETTLE_S) * 1e6) as u64;
+    assert_eq!(
+        stage_of(step(&mut core, &trim, run_up_us, accelerate, 0).0),
+        accelerate
+    );
+    assert!(matches!(
+        stage_of(step(&mut core, &trim, run_up_us + 1, accelerate, 0).0),
+        RollStage::PullUp { .. }
+    ));
 }
 
 #[test]
