@@ -2,9 +2,9 @@
 //! (its software WebGL) while the vehicle flies the demonstration against the simulator in
 //! real time: screenshots in the hover and during a roll from the pilot's view and the chase
 //! camera, checked in rendered pixels to show the helicopter as a solid at least 40 px
-//! across, its shadow on the ground and the horizon (`tests/ui/view.mjs` says which cue
-//! each view must show when: from the pilot's eyes the rolling helicopter's shadow, 100 m
-//! away, is under a pixel tall, so the pilot's view holds the helicopter and the horizon);
+//! across, its shadow on the ground and the horizon, in both views (the demonstration's first
+//! roll is flown past the pilot, some 30 m off and 20 m up, where the shadow is seen from the
+//! pilot's eyes: `tests/ui/view.mjs`);
 //! the page's frame rate and state-to-screen latency are printed (a measurement, not a
 //! timed check).
 //! Screenshots are saved under the test's target directory.
@@ -21,8 +21,9 @@ fn the_truth_view_shows_the_helicopter_its_shadow_and_the_horizon_in_the_hover_a
         let dir = tempfile::tempdir().unwrap();
         let dev = dir.path().join("dev");
         let dev_s = dev.display().to_string();
-        // The demonstration's first roll begins some 45 s into the flight (the tests' 5 s
-        // calibration, pre-flight checks, take-off, hold, climb, run-up), in real time.
+        // The demonstration's first roll begins some 65 s into the flight (the tests' 5 s
+        // calibration, pre-flight checks, take-off, hold, the way out, the turn, run-up), in
+        // real time.
         let (hil, url) = hilsim_with_view(&dev_s, "demo", "150", &[]);
         let vehicle = Vehicle::start_with(dir.path(), &dev, 1.0);
         assert!(vehicle.ctl(&["connect"]).starts_with("ok connected"));

@@ -83,12 +83,12 @@ pub fn rolls() -> Scenario {
     s
 }
 
-/// Built-in scenario `demo`, the default of `heli sim`: take-off, hover, three rolls, return
-/// and landing.
+/// Built-in scenario `demo`, the default of `heli sim`: take-off, hover, the way out along the
+/// flight line in front of the pilot, three rolls back past the pilot, return and landing.
 pub fn demo() -> Scenario {
     let mut s = base(
         "demo",
-        "demonstration flight: take off, hover, three aileron rolls, fly home, land",
+        "demonstration flight: take off, hover, out along the flight line, three aileron rolls past the pilot, fly home, land",
         320.0,
     );
     s.limits = Limits {

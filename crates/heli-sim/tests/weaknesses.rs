@@ -310,9 +310,8 @@ fn a_stall_in_the_hover_realigns_without_breaking_the_invariants() {
 #[test]
 fn the_rolls_in_an_8_mps_wind_recover_their_trim_speed_through_the_air() {
     // 8 m/s of wind (6.4 north, 4.8 east) with turbulence; the line the demonstration flight
-    // rolls along is the heading its hold took, so the wind meets it from the side and
-    // behind (seeds 0 and 1, rolling north) or from the side and ahead (seed 2, rolling
-    // west-south-west). A roll, flown on its feedforward, leaves the helicopter below the
+    // rolls along is the heading its hold took (east, along its flight line), so the wind
+    // meets it from the side and behind. A roll, flown on its feedforward, leaves the helicopter below the
     // trim speed and drifting with the air, and the trajectory's point, carried at the trim
     // velocity, runs metres ahead. Before, the recovery chased that point and, 4 s after the
     // last roll, flew up to 2.8 m/s faster through the air than when the rolls began on

@@ -28,16 +28,27 @@ const ROLLS: &[Leg] = &[
     Leg::Hold { seconds: 10.0 },
 ];
 
-/// Take off, hover, climb, three rolls, fly home, land: the thesis's demonstration.
+/// Take off, hover, fly out along the flight line (15 m north of the pad, 30 m in front of
+/// the pilot's station 15 m behind it) and turn, three rolls back east past the pilot, fly
+/// home, land: the thesis's demonstration, flown as a pilot flies a display, in front of
+/// the pilot (the first roll some 30 m off, 20 m up, where its shadow is seen from 1.7 m).
 const DEMO: &[Leg] = &[
     Leg::Takeoff { alt_m: 10.0 },
     Leg::Hold { seconds: 10.0 },
     Leg::Fly {
-        north_m: 0.0,
-        east_m: 0.0,
-        alt_m: 25.0,
-        speed_mps: 3.0,
+        north_m: 15.0,
+        east_m: -75.0,
+        alt_m: 15.0,
+        speed_mps: 4.0,
     },
+    // 6 m east: the heading the rolls are flown along.
+    Leg::Fly {
+        north_m: 15.0,
+        east_m: -69.0,
+        alt_m: 15.0,
+        speed_mps: 2.0,
+    },
+    Leg::Hold { seconds: 3.0 },
     Leg::Rolls {
         count: 3,
         speed_mps: 8.0,
