@@ -146,6 +146,37 @@ fn within_lead(target_ned_m: Vector3<f64>, pos_ned_m: Vector3<f64>, lead_m: f64)
     Vector3::new(kept.x, kept.y, target_ned_m.z)
 }
 
+/// The run-up of a rolls leg just begun (`phase`, from [`super::legs::begin`]), its
+/// trajectory's speed along the heading set to the helicopter's (none backwards, none past
+/// the trim speed): begun at rest it would brake a helicopter still moving — a rolls leg
+/// after another, or after a hold too short to stop in — and speed it up again. Any other
+/// phase is returned as it is.
+pub fn run_up_from(phase: Phase, leg: Option<Leg>, est: &NavState) -> Phase {
+    let (
+        Phase::Maneuver {
+            mut target,
+            stage: stage @ RollStage::Accelerate { .. },
+            rolls_done,
+        },
+        Some(Leg::Rolls { speed_mps, .. }),
+    ) = (phase, leg)
+    else {
+        return phase;
+    };
+    let dir = Vector3::new(target.yaw_rad.cos(), target.yaw_rad.sin(), 0.0);
+    let along_mps = est.vel_ned_mps.dot(&dir);
+    target.vel_ned_mps = if along_mps.is_finite() {
+        dir * along_mps.clamp(0.0, speed_mps.max(0.0))
+    } else {
+        Vector3::zeros()
+    };
+    Phase::Maneuver {
+        target,
+        stage,
+        rolls_done,
+    }
+}
+
 /// One step of the roll maneuver on the leg being flown (`leg`), from `stage` with
 /// `rolls_done` rolls behind it.
 #[allow(clippy::too_many_arguments)]
@@ -169,15 +200,27 @@ pub fn step(
         pos_ned_m: target.pos_ned_m + target.vel_ned_mps * dt_s,
         ..target
     };
+    // The run-up's trajectory speeds up from where it is to the trim at a steady rate.
+    let run_up_vel = {
+        let to_go = trim_vel - target.vel_ned_mps;
+        let step_mps = RUN_UP_ACCEL_MPS2 * dt_s.max(0.0);
+        if to_go.norm() <= step_mps {
+            trim_vel
+        } else {
+            target.vel_ned_mps + to_go.normalize() * step_mps
+        }
+    };
     let stage = match stage {
         RollStage::Accelerate { since_us } => {
             let settled = (est.vel_ned_mps - trim_vel).norm() < 1.0;
             let elapsed = seconds_between(since_us, now_us);
-            // The trajectory's ramp from rest, then the settling at the trim speed.
-            let run_up_s = (speed_mps / RUN_UP_ACCEL_MPS2 + RUN_UP_SETTLE_S).max(6.0);
-            if settled && elapsed > run_up_s {
+            // The trajectory's ramp (from rest at the longest), then the settling at the trim
+            // speed; the wait for it to settle is counted from the ramp's end.
+            let ramp_s = speed_mps / RUN_UP_ACCEL_MPS2;
+            let run_up_s = (ramp_s + RUN_UP_SETTLE_S).max(6.0);
+            if settled && run_up_vel == trim_vel && elapsed > run_up_s {
                 RollStage::PullUp { since_us: now_us }
-            } else if elapsed > ACCELERATE_TIMEOUT_S {
+            } else if elapsed > ramp_s + ACCELERATE_TIMEOUT_S {
                 // Never settled on the trim (a headwind, a weak rotor): no rolls today.
                 let phase = Phase::Maneuver {
                     target: carried,
@@ -242,16 +285,7 @@ pub fn step(
     };
     let vel_ned_mps = match stage {
         RollStage::PullUp { .. } => trim_vel + Vector3::new(0.0, 0.0, -g.pull_up_climb_mps),
-        // The run-up's trajectory speeds up from where it is to the trim at a steady rate.
-        RollStage::Accelerate { .. } => {
-            let to_go = trim_vel - target.vel_ned_mps;
-            let step_mps = RUN_UP_ACCEL_MPS2 * dt_s.max(0.0);
-            if to_go.norm() <= step_mps {
-                trim_vel
-            } else {
-                target.vel_ned_mps + to_go.normalize() * step_mps
-            }
-        }
+        RollStage::Accelerate { .. } => run_up_vel,
         _ => trim_vel,
     };
     let mut target = Target {

@@ -45,10 +45,11 @@ fn est(vel: Vector3<f64>, p_rps: f64) -> NavState {
     }
 }
 
+/// The trajectory's point, moving north at the trim speed of 5 m/s.
 fn target() -> Target {
     Target {
         pos_ned_m: Vector3::new(1.0, 2.0, -20.0),
-        vel_ned_mps: Vector3::new(4.0, 0.0, 0.0),
+        vel_ned_mps: Vector3::new(5.0, 0.0, 0.0),
         yaw_rad: 0.0,
     }
 }
@@ -103,21 +104,79 @@ fn it_accelerates_until_settled_on_the_trim_speed_for_six_seconds() {
     );
     // While accelerating the trajectory is carried along at its velocity, which speeds up
     // toward the trim at the run-up's rate, and is the trim's once that close.
-    let (phase, _) = step(&mut core, &off, 7 * S, accelerate, 0);
-    let Phase::Maneuver { target: t, .. } = phase else {
-        unreachable!()
+    let slower = Target {
+        vel_ned_mps: Vector3::new(4.0, 0.0, 0.0),
+        ..target()
     };
+    let ramp = |core: &mut FlightCore, e: &NavState, t: Target| {
+        let Phase::Maneuver { target, stage, .. } =
+            core.maneuver(e, 7 * S, 0.02, t, accelerate, 0, &mut Vec::new())
+        else {
+            unreachable!()
+        };
+        (target, stage)
+    };
+    let (t, _) = ramp(&mut core, &off, slower);
     assert!((t.pos_ned_m - Vector3::new(1.0 + 4.0 * 0.02, 2.0, -20.0)).norm() < 1e-12);
     let sped_up = 4.0 + roll::RUN_UP_ACCEL_MPS2 * 0.02;
     assert!((t.vel_ned_mps - Vector3::new(sped_up, 0.0, 0.0)).norm() < 1e-12);
-    let mut nearly = target();
-    nearly.vel_ned_mps.x = 5.0 - 0.5 * roll::RUN_UP_ACCEL_MPS2 * 0.02;
-    let Phase::Maneuver { target: t, .. } =
-        core.maneuver(&off, 7 * S, 0.02, nearly, accelerate, 0, &mut Vec::new())
-    else {
-        unreachable!()
+    let nearly = Target {
+        vel_ned_mps: Vector3::new(5.0 - 0.5 * roll::RUN_UP_ACCEL_MPS2 * 0.02, 0.0, 0.0),
+        ..target()
     };
-    assert_eq!(t.vel_ned_mps, Vector3::new(5.0, 0.0, 0.0));
+    assert_eq!(
+        ramp(&mut core, &off, nearly).0.vel_ned_mps,
+        Vector3::new(5.0, 0.0, 0.0)
+    );
+    // Settled, but the trajectory still short of the trim speed: no pull-up yet.
+    let (_, stage) = ramp(&mut core, &near, slower);
+    assert_eq!(stage, accelerate);
+    let (_, stage) = ramp(&mut core, &near, nearly);
+    assert!(matches!(stage, RollStage::PullUp { .. }), "{stage:?}");
+}
+
+#[test]
+fn a_run_up_begun_in_motion_starts_at_the_helicopters_speed_along_the_heading() {
+    let leg = Some(Leg::Rolls {
+        count: 1,
+        speed_mps: 8.0,
+    });
+    let begun = |vel: Vector3<f64>| {
+        let phase = Phase::Maneuver {
+            target: Target {
+                vel_ned_mps: Vector3::zeros(),
+                yaw_rad: 0.0,
+                ..target()
+            },
+            stage: RollStage::Accelerate { since_us: 0 },
+            rolls_done: 0,
+        };
+        match roll::run_up_from(phase, leg, &est(vel, 0.0)) {
+            Phase::Maneuver { target, .. } => target.vel_ned_mps,
+            other => panic!("{other:?}"),
+        }
+    };
+    // 6 m/s north and 2 east, the heading north: 6 north.
+    assert_eq!(
+        begun(Vector3::new(6.0, 2.0, 0.5)),
+        Vector3::new(6.0, 0.0, 0.0)
+    );
+    // Backwards: from rest; past the trim: at the trim.
+    assert_eq!(begun(Vector3::new(-3.0, 0.0, 0.0)), Vector3::zeros());
+    assert_eq!(
+        begun(Vector3::new(11.0, 0.0, 0.0)),
+        Vector3::new(8.0, 0.0, 0.0)
+    );
+    assert_eq!(begun(Vector3::new(f64::NAN, 0.0, 0.0)), Vector3::zeros());
+    // Any other phase, or another leg, is left as it is.
+    let hold = Phase::Holding {
+        target: target(),
+        since_us: 0,
+    };
+    assert_eq!(
+        roll::run_up_from(hold, leg, &est(Vector3::new(6.0, 0.0, 0.0), 0.0)),
+        hold
+    );
 }
 
 #[test]
@@ -135,14 +194,15 @@ fn a_faster_trim_is_run_up_to_for_longer_then_settled_on() {
     let trim = est(Vector3::new(15.0, 0.0, 0.0), 0.0);
     let accelerate = RollStage::Accelerate { since_us: 0 };
     let run_up_us = ((15.0 / roll::RUN_UP_ACCEL_MPS2 + roll::RUN_UP_SETTLE_S) * 1e6) as u64;
-    assert_eq!(
-        stage_of(step(&mut core, &trim, run_up_us, accelerate, 0).0),
-        accelerate
-    );
-    assert!(matches!(
-        stage_of(step(&mut core, &trim, run_up_us + 1, accelerate, 0).0),
-        RollStage::PullUp { .. }
-    ));
+    let at_trim = Target {
+        vel_ned_mps: Vector3::new(15.0, 0.0, 0.0),
+        ..target()
+    };
+    let mut at = |now_us| {
+        stage_of(core.maneuver(&trim, now_us, 0.02, at_trim, accelerate, 0, &mut Vec::new()))
+    };
+    assert_eq!(at(run_up_us), accelerate);
+    assert!(matches!(at(run_up_us + 1), RollStage::PullUp { .. }));
 }
 
 #[test]
@@ -150,7 +210,8 @@ fn never_settled_it_gives_up_the_rolls_after_the_timeout() {
     let mut core = rolling_core();
     let off = est(Vector3::new(2.0, 0.0, 0.0), 0.0);
     let accelerate = RollStage::Accelerate { since_us: 0 };
-    let at = (ACCELERATE_TIMEOUT_S * 1e6) as u64;
+    // Counted from the end of the trajectory's ramp (5 m/s at 2 m/s²: 2.5 s).
+    let at = ((ACCELERATE_TIMEOUT_S + 5.0 / roll::RUN_UP_ACCEL_MPS2) * 1e6) as u64;
     assert_eq!(
         stage_of(step(&mut core, &off, at, accelerate, 0).0),
         accelerate

@@ -611,7 +611,7 @@ impl Sequencer {
         let from = self.phase.target().map_or(est.pos_ned_m, |t| t.pos_ned_m);
         let home = self.home_ned_m.unwrap_or(est.pos_ned_m);
         match legs::begin(self.plan_leg(), from, home, yaw, now_us) {
-            Begin::Fly(phase) => phase,
+            Begin::Fly(phase) => roll::run_up_from(phase, self.plan_leg(), est),
             Begin::Hold(hold) => {
                 // Begun in motion (after a path or a roll sequence): stop first.
                 self.braking = Brake::begin(now_us, est);

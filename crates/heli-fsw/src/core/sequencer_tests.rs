@@ -556,6 +556,27 @@ fn a_rolls_leg_accelerates_along_the_heading_and_the_plans_end_holds() {
         }
         other => panic!("{other:?}"),
     }
+    // Begun at 5 m/s along the heading: from there, not from rest.
+    let dir = Vector3::new(0.3f64.cos(), 0.3f64.sin(), 0.0);
+    let mut core = core_in(Phase::TakingOff { target }, FlightMode::Autonomous, true, S);
+    core.seq.params.plan = Plan::new(&[
+        Leg::Takeoff { alt_m: 10.0 },
+        Leg::Rolls {
+            count: 1,
+            speed_mps: 6.0,
+        },
+    ])
+    .unwrap();
+    match next(&mut core, &est(10.0, 0.0, dir * 5.0), S).0 {
+        Phase::Maneuver { target: t, .. } => {
+            let from_5 = (t.vel_ned_mps - dir * 5.0).norm();
+            assert!(
+                from_5 <= super::roll::RUN_UP_ACCEL_MPS2 * 0.02 + 1e-12,
+                "{t:?}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
     // Past the last leg: the plan is complete, raised once, and it holds where it is.
     let mut core = core_in(Phase::TakingOff { target }, FlightMode::Autonomous, true, S);
     core.seq.params.plan = Plan::new(&[Leg::Takeoff { alt_m: 10.0 }]).unwrap();

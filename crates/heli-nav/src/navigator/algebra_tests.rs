@@ -302,8 +302,9 @@ fn the_reset_to_gps_comes_on_the_configured_refusal_and_takes_the_fix_carried_fo
             t += 20_000;
             nav.propagate(t, &level_imu(), &level_imu());
         }
-        // Valid 0.4 s before the present (it arrives 0.6 s from now, a latency late).
-        nav.fuse_gps(t + 600_000, &fix_at(valid_pos, vel));
+        // Valid 0.39 s before the present (it arrives 0.61 s from now, a latency late): 10 ms
+        // after the start of the step it falls in.
+        nav.fuse_gps(t + 610_000, &fix_at(valid_pos, vel));
         let stats = nav.stats();
         assert_eq!(stats.gps_fused, 0);
         if refusal < c.gps_reset_rejections {
@@ -311,12 +312,13 @@ fn the_reset_to_gps_comes_on_the_configured_refusal_and_takes_the_fix_carried_fo
             continue;
         }
         assert_eq!(stats.gps_resets, 1);
-        // Valid 0.4 s before the present: carried forward 0.4 s on its own velocity.
+        // Valid 0.39 s before the present: carried forward 0.39 s (level and unaccelerated,
+        // on its own velocity).
         let s = nav
             .state()
             .copied()
             .unwrap_or_else(|| panic!("initialised"));
-        let expected = valid_pos + vel * 0.4;
+        let expected = valid_pos + vel * 0.39;
         assert!(
             (s.pos_ned_m.x - expected.x).abs() < 1e-6,
             "{:?}",
@@ -329,7 +331,7 @@ fn the_reset_to_gps_comes_on_the_configured_refusal_and_takes_the_fix_carried_fo
         );
         assert!((s.vel_ned_mps - vel).norm() < 1e-9, "{:?}", s.vel_ned_mps);
         // Position and velocity knew nothing but the GPS where it was valid (its variances),
-        // grown over the 0.4 s since by the propagation only.
+        // grown over the 0.39 s since by the propagation only.
         let (sp, sv) = (c.gps_pos_sigma_m.powi(2), c.gps_vel_sigma_mps.powi(2));
         for i in ix::VEL..ix::POS + 2 {
             let variance = if i >= ix::POS { sp } else { sv };
@@ -340,6 +342,51 @@ fn the_reset_to_gps_comes_on_the_configured_refusal_and_takes_the_fix_carried_fo
             );
         }
     }
+}
+
+#[test]
+fn a_reset_on_a_fix_valid_now_takes_its_variances_and_no_correlations_and_the_next_fix_fuses() {
+    // The fix arrives a latency after the last step: valid at the present state, nothing to
+    // replay. Position and velocity are the GPS's, their variances its own, uncorrelated.
+    let c = NavConfig::default();
+    let mut nav = at_rest(0);
+    let vel = Vector3::new(1.0, -2.0, 0.5);
+    let mut t = 0;
+    while t < 6_000_000 {
+        t += 20_000;
+        nav.propagate(t, &level_imu(), &level_imu());
+    }
+    for _ in 0..c.gps_reset_rejections {
+        for _ in 0..50 {
+            t += 20_000;
+            nav.propagate(t, &level_imu(), &level_imu());
+        }
+        nav.fuse_gps(t + 1_000_000, &fix_at(Vector3::new(100.0, 50.0, 0.0), vel));
+    }
+    assert_eq!(nav.stats().gps_resets, 1);
+    let (sp, sv) = (c.gps_pos_sigma_m.powi(2), c.gps_vel_sigma_mps.powi(2));
+    for i in ix::VEL..ix::POS + 2 {
+        let variance = if i >= ix::POS { sp } else { sv };
+        assert_eq!(nav.cov[(i, i)], variance, "state {i}");
+        for j in (0..N_ERR).filter(|&j| j != i) {
+            assert_eq!(nav.cov[(i, j)], 0.0, "({i}, {j})");
+            assert_eq!(nav.cov[(j, i)], 0.0, "({j}, {i})");
+        }
+    }
+    // A second on, the next fix (valid at the reset) agrees, and is fused.
+    let s = nav
+        .state()
+        .copied()
+        .unwrap_or_else(|| panic!("initialised"));
+    for _ in 0..50 {
+        t += 20_000;
+        nav.propagate(t, &level_imu(), &level_imu());
+    }
+    let fused = nav.stats().gps_fused;
+    let reset_at = Vector3::new(s.pos_ned_m.x, s.pos_ned_m.y, 0.0);
+    // Arriving now, a latency after the reset it was valid at.
+    nav.fuse_gps(t, &fix_at(reset_at, vel));
+    assert_eq!(nav.stats().gps_fused, fused + 1, "{:?}", nav.stats());
 }
 
 #[test]

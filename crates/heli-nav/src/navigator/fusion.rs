@@ -72,8 +72,6 @@ impl Navigator {
             return; // before initialisation a fix only sets the origin and the start position
         }
         // Roll back to the last propagation at or before the time of validity: restore the
-        // state and covariance from just before the first propagation after it.
-        // Roll back to the last propagation at or before the time of validity: restore the
         // state and covariance from just before the first propagation after it. A fix valid
         // now (no propagation since) is fused on the present state.
         let split = self
