@@ -537,7 +537,9 @@ impl FlightCore {
             Input::Baro { pressure_mbar } => {
                 self.stats.baro_readings = self.stats.baro_readings.saturating_add(1);
                 self.devices.heard(Device::Baro, now_us, out);
-                self.nav.fuse_baro(pressure_mbar);
+                if self.nav.fuse_baro(pressure_mbar) {
+                    out.push(Action::Event(Stamped::new(now_us, CoreEvent::HeightReset)));
+                }
                 let alt_m = self
                     .nav
                     .baro_reference_mbar()
