@@ -14,11 +14,17 @@ const GROUND_MBAR: f64 = 1013.25;
 /// altimeter read at 5 Hz (the origin's pressure) and, when `gps_z_m` is given, a GPS fix a
 /// second (its height that z, its latency 1 s). Returns the filter.
 fn run_off(gps_z_m: Option<f64>, seconds: u64) -> Navigator {
+    run_off_over(GROUND_MBAR, -30.0, gps_z_m, seconds)
+}
+
+/// As [`run_off`], the altimeter reading `baro_mbar` and the estimate's height set to
+/// `z_m` (NED).
+fn run_off_over(baro_mbar: f64, z_m: f64, gps_z_m: Option<f64>, seconds: u64) -> Navigator {
     let mut nav = at_rest(0);
     nav.fuse_baro(GROUND_MBAR);
     assert_eq!(nav.stats().baro_fused, 1);
     if let Some(state) = nav.state.as_mut() {
-        state.pos_ned_m.z = -30.0;
+        state.pos_ned_m.z = z_m;
     }
     let mut t = 0;
     for step in 1..=seconds * 50 {
@@ -26,7 +32,7 @@ fn run_off(gps_z_m: Option<f64>, seconds: u64) -> Navigator {
         nav.propagate(t, &level_imu(), &level_imu());
         if step % 10 == 0 {
             let resets = nav.stats().height_resets;
-            let reset = nav.fuse_baro(GROUND_MBAR);
+            let reset = nav.fuse_baro(baro_mbar);
             assert_eq!(reset, nav.stats().height_resets != resets, "step {step}");
         }
         if let Some(z) = gps_z_m
@@ -91,5 +97,24 @@ fn no_reset_where_the_gps_sides_with_the_estimate_or_is_not_there() {
     assert_eq!(nav.stats().height_resets, 1);
     // No GPS at all: nothing to side with either.
     let nav = run_off(None, 12);
+    assert_eq!(nav.stats().height_resets, 0);
+}
+
+#[test]
+fn the_height_reset_to_is_the_altimeters_above_its_reference() {
+    // The altimeter says 20 m up (referenced on the ground), the GPS 21 m, the estimate 50:
+    // reset to the altimeter's 20 m — not to its reference, not to the GPS's.
+    let up_20_mbar = GROUND_MBAR * (1.0 - 2.25577e-5 * 20.0_f64).powf(5.25588);
+    let baro_up_m = pressure_altitude_m(up_20_mbar, GROUND_MBAR);
+    assert!((baro_up_m - 20.0).abs() < 0.1, "{baro_up_m}");
+    let nav = run_off_over(up_20_mbar, -50.0, Some(-21.0), 5);
+    assert_eq!(nav.stats().height_resets, 1, "{:?}", nav.stats());
+    assert!(
+        (height_m(&nav) - baro_up_m).abs() < 1e-9,
+        "{}",
+        height_m(&nav)
+    );
+    // The GPS 26 m up: 6 m from the altimeter, no reset.
+    let nav = run_off_over(up_20_mbar, -50.0, Some(-26.0), 12);
     assert_eq!(nav.stats().height_resets, 0);
 }
