@@ -153,9 +153,6 @@ pub fn event_text(t_us: u64, e: &CoreEvent) -> String {
         CoreEvent::GpsReset => {
             format!("t={t:.2} s GPS reset: position and velocity set to the GPS after a long coast")
         }
-        CoreEvent::HeightReset => format!(
-            "t={t:.2} s height reset: set to the altimeter after a long refusal, the GPS's height agreeing with it"
-        ),
         CoreEvent::ModeRefused(refusal) => format!("t={t:.2} s {}", refusal.text()),
         CoreEvent::EngineFailure { rotor_rpm } => {
             format!("t={t:.2} s engine failure: rotor at {rotor_rpm} rpm, autorotation")
@@ -267,7 +264,6 @@ fn events_without_numbers() -> Vec<CoreEvent> {
         CoreEvent::GpsImplausible(heli_fsw::core::Implausible::OffTheGlobe),
         CoreEvent::TakeoffRefused(heli_fsw::core::Refusal::NoGpsFix),
         CoreEvent::GpsReset,
-        CoreEvent::HeightReset,
         CoreEvent::TakeoffRefused(heli_fsw::core::Refusal::ImuNotHealthy),
         CoreEvent::RestartedInAir,
         CoreEvent::ImuBackInAir,

@@ -105,18 +105,6 @@ pub struct NavConfig {
     pub gps_reset_rejections: u32,
     /// No GPS fused for this long is an outage (s).
     pub gps_outage_after_s: f64,
-    /// After this long without a fused altimeter reading (s), readings that keep failing the
-    /// gate reset the height to the altimeter (`navigator::reset`) — where the GPS's own
-    /// height agrees with the altimeter's within [`NavConfig::height_reset_gps_agree_m`]:
-    /// then the inertial height drifted, not the altimeter. PX4 resets the height to its
-    /// primary source on a timeout likewise.
-    pub height_reset_after_s: f64,
-    /// Altimeter readings in a row that must fail the gate before such a reset.
-    pub height_reset_rejections: u32,
-    /// How near the GPS's height must be to the altimeter's for the reset (m): a GPS
-    /// height is a few metres uncertain, an altimeter gone wrong (a blocked port, a gust
-    /// into it) is often tens of metres off, and then the reset is not made.
-    pub height_reset_gps_agree_m: f64,
     /// The velocity of a helicopter standing on its skids, as a zero-velocity update
     /// ([`Navigator::fuse_still`]) sees it: the rocking and the rotor's shaking at the IMU
     /// (σ, m/s).
@@ -148,9 +136,6 @@ impl Default for NavConfig {
             gps_outage_after_s: 3.0,
             gps_reset_after_s: 5.0,
             gps_reset_rejections: 3,
-            height_reset_after_s: 5.0,
-            height_reset_rejections: 10,
-            height_reset_gps_agree_m: 5.0,
             still_sigma_mps: 0.05,
         }
     }
@@ -204,11 +189,6 @@ pub struct NavSensorStats {
     pub gps_resets: u32,
     /// GPS fixes rejected by the gate in a row, since the last one fused.
     pub gps_rejected_in_row: u32,
-    /// Height resets to the altimeter after a long rejection (see
-    /// [`NavConfig::height_reset_after_s`]).
-    pub height_resets: u32,
-    /// Altimeter readings rejected by the gate in a row, since the last one fused.
-    pub baro_rejected_in_row: u32,
     /// Time the last GPS fix was fused (µs), 0 if never.
     pub last_gps_fused_us: u64,
     /// Time of the estimate when an altimeter reading was last fused (µs), 0 if never.
@@ -242,8 +222,6 @@ enum Op {
     Mag(MagField),
     /// A zero-velocity update.
     Still,
-    /// A reset of the height to this altimeter reading (mbar).
-    HeightReset(f64),
 }
 
 /// What the filter records in a second, for the history a delayed fix is replayed from:
@@ -568,7 +546,5 @@ mod tests;
 
 #[cfg(test)]
 mod algebra_tests;
-#[cfg(test)]
-mod height_reset_tests;
 #[cfg(test)]
 mod references_tests;

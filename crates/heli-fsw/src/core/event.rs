@@ -249,9 +249,6 @@ pub enum CoreEvent {
     /// GPS fixes kept failing the filter's gate after a long coast: position and velocity
     /// were reset to the GPS.
     GpsReset,
-    /// Altimeter readings kept failing the filter's gate, the GPS's height agreeing with
-    /// them: the height was reset to the altimeter.
-    HeightReset,
     /// The pre-flight checks refused an autonomous take-off.
     TakeoffRefused(super::preflight::Refusal),
     /// An aid's readings arrive but the filter's gate has refused them all for
@@ -329,7 +326,6 @@ impl CoreEvent {
             | CoreEvent::GpsLost
             | CoreEvent::UplinkLost
             | CoreEvent::GpsReset
-            | CoreEvent::HeightReset
             | CoreEvent::RestartedInAir
             | CoreEvent::RestartedInRoll { .. }
             | CoreEvent::ImuBackInAir

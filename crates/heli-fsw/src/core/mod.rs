@@ -537,9 +537,7 @@ impl FlightCore {
             Input::Baro { pressure_mbar } => {
                 self.stats.baro_readings = self.stats.baro_readings.saturating_add(1);
                 self.devices.heard(Device::Baro, now_us, out);
-                if self.nav.fuse_baro(pressure_mbar) {
-                    out.push(Action::Event(Stamped::new(now_us, CoreEvent::HeightReset)));
-                }
+                self.nav.fuse_baro(pressure_mbar);
                 let alt_m = self
                     .nav
                     .baro_reference_mbar()

@@ -16,7 +16,7 @@ pub(super) fn level_biases() -> ImuBiases {
 }
 
 /// A level IMU reading: no rotation, the specific force of gravity only.
-pub(super) fn level_imu() -> ImuRepr {
+fn level_imu() -> ImuRepr {
     ImuRepr {
         rate_rps: [0.0; 3],
         accel_mps2: [0.0, 0.0, -GRAVITY_MPS2],
@@ -32,7 +32,7 @@ fn origin() -> GeoOrigin {
     }
 }
 
-pub(super) fn fix_at(ned: Vector3<f64>, vel: Vector3<f64>) -> GpsNav {
+fn fix_at(ned: Vector3<f64>, vel: Vector3<f64>) -> GpsNav {
     let (lat_deg, lon_deg, alt_m) = origin().to_geodetic([ned.x, ned.y, ned.z]);
     GpsNav {
         tow_ms: 0,
@@ -46,7 +46,7 @@ pub(super) fn fix_at(ned: Vector3<f64>, vel: Vector3<f64>) -> GpsNav {
 }
 
 /// A filter initialised at rest at the origin at `t_us`, heading north, covariance diagonal.
-pub(super) fn at_rest(t_us: u64) -> Navigator {
+fn at_rest(t_us: u64) -> Navigator {
     let mut nav = Navigator::new(NavConfig::default());
     nav.set_origin(origin());
     nav.initialise(t_us, &level_biases());

@@ -174,56 +174,31 @@ impl Navigator {
                     self.apply_still();
                     self.record(op);
                 }
-                Op::HeightReset(p) => {
-                    self.apply_height_reset(p);
-                    self.record(op);
-                }
             }
         }
         self.replay = replay;
     }
 
     /// Fuses a barometric pressure reading (before initialisation: accumulates the reference).
-    /// True when the reading reset the height ([`NavConfig::height_reset_after_s`]).
-    pub fn fuse_baro(&mut self, pressure_mbar: f64) -> bool {
+    pub fn fuse_baro(&mut self, pressure_mbar: f64) {
         if !(pressure_mbar.is_finite() && pressure_mbar > 0.0) {
             self.stats.baro_rejected = self.stats.baro_rejected.saturating_add(1);
-            return false;
+            return;
         }
         if self.state.is_none() {
             self.baro_sum_mbar += pressure_mbar;
             self.baro_count = self.baro_count.saturating_add(1);
-            return false;
+            return;
         }
         let fused = self.apply_baro(pressure_mbar);
         self.ratios.baro = self.last_test_ratio;
         if fused {
             self.stats.baro_fused = self.stats.baro_fused.saturating_add(1);
             self.stats.last_baro_fused_us = self.state.map_or(0, |s| s.t_us);
-            self.stats.baro_rejected_in_row = 0;
         } else {
             self.stats.baro_rejected = self.stats.baro_rejected.saturating_add(1);
-            self.stats.baro_rejected_in_row = self.stats.baro_rejected_in_row.saturating_add(1);
         }
         self.record(Op::Baro(pressure_mbar));
-        if !fused && self.height_reset_due(pressure_mbar) {
-            self.apply_height_reset(pressure_mbar);
-            // Kept in the history, so that a delayed fix replayed over it makes it again.
-            self.record(Op::HeightReset(pressure_mbar));
-            let now_us = self.state.map_or(0, |s| s.t_us);
-            self.stats.height_resets = self.stats.height_resets.saturating_add(1);
-            self.stats.baro_rejected_in_row = 0;
-            self.stats.last_baro_fused_us = now_us;
-            return true;
-        }
-        false
-    }
-
-    /// The altimeter's height (m, NED z about the origin) for a reading, once it has a
-    /// reference.
-    pub(super) fn baro_z_m(&self, pressure_mbar: f64) -> Option<f64> {
-        let reference = self.baro_reference_mbar?;
-        Some(self.baro_reference_z_m - pressure_altitude_m(pressure_mbar, reference))
     }
 
     pub(super) fn apply_baro(&mut self, pressure_mbar: f64) -> bool {

@@ -4,11 +4,7 @@
 //! — the position and velocity are reset to the GPS (where the fix was valid, a latency ago,
 //! and carried to the present by the IMU) and their uncertainty to the GPS's, as
 //! PX4 resets on a timeout and ArduPilot beyond its glitch radius. The reset is counted;
-//! the flight core raises it. Likewise the height: when altimeter readings keep failing the
-//! gate long after the last one was fused and the GPS's own height sides with the altimeter,
-//! the inertial height is what drifted, and it is set to the altimeter's (without that, an
-//! estimate whose height ran off would refuse the altimeter for the rest of the flight and
-//! land on its own wrong height).
+//! the flight core raises it.
 
 use super::*;
 
@@ -63,60 +59,6 @@ impl Navigator {
         self.stats.gps_resets = self.stats.gps_resets.saturating_add(1);
         self.stats.gps_rejected_in_row = 0;
         self.stats.last_gps_fused_us = t_arrival_us;
-    }
-}
-
-impl Navigator {
-    /// True when an altimeter reading refused by the gate (`pressure_mbar`) is to reset the
-    /// height: the gate has refused [`NavConfig::height_reset_rejections`] readings in a row,
-    /// none was fused for [`NavConfig::height_reset_after_s`], and the GPS's height of a fix
-    /// valid within the last 3 s agrees with the altimeter's within
-    /// [`NavConfig::height_reset_gps_agree_m`] — two sensors against the inertial height.
-    pub(super) fn height_reset_due(&self, pressure_mbar: f64) -> bool {
-        let (Some(state), Some(baro_z), Some(gps), Some(gps_valid_us)) = (
-            self.state.as_ref(),
-            self.baro_z_m(pressure_mbar),
-            self.last_gps_ned,
-            self.last_gps_valid_us,
-        ) else {
-            return false;
-        };
-        let since = self.stats.last_baro_fused_us.max(self.initialised_us);
-        seconds_between(since, state.t_us) >= self.config.height_reset_after_s
-            && self.stats.baro_rejected_in_row >= self.config.height_reset_rejections
-            && seconds_between(gps_valid_us, state.t_us) <= 3.0
-            && (gps.z - baro_z).abs() <= self.config.height_reset_gps_agree_m
-    }
-
-    /// Sets the height to the altimeter's for `pressure_mbar`, its uncertainty to the
-    /// altimeter's with no correlation, and the vertical velocity at least 1 m/s uncertain,
-    /// so that the altimeter's next readings correct it too.
-    pub(super) fn apply_height_reset(&mut self, pressure_mbar: f64) {
-        let Some(z_m) = self.baro_z_m(pressure_mbar) else {
-            return;
-        };
-        let Some(state) = self.state.as_mut() else {
-            return;
-        };
-        state.pos_ned_m.z = z_m;
-        let z = ix::POS.saturating_add(2);
-        for j in 0..N_ERR {
-            if let Some(x) = self.cov.get_mut((z, j)) {
-                *x = 0.0;
-            }
-            if let Some(x) = self.cov.get_mut((j, z)) {
-                *x = 0.0;
-            }
-        }
-        if let Some(x) = self.cov.get_mut((z, z)) {
-            *x = self.config.baro_sigma_m.powi(2);
-        }
-        if let Some(x) = self
-            .cov
-            .get_mut((ix::VEL.saturating_add(2), ix::VEL.saturating_add(2)))
-        {
-            *x = x.max(1.0);
-        }
     }
 }
 
