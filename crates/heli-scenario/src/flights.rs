@@ -83,12 +83,13 @@ pub fn rolls() -> Scenario {
     s
 }
 
-/// Built-in scenario `demo`, the default of `heli sim`: take-off, hover, the way out along the
-/// flight line in front of the pilot, three rolls back past the pilot, return and landing.
+/// Built-in scenario `demo`, the default of `heli sim`: take-off, hover, the way out to the
+/// west end of a flight line in front of the pilot, three rolls back along it past the pilot,
+/// return and landing.
 pub fn demo() -> Scenario {
     let mut s = base(
         "demo",
-        "demonstration flight: take off, hover, out along the flight line, three aileron rolls past the pilot, fly home, land",
+        "demonstration flight: take off, hover, out to the flight line's west end, three aileron rolls back along it past the pilot, fly home, land",
         320.0,
     );
     s.limits = Limits {

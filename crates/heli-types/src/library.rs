@@ -28,7 +28,7 @@ const ROLLS: &[Leg] = &[
     Leg::Hold { seconds: 10.0 },
 ];
 
-/// Take off, hover, fly out along the flight line (15 m north of the pad, 30 m in front of
+/// Take off, hover, fly out to the west end of the flight line (15 m north of the pad, 30 m in front of
 /// the pilot's station 15 m behind it) and turn, three rolls back east past the pilot, fly
 /// home, land: the thesis's demonstration, flown as a pilot flies a display, in front of
 /// the pilot (the first roll some 30 m off, 20 m up, where its shadow is seen from 1.7 m).
