@@ -83,8 +83,9 @@ try {
     await page.evaluate(() => { window.__usePad = true; });
     await page.click("#take");
     await page.click("#sw-auto-btn"); // auto off: the pilot flies
+    // Up to 15 s: once, on a busy host, the first Take had not shown as held after 5.
     const held = await waitFor(page, "the page holding the transmitter, auto off",
-      (f) => f.live && !f.auto, 5000);
+      (f) => f.live && !f.auto, 15000);
     say("manual-holding", held, { source: await page.evaluate(() => window.heliPilot.source) });
     // Collective up (the left stick pushed up: axis 1 at -0.75).
     await page.evaluate(() => { window.__pad.axes[1] = -0.75; });
